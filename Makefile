@@ -1,0 +1,84 @@
+# rayd: `make` builds build/rayd; `make test` runs every suite; `make run`
+# starts the service; `make bench` measures. Each installs what it needs.
+
+CC      ?= gcc
+ifeq ($(origin CC),default)
+CC := gcc
+endif
+BUILD   ?= build
+SAN     ?=
+PKGS    := libpng libcjson zlib
+TESTPKG := criterion
+
+SANFLAGS := -fsanitize=address,undefined
+OPT      := -O2
+LDFLAGS  :=
+ifneq ($(SAN),)
+OPT      := -O1 $(SANFLAGS) -fno-omit-frame-pointer -fno-sanitize-recover=all
+LDFLAGS  := $(SANFLAGS)
+endif
+CPPFLAGS := -Icore -Iapi -Idaemon -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L
+CFLAGS   := -std=c11 -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -g $(OPT) -MMD -MP
+PKG_CFLAGS = $(shell pkg-config --cflags $(PKGS))
+PKG_LIBS   = $(shell pkg-config --libs $(PKGS)) -lm -lpthread
+
+CORE_SRC   := $(wildcard core/*.c)
+API_SRC    := $(wildcard api/*.c)
+DAEMON_SRC := $(wildcard daemon/*.c)
+TEST_SRC   := $(wildcard tests/*.c)
+
+LIB_OBJ    := $(patsubst %.c,$(BUILD)/%.o,$(CORE_SRC) $(API_SRC))
+DAEMON_OBJ := $(patsubst %.c,$(BUILD)/%.o,$(DAEMON_SRC))
+TEST_OBJ   := $(patsubst %.c,$(BUILD)/%.o,$(TEST_SRC))
+# The CLI's objects without main(), so tests can drive subcommands.
+CLI_OBJ    := $(filter-out $(BUILD)/daemon/main.o,$(DAEMON_OBJ))
+
+.PHONY: all deps test check run bench clean scenes-out
+
+all: deps
+	@$(MAKE) --no-print-directory $(BUILD)/rayd
+
+deps:
+	@sh deploy/deps.sh
+
+$(BUILD)/%.o: %.c
+	@mkdir -p $(dir $@)
+	$(CC) $(CPPFLAGS) $(PKG_CFLAGS) $(CFLAGS) -c $< -o $@
+
+$(BUILD)/librayd.a: $(LIB_OBJ)
+	@rm -f $@
+	ar rcs $@ $^
+
+$(BUILD)/rayd: $(DAEMON_OBJ) $(BUILD)/librayd.a
+	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(BUILD)/librayd.a $(PKG_LIBS)
+
+$(BUILD)/unit-tests: $(TEST_OBJ) $(CLI_OBJ) $(BUILD)/librayd.a
+	$(CC) $(LDFLAGS) -o $@ $(TEST_OBJ) $(CLI_OBJ) $(BUILD)/librayd.a $(PKG_LIBS) $(shell pkg-config --libs $(TESTPKG))
+
+# One build and run of the unit suite with the current CC/SAN/BUILD.
+check: $(BUILD)/rayd $(BUILD)/unit-tests
+	RAYD=$(BUILD)/rayd $(BUILD)/unit-tests --jobs 2
+	RAYD=$(BUILD)/rayd sh tests/cli_test.sh
+
+# gcc plain, then clang with AddressSanitizer and UndefinedBehaviorSanitizer.
+test: deps
+	@$(MAKE) --no-print-directory check CC=gcc BUILD=build
+	@$(MAKE) --no-print-directory check CC=clang SAN=1 BUILD=build/clang-san
+
+# Until the daemon lands, `make run` renders every example scene into out/.
+run: all
+	@mkdir -p out
+	@for f in scenes/*.cfg; do \
+	  n=$$(basename $$f .cfg); \
+	  $(BUILD)/rayd render $$f -o out/$$n.png || exit 1; \
+	done
+	@echo "rendered $$(ls out/*.png | wc -l) scenes into out/"
+
+bench: all
+	@sh deploy/deps.sh bench
+	@sh bench/run.sh $(BUILD)/rayd
+
+clean:
+	rm -rf build out
+
+-include $(shell find build -name '*.d' 2>/dev/null)

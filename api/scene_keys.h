@@ -1,0 +1,55 @@
+/* The one table of scene keys of scene-format.md: for every section kind,
+ * each key's type, range, default place in the scene model and which
+ * subtypes (material or light types) it applies to or requires. */
+#ifndef RD_SCENE_KEYS_H
+#define RD_SCENE_KEYS_H
+
+#include <stddef.h>
+
+typedef enum {
+    RD_SEC_RENDER, RD_SEC_CAMERA, RD_SEC_LIGHT, RD_SEC_MATERIAL,
+    RD_SEC_SPHERE, RD_SEC_PLANE, RD_SEC_TRIANGLE, RD_SEC_MESH, RD_SEC_COUNT
+} rd_section_kind;
+
+typedef enum {
+    RD_KT_INT,          /* int within [lo, hi] */
+    RD_KT_SEED,         /* uint64_t */
+    RD_KT_REAL,         /* finite double within the range */
+    RD_KT_VEC2,         /* double[2] */
+    RD_KT_VEC3,         /* rd_vec3 (also rgb) */
+    RD_KT_REAL_OR_VEC3, /* rd_vec3; one number s means (s, s, s) */
+    RD_KT_ENUM,         /* int index into words */
+    RD_KT_NAME,         /* char *, owned by the scene */
+    RD_KT_STRING        /* char *, owned by the scene */
+} rd_key_type;
+
+#define RD_ALL_SUBTYPES (~0u)
+
+typedef struct {
+    rd_section_kind section;
+    const char *name;
+    rd_key_type type;
+    double lo, hi;          /* range; ±INFINITY when open-ended */
+    int lo_open, hi_open;   /* 1 when the bound itself is excluded */
+    unsigned applies;       /* bit t set: applies to subtype t (material/light type) */
+    unsigned required;      /* bit t set: required for subtype t */
+    size_t offset;          /* into the section's struct in rd_scene */
+    const char *const *words; /* RD_KT_ENUM: NULL-terminated */
+    int degenerate;         /* out of range means degenerate geometry */
+} rd_key;
+
+/* Section kind by name, or -1. */
+int rd_section_kind_find(const char *name, size_t len);
+const char *rd_section_kind_name(rd_section_kind k);
+
+/* The key of that section kind, or NULL. */
+const rd_key *rd_key_find(rd_section_kind sec, const char *name, size_t len);
+
+/* Every key, for iteration (did-you-mean, required checks, writers). */
+const rd_key *rd_keys_all(size_t *count);
+
+/* The words of the light and material type enums, NULL-terminated. */
+extern const char *const rd_light_type_words[];
+extern const char *const rd_material_type_words[];
+
+#endif

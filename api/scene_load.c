@@ -1,0 +1,89 @@
+#include "scene_load.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "cfg_parse.h"
+
+rd_scene_format rd_scene_sniff(const char *text, size_t len)
+{
+    size_t i = 0;
+    if (len >= 3 && memcmp(text, "\xef\xbb\xbf", 3) == 0)
+        i = 3;
+    while (i < len && (text[i] == ' ' || text[i] == '\t' || text[i] == '\r' || text[i] == '\n'))
+        i++;
+    return i < len && text[i] == '{' ? RD_FMT_JSON : RD_FMT_CFG;
+}
+
+rd_error_code rd_scene_parse(const char *text, size_t len, rd_scene_format fmt, const char *source,
+                             const rd_scene_limits *lim, rd_scene *s, rd_error *err)
+{
+    if (fmt == RD_FMT_AUTO)
+        fmt = rd_scene_sniff(text, len);
+    if (fmt == RD_FMT_JSON)
+        return rd_error_set(err, RD_ERR_SYNTAX, 0, 0, "%s: JSON scenes are not supported by this version",
+                            source ? source : "<scene>");
+    return rd_cfg_parse(text, len, source, lim, s, err);
+}
+
+rd_error_code rd_read_file(const char *path, size_t max_bytes, char **out, size_t *len, rd_error *err)
+{
+    *out = NULL;
+    *len = 0;
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return rd_error_set(err, RD_ERR_IO, 0, 0, "%s: cannot open: %s", path, strerror(errno));
+    struct stat st;
+    if (fstat(fileno(f), &st) != 0 || !S_ISREG(st.st_mode)) {
+        fclose(f);
+        return rd_error_set(err, RD_ERR_IO, 0, 0, "%s: not a regular file", path);
+    }
+    if ((unsigned long long)st.st_size > max_bytes) {
+        fclose(f);
+        return rd_error_set(err, RD_ERR_LIMIT, 0, 0, "%s: %lld bytes, over the limit of %zu", path,
+                            (long long)st.st_size, max_bytes);
+    }
+    size_t n = (size_t)st.st_size;
+    char *buf = malloc(n + 1);
+    if (!buf) {
+        fclose(f);
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "%s: out of memory", path);
+    }
+    size_t got = fread(buf, 1, n, f);
+    int bad = ferror(f);
+    fclose(f);
+    if (bad || got != n) {
+        free(buf);
+        return rd_error_set(err, RD_ERR_IO, 0, 0, "%s: read error", path);
+    }
+    buf[n] = 0;
+    *out = buf;
+    *len = n;
+    return RD_OK;
+}
+
+static int ends_with(const char *s, const char *suffix)
+{
+    size_t a = strlen(s), b = strlen(suffix);
+    return a >= b && strcmp(s + a - b, suffix) == 0;
+}
+
+rd_error_code rd_scene_load_file(const char *path, const rd_scene_limits *lim_in, rd_scene *s,
+                                 rd_error *err)
+{
+    rd_scene_limits lim = lim_in ? *lim_in : rd_scene_limits_default();
+    char *text;
+    size_t len;
+    rd_error_code rc = rd_read_file(path, lim.max_bytes, &text, &len, err);
+    if (rc)
+        return rc;
+    rd_scene_format fmt = ends_with(path, ".json") ? RD_FMT_JSON
+                        : ends_with(path, ".cfg")  ? RD_FMT_CFG
+                                                   : RD_FMT_AUTO;
+    rc = rd_scene_parse(text, len, fmt, path, &lim, s, err);
+    free(text);
+    return rc;
+}

@@ -1,0 +1,23 @@
+/* "Did you mean": the closest of a set of words to a misspelling. */
+#ifndef RD_SUGGEST_H
+#define RD_SUGGEST_H
+
+#include <stddef.h>
+
+/* Damerau-Levenshtein (optimal string alignment) distance, capped at 255. */
+int rd_edit_distance(const char *a, size_t alen, const char *b, size_t blen);
+
+/* Tracks the best candidate seen so far. */
+typedef struct {
+    const char *best;
+    int dist;
+} rd_suggestion;
+
+void rd_suggest_init(rd_suggestion *s);
+void rd_suggest_offer(rd_suggestion *s, const char *typed, size_t len, const char *candidate);
+
+/* The best candidate if it is close enough to be a likely typo (distance at
+ * most 2, and at most a third of the longer word), else NULL. */
+const char *rd_suggest_result(const rd_suggestion *s, size_t typed_len);
+
+#endif

@@ -1,0 +1,15 @@
+/* UTF-8 checks for scene text. */
+#ifndef RD_UTF8_H
+#define RD_UTF8_H
+
+#include <stddef.h>
+
+/* Offset of the first byte that is not part of valid UTF-8 (overlongs,
+ * surrogates and code points above U+10FFFF are invalid), or len if all is
+ * valid. A NUL byte counts as invalid here: scene text never contains one. */
+size_t rd_utf8_invalid_at(const char *s, size_t len);
+
+/* 1-based character column of offset pos in the line starting at line_start. */
+int rd_utf8_column(const char *line_start, const char *pos);
+
+#endif

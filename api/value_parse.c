@@ -1,0 +1,128 @@
+#include "value_parse.h"
+
+#include <ctype.h>
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+/* Longest number text accepted; more digits than this carry no precision. */
+#define MAX_NUMBER_TEXT 128
+
+static int is_decimal(const char *s, size_t n)
+{
+    size_t i = 0, digits = 0;
+    if (i < n && (s[i] == '+' || s[i] == '-'))
+        i++;
+    while (i < n && isdigit((unsigned char)s[i]))
+        i++, digits++;
+    if (i < n && s[i] == '.') {
+        i++;
+        while (i < n && isdigit((unsigned char)s[i]))
+            i++, digits++;
+    }
+    if (digits == 0)
+        return 0;
+    if (i < n && (s[i] == 'e' || s[i] == 'E')) {
+        i++;
+        if (i < n && (s[i] == '+' || s[i] == '-'))
+            i++;
+        size_t e = 0;
+        while (i < n && isdigit((unsigned char)s[i]))
+            i++, e++;
+        if (e == 0)
+            return 0;
+    }
+    return i == n;
+}
+
+static int is_nonfinite_word(const char *s, size_t n)
+{
+    if (n > 0 && (s[0] == '+' || s[0] == '-'))
+        s++, n--;
+    return (n == 3 && (strncasecmp(s, "nan", 3) == 0 || strncasecmp(s, "inf", 3) == 0)) ||
+           (n == 8 && strncasecmp(s, "infinity", 8) == 0) ||
+           (n > 3 && strncasecmp(s, "nan(", 4) == 0);
+}
+
+int rd_parse_real(const rd_token *t, double *out)
+{
+    if (t->quoted)
+        return 1;
+    if (is_nonfinite_word(t->text, t->len))
+        return 2;
+    if (t->len > MAX_NUMBER_TEXT || !is_decimal(t->text, t->len))
+        return 1;
+    char buf[MAX_NUMBER_TEXT + 1];
+    memcpy(buf, t->text, t->len);
+    buf[t->len] = 0;
+    double v = strtod(buf, NULL);
+    if (!isfinite(v))
+        return 2;
+    *out = v;
+    return 0;
+}
+
+static int is_integer_text(const char *s, size_t n, int allow_sign)
+{
+    size_t i = 0;
+    if (allow_sign && i < n && (s[i] == '+' || s[i] == '-'))
+        i++;
+    if (i == n)
+        return 0;
+    for (; i < n; i++)
+        if (!isdigit((unsigned char)s[i]))
+            return 0;
+    return 1;
+}
+
+int rd_parse_int(const rd_token *t, long long lo, long long hi, long long *out)
+{
+    if (t->quoted || t->len > 40 || !is_integer_text(t->text, t->len, 1))
+        return 1;
+    char buf[48];
+    memcpy(buf, t->text, t->len);
+    buf[t->len] = 0;
+    errno = 0;
+    long long v = strtoll(buf, NULL, 10);
+    if (errno == ERANGE || v < lo || v > hi)
+        return 2;
+    *out = v;
+    return 0;
+}
+
+int rd_parse_u64(const rd_token *t, unsigned long long *out)
+{
+    const char *s = t->text;
+    size_t n = t->len;
+    if (n > 0 && s[0] == '+')
+        s++, n--;
+    if (t->quoted || n > 30 || !is_integer_text(s, n, 0))
+        return 1;
+    char buf[40];
+    memcpy(buf, s, n);
+    buf[n] = 0;
+    errno = 0;
+    unsigned long long v = strtoull(buf, NULL, 10);
+    if (errno == ERANGE)
+        return 1;
+    *out = v;
+    return 0;
+}
+
+const char *rd_token_show(const rd_token *t, char *buf, size_t size)
+{
+    size_t n = t->len > 40 ? 40 : t->len;
+    if (n + 4 > size)
+        n = size > 4 ? size - 4 : 0;
+    size_t j = 0;
+    for (size_t i = 0; i < n; i++)
+        buf[j++] = (unsigned char)t->text[i] < 0x20 || t->text[i] == 0x7f ? '?' : t->text[i];
+    if (n < t->len) {
+        memcpy(buf + j, "...", 3);
+        j += 3;
+    }
+    buf[j] = 0;
+    return buf;
+}

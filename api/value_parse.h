@@ -1,0 +1,23 @@
+/* Turning tokens into typed values with the messages of scene-format.md. */
+#ifndef RD_VALUE_PARSE_H
+#define RD_VALUE_PARSE_H
+
+#include <stddef.h>
+
+#include "scene_value.h"
+
+/* 0: a finite decimal number; 1: not a number; 2: a number that is not
+ * finite (nan, inf, 1e309). Hex floats and words are not numbers. */
+int rd_parse_real(const rd_token *t, double *out);
+
+/* 0: an integer in [lo, hi]; 1: not an integer; 2: out of range. */
+int rd_parse_int(const rd_token *t, long long lo, long long hi, long long *out);
+
+/* 0: an unsigned 64-bit integer; 1: otherwise. */
+int rd_parse_u64(const rd_token *t, unsigned long long *out);
+
+/* The token as it should be quoted in a message: at most 40 characters,
+ * control bytes shown as '?', "..." when cut. buf holds at least 48 bytes. */
+const char *rd_token_show(const rd_token *t, char *buf, size_t size);
+
+#endif

@@ -1,0 +1,86 @@
+// bench/phong.pov: scenes/phong.cfg written for POV-Ray 3.7, for `make bench`.
+//
+// Render (what bench/run.sh does):
+//   povray +Ibench/phong.pov +O/tmp/phong.png +W1920 +H1080 -D -A +WT1 File_Gamma=1.0
+//
+// Same as the cfg (the same numbers, in the same right-handed coordinates):
+//   - camera eye/target/up; the cfg's 40 degree VERTICAL fov becomes POV-Ray's
+//     horizontal `angle` 2*atan(16/9 * tan(20 deg)) = 65.81 deg, with `right`
+//     16/9 wide, so it is only right for a 16:9 image such as 1920x1080;
+//   - `right` is NEGATIVE x: the cfg is right-handed (x right, y up, camera on
+//     +z looking to -z); POV-Ray is left-handed by default and would show the
+//     scene mirrored (red sphere on the right). -x is POV-Ray's documented
+//     switch to a right-handed camera; every coordinate is then copied as is;
+//   - two point lights, same positions and colours, no distance attenuation
+//     (POV-Ray's default fade_power 0), hard shadows (no area lights);
+//   - Lambert part: pigment kd, `diffuse 1` (brilliance 1, i.e. kd * cos(angle),
+//     exactly rayd's kd term); the floor is Lambert only;
+//   - Phong highlight: `phong ks phong_size shininess` adds
+//     ks * max(R.L, 0)^shininess * light colour with R the mirrored VIEW ray,
+//     which equals rayd's ks * max(R.V, 0)^shininess with R the mirrored
+//     LIGHT direction; not tinted by the pigment (no `metallic`). ks is grey
+//     in this scene, so POV-Ray's scalar `phong` amount is enough;
+//   - ambient: rayd adds the material's ambient as is; POV-Ray multiplies the
+//     finish's ambient by the pigment, so the finish gets ambient/kd per
+//     channel, which gives exactly the cfg's ambient;
+//   - background colour, no antialiasing (-A, one ray through each pixel
+//     centre), no radiosity, no photons, no media, max_trace_level 5 (these
+//     scenes have no mirrors, so no secondary rays in either renderer);
+//   - gamma 1 (assumed_gamma 1.0 here, File_Gamma=1.0 on the command line):
+//     output = clamp(c)*255, as rayd with the cfg's default gamma 1.
+// Not the same:
+//   - POV-Ray is a general renderer: bounding hierarchy (only 3 spheres, the
+//     plane is unbounded), a per-light "last occluder" shadow cache, texture
+//     and finish layers, checks for transparency etc. Per ray it does more
+//     bookkeeping and less (cache hits) work than rayd; images match to within
+//     rounding but the work is not instruction-for-instruction equal;
+//   - both skip the shadow ray when a light is behind the surface, but their
+//     self-intersection tolerances differ, so grazing pixels may differ;
+//   - highlights: POV-Ray drops the highlight where R.L <= 0.0008 when
+//     phong_size >= 60 (blue sphere, shininess 200: below 0.0008^200, i.e.
+//     invisible anyway);
+//   - POV-Ray writes its PNG with a gAMA chunk; rayd's PNG has none.
+#version 3.7;
+
+global_settings {
+  assumed_gamma 1.0
+  ambient_light rgb 1
+  max_trace_level 5
+}
+
+camera {
+  perspective
+  location <0, 2.5, 9>
+  look_at  <0, 1, 0>
+  sky      <0, 1, 0>
+  up       y
+  right    -x*16/9
+  angle    2*degrees(atan(16/9*tan(radians(40/2))))
+}
+
+background { rgb <0.05, 0.05, 0.1> }
+
+light_source { <6, 10, 8>  color rgb <0.8, 0.8, 0.8> }   // key
+light_source { <-8, 6, 4>  color rgb <0.3, 0.3, 0.35> }  // fill
+
+// rayd `diffuse`: kd * cos + ambient.
+#macro Lambert(Kd, Ka)
+  texture {
+    pigment { rgb Kd }
+    finish { ambient rgb Ka/Kd diffuse 1 brilliance 1 specular 0 phong 0 reflection 0 }
+  }
+#end
+
+// rayd `phong`: kd * cos + ks * max(R.V, 0)^shininess + ambient (ks grey).
+#macro Phong(Kd, Ks, Shininess, Ka)
+  texture {
+    pigment { rgb Kd }
+    finish { ambient rgb Ka/Kd diffuse 1 brilliance 1 specular 0
+             phong Ks phong_size Shininess metallic 0 reflection 0 }
+  }
+#end
+
+sphere { <-2.2, 1, 0>,    1   Phong(<0.6, 0.1, 0.08>,  0.4, 10,  <0.05, 0.01, 0.01>) }  // red
+sphere { <0, 1.2, -1>,    1.2 Phong(<0.1, 0.55, 0.15>, 0.5, 50,  <0.01, 0.05, 0.01>) }  // green
+sphere { <2.2, 0.8, 0.8>, 0.8 Phong(<0.08, 0.15, 0.6>, 0.6, 200, <0.01, 0.01, 0.05>) }  // blue
+plane  { <0, 1, 0>, 0    Lambert(<0.7, 0.7, 0.7>,  <0.04, 0.04, 0.04>) }      // floor

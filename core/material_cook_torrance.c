@@ -1,0 +1,41 @@
+#include "material.h"
+
+/* Beckmann distribution for slope roughness m at cos θ_h = nh. */
+static double beckmann(double nh, double m)
+{
+    if (!(nh > 0))
+        return 0;
+    double nh2 = nh * nh;
+    double m2 = m * m;
+    double e = -(1 - nh2) / (nh2 * m2);
+    if (e < -700) /* exp underflows; also keeps nh⁴ away from 0/0 */
+        return 0;
+    return exp(e) / (M_PI * m2 * nh2 * nh2);
+}
+
+rd_rgb rd_cook_torrance_reflected(const rd_material *m, const rd_hit *hit, rd_vec3 L, rd_vec3 V)
+{
+    double cosa = -v3_dot(hit->n, L);
+    if (!(cosa > 0))
+        return v3(0, 0, 0);
+    if (cosa > 1)
+        cosa = 1;
+    rd_rgb c = v3_scale(m->kd, cosa);
+    double nv = v3_dot(hit->n, V);
+    if (!(nv > 0))
+        return c;
+    if (nv > 1)
+        nv = 1;
+    rd_vec3 H = v3_normalize(v3_sub(V, L));
+    double nh = fmin(1, v3_dot(hit->n, H));
+    double vh = fmin(1, v3_dot(V, H));
+    if (!(nh > 0) || !(vh > 0))
+        return c;
+    double D = beckmann(nh, m->roughness);
+    /* G/(N·V) taken term by term so that N·V -> 0 stays finite. */
+    double g_nv = fmin(1 / nv, fmin(2 * nh / vh, 2 * nh * cosa / (vh * nv)));
+    double s = pow(1 - vh, 5);
+    rd_rgb F = v3(m->ks.x + (1 - m->ks.x) * s, m->ks.y + (1 - m->ks.y) * s,
+                  m->ks.z + (1 - m->ks.z) * s);
+    return v3_add(c, v3_scale(F, D * g_nv / 4));
+}

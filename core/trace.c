@@ -1,0 +1,160 @@
+#include "trace.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "material.h"
+
+/* A shadow ray toward a light point stops this fraction short of it, so that
+ * a light sitting on a surface is not hidden by that surface. Relative, so
+ * it scales with the scene. */
+#define SHADOW_END (1.0 - 0x1.0p-30)
+
+rd_error_code rd_plan_build(rd_plan *p, const rd_scene *s, rd_error *err)
+{
+    memset(p, 0, sizeof *p);
+    p->scene = s;
+    for (size_t i = 0; i < s->material_count; i++)
+        if (s->materials[i].type == RD_MAT_TEXTURED_PHONG)
+            for (size_t j = 0; j < s->object_count; j++)
+                if (s->objects[j].material == (int)i)
+                    return rd_error_set(err, RD_ERR_INVALID, 0, 0,
+                                        "material '%s': textured_phong is not supported by this "
+                                        "renderer version",
+                                        s->materials[i].name ? s->materials[i].name : "?");
+    rd_error_code rc = rd_world_build(&p->world, s, err);
+    if (rc)
+        return rc;
+    p->lights = calloc(s->light_count + 1, sizeof *p->lights);
+    if (!p->lights) {
+        rd_world_free(&p->world);
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory preparing the lights");
+    }
+    for (size_t i = 0; i < s->light_count; i++) {
+        rd_light_prep lp;
+        rd_light_prepare(&lp, &s->lights[i], p->world.origin);
+        /* A light that gives nothing costs nothing. */
+        if (lp.color.x == 0 && lp.color.y == 0 && lp.color.z == 0)
+            continue;
+        p->lights[p->nlights++] = lp;
+        if (lp.type == RD_LIGHT_AREA)
+            p->stochastic = 1;
+    }
+    for (size_t i = 0; i < s->object_count; i++)
+        if (rd_material_is_recursive(&s->materials[s->objects[i].material]))
+            p->recursive = 1;
+    return RD_OK;
+}
+
+void rd_plan_free(rd_plan *p)
+{
+    rd_world_free(&p->world);
+    free(p->lights);
+    memset(p, 0, sizeof *p);
+}
+
+static int shadowed(const rd_plan *p, const rd_hit *h, const rd_light_sample *ls,
+                    rd_ray_counts *counts)
+{
+    rd_ray sr;
+    sr.o = rd_offset_origin(h, ls->to_light);
+    counts->shadow++;
+    if (ls->infinite) {
+        sr.d = ls->to_light;
+        return rd_world_any(&p->world, sr, INFINITY);
+    }
+    /* Aim from the pushed-off origin, so the ray still ends at the light. */
+    sr.d = v3_add(ls->to_light, v3_sub(h->p, sr.o));
+    return rd_world_any(&p->world, sr, SHADOW_END);
+}
+
+/* Exact unpolarised Fresnel reflectance from medium n1 into n2 at incidence
+ * cosine cosi; 1 under total internal reflection. */
+static double fresnel(double cosi, double n1, double n2, double *cost_out)
+{
+    cosi = rd_clamp01(cosi);
+    double eta = n1 / n2;
+    double sin2t = eta * eta * (1 - cosi * cosi);
+    if (sin2t >= 1) {
+        *cost_out = 0;
+        return 1;
+    }
+    double cost = sqrt(1 - sin2t);
+    *cost_out = cost;
+    double rs = (n1 * cosi - n2 * cost) / (n1 * cosi + n2 * cost);
+    double rp = (n1 * cost - n2 * cosi) / (n1 * cost + n2 * cosi);
+    double F = 0.5 * (rs * rs + rp * rp);
+    return F > 1 ? 1 : (F < 0 ? 0 : F);
+}
+
+static rd_rgb trace_secondary(const rd_plan *p, const rd_hit *h, rd_vec3 dir, int depth,
+                              rd_rng *rng, rd_ray_counts *counts)
+{
+    rd_ray r;
+    r.o = rd_offset_origin(h, dir);
+    r.d = dir;
+    counts->secondary++;
+    return rd_trace(p, r, depth + 1, rng, counts);
+}
+
+static int is_black(rd_rgb c) { return c.x == 0 && c.y == 0 && c.z == 0; }
+
+rd_rgb rd_trace(const rd_plan *p, rd_ray r, int depth, rd_rng *rng, rd_ray_counts *counts)
+{
+    const rd_scene *s = p->scene;
+    rd_hit h;
+    if (!rd_world_closest(&p->world, r, INFINITY, &h))
+        return s->render.background;
+    const rd_material *m = &s->materials[h.material];
+    if (m->type == RD_MAT_PSEUDO_NORMAL_COLOR)
+        return v3((h.n.x + 1) * 0.5, (h.n.y + 1) * 0.5, (h.n.z + 1) * 0.5);
+
+    rd_vec3 V = v3_neg(r.d);
+    rd_rgb color = v3(0, 0, 0);
+    if (!rd_material_is_recursive(m)) {
+        for (size_t i = 0; i < p->nlights; i++) {
+            const rd_light_prep *lp = &p->lights[i];
+            for (int k = 0; k < lp->samples; k++) {
+                double ux = 0.5, uy = 0.5;
+                if (lp->type == RD_LIGHT_AREA) {
+                    ux = rd_rng_next(rng);
+                    uy = rd_rng_next(rng);
+                }
+                rd_light_sample ls;
+                if (!rd_light_sample_at(lp, h.p, k, ux, uy, &ls))
+                    continue;
+                /* A light behind the surface contributes 0: no shadow ray. */
+                if (!(-v3_dot(h.n, ls.L) > 0))
+                    continue;
+                if (shadowed(p, &h, &ls, counts))
+                    continue;
+                color = v3_add(color, v3_mul(ls.color, rd_calc_reflected_light(m, &h, ls.L, V)));
+            }
+        }
+    }
+    color = v3_add(color, m->ambient);
+
+    if (depth >= s->render.max_depth || is_black(m->ks))
+        return color;
+    if (m->type == RD_MAT_PERFECT_SPECULAR) {
+        rd_vec3 d = v3_normalize(v3_reflect(r.d, h.n));
+        color = v3_add(color, v3_mul(m->ks, trace_secondary(p, &h, d, depth, rng, counts)));
+    } else if (m->type == RD_MAT_SPECULAR_REFRACTION) {
+        double n1 = h.front ? 1.0 : m->ior, n2 = h.front ? m->ior : 1.0;
+        double cosi = -v3_dot(r.d, h.n), cost;
+        double F = fresnel(cosi, n1, n2, &cost);
+        rd_rgb sum = v3(0, 0, 0);
+        if (F > 0) {
+            rd_vec3 d = v3_normalize(v3_reflect(r.d, h.n));
+            sum = v3_scale(trace_secondary(p, &h, d, depth, rng, counts), F);
+        }
+        if (F < 1) {
+            double eta = n1 / n2;
+            rd_vec3 t = v3_add(v3_scale(r.d, eta), v3_scale(h.n, eta * rd_clamp01(cosi) - cost));
+            t = v3_normalize(t);
+            sum = v3_add(sum, v3_scale(trace_secondary(p, &h, t, depth, rng, counts), 1 - F));
+        }
+        color = v3_add(color, v3_mul(m->ks, sum));
+    }
+    return color;
+}

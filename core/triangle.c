@@ -1,0 +1,82 @@
+#include "triangle.h"
+
+#include <float.h>
+
+static double comp(rd_vec3 v, int k) { return k == 0 ? v.x : (k == 1 ? v.y : v.z); }
+
+double rd_triangle_intersect(const rd_triangle *tr, rd_ray r, double tmax, double bary[3])
+{
+    /* Permute so that z is the ray's dominant axis, then shear the
+     * triangle into the ray's frame, where the test is 2D. */
+    int kz = 0;
+    double ax = fabs(r.d.x), ay = fabs(r.d.y), az = fabs(r.d.z);
+    if (ay > ax && ay >= az)
+        kz = 1;
+    else if (az > ax && az > ay)
+        kz = 2;
+    int kx = (kz + 1) % 3, ky = (kx + 1) % 3;
+    double dz = comp(r.d, kz);
+    if (dz == 0 || !isfinite(dz))
+        return 0;
+    if (dz < 0) {
+        int t = kx;
+        kx = ky;
+        ky = t;
+    }
+    double sx = comp(r.d, kx) / dz, sy = comp(r.d, ky) / dz, sz = 1.0 / dz;
+    rd_vec3 A = v3_sub(tr->v0, r.o), B = v3_sub(tr->v1, r.o), C = v3_sub(tr->v2, r.o);
+    double Ax = comp(A, kx) - sx * comp(A, kz), Ay = comp(A, ky) - sy * comp(A, kz);
+    double Bx = comp(B, kx) - sx * comp(B, kz), By = comp(B, ky) - sy * comp(B, kz);
+    double Cx = comp(C, kx) - sx * comp(C, kz), Cy = comp(C, ky) - sy * comp(C, kz);
+    double U = Cx * By - Cy * Bx;
+    double V = Ax * Cy - Ay * Cx;
+    double W = Bx * Ay - By * Ax;
+    if ((U < 0 || V < 0 || W < 0) && (U > 0 || V > 0 || W > 0))
+        return 0;
+    double det = U + V + W;
+    if (det == 0 || !isfinite(det))
+        return 0;
+    double T = U * sz * comp(A, kz) + V * sz * comp(B, kz) + W * sz * comp(C, kz);
+    /* t = T/det must lie in (0, tmax); compare without dividing. */
+    if (det < 0) {
+        T = -T;
+        det = -det;
+        U = -U;
+        V = -V;
+        W = -W;
+    }
+    if (T <= 0 || !(T < tmax * det))
+        return 0;
+    double inv = 1.0 / det;
+    bary[0] = U * inv;
+    bary[1] = V * inv;
+    bary[2] = W * inv;
+    double t = T * inv;
+    return t > 0 ? t : 0;
+}
+
+void rd_triangle_fill_hit(const rd_triangle *tr, const double b[3], rd_hit *h)
+{
+    /* The barycentric point lies on the triangle up to rounding, whatever
+     * the ray's length. */
+    h->p = v3_add(v3_add(v3_scale(tr->v0, b[0]), v3_scale(tr->v1, b[1])), v3_scale(tr->v2, b[2]));
+    h->ng = v3_normalize(v3_cross(v3_sub(tr->v1, tr->v0), v3_sub(tr->v2, tr->v0)));
+    h->perr = 8 * DBL_EPSILON *
+              fmax(v3_max_abs(tr->v0), fmax(v3_max_abs(tr->v1), v3_max_abs(tr->v2)));
+    h->n = h->ng;
+    if (tr->has_normals) {
+        rd_vec3 n = v3_add(v3_add(v3_scale(tr->n0, b[0]), v3_scale(tr->n1, b[1])), v3_scale(tr->n2, b[2]));
+        n = v3_normalize(n);
+        /* Normals that cancel fall back to the geometric one. */
+        if (!(v3_max_abs(n) > 0))
+            n = h->ng;
+        h->n = n;
+    }
+    if (tr->has_uv) {
+        h->u = b[0] * tr->uv[0][0] + b[1] * tr->uv[1][0] + b[2] * tr->uv[2][0];
+        h->v = b[0] * tr->uv[0][1] + b[1] * tr->uv[1][1] + b[2] * tr->uv[2][1];
+    } else {
+        h->u = b[1];
+        h->v = b[2];
+    }
+}

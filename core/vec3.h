@@ -1,0 +1,44 @@
+/* Double-precision 3-vectors and RGB colours. Every function is pure. */
+#ifndef RD_VEC3_H
+#define RD_VEC3_H
+
+#include <math.h>
+
+typedef struct { double x, y, z; } rd_vec3;
+/* Colours share the representation; products of colours are per channel. */
+typedef rd_vec3 rd_rgb;
+
+static inline rd_vec3 v3(double x, double y, double z) { rd_vec3 r = {x, y, z}; return r; }
+static inline rd_vec3 v3_add(rd_vec3 a, rd_vec3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
+static inline rd_vec3 v3_sub(rd_vec3 a, rd_vec3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
+static inline rd_vec3 v3_mul(rd_vec3 a, rd_vec3 b) { return v3(a.x * b.x, a.y * b.y, a.z * b.z); }
+static inline rd_vec3 v3_scale(rd_vec3 a, double s) { return v3(a.x * s, a.y * s, a.z * s); }
+static inline rd_vec3 v3_neg(rd_vec3 a) { return v3(-a.x, -a.y, -a.z); }
+static inline double v3_dot(rd_vec3 a, rd_vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+static inline rd_vec3 v3_cross(rd_vec3 a, rd_vec3 b)
+{
+    return v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+static inline double v3_len(rd_vec3 a) { return sqrt(v3_dot(a, a)); }
+static inline double v3_max_abs(rd_vec3 a) { return fmax(fabs(a.x), fmax(fabs(a.y), fabs(a.z))); }
+static inline int v3_is_finite(rd_vec3 a) { return isfinite(a.x) && isfinite(a.y) && isfinite(a.z); }
+static inline int v3_eq(rd_vec3 a, rd_vec3 b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
+
+/* Unit vector along a. Divides by the largest component first, so that
+ * vectors of length 1e-200 or 1e200 normalise without under- or overflow.
+ * Returns the zero vector for a zero (or non-finite) input. */
+static inline rd_vec3 v3_normalize(rd_vec3 a)
+{
+    double m = v3_max_abs(a);
+    if (!(m > 0) || !isfinite(m))
+        return v3(0, 0, 0);
+    rd_vec3 b = v3_scale(a, 1.0 / m);
+    return v3_scale(b, 1.0 / v3_len(b));
+}
+
+/* reflect(i, n) = i - 2(i·n)n, as in the course's my_algebra.h. */
+static inline rd_vec3 v3_reflect(rd_vec3 i, rd_vec3 n) { return v3_sub(i, v3_scale(n, 2.0 * v3_dot(i, n))); }
+
+static inline double rd_clamp01(double x) { return x < 0 ? 0 : (x > 1 ? 1 : x); }
+
+#endif

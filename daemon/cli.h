@@ -1,0 +1,14 @@
+/* rayd's subcommands. Each takes its own argv (argv[0] is the subcommand)
+ * and returns the process exit status:
+ * 0 success, 1 usage, 2 scene error (nothing written), 3 I/O error. */
+#ifndef RD_CLI_H
+#define RD_CLI_H
+
+enum { RD_EXIT_OK = 0, RD_EXIT_USAGE = 1, RD_EXIT_SCENE = 2, RD_EXIT_IO = 3 };
+
+int rd_cmd_render(int argc, char **argv);
+
+/* Parses a whole decimal integer in [lo, hi]; 0 on success. */
+int rd_cli_int(const char *s, long lo, long hi, long *out);
+
+#endif

@@ -1,0 +1,31 @@
+#include <stdio.h>
+#include <string.h>
+
+#include "cli.h"
+
+static const char help[] =
+    "usage: rayd COMMAND [options]\n"
+    "\n"
+    "rayd is a Whitted-style ray tracer: the reference renderer of the course's\n"
+    "shading assignment (Lambert, Phong, Blinn-Phong, Cook-Torrance, mirrors, glass).\n"
+    "\n"
+    "Commands:\n"
+    "  render SCENE -o OUT.png   render a .cfg or .json scene to PNG\n"
+    "\n"
+    "'rayd COMMAND --help' explains a command's options.\n";
+
+int main(int argc, char **argv)
+{
+    if (argc < 2) {
+        fputs(help, stderr);
+        return RD_EXIT_USAGE;
+    }
+    if (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0 || strcmp(argv[1], "help") == 0) {
+        fputs(help, stdout);
+        return RD_EXIT_OK;
+    }
+    if (strcmp(argv[1], "render") == 0)
+        return rd_cmd_render(argc - 1, argv + 1);
+    fprintf(stderr, "rayd: unknown command '%s'\n\n%s", argv[1], help);
+    return RD_EXIT_USAGE;
+}
