@@ -59,6 +59,7 @@ $(BUILD)/unit-tests: $(TEST_OBJ) $(CLI_OBJ) $(BUILD)/librayd.a
 check: $(BUILD)/rayd $(BUILD)/unit-tests
 	RAYD=$(BUILD)/rayd $(BUILD)/unit-tests --jobs 2
 	RAYD=$(BUILD)/rayd sh tests/cli_test.sh
+	RAYD=$(BUILD)/rayd sh tests/formats_test.sh
 
 # gcc plain, then clang with AddressSanitizer and UndefinedBehaviorSanitizer.
 test: deps

@@ -1,5 +1,6 @@
 #include "cfg_parse.h"
 
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -173,7 +174,8 @@ rd_error_code rd_cfg_parse(const char *text, size_t len, const char *source,
     source = source ? source : "<scene>";
     if (len > lim.max_bytes)
         return rd_loc_error(err, RD_ERR_LIMIT, source, (rd_loc){0, 0, NULL},
-                            "scene is %zu bytes, over the limit of %zu", len, lim.max_bytes);
+                            "scene is %zu bytes, over the limit of %zu (%s)", len, lim.max_bytes,
+                            rd_limit_flag(offsetof(rd_scene_limits, max_bytes)));
     size_t bad = rd_utf8_invalid_at(text, len);
     if (bad < len) {
         int line = 1;

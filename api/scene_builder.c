@@ -1,6 +1,7 @@
 #include "scene_builder.h"
 
 #include <stdarg.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -37,8 +38,17 @@ static void vformat(rd_error *err, rd_error_code code, const char *source, rd_lo
 {
     char msg[400];
     vsnprintf(msg, sizeof msg, fmt, ap);
-    if (loc.path)
-        rd_error_set(err, code, loc.line, loc.column, "%s: %s: %s", source, loc.path, msg);
+    if (loc.path) {
+        /* The path already ends in the key's name: "objects[2].radius: radius: ..."
+         * says it twice. */
+        const char *last = strrchr(loc.path, '.');
+        last = last ? last + 1 : loc.path;
+        size_t n = strcspn(last, "[");
+        const char *shown = msg;
+        if (n > 0 && strncmp(msg, last, n) == 0 && msg[n] == ':' && msg[n + 1] == ' ')
+            shown = msg + n + 2;
+        rd_error_set(err, code, loc.line, loc.column, "%s: %s: %s", source, loc.path, shown);
+    }
     else if (loc.line > 0)
         rd_error_set(err, code, loc.line, loc.column, "%s:%d:%d: %s", source, loc.line,
                      loc.column > 0 ? loc.column : 1, msg);
@@ -274,7 +284,8 @@ static rd_error_code apply(rd_builder *b, const rd_key *k, const rd_entry *e, vo
             return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: must not be empty", k->name);
         if (t->len > b->lim.max_name)
             return rd_builder_error(b, err, RD_ERR_LIMIT, v->loc,
-                                    "%s: longer than the limit of %zu bytes", k->name, b->lim.max_name);
+                                    "%s: longer than the limit of %zu bytes (%s)", k->name, b->lim.max_name,
+                                    rd_limit_flag(offsetof(rd_scene_limits, max_name)));
         if (memchr(t->text, 0, t->len))
             return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: contains a NUL byte", k->name);
         char **slot = dst;
@@ -306,8 +317,9 @@ static rd_error_code check_name(rd_builder *b, rd_section_kind sec, const char *
 {
     if (nlen > b->lim.max_name)
         return rd_builder_error(b, err, RD_ERR_LIMIT, where,
-                                "%s name is longer than the limit of %zu bytes",
-                                rd_section_kind_name(sec), b->lim.max_name);
+                                "%s name is longer than the limit of %zu bytes (%s)",
+                                rd_section_kind_name(sec), b->lim.max_name,
+                                rd_limit_flag(offsetof(rd_scene_limits, max_name)));
     for (size_t i = 0; i < b->nnames; i++) {
         if (b->names[i].kind == sec && strlen(b->names[i].name) == nlen &&
             memcmp(b->names[i].name, name, nlen) == 0) {
@@ -510,20 +522,20 @@ rd_error_code rd_builder_section(rd_builder *b, const char *kind, size_t kind_le
     case RD_SEC_CAMERA: base = &s->camera; break;
     case RD_SEC_LIGHT:
         if (s->light_count >= b->lim.max_lights)
-            return rd_builder_error(b, err, RD_ERR_LIMIT, where, "too many lights (limit %zu)",
-                                    b->lim.max_lights);
+            return rd_builder_error(b, err, RD_ERR_LIMIT, where, "too many lights (limit %zu, %s)",
+                                    b->lim.max_lights, rd_limit_flag(offsetof(rd_scene_limits, max_lights)));
         base = rd_scene_add_light(s);
         break;
     case RD_SEC_MATERIAL:
         if (s->material_count >= b->lim.max_materials)
-            return rd_builder_error(b, err, RD_ERR_LIMIT, where, "too many materials (limit %zu)",
-                                    b->lim.max_materials);
+            return rd_builder_error(b, err, RD_ERR_LIMIT, where, "too many materials (limit %zu, %s)",
+                                    b->lim.max_materials, rd_limit_flag(offsetof(rd_scene_limits, max_materials)));
         base = rd_scene_add_material(s);
         break;
     default:
         if (s->object_count >= b->lim.max_objects)
-            return rd_builder_error(b, err, RD_ERR_LIMIT, where, "too many objects (limit %zu)",
-                                    b->lim.max_objects);
+            return rd_builder_error(b, err, RD_ERR_LIMIT, where, "too many objects (limit %zu, %s)",
+                                    b->lim.max_objects, rd_limit_flag(offsetof(rd_scene_limits, max_objects)));
         object_index = s->object_count;
         base = rd_scene_add_object(s);
         if (base) {
@@ -537,8 +549,10 @@ rd_error_code rd_builder_section(rd_builder *b, const char *kind, size_t kind_le
     }
     if (!base)
         return rd_builder_error(b, err, RD_ERR_NOMEM, where, "out of memory");
-    if ((sec == RD_SEC_LIGHT || sec == RD_SEC_MATERIAL) && name && name_len) {
-        char **slot = sec == RD_SEC_LIGHT ? &((rd_light *)base)->name : &((rd_material *)base)->name;
+    if (sec != RD_SEC_RENDER && sec != RD_SEC_CAMERA && name && name_len) {
+        char **slot = sec == RD_SEC_LIGHT      ? &((rd_light *)base)->name
+                      : sec == RD_SEC_MATERIAL ? &((rd_material *)base)->name
+                                               : &((rd_object *)base)->name;
         *slot = dupn(name, name_len);
         if (!*slot)
             return rd_builder_error(b, err, RD_ERR_NOMEM, where, "out of memory");

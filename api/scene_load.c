@@ -1,12 +1,14 @@
 #include "scene_load.h"
 
 #include <errno.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 
 #include "cfg_parse.h"
+#include "json_parse.h"
 
 rd_scene_format rd_scene_sniff(const char *text, size_t len)
 {
@@ -24,12 +26,12 @@ rd_error_code rd_scene_parse(const char *text, size_t len, rd_scene_format fmt, 
     if (fmt == RD_FMT_AUTO)
         fmt = rd_scene_sniff(text, len);
     if (fmt == RD_FMT_JSON)
-        return rd_error_set(err, RD_ERR_SYNTAX, 0, 0, "%s: JSON scenes are not supported by this version",
-                            source ? source : "<scene>");
+        return rd_json_parse(text, len, source, lim, s, err);
     return rd_cfg_parse(text, len, source, lim, s, err);
 }
 
-rd_error_code rd_read_file(const char *path, size_t max_bytes, char **out, size_t *len, rd_error *err)
+rd_error_code rd_read_file(const char *path, size_t max_bytes, const char *flag, char **out, size_t *len,
+                           rd_error *err)
 {
     *out = NULL;
     *len = 0;
@@ -43,8 +45,8 @@ rd_error_code rd_read_file(const char *path, size_t max_bytes, char **out, size_
     }
     if ((unsigned long long)st.st_size > max_bytes) {
         fclose(f);
-        return rd_error_set(err, RD_ERR_LIMIT, 0, 0, "%s: %lld bytes, over the limit of %zu", path,
-                            (long long)st.st_size, max_bytes);
+        return rd_error_set(err, RD_ERR_LIMIT, 0, 0, "%s: %lld bytes, over the limit of %zu (%s)", path,
+                            (long long)st.st_size, max_bytes, flag);
     }
     size_t n = (size_t)st.st_size;
     char *buf = malloc(n + 1);
@@ -77,7 +79,8 @@ rd_error_code rd_scene_load_file(const char *path, const rd_scene_limits *lim_in
     rd_scene_limits lim = lim_in ? *lim_in : rd_scene_limits_default();
     char *text;
     size_t len;
-    rd_error_code rc = rd_read_file(path, lim.max_bytes, &text, &len, err);
+    rd_error_code rc = rd_read_file(path, lim.max_bytes, rd_limit_flag(offsetof(rd_scene_limits, max_bytes)),
+                                    &text, &len, err);
     if (rc)
         return rc;
     rd_scene_format fmt = ends_with(path, ".json") ? RD_FMT_JSON

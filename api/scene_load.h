@@ -24,7 +24,9 @@ rd_error_code rd_scene_load_file(const char *path, const rd_scene_limits *lim, r
                                  rd_error *err);
 
 /* Reads a whole file into a malloc'ed, NUL-terminated buffer of at most
- * max_bytes; the caller frees *out. */
-rd_error_code rd_read_file(const char *path, size_t max_bytes, char **out, size_t *len, rd_error *err);
+ * max_bytes (refused before reading; the message names flag); the caller
+ * frees *out. */
+rd_error_code rd_read_file(const char *path, size_t max_bytes, const char *flag, char **out, size_t *len,
+                           rd_error *err);
 
 #endif

@@ -30,6 +30,7 @@ void rd_scene_free(rd_scene *s)
     for (size_t i = 0; i < s->object_count; i++) {
         free(s->objects[i].material_name);
         free(s->objects[i].file);
+        free(s->objects[i].name);
     }
     free(s->lights);
     free(s->materials);

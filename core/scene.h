@@ -66,6 +66,7 @@ typedef enum { RD_OBJ_SPHERE, RD_OBJ_PLANE, RD_OBJ_TRIANGLE, RD_OBJ_MESH } rd_ob
 
 typedef struct {
     rd_object_type type;
+    char *name;         /* may be NULL */
     int material;       /* index into materials; -1 until resolved */
     char *material_name;
     /* sphere */

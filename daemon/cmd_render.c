@@ -23,6 +23,7 @@ static const char render_help[] =
     "      --threads N     worker threads, 1..1024 (default: the number of cores);\n"
     "                      the image does not depend on it\n"
     "      --png-level N   zlib level 0..9 for the PNG (default 1)\n"
+    "      --max-...  N    a size limit; 'rayd limits' lists them with defaults\n"
     "  -h, --help          this text\n"
     "\n"
     "Exit status: 0 written; 1 usage error; 2 scene error (message on stderr,\n"
@@ -73,6 +74,10 @@ int rd_cmd_render(int argc, char **argv)
     const char *seed = NULL;
     if (threads < 1)
         threads = 1;
+    rd_scene_limits lim = rd_scene_limits_default();
+    int lrc = rd_cli_take_limits(&argc, argv, &lim, "rayd render");
+    if (lrc)
+        return lrc;
     optind = 1;
     opterr = 0;
     int c;
@@ -120,7 +125,7 @@ int rd_cmd_render(int argc, char **argv)
     rd_scene scene;
     rd_scene_init(&scene);
     rd_error err = {0};
-    rd_error_code rc = rd_scene_load_file(argv[optind], NULL, &scene, &err);
+    rd_error_code rc = rd_scene_load_file(argv[optind], &lim, &scene, &err);
     if (rc) {
         fprintf(stderr, "%s\n", err.message);
         rd_scene_free(&scene);
@@ -134,6 +139,12 @@ int rd_cmd_render(int argc, char **argv)
         scene.render.samples = (int)samples;
     if (seed)
         scene.render.seed = seed_value;
+    rc = rd_scene_check_limits(&scene, &lim, argv[optind], &err);
+    if (rc) {
+        fprintf(stderr, "%s\n", err.message);
+        rd_scene_free(&scene);
+        return exit_for(rc);
+    }
 
     rd_render_options ro = {0};
     ro.threads = (int)threads;

@@ -11,6 +11,8 @@ static const char help[] =
     "\n"
     "Commands:\n"
     "  render SCENE -o OUT.png   render a .cfg or .json scene to PNG\n"
+    "  convert IN OUT            turn a cfg scene into JSON or back\n"
+    "  limits                    list the size limits and their defaults\n"
     "\n"
     "'rayd COMMAND --help' explains a command's options.\n";
 
@@ -26,6 +28,10 @@ int main(int argc, char **argv)
     }
     if (strcmp(argv[1], "render") == 0)
         return rd_cmd_render(argc - 1, argv + 1);
+    if (strcmp(argv[1], "limits") == 0)
+        return rd_cmd_limits(argc - 1, argv + 1);
+    if (strcmp(argv[1], "convert") == 0)
+        return rd_cmd_convert(argc - 1, argv + 1);
     fprintf(stderr, "rayd: unknown command '%s'\n\n%s", argv[1], help);
     return RD_EXIT_USAGE;
 }

@@ -1,0 +1,338 @@
+#include "scene_write.h"
+
+#include <cJSON.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "number_text.h"
+#include "scene_keys.h"
+
+/* What a key's field holds when nobody wrote it, for a section of the
+ * given subtype: a fresh section built the way the reader builds one. */
+typedef union {
+    rd_render_settings r;
+    rd_camera c;
+    rd_light l;
+    rd_material m;
+    rd_object o;
+} any_section;
+
+static void defaults_for(rd_section_kind sec, int subtype, any_section *d)
+{
+    memset(d, 0, sizeof *d);
+    rd_scene s;
+    rd_scene_init(&s);
+    switch (sec) {
+    case RD_SEC_RENDER: d->r = s.render; break;
+    case RD_SEC_CAMERA: d->c = s.camera; break;
+    case RD_SEC_LIGHT: {
+        rd_light *l = rd_scene_add_light(&s);
+        if (l) {
+            l->type = (rd_light_type)subtype;
+            d->l = *l;
+        }
+        break;
+    }
+    case RD_SEC_MATERIAL:
+        rd_material_defaults(&d->m, (rd_material_type)subtype);
+        break;
+    default: {
+        rd_object *o = rd_scene_add_object(&s);
+        if (o)
+            d->o = *o;
+        break;
+    }
+    }
+    rd_scene_free(&s);
+}
+
+static int key_bytes(const rd_key *k)
+{
+    switch (k->type) {
+    case RD_KT_INT:
+    case RD_KT_ENUM: return sizeof(int);
+    case RD_KT_SEED: return sizeof(uint64_t);
+    case RD_KT_REAL: return sizeof(double);
+    case RD_KT_VEC2: return 2 * sizeof(double);
+    case RD_KT_VEC3:
+    case RD_KT_REAL_OR_VEC3: return sizeof(rd_vec3);
+    default: return 0;
+    }
+}
+
+/* Whether key k of the section at base should be written. */
+static int wanted(const rd_key *k, unsigned bit, const void *base, const any_section *d,
+                  const rd_object *o)
+{
+    if (!(k->applies & bit) || strcmp(k->name, "type") == 0)
+        return 0;
+    if (k->required & bit)
+        return 1;
+    const char *f = (const char *)base + k->offset;
+    if (k->type == RD_KT_NAME || k->type == RD_KT_STRING)
+        return *(char *const *)f != NULL;
+    if (o && k->section == RD_SEC_TRIANGLE) {
+        if (k->name[0] == 'n')
+            return o->has_normals;
+        if (k->name[0] == 'u')
+            return o->has_uv;
+    }
+    return memcmp(f, (const char *)d + k->offset, (size_t)key_bytes(k)) != 0;
+}
+
+typedef struct {
+    char *buf;
+    size_t len, cap;
+    int failed;
+} sbuf;
+
+static void put(sbuf *b, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void put(sbuf *b, const char *fmt, ...)
+{
+    if (b->failed)
+        return;
+    va_list ap;
+    va_start(ap, fmt);
+    int n = vsnprintf(NULL, 0, fmt, ap);
+    va_end(ap);
+    if (b->len + (size_t)n + 1 > b->cap) {
+        size_t nc = b->cap ? b->cap : 1024;
+        while (nc < b->len + (size_t)n + 1)
+            nc *= 2;
+        char *p = realloc(b->buf, nc);
+        if (!p) {
+            b->failed = 1;
+            return;
+        }
+        b->buf = p;
+        b->cap = nc;
+    }
+    va_start(ap, fmt);
+    vsnprintf(b->buf + b->len, b->cap - b->len, fmt, ap);
+    va_end(ap);
+    b->len += (size_t)n;
+}
+
+static void put_num(sbuf *b, double v)
+{
+    char t[40];
+    rd_number_text(v, t, sizeof t);
+    put(b, "%s", t);
+}
+
+static int bare_word(const char *s)
+{
+    if (!*s)
+        return 0;
+    for (const char *p = s; *p; p++) {
+        char c = *p;
+        if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
+              c == '-' || c == '.' || (unsigned char)c >= 0x80))
+            return 0;
+    }
+    return 1;
+}
+
+static int cfg_string(sbuf *b, const char *s, rd_error *err)
+{
+    if (strpbrk(s, "\"\r\n"))
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0,
+                            "'%.60s' cannot be written in cfg (it holds a quote or a line end)", s);
+    if (bare_word(s))
+        put(b, "%s", s);
+    else
+        put(b, "\"%s\"", s);
+    return RD_OK;
+}
+
+static rd_error_code cfg_value(sbuf *b, const rd_key *k, const void *base, rd_error *err)
+{
+    const char *f = (const char *)base + k->offset;
+    switch (k->type) {
+    case RD_KT_INT: put(b, "%d", *(const int *)f); break;
+    case RD_KT_SEED: put(b, "%llu", (unsigned long long)*(const uint64_t *)f); break;
+    case RD_KT_REAL: put_num(b, *(const double *)f); break;
+    case RD_KT_VEC2:
+        put_num(b, ((const double *)f)[0]);
+        put(b, " ");
+        put_num(b, ((const double *)f)[1]);
+        break;
+    case RD_KT_VEC3:
+    case RD_KT_REAL_OR_VEC3: {
+        const rd_vec3 *v = (const rd_vec3 *)f;
+        put_num(b, v->x);
+        put(b, " ");
+        put_num(b, v->y);
+        put(b, " ");
+        put_num(b, v->z);
+        break;
+    }
+    case RD_KT_ENUM: put(b, "%s", k->words[*(const int *)f]); break;
+    case RD_KT_NAME:
+    case RD_KT_STRING: return cfg_string(b, *(char *const *)f, err);
+    }
+    return RD_OK;
+}
+
+static rd_error_code cfg_section(sbuf *b, rd_section_kind sec, const char *name, int subtype,
+                                 const void *base, const rd_object *o, rd_error *err)
+{
+    any_section d;
+    defaults_for(sec, subtype, &d);
+    unsigned bit = (sec == RD_SEC_LIGHT || sec == RD_SEC_MATERIAL) ? 1u << subtype : 1u;
+    put(b, "\n[%s", rd_section_kind_name(sec));
+    if (name) {
+        put(b, " ");
+        if (cfg_string(b, name, err))
+            return err->code;
+    }
+    put(b, "]\n");
+    if (sec == RD_SEC_LIGHT)
+        put(b, "type = %s\n", rd_light_type_words[subtype]);
+    if (sec == RD_SEC_MATERIAL)
+        put(b, "type = %s\n", rd_material_type_words[subtype]);
+    size_t nk;
+    const rd_key *keys = rd_keys_all(&nk);
+    for (size_t i = 0; i < nk; i++) {
+        if (keys[i].section != sec || !wanted(&keys[i], bit, base, &d, o))
+            continue;
+        put(b, "%s = ", keys[i].name);
+        if (cfg_value(b, &keys[i], base, err))
+            return err->code;
+        put(b, "\n");
+    }
+    return RD_OK;
+}
+
+static rd_section_kind object_section(const rd_object *o)
+{
+    switch (o->type) {
+    case RD_OBJ_SPHERE: return RD_SEC_SPHERE;
+    case RD_OBJ_PLANE: return RD_SEC_PLANE;
+    case RD_OBJ_TRIANGLE: return RD_SEC_TRIANGLE;
+    default: return RD_SEC_MESH;
+    }
+}
+
+static rd_error_code finish(sbuf *b, char **out, rd_error *err)
+{
+    if (b->failed) {
+        free(b->buf);
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory writing the scene");
+    }
+    *out = b->buf;
+    return RD_OK;
+}
+
+rd_error_code rd_scene_write_cfg(const rd_scene *s, char **out, rd_error *err)
+{
+    sbuf b = {0};
+    *out = NULL;
+    rd_error_code rc = RD_OK;
+    put(&b, "# written by rayd convert\n");
+    rc = cfg_section(&b, RD_SEC_RENDER, NULL, 0, &s->render, NULL, err);
+    if (!rc)
+        rc = cfg_section(&b, RD_SEC_CAMERA, NULL, 0, &s->camera, NULL, err);
+    for (size_t i = 0; !rc && i < s->light_count; i++)
+        rc = cfg_section(&b, RD_SEC_LIGHT, s->lights[i].name, (int)s->lights[i].type, &s->lights[i], NULL, err);
+    for (size_t i = 0; !rc && i < s->material_count; i++)
+        rc = cfg_section(&b, RD_SEC_MATERIAL, s->materials[i].name, (int)s->materials[i].type,
+                         &s->materials[i], NULL, err);
+    for (size_t i = 0; !rc && i < s->object_count; i++)
+        rc = cfg_section(&b, object_section(&s->objects[i]), s->objects[i].name, 0, &s->objects[i],
+                         &s->objects[i], err);
+    if (rc) {
+        free(b.buf);
+        return rc;
+    }
+    return finish(&b, out, err);
+}
+
+static cJSON *json_value(const rd_key *k, const void *base)
+{
+    const char *f = (const char *)base + k->offset;
+    switch (k->type) {
+    case RD_KT_INT: return cJSON_CreateNumber(*(const int *)f);
+    case RD_KT_SEED: return cJSON_CreateNumber((double)*(const uint64_t *)f);
+    case RD_KT_REAL: return cJSON_CreateNumber(*(const double *)f);
+    case RD_KT_VEC2: return cJSON_CreateDoubleArray((const double *)f, 2);
+    case RD_KT_VEC3:
+    case RD_KT_REAL_OR_VEC3: {
+        const rd_vec3 *v = (const rd_vec3 *)f;
+        double a[3] = {v->x, v->y, v->z};
+        return cJSON_CreateDoubleArray(a, 3);
+    }
+    case RD_KT_ENUM: return cJSON_CreateString(k->words[*(const int *)f]);
+    case RD_KT_NAME:
+    case RD_KT_STRING: return cJSON_CreateString(*(char *const *)f);
+    }
+    return NULL;
+}
+
+static cJSON *json_section(rd_section_kind sec, int subtype, const void *base, const rd_object *o,
+                           const char *name, const char *type_word)
+{
+    any_section d;
+    defaults_for(sec, subtype, &d);
+    unsigned bit = (sec == RD_SEC_LIGHT || sec == RD_SEC_MATERIAL) ? 1u << subtype : 1u;
+    cJSON *obj = cJSON_CreateObject();
+    if (!obj)
+        return NULL;
+    if (name)
+        cJSON_AddStringToObject(obj, "name", name);
+    if (type_word)
+        cJSON_AddStringToObject(obj, "type", type_word);
+    size_t nk;
+    const rd_key *keys = rd_keys_all(&nk);
+    for (size_t i = 0; i < nk; i++)
+        if (keys[i].section == sec && wanted(&keys[i], bit, base, &d, o))
+            cJSON_AddItemToObject(obj, keys[i].name, json_value(&keys[i], base));
+    return obj;
+}
+
+rd_error_code rd_scene_write_json(const rd_scene *s, char **out, rd_error *err)
+{
+    *out = NULL;
+    cJSON *root = cJSON_CreateObject();
+    if (!root)
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory writing the scene");
+    cJSON_AddItemToObject(root, "render", json_section(RD_SEC_RENDER, 0, &s->render, NULL, NULL, NULL));
+    cJSON_AddItemToObject(root, "camera", json_section(RD_SEC_CAMERA, 0, &s->camera, NULL, NULL, NULL));
+    cJSON *lights = cJSON_AddArrayToObject(root, "lights");
+    for (size_t i = 0; lights && i < s->light_count; i++)
+        cJSON_AddItemToArray(lights, json_section(RD_SEC_LIGHT, (int)s->lights[i].type, &s->lights[i], NULL,
+                                                  s->lights[i].name, rd_light_type_words[s->lights[i].type]));
+    cJSON *mats = cJSON_AddObjectToObject(root, "materials");
+    for (size_t i = 0; mats && i < s->material_count; i++) {
+        const rd_material *m = &s->materials[i];
+        cJSON_AddItemToObject(mats, m->name ? m->name : "",
+                              json_section(RD_SEC_MATERIAL, (int)m->type, m, NULL, NULL,
+                                           rd_material_type_words[m->type]));
+    }
+    cJSON *objs = cJSON_AddArrayToObject(root, "objects");
+    for (size_t i = 0; objs && i < s->object_count; i++) {
+        const rd_object *o = &s->objects[i];
+        rd_section_kind sec = object_section(o);
+        cJSON_AddItemToArray(objs, json_section(sec, 0, o, o, o->name, rd_section_kind_name(sec)));
+    }
+    char *text = cJSON_Print(root);
+    cJSON_Delete(root);
+    if (!text)
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory writing the scene");
+    /* cJSON's allocator is malloc unless hooks are installed; copy to be sure
+     * the caller's free() matches, and end the file with a newline. */
+    size_t n = strlen(text);
+    char *copy = malloc(n + 2);
+    if (!copy) {
+        cJSON_free(text);
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory writing the scene");
+    }
+    memcpy(copy, text, n);
+    copy[n] = '\n';
+    copy[n + 1] = 0;
+    cJSON_free(text);
+    *out = copy;
+    return RD_OK;
+}

@@ -1,0 +1,68 @@
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli.h"
+
+int rd_cli_take_limits(int *argc, char **argv, rd_scene_limits *lim, const char *who)
+{
+    size_t n;
+    const rd_limit_info *info = rd_limits_info(&n);
+    int out = 0;
+    for (int i = 0; i < *argc; i++) {
+        const char *a = argv[i];
+        const rd_limit_info *hit = NULL;
+        const char *value = NULL;
+        int used = 1;
+        if (strncmp(a, "--max-", 6) == 0) {
+            for (size_t k = 0; k < n && !hit; k++) {
+                size_t fl = strlen(info[k].flag);
+                if (strncmp(a, info[k].flag, fl) == 0 && (a[fl] == 0 || a[fl] == '=')) {
+                    hit = &info[k];
+                    if (a[fl] == '=') {
+                        value = a + fl + 1;
+                    } else if (i + 1 < *argc) {
+                        value = argv[i + 1];
+                        used = 2;
+                    }
+                }
+            }
+            if (!hit) {
+                fprintf(stderr, "%s: unknown limit '%s' (see 'rayd limits')\n", who, a);
+                return RD_EXIT_USAGE;
+            }
+        }
+        if (!hit) {
+            argv[out++] = argv[i];
+            continue;
+        }
+        char *end;
+        errno = 0;
+        unsigned long long v = value && *value && *value != '-' ? strtoull(value, &end, 10) : 0;
+        if (!value || !*value || *value == '-' || *end || errno || v == 0) {
+            fprintf(stderr, "%s: %s: expected a positive integer, got '%s'\n", who, hit->flag,
+                    value ? value : "");
+            return RD_EXIT_USAGE;
+        }
+        *(size_t *)((char *)lim + hit->offset) = (size_t)v;
+        i += used - 1;
+    }
+    argv[out] = NULL;
+    *argc = out;
+    return 0;
+}
+
+int rd_cmd_limits(int argc, char **argv)
+{
+    (void)argc;
+    (void)argv;
+    size_t n;
+    const rd_limit_info *info = rd_limits_info(&n);
+    rd_scene_limits d = rd_scene_limits_default();
+    printf("Size limits on scene input (flags of 'rayd render'):\n\n");
+    for (size_t i = 0; i < n; i++)
+        printf("  %-22s %12zu  %s\n", info[i].flag, *(const size_t *)((const char *)&d + info[i].offset),
+               info[i].what);
+    return RD_EXIT_OK;
+}
