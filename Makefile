@@ -60,6 +60,7 @@ check: $(BUILD)/rayd $(BUILD)/unit-tests
 	RAYD=$(BUILD)/rayd $(BUILD)/unit-tests --jobs 2
 	RAYD=$(BUILD)/rayd sh tests/cli_test.sh
 	RAYD=$(BUILD)/rayd sh tests/formats_test.sh
+	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/schema_test.py
 
 # gcc plain, then clang with AddressSanitizer and UndefinedBehaviorSanitizer.
 test: deps

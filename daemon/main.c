@@ -13,6 +13,7 @@ static const char help[] =
     "  render SCENE -o OUT.png   render a .cfg or .json scene to PNG\n"
     "  convert IN OUT            turn a cfg scene into JSON or back\n"
     "  limits                    list the size limits and their defaults\n"
+    "  schema                    print the JSON Schema of JSON scenes\n"
     "\n"
     "'rayd COMMAND --help' explains a command's options.\n";
 
@@ -28,6 +29,8 @@ int main(int argc, char **argv)
     }
     if (strcmp(argv[1], "render") == 0)
         return rd_cmd_render(argc - 1, argv + 1);
+    if (strcmp(argv[1], "schema") == 0)
+        return rd_cmd_schema(argc - 1, argv + 1);
     if (strcmp(argv[1], "limits") == 0)
         return rd_cmd_limits(argc - 1, argv + 1);
     if (strcmp(argv[1], "convert") == 0)

@@ -2,7 +2,7 @@
 # Installs the Debian packages rayd needs; quiet and quick when all are present.
 # Usage: deploy/deps.sh [bench]   ("bench" adds what `make bench` compares against)
 set -eu
-pkgs="gcc clang make pkg-config libc6-dev libpng-dev zlib1g-dev libcjson-dev libmicrohttpd-dev libcriterion-dev curl"
+pkgs="gcc clang make pkg-config libc6-dev libpng-dev zlib1g-dev libcjson-dev libmicrohttpd-dev libcriterion-dev curl python3 python3-jsonschema"
 [ "${1:-}" = bench ] && pkgs="$pkgs povray"
 missing=""
 for p in $pkgs; do
