@@ -33,7 +33,16 @@ TEST_OBJ   := $(patsubst %.c,$(BUILD)/%.o,$(TEST_SRC))
 # The CLI's objects without main(), so tests can drive subcommands.
 CLI_OBJ    := $(filter-out $(BUILD)/daemon/main.o,$(DAEMON_OBJ))
 
-.PHONY: all deps test check run bench clean scenes-out
+.PHONY: all deps test check run bench clean scenes
+
+# Large inputs are generated, not kept in git.
+GENERATED := scenes/generated/knot.obj
+
+scenes: $(GENERATED)
+
+scenes/generated/knot.obj: scenes/gen.py
+	@mkdir -p scenes/generated
+	/usr/bin/python3 scenes/gen.py knot $@ 800 64
 
 all: deps
 	@$(MAKE) --no-print-directory $(BUILD)/rayd
@@ -56,7 +65,7 @@ $(BUILD)/unit-tests: $(TEST_OBJ) $(CLI_OBJ) $(BUILD)/librayd.a
 	$(CC) $(LDFLAGS) -o $@ $(TEST_OBJ) $(CLI_OBJ) $(BUILD)/librayd.a $(PKG_LIBS) $(shell pkg-config --libs $(TESTPKG))
 
 # One build and run of the unit suite with the current CC/SAN/BUILD.
-check: $(BUILD)/rayd $(BUILD)/unit-tests
+check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
 	RAYD=$(BUILD)/rayd $(BUILD)/unit-tests --jobs 2
 	RAYD=$(BUILD)/rayd sh tests/cli_test.sh
 	RAYD=$(BUILD)/rayd sh tests/formats_test.sh
@@ -68,7 +77,7 @@ test: deps
 	@$(MAKE) --no-print-directory check CC=clang SAN=1 BUILD=build/clang-san
 
 # Until the daemon lands, `make run` renders every example scene into out/.
-run: all
+run: all $(GENERATED)
 	@mkdir -p out
 	@for f in scenes/*.cfg; do \
 	  n=$$(basename $$f .cfg); \
@@ -81,6 +90,6 @@ bench: all
 	@sh bench/run.sh $(BUILD)/rayd
 
 clean:
-	rm -rf build out
+	rm -rf build out scenes/generated
 
 -include $(shell find build -name '*.d' 2>/dev/null)

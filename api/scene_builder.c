@@ -299,6 +299,24 @@ static rd_error_code apply(rd_builder *b, const rd_key *k, const rd_entry *e, vo
     return RD_OK;
 }
 
+static rd_loc where_loc_none(void)
+{
+    rd_loc l = {0, 0, NULL};
+    return l;
+}
+
+/* "scene.cfg:7:11" or "scene.json: materials.wood.texture": a place to
+ * name in messages about a file the scene refers to. */
+static char *loc_text(const rd_builder *b, rd_loc l)
+{
+    char buf[600];
+    if (l.path)
+        snprintf(buf, sizeof buf, "%s: %s", b->source, l.path);
+    else
+        snprintf(buf, sizeof buf, "%s:%d:%d", b->source, l.line, l.column > 0 ? l.column : 1);
+    return dupn(buf, strlen(buf));
+}
+
 static const char *subtype_noun(rd_section_kind sec)
 {
     return sec == RD_SEC_LIGHT ? "light" : "material";
@@ -595,6 +613,13 @@ rd_error_code rd_builder_section(rd_builder *b, const char *kind, size_t kind_le
         }
         if ((rc = apply(b, k, e, base, err)))
             return rc;
+        if (strcmp(k->name, "file") == 0 || strcmp(k->name, "texture") == 0) {
+            char **at = sec == RD_SEC_MESH ? &((rd_object *)base)->where : &((rd_material *)base)->where;
+            free(*at);
+            *at = loc_text(b, e->value.loc);
+            if (!*at)
+                return rd_builder_error(b, err, RD_ERR_NOMEM, where_loc_none(), "out of memory");
+        }
         if (k->type == RD_KT_NAME && strcmp(k->name, "material") == 0 &&
             (rc = add_ref(b, object_index, e->value.loc, err)))
             return rc;
@@ -629,10 +654,5 @@ rd_error_code rd_builder_finish(rd_builder *b, rd_error *err)
         }
         o->material = m;
     }
-    for (size_t i = 0; i < s->object_count; i++)
-        if (s->objects[i].type == RD_OBJ_MESH)
-            return rd_builder_error(b, err, RD_ERR_INVALID, (rd_loc){0, 0, NULL},
-                                    "[mesh] '%s': OBJ meshes are not supported by this version",
-                                    s->objects[i].file);
     return RD_OK;
 }

@@ -10,7 +10,6 @@ void rd_plane_make(rd_plane *pl, rd_vec3 point, rd_vec3 normal)
     rd_vec3 a = fabs(pl->n.x) < 0.5 ? v3(1, 0, 0) : (fabs(pl->n.y) < 0.5 ? v3(0, 1, 0) : v3(0, 0, 1));
     pl->tu = v3_normalize(v3_cross(a, pl->n));
     pl->tv = v3_cross(pl->n, pl->tu);
-    pl->uv_scale = 1;
 }
 
 double rd_plane_intersect(const rd_plane *pl, rd_ray r, double tmax)
@@ -31,7 +30,11 @@ void rd_plane_fill_hit(const rd_plane *pl, rd_ray r, rd_hit *h)
     h->p = p;
     h->ng = pl->n;
     h->perr = 8 * DBL_EPSILON * (v3_max_abs(p) + v3_max_abs(pl->q));
-    rd_vec3 rel = v3_sub(p, pl->q);
-    h->u = v3_dot(rel, pl->tu) * pl->uv_scale;
-    h->v = v3_dot(rel, pl->tv) * pl->uv_scale;
+}
+
+void rd_plane_uv(const rd_plane *pl, rd_hit *h)
+{
+    rd_vec3 rel = v3_sub(h->p, pl->q);
+    h->u = v3_dot(rel, pl->tu);
+    h->v = v3_dot(rel, pl->tv);
 }

@@ -8,7 +8,6 @@ typedef struct {
     rd_vec3 q;      /* a point on the plane */
     rd_vec3 n;      /* unit normal */
     rd_vec3 tu, tv; /* unit axes in the plane, for texture coordinates */
-    double uv_scale;
 } rd_plane;
 
 /* Sets up n, tu and tv from a point and a non-zero normal. */
@@ -18,5 +17,8 @@ void rd_plane_make(rd_plane *pl, rd_vec3 point, rd_vec3 normal);
 double rd_plane_intersect(const rd_plane *pl, rd_ray r, double tmax);
 
 void rd_plane_fill_hit(const rd_plane *pl, rd_ray r, rd_hit *h);
+
+/* Sets h->u, h->v: the hit's coordinates along tu and tv from q. */
+void rd_plane_uv(const rd_plane *pl, rd_hit *h);
 
 #endif

@@ -2,6 +2,8 @@
 #ifndef RD_RAY_H
 #define RD_RAY_H
 
+#include <stddef.h>
+
 #include "vec3.h"
 
 typedef struct {
@@ -22,6 +24,10 @@ typedef struct {
     double u, v;        /* texture coordinates */
     int material;
     int object;
+    /* which primitive, for attributes computed only when needed (uv) */
+    int prim_kind;
+    size_t prim;
+    double bary[3];
 } rd_hit;
 
 /* A ray origin on the hit's surface, pushed off it along the geometric

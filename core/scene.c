@@ -26,12 +26,20 @@ void rd_scene_free(rd_scene *s)
     for (size_t i = 0; i < s->material_count; i++) {
         free(s->materials[i].name);
         free(s->materials[i].texture);
+        free(s->materials[i].where);
     }
     for (size_t i = 0; i < s->object_count; i++) {
         free(s->objects[i].material_name);
         free(s->objects[i].file);
         free(s->objects[i].name);
+        free(s->objects[i].where);
     }
+    for (size_t i = 0; i < s->texture_count; i++)
+        free(s->textures[i].rgb);
+    for (size_t i = 0; i < s->mesh_count; i++)
+        rd_mesh_free(&s->meshes[i]);
+    free(s->textures);
+    free(s->meshes);
     free(s->lights);
     free(s->materials);
     free(s->objects);
@@ -76,6 +84,7 @@ void rd_material_defaults(rd_material *m, rd_material_type type)
     m->roughness = 0.3;
     m->ior = 1.5;
     m->uv_scale = 1;
+    m->texture_index = -1;
     switch (type) {
     case RD_MAT_COOK_TORRANCE: m->ks = v3(0.04, 0.04, 0.04); break;
     case RD_MAT_PERFECT_SPECULAR:
@@ -97,6 +106,7 @@ rd_object *rd_scene_add_object(rd_scene *s)
     rd_object *o = grow((void **)&s->objects, &s->object_count, &s->object_cap, sizeof *o);
     if (o) {
         o->material = -1;
+        o->mesh = -1;
         o->scale = v3(1, 1, 1);
     }
     return o;
@@ -116,6 +126,15 @@ static const char *const material_names[RD_MAT_COUNT] = {
 const char *rd_material_type_name(rd_material_type t)
 {
     return (unsigned)t < RD_MAT_COUNT ? material_names[t] : NULL;
+}
+
+void rd_mesh_free(rd_mesh *m)
+{
+    free(m->positions);
+    free(m->normals);
+    free(m->uvs);
+    free(m->faces);
+    memset(m, 0, sizeof *m);
 }
 
 int rd_scene_find_material(const rd_scene *s, const char *name)

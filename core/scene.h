@@ -60,6 +60,8 @@ typedef struct {
     double ior;         /* specular_refraction */
     char *texture;      /* textured_phong: path as written in the scene */
     double uv_scale;
+    int texture_index;  /* into rd_scene.textures once loaded; -1 before */
+    char *where;        /* where `texture` was written, for messages ("a.cfg:7:11") */
 } rd_material;
 
 typedef enum { RD_OBJ_SPHERE, RD_OBJ_PLANE, RD_OBJ_TRIANGLE, RD_OBJ_MESH } rd_object_type;
@@ -79,10 +81,38 @@ typedef struct {
     rd_vec3 n[3];       /* shading normals, when has_normals */
     double uv[3][2];    /* when has_uv */
     int has_normals, has_uv;
-    /* mesh: an OBJ file the loader expands into triangles before rendering */
+    /* mesh: an OBJ file, loaded into rd_scene.meshes before rendering */
     char *file;
     rd_vec3 translate, scale, rotate_deg;
+    int mesh;           /* into rd_scene.meshes once loaded; -1 before */
+    char *where;        /* where `file` was written, for messages */
 } rd_object;
+
+/* A decoded texture: RGB values in [0, 1] as stored in the PNG (8-bit
+ * values / 255, 16-bit / 65535, no gamma conversion), top row first. */
+typedef struct {
+    int width, height;
+    float *rgb;
+} rd_texture;
+
+/* One polygon of a mesh, fanned into a triangle: indices into the mesh's
+ * arrays; n and t are -1 where the face gave none. */
+typedef struct {
+    uint32_t v[3];
+    int32_t n[3], t[3];
+} rd_mesh_face;
+
+/* A triangle mesh from an OBJ file, already moved into world coordinates. */
+typedef struct {
+    rd_vec3 *positions;
+    size_t npositions;
+    rd_vec3 *normals;
+    size_t nnormals;
+    double (*uvs)[2];
+    size_t nuvs;
+    rd_mesh_face *faces;
+    size_t nfaces;
+} rd_mesh;
 
 typedef struct {
     rd_render_settings render;
@@ -93,6 +123,10 @@ typedef struct {
     size_t material_count, material_cap;
     rd_object *objects;
     size_t object_count, object_cap;
+    rd_texture *textures;   /* filled by the asset loader */
+    size_t texture_count;
+    rd_mesh *meshes;        /* filled by the asset loader */
+    size_t mesh_count;
 } rd_scene;
 
 /* An empty scene with every default of scene-format.md. */
@@ -110,6 +144,9 @@ void rd_material_defaults(rd_material *m, rd_material_type type);
 
 /* The scene-format name of a material type ("phong"), or NULL. */
 const char *rd_material_type_name(rd_material_type t);
+
+/* Releases a mesh's arrays (not the struct itself). */
+void rd_mesh_free(rd_mesh *m);
 
 /* Index of the material with that name, or -1. */
 int rd_scene_find_material(const rd_scene *s, const char *name);

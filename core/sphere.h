@@ -15,7 +15,11 @@ typedef struct {
  * inside gets its exit point. */
 double rd_sphere_intersect(const rd_sphere *s, rd_ray r, double tmax);
 
-/* Completes h (p, ng, perr, u, v) for a hit at h->t. */
+/* Completes h (p, ng, perr) for a hit at h->t. */
 void rd_sphere_fill_hit(const rd_sphere *s, rd_ray r, rd_hit *h);
+
+/* Sets h->u, h->v from the outward normal at h->p:
+ * u = 0.5 + atan2(n.z, n.x)/2π, v = acos(n.y)/π. */
+void rd_sphere_uv(const rd_sphere *s, rd_hit *h);
 
 #endif

@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "material.h"
+#include "texture.h"
 
 /* A shadow ray toward a light point stops this fraction short of it, so that
  * a light sitting on a surface is not hidden by that surface. Relative, so
@@ -14,14 +15,16 @@ rd_error_code rd_plan_build(rd_plan *p, const rd_scene *s, rd_error *err)
 {
     memset(p, 0, sizeof *p);
     p->scene = s;
-    for (size_t i = 0; i < s->material_count; i++)
-        if (s->materials[i].type == RD_MAT_TEXTURED_PHONG)
-            for (size_t j = 0; j < s->object_count; j++)
-                if (s->objects[j].material == (int)i)
-                    return rd_error_set(err, RD_ERR_INVALID, 0, 0,
-                                        "material '%s': textured_phong is not supported by this "
-                                        "renderer version",
-                                        s->materials[i].name ? s->materials[i].name : "?");
+    for (size_t j = 0; j < s->object_count; j++) {
+        int mi = s->objects[j].material;
+        if (mi < 0 || (size_t)mi >= s->material_count)
+            return rd_error_set(err, RD_ERR_INVALID, 0, 0, "object %zu has no material", j);
+        const rd_material *m = &s->materials[mi];
+        if (m->type == RD_MAT_TEXTURED_PHONG &&
+            (m->texture_index < 0 || (size_t)m->texture_index >= s->texture_count))
+            return rd_error_set(err, RD_ERR_INVALID, 0, 0, "material '%s': its texture was not loaded",
+                                m->name ? m->name : "?");
+    }
     rd_error_code rc = rd_world_build(&p->world, s, err);
     if (rc)
         return rc;
@@ -109,6 +112,15 @@ rd_rgb rd_trace(const rd_plan *p, rd_ray r, int depth, rd_rng *rng, rd_ray_count
     if (m->type == RD_MAT_PSEUDO_NORMAL_COLOR)
         return v3((h.n.x + 1) * 0.5, (h.n.y + 1) * 0.5, (h.n.z + 1) * 0.5);
 
+    rd_material textured;
+    if (m->type == RD_MAT_TEXTURED_PHONG) {
+        /* Only textured materials pay for texture coordinates and lookups. */
+        rd_world_hit_uv(&p->world, &h);
+        textured = *m;
+        textured.kd = rd_texture_sample(&s->textures[m->texture_index], h.u * m->uv_scale,
+                                        h.v * m->uv_scale);
+        m = &textured;
+    }
     rd_vec3 V = v3_neg(r.d);
     rd_rgb color = v3(0, 0, 0);
     if (!rd_material_is_recursive(m)) {

@@ -6,6 +6,12 @@ static double comp(rd_vec3 v, int k) { return k == 0 ? v.x : (k == 1 ? v.y : v.z
 
 double rd_triangle_intersect(const rd_triangle *tr, rd_ray r, double tmax, double bary[3])
 {
+    rd_vec3 v[3] = {tr->v0, tr->v1, tr->v2};
+    return rd_tri_intersect(v, r, tmax, bary);
+}
+
+double rd_tri_intersect(const rd_vec3 v[3], rd_ray r, double tmax, double bary[3])
+{
     /* Permute so that z is the ray's dominant axis, then shear the
      * triangle into the ray's frame, where the test is 2D. */
     int kz = 0;
@@ -24,7 +30,7 @@ double rd_triangle_intersect(const rd_triangle *tr, rd_ray r, double tmax, doubl
         ky = t;
     }
     double sx = comp(r.d, kx) / dz, sy = comp(r.d, ky) / dz, sz = 1.0 / dz;
-    rd_vec3 A = v3_sub(tr->v0, r.o), B = v3_sub(tr->v1, r.o), C = v3_sub(tr->v2, r.o);
+    rd_vec3 A = v3_sub(v[0], r.o), B = v3_sub(v[1], r.o), C = v3_sub(v[2], r.o);
     double Ax = comp(A, kx) - sx * comp(A, kz), Ay = comp(A, ky) - sy * comp(A, kz);
     double Bx = comp(B, kx) - sx * comp(B, kz), By = comp(B, ky) - sy * comp(B, kz);
     double Cx = comp(C, kx) - sx * comp(C, kz), Cy = comp(C, ky) - sy * comp(C, kz);

@@ -17,6 +17,9 @@ typedef struct {
  * Degenerate (zero-area) triangles never hit. */
 double rd_triangle_intersect(const rd_triangle *tr, rd_ray r, double tmax, double bary[3]);
 
+/* The same test on three corners. */
+double rd_tri_intersect(const rd_vec3 v[3], rd_ray r, double tmax, double bary[3]);
+
 void rd_triangle_fill_hit(const rd_triangle *tr, const double bary[3], rd_hit *h);
 
 #endif

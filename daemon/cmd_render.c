@@ -7,6 +7,7 @@
 #include "cli.h"
 #include "png_write.h"
 #include "render.h"
+#include "scene_assets.h"
 #include "scene_load.h"
 
 static const char render_help[] =
@@ -126,6 +127,16 @@ int rd_cmd_render(int argc, char **argv)
     rd_scene_init(&scene);
     rd_error err = {0};
     rd_error_code rc = rd_scene_load_file(argv[optind], &lim, &scene, &err);
+    if (!rc) {
+        char *dir = rd_dirname(argv[optind]);
+        rd_asset_source src = rd_asset_folder(dir ? dir : ".");
+        rd_warnings warnings = {0, ""};
+        rc = rd_scene_load_assets(&scene, &src, &lim, &warnings, &err);
+        free(dir);
+        if (warnings.count)
+            fprintf(stderr, "%s%s", warnings.text,
+                    warnings.count > 5 ? "(more warnings not shown)\n" : "");
+    }
     if (rc) {
         fprintf(stderr, "%s\n", err.message);
         rd_scene_free(&scene);

@@ -1,0 +1,49 @@
+/* A bounding volume hierarchy over bounded primitives (spheres, triangles):
+ * binned SAH build (Wald, "On fast Construction of SAH-based Bounding Volume
+ * Hierarchies", IEEE RT 2007), flattened depth-first with the left child
+ * next to its parent, traversed near child first.
+ *
+ * Ownership: rd_bvh_build allocates, rd_bvh_free releases. */
+#ifndef RD_BVH_H
+#define RD_BVH_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "error.h"
+#include "ray.h"
+
+/* 32 bytes. Bounds are floats rounded outward from the double bounds, so a
+ * box always contains its primitives. */
+typedef struct {
+    float lo[3], hi[3];
+    uint32_t offset;    /* leaf: first index into prims; inner: right child */
+    uint16_t count;     /* leaf: primitive count; inner: 0 */
+    uint16_t axis;      /* inner: split axis, for near-first order */
+} rd_bvh_node;
+
+typedef struct {
+    rd_bvh_node *nodes;
+    size_t nnodes;
+    uint32_t *prims;    /* primitive ids in leaf order */
+    size_t nprims;
+} rd_bvh;
+
+/* Builds over n primitives whose double bounds are lo[i], hi[i]. */
+rd_error_code rd_bvh_build(rd_bvh *b, const rd_vec3 *lo, const rd_vec3 *hi, size_t n, rd_error *err);
+void rd_bvh_free(rd_bvh *b);
+
+/* Precomputed for slab tests: 1/d with zero components replaced by a huge
+ * finite value of the same sign, so no 0·∞ = NaN can arise (a ray lying in
+ * a box's face counts as inside it). */
+typedef struct {
+    rd_vec3 o, inv;
+    int neg[3];
+} rd_bvh_ray;
+
+rd_bvh_ray rd_bvh_ray_make(rd_ray r);
+
+/* Whether the ray meets node n's box within (0, tmax); *tnear gets the entry. */
+int rd_bvh_box_hit(const rd_bvh_node *n, const rd_bvh_ray *r, double tmax, double *tnear);
+
+#endif
