@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "camera.h"
 #include "scene_keys.h"
 #include "suggest.h"
 #include "value_parse.h"
@@ -414,7 +415,7 @@ static rd_error_code check_section(rd_builder *b, rd_section_kind sec, void *bas
             return rd_builder_error(b, err, RD_ERR_INVALID, loc_of(find_entry(e, n, "up"), where),
                                     "camera: up must not be the zero vector");
         rd_vec3 side = v3_cross(v3_normalize(c->up), v3_normalize(view));
-        if (!(v3_max_abs(side) > 0))
+        if (!(v3_len(side) > RD_MIN_UP_SINE))
             return rd_builder_error(b, err, RD_ERR_INVALID, loc_of(find_entry(e, n, "up"), where),
                                     "camera: up must not be parallel to target - eye");
     } else if (sec == RD_SEC_PLANE) {

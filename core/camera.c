@@ -12,7 +12,9 @@ rd_error_code rd_pinhole_make(rd_pinhole *c, const rd_camera *cam, int width, in
         return rd_error_set(err, RD_ERR_INVALID, 0, 0, "camera eye and target are the same point");
     c->w = v3_normalize(view);
     rd_vec3 side = v3_cross(v3_normalize(cam->up), c->w);
-    if (!(v3_max_abs(side) > 0))
+    /* Unit vectors that are parallel up to rounding have a cross product of
+     * a few ulps, not exactly zero: its length is the sine of their angle. */
+    if (!(v3_len(side) > RD_MIN_UP_SINE))
         return rd_error_set(err, RD_ERR_INVALID, 0, 0, "camera up is parallel to the view direction");
     c->u = v3_normalize(side);
     c->v = v3_cross(c->w, c->u);

@@ -6,6 +6,10 @@
 #include "ray.h"
 #include "scene.h"
 
+/* up and the view direction must be at least this far from parallel (the
+ * sine of the angle between them, about 2e-8 degrees). */
+#define RD_MIN_UP_SINE 1e-9
+
 typedef struct {
     rd_vec3 u, v, w;
     double h, aspect;

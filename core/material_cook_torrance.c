@@ -1,5 +1,9 @@
 #include "material.h"
 
+/* Cap on the specular factor: far above anything that does not clamp to
+ * white, far below overflow even times large light colours. */
+#define RD_MAX_SPECULAR 1e200
+
 /* Beckmann distribution for slope roughness m at cos θ_h = nh. */
 static double beckmann(double nh, double m)
 {
@@ -37,5 +41,8 @@ rd_rgb rd_cook_torrance_reflected(const rd_material *m, const rd_hit *hit, rd_ve
     double s = pow(1 - vh, 5);
     rd_rgb F = v3(m->ks.x + (1 - m->ks.x) * s, m->ks.y + (1 - m->ks.y) * s,
                   m->ks.z + (1 - m->ks.z) * s);
-    return v3_add(c, v3_scale(F, D * g_nv / 4));
+    /* The formula diverges like 1/(N·V) when V and L both graze in the
+     * mirror configuration; keep it finite (any such value clamps to white). */
+    double spec = fmin(D * g_nv / 4, RD_MAX_SPECULAR);
+    return v3_add(c, v3_scale(F, spec));
 }

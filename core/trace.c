@@ -3,6 +3,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "fresnel.h"
 #include "material.h"
 #include "texture.h"
 
@@ -71,25 +72,6 @@ static int shadowed(const rd_plan *p, const rd_hit *h, const rd_light_sample *ls
     return rd_world_any(&p->world, sr, SHADOW_END);
 }
 
-/* Exact unpolarised Fresnel reflectance from medium n1 into n2 at incidence
- * cosine cosi; 1 under total internal reflection. */
-static double fresnel(double cosi, double n1, double n2, double *cost_out)
-{
-    cosi = rd_clamp01(cosi);
-    double eta = n1 / n2;
-    double sin2t = eta * eta * (1 - cosi * cosi);
-    if (sin2t >= 1) {
-        *cost_out = 0;
-        return 1;
-    }
-    double cost = sqrt(1 - sin2t);
-    *cost_out = cost;
-    double rs = (n1 * cosi - n2 * cost) / (n1 * cosi + n2 * cost);
-    double rp = (n1 * cost - n2 * cosi) / (n1 * cost + n2 * cosi);
-    double F = 0.5 * (rs * rs + rp * rp);
-    return F > 1 ? 1 : (F < 0 ? 0 : F);
-}
-
 static rd_rgb trace_secondary(const rd_plan *p, const rd_hit *h, rd_vec3 dir, int depth,
                               rd_rng *rng, rd_ray_counts *counts)
 {
@@ -154,7 +136,7 @@ rd_rgb rd_trace(const rd_plan *p, rd_ray r, int depth, rd_rng *rng, rd_ray_count
     } else if (m->type == RD_MAT_SPECULAR_REFRACTION) {
         double n1 = h.front ? 1.0 : m->ior, n2 = h.front ? m->ior : 1.0;
         double cosi = -v3_dot(r.d, h.n), cost;
-        double F = fresnel(cosi, n1, n2, &cost);
+        double F = rd_fresnel_dielectric(cosi, n1, n2, &cost);
         rd_rgb sum = v3(0, 0, 0);
         if (F > 0) {
             rd_vec3 d = v3_normalize(v3_reflect(r.d, h.n));

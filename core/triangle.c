@@ -53,6 +53,12 @@ double rd_tri_intersect(const rd_vec3 v[3], rd_ray r, double tmax, double bary[3
     }
     if (T <= 0 || !(T < tmax * det))
         return 0;
+    /* Corners that are exactly collinear can still shear into a sliver
+     * with det != 0 by rounding; such a triangle has no normal and must
+     * never be hit. Checked only for hits, so misses stay cheap. */
+    rd_vec3 ng = v3_cross(v3_sub(v[1], v[0]), v3_sub(v[2], v[0]));
+    if (ng.x == 0 && ng.y == 0 && ng.z == 0)
+        return 0;
     double inv = 1.0 / det;
     bary[0] = U * inv;
     bary[1] = V * inv;

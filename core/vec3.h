@@ -24,16 +24,23 @@ static inline double v3_max_abs(rd_vec3 a) { return fmax(fabs(a.x), fmax(fabs(a.
 static inline int v3_is_finite(rd_vec3 a) { return isfinite(a.x) && isfinite(a.y) && isfinite(a.z); }
 static inline int v3_eq(rd_vec3 a, rd_vec3 b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
 
-/* Unit vector along a. Divides by the largest component first, so that
- * vectors of length 1e-200 or 1e200 normalise without under- or overflow.
- * Returns the zero vector for a zero (or non-finite) input. */
+/* Unit vector along a. Vectors of any finite length normalise, from
+ * subnormal to near DBL_MAX: a very small or very large one is first scaled
+ * by an exact power of two. Returns the zero vector for a zero or
+ * non-finite input. */
 static inline rd_vec3 v3_normalize(rd_vec3 a)
 {
-    double m = v3_max_abs(a);
-    if (!(m > 0) || !isfinite(m))
+    if (!v3_is_finite(a))
         return v3(0, 0, 0);
-    rd_vec3 b = v3_scale(a, 1.0 / m);
-    return v3_scale(b, 1.0 / v3_len(b));
+    double m = v3_max_abs(a);
+    if (!(m > 0))
+        return v3(0, 0, 0);
+    if (m < 0x1p-500)
+        a = v3_scale(a, 0x1p+600);
+    else if (m > 0x1p+500)
+        a = v3_scale(a, 0x1p-600);
+    double len = v3_len(a);
+    return v3_scale(a, 1.0 / len);
 }
 
 /* reflect(i, n) = i - 2(i·n)n, as in the course's my_algebra.h. */

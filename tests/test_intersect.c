@@ -1,5 +1,6 @@
 /* Unit tests for ray-primitive intersection (core/sphere.h, plane.h,
- * triangle.h), their fill_hit functions, and rd_offset_origin (ray.h).
+ * triangle.h), their fill_hit (and uv) functions, and rd_offset_origin
+ * (ray.h).
  *
  * Exact t values come from geometry chosen so that the arithmetic is exact
  * (integers, halves, Pythagorean triples). The randomized tests use their
@@ -116,6 +117,7 @@ Test(sphere, fill_hit_values)
     rd_hit h = {0};
     h.t = rd_sphere_intersect(&s, r, INFINITY);
     rd_sphere_fill_hit(&s, r, &h);
+    rd_sphere_uv(&s, &h);
     /* Hit (0.6, 0, -4.2), outward normal (0.6, 0, 0.8). */
     assert_vec_near(h.p, 0.6, 0, -4.2, 1e-14);
     assert_vec_near(h.ng, 0.6, 0, 0.8, 1e-14);
@@ -127,6 +129,7 @@ Test(sphere, fill_hit_values)
     r = ray_of(v3(0, 0, 0), v3(0, 0, -1));
     h.t = rd_sphere_intersect(&s, r, INFINITY);
     rd_sphere_fill_hit(&s, r, &h);
+    rd_sphere_uv(&s, &h);
     assert_vec_near(h.p, 0, 0, -4, 0);
     assert_vec_near(h.ng, 0, 0, 1, 0);
     assert_near(h.u, 0.75, 1e-15);
@@ -136,6 +139,7 @@ Test(sphere, fill_hit_values)
     h.t = rd_sphere_intersect(&s, r, INFINITY);
     cr_assert_eq(h.t, 4.0);
     rd_sphere_fill_hit(&s, r, &h);
+    rd_sphere_uv(&s, &h);
     assert_vec_near(h.ng, 0, 1, 0, 0);
     assert_near(h.v, 0, 0);
 }
@@ -244,7 +248,6 @@ Test(plane, make_basis)
     assert_near(v3_dot(p.tu, p.n), 0, 4 * DBL_EPSILON);
     assert_near(v3_dot(p.tv, p.n), 0, 4 * DBL_EPSILON);
     assert_near(v3_dot(p.tu, p.tv), 0, 4 * DBL_EPSILON);
-    cr_assert_eq(p.uv_scale, 1.0);
 }
 
 Test(plane, head_on_and_oblique)
@@ -300,7 +303,6 @@ Test(plane, behind_and_tmax)
 Test(plane, fill_hit_values)
 {
     rd_plane p = plane_of(v3(2, -1, 3), v3(0, 1, 0));
-    p.uv_scale = 0.5;
     rd_ray r = ray_of(v3(5, 4, -1), v3(0, -1, 0));
     rd_hit h = {0};
     h.t = rd_plane_intersect(&p, r, INFINITY);
@@ -310,11 +312,12 @@ Test(plane, fill_hit_values)
     /* ng is the plane's own normal (not turned toward the ray). */
     assert_vec_near(h.ng, 0, 1, 0, 0);
     cr_assert(h.perr > 0 && h.perr < 1e-13);
-    /* u, v: the offset (3, 0, -4) from the plane's point along tu, tv, times uv_scale. */
+    /* u, v: the offset (3, 0, -4) of the hit from the plane's point, along tu and tv. */
+    rd_plane_uv(&p, &h);
     rd_vec3 rel = v3(3, 0, -4);
-    assert_near(h.u, v3_dot(rel, p.tu) * 0.5, 1e-14);
-    assert_near(h.v, v3_dot(rel, p.tv) * 0.5, 1e-14);
-    assert_near(h.u * h.u + h.v * h.v, 25 * 0.25, 1e-13); /* |rel|² · scale² */
+    assert_near(h.u, v3_dot(rel, p.tu), 1e-14);
+    assert_near(h.v, v3_dot(rel, p.tv), 1e-14);
+    assert_near(h.u * h.u + h.v * h.v, 25, 1e-13); /* |rel|² */
     /* From below the normal is still +y. */
     r = ray_of(v3(5, -6, -1), v3(0, 1, 0));
     h.t = rd_plane_intersect(&p, r, INFINITY);
