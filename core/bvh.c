@@ -275,25 +275,3 @@ rd_bvh_ray rd_bvh_ray_make(rd_ray r)
     b.inv = v3(inv[0], inv[1], inv[2]);
     return b;
 }
-
-int rd_bvh_box_hit(const rd_bvh_node *n, const rd_bvh_ray *r, double tmax, double *tnear)
-{
-    /* Robust slab test (Ize, "Robust BVH Ray Traversal", JCGT 2(2), 2013):
-     * the far distance is widened by 1 + 2γ(3) so rounding never drops a
-     * box the ray touches. */
-    const double widen = 1.0 + 2.0 * (3 * DBL_EPSILON / 2) / (1 - 3 * DBL_EPSILON / 2);
-    double o[3] = {r->o.x, r->o.y, r->o.z}, inv[3] = {r->inv.x, r->inv.y, r->inv.z};
-    double t0 = 0, t1 = tmax;
-    for (int k = 0; k < 3; k++) {
-        double lo = r->neg[k] ? n->hi[k] : n->lo[k];
-        double hi = r->neg[k] ? n->lo[k] : n->hi[k];
-        double a = (lo - o[k]) * inv[k];
-        double b = (hi - o[k]) * inv[k] * widen;
-        if (a > t0)
-            t0 = a;
-        if (b < t1)
-            t1 = b;
-    }
-    *tnear = t0;
-    return t0 <= t1;
-}

@@ -138,6 +138,11 @@ rd_error_code rd_render(const rd_scene *s, const rd_render_options *opt_in, rd_i
     rc = rd_plan_build(&plan, s, err);
     if (rc)
         return rc;
+    stats->prepare_ms = now_ms() - t0;
+    stats->bvh_build_ms = plan.world.build_ms;
+    stats->bvh_nodes = plan.world.bvh.nnodes;
+    stats->world_bytes = rd_world_bytes(&plan.world);
+    stats->primitives = plan.world.nspheres + plan.world.nplanes + plan.world.ntris;
 
     size_t npix = (size_t)s->render.width * (size_t)s->render.height;
     out->width = s->render.width;

@@ -31,6 +31,11 @@ typedef struct {
     double error_estimate;
     uint64_t nonfinite;         /* samples that were NaN or infinite (and replaced); 0 */
     int threads;
+    double prepare_ms;          /* building the plan: coordinates, lights, BVH */
+    double bvh_build_ms;        /* of which the BVH (0 when the scene needs none) */
+    size_t bvh_nodes;
+    size_t world_bytes;         /* memory of the prepared surfaces and the BVH */
+    size_t primitives;          /* spheres, planes and triangles traced */
 } rd_render_stats;
 
 typedef struct {

@@ -136,6 +136,13 @@ rd_error_code rd_world_build(rd_world *w, const rd_scene *s, rd_error *err)
     return RD_OK;
 }
 
+size_t rd_world_bytes(const rd_world *w)
+{
+    return w->nspheres * (sizeof *w->spheres + 2 * sizeof(int32_t)) +
+           w->nplanes * (sizeof *w->planes + 2 * sizeof(int32_t)) + w->ntris * sizeof *w->tris +
+           w->bvh.nnodes * sizeof *w->bvh.nodes + w->bvh.nprims * sizeof *w->bvh.prims;
+}
+
 typedef struct {
     double t;
     int kind;

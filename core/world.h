@@ -51,6 +51,9 @@ typedef struct {
 rd_error_code rd_world_build(rd_world *w, const rd_scene *s, rd_error *err);
 void rd_world_free(rd_world *w);
 
+/* Bytes the world holds (surfaces, BVH nodes and indices). */
+size_t rd_world_bytes(const rd_world *w);
+
 /* A world position in the world's coordinates. */
 static inline rd_vec3 rd_world_local(const rd_world *w, rd_vec3 p) { return v3_sub(p, w->origin); }
 

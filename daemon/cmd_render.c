@@ -32,7 +32,8 @@ static const char render_help[] =
     "\n"
     "Statistics line (stderr):\n"
     "  render: WxH samples=N threads=N time_ms=T camera_rays=N shadow_rays=N\n"
-    "  secondary_rays=N rays_per_s=R error_estimate=E nonfinite=N\n"
+    "  secondary_rays=N rays_per_s=R error_estimate=E nonfinite=N prepare_ms=T\n"
+    "  bvh_build_ms=T bvh_nodes=N primitives=N world_bytes=B\n"
     "error_estimate is the estimated RMS error of the image against a converged\n"
     "render, in [0,1] units (1 = 255 levels); 0 with one sample per pixel.\n";
 
@@ -184,11 +185,13 @@ int rd_cmd_render(int argc, char **argv)
     }
     fprintf(stderr,
             "render: %dx%d samples=%d threads=%d time_ms=%.3f camera_rays=%llu shadow_rays=%llu "
-            "secondary_rays=%llu rays_per_s=%.4g error_estimate=%.6f nonfinite=%llu\n",
+            "secondary_rays=%llu rays_per_s=%.4g error_estimate=%.6f nonfinite=%llu prepare_ms=%.3f "
+            "bvh_build_ms=%.3f bvh_nodes=%zu primitives=%zu world_bytes=%zu\n",
             img.width, img.height, st.samples, st.threads, st.wall_ms,
             (unsigned long long)st.camera_rays, (unsigned long long)st.shadow_rays,
             (unsigned long long)st.secondary_rays, st.rays_per_second, st.error_estimate,
-            (unsigned long long)st.nonfinite);
+            (unsigned long long)st.nonfinite, st.prepare_ms, st.bvh_build_ms, st.bvh_nodes, st.primitives,
+            st.world_bytes);
     free(png);
     free(rgb);
     rd_image_free(&img);
