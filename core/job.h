@@ -1,0 +1,61 @@
+/* A render cut into tiles and passes, for callers that schedule the work
+ * themselves (rd_render's threads, the daemon's shared pool).
+ *
+ * Each pixel keeps a running mean of its samples' colour and, for the error
+ * estimate, a Welford mean and sum of squared deviations of their display
+ * values. A pass adds a number of samples to every pixel of a tile; the
+ * samples of pass p depend only on (seed, pixel, p), so the result does not
+ * depend on which thread renders which tile or in what order.
+ *
+ * Ownership: rd_job_create allocates; rd_job_free releases. The scene must
+ * outlive the job. Distinct tiles of one pass may be rendered concurrently;
+ * a tile's passes must run in order. */
+#ifndef RD_JOB_H
+#define RD_JOB_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "error.h"
+#include "render.h"
+#include "scene.h"
+
+typedef struct rd_job rd_job;
+
+typedef struct {
+    uint64_t camera, shadow, secondary, nonfinite;
+} rd_job_counts;
+
+/* tile: edge in pixels (< 1 means 16). */
+rd_error_code rd_job_create(const rd_scene *s, int tile, rd_job **out, rd_error *err);
+void rd_job_free(rd_job *j);
+
+int rd_job_tile_count(const rd_job *j);
+int rd_job_width(const rd_job *j);
+int rd_job_height(const rd_job *j);
+const rd_scene *rd_job_scene(const rd_job *j);
+
+/* Adds `samples` samples to every pixel of tile t as pass `pass`. With one
+ * pass of one sample, that sample goes through the pixel centre; otherwise
+ * the pass's samples are correlated multi-jittered within the pixel. */
+void rd_job_render_tile(rd_job *j, int t, int pass, int samples, rd_job_counts *counts);
+
+/* Samples per pixel so far in tile t. */
+uint32_t rd_job_tile_samples(const rd_job *j, int t);
+
+/* The mean colours as an image (out->rgb malloc'ed; free with
+ * rd_image_free). Pixels with no sample yet are black. */
+rd_error_code rd_job_image(const rd_job *j, rd_image *out, rd_error *err);
+
+/* 8-bit RGB of the image so far, without a linear copy: width·height·3 bytes. */
+void rd_job_rgb8(const rd_job *j, uint8_t *out);
+
+/* Root-mean-square standard error of the pixel means (see render.h), over
+ * every pixel, summed in pixel order. Pixels with fewer than 2 samples
+ * contribute 0. */
+double rd_job_error_estimate(const rd_job *j);
+
+/* Time the plan took to build, BVH figures, memory: for statistics. */
+void rd_job_plan_stats(const rd_job *j, rd_render_stats *st);
+
+#endif
