@@ -7,7 +7,7 @@ CC := gcc
 endif
 BUILD   ?= build
 SAN     ?=
-PKGS    := libpng libcjson zlib
+PKGS    := libpng libcjson zlib libmicrohttpd
 TESTPKG := criterion
 
 SANFLAGS := -fsanitize=address,undefined
@@ -28,7 +28,7 @@ DAEMON_SRC := $(wildcard daemon/*.c)
 TEST_SRC   := $(wildcard tests/*.c)
 
 LIB_OBJ    := $(patsubst %.c,$(BUILD)/%.o,$(CORE_SRC) $(API_SRC))
-DAEMON_OBJ := $(patsubst %.c,$(BUILD)/%.o,$(DAEMON_SRC))
+DAEMON_OBJ := $(patsubst %.c,$(BUILD)/%.o,$(DAEMON_SRC)) $(BUILD)/gen/web_page.o
 TEST_OBJ   := $(patsubst %.c,$(BUILD)/%.o,$(TEST_SRC))
 # The CLI's objects without main(), so tests can drive subcommands.
 CLI_OBJ    := $(filter-out $(BUILD)/daemon/main.o,$(DAEMON_OBJ))
@@ -54,6 +54,14 @@ $(BUILD)/%.o: %.c
 	@mkdir -p $(dir $@)
 	@echo "  CC  $<  ($(CC)$(if $(SAN), +sanitizers))"
 	@$(CC) $(CPPFLAGS) $(PKG_CFLAGS) $(CFLAGS) -c $< -o $@
+
+# The web page is served from the binary: no files, no CDN.
+$(BUILD)/gen/web_page.c: daemon/web/index.html daemon/web/embed.py
+	@mkdir -p $(dir $@)
+	@/usr/bin/python3 daemon/web/embed.py $< rd_web_index_html > $@
+
+$(BUILD)/gen/web_page.o: $(BUILD)/gen/web_page.c
+	@$(CC) $(CFLAGS) -c $< -o $@
 
 $(BUILD)/librayd.a: $(LIB_OBJ)
 	@rm -f $@

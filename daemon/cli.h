@@ -9,6 +9,7 @@ enum { RD_EXIT_OK = 0, RD_EXIT_USAGE = 1, RD_EXIT_SCENE = 2, RD_EXIT_IO = 3 };
 int rd_cmd_render(int argc, char **argv);
 int rd_cmd_convert(int argc, char **argv);
 int rd_cmd_schema(int argc, char **argv);
+int rd_cmd_serve(int argc, char **argv);
 
 #include "scene_limits.h"
 

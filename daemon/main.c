@@ -11,6 +11,7 @@ static const char help[] =
     "\n"
     "Commands:\n"
     "  render SCENE -o OUT.png   render a .cfg or .json scene to PNG\n"
+    "  serve [--listen H:P]      run the HTTP render service\n"
     "  convert IN OUT            turn a cfg scene into JSON or back\n"
     "  limits                    list the size limits and their defaults\n"
     "  schema                    print the JSON Schema of JSON scenes\n"
@@ -29,6 +30,8 @@ int main(int argc, char **argv)
     }
     if (strcmp(argv[1], "render") == 0)
         return rd_cmd_render(argc - 1, argv + 1);
+    if (strcmp(argv[1], "serve") == 0)
+        return rd_cmd_serve(argc - 1, argv + 1);
     if (strcmp(argv[1], "schema") == 0)
         return rd_cmd_schema(argc - 1, argv + 1);
     if (strcmp(argv[1], "limits") == 0)

@@ -1,0 +1,75 @@
+/* Shared between the daemon's HTTP files: one request's state and the
+ * helpers that answer it. Not a public interface. */
+#ifndef RD_HTTP_INTERNAL_H
+#define RD_HTTP_INTERNAL_H
+
+#include <microhttpd.h>
+#include <pthread.h>
+#include <stdatomic.h>
+
+#include "error.h"
+#include "server.h"
+
+struct rd_server {
+    rd_server_options opt;
+    struct MHD_Daemon *mhd;
+    rd_jq *jobs;
+    atomic_int draining;
+    uint16_t port;
+    atomic_ullong http_count[6];    /* 1xx..5xx answers, index = class; [0] unused */
+    atomic_ullong requests;
+    atomic_int waiting;             /* suspended synchronous renders */
+    atomic_int stopped;
+};
+
+typedef struct {
+    rd_server *srv;
+    struct MHD_Connection *conn;
+    double t0;
+    char method[16];
+    char path[200];
+    unsigned status;
+    size_t bytes;
+    char job_id[24];
+    /* the upload */
+    char *body;
+    size_t len, cap;
+    int answered;           /* a response was queued early (413, 415, 503) */
+    int kind;               /* which route, see http_server.c */
+    /* a synchronous render */
+    pthread_mutex_t mu;
+    rd_jq_job *job;
+    int suspended, finished;
+} rd_req;
+
+/* Queue a response and record status and size for the log. Takes ownership
+ * of body (malloc'ed) when must_free. */
+enum MHD_Result rd_reply(rd_req *r, unsigned status, const char *type, void *body, size_t len,
+                         int must_free);
+
+/* An error answer: {"error": {"code", "message"[, "line", "column"]}}. */
+enum MHD_Result rd_reply_error(rd_req *r, unsigned status, const char *code, const rd_error *err,
+                               const char *message);
+
+/* The same, adding a header (Allow, Retry-After). */
+enum MHD_Result rd_reply_error_hdr(rd_req *r, unsigned status, const char *code, const char *message,
+                                   const char *header, const char *value);
+
+enum MHD_Result rd_reply_json(rd_req *r, unsigned status, char *json_text);
+
+/* HTTP status for a scene error code. */
+unsigned rd_status_for(rd_error_code c);
+const char *rd_code_for(rd_error_code c);
+
+/* Route handlers. The body is complete when they are called. */
+enum MHD_Result rd_route_render(rd_req *r, int async);
+enum MHD_Result rd_route_render_resumed(rd_req *r);
+enum MHD_Result rd_route_job(rd_req *r, const char *id, const char *rest);
+enum MHD_Result rd_route_scenes(rd_req *r, const char *name);
+enum MHD_Result rd_route_metrics(rd_req *r);
+enum MHD_Result rd_route_page(rd_req *r);
+
+/* The web page, generated from daemon/web/index.html. */
+extern const char rd_web_index_html[];
+
+#endif

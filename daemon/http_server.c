@@ -1,0 +1,425 @@
+#include <arpa/inet.h>
+#include <cJSON.h>
+#include <netinet/in.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "http_internal.h"
+
+enum { R_NONE, R_RENDER, R_JOBS, R_JOB, R_SCENES, R_HEALTH, R_METRICS, R_PAGE };
+
+static double now_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
+}
+
+enum MHD_Result rd_reply(rd_req *r, unsigned status, const char *type, void *body, size_t len, int must_free)
+{
+    struct MHD_Response *resp =
+        MHD_create_response_from_buffer(len, body, must_free ? MHD_RESPMEM_MUST_FREE : MHD_RESPMEM_PERSISTENT);
+    if (!resp) {
+        if (must_free)
+            free(body);
+        return MHD_NO;
+    }
+    if (type)
+        MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, type);
+    if (r->job_id[0])
+        MHD_add_response_header(resp, "X-Rayd-Job", r->job_id);
+    r->status = status;
+    r->bytes = len;
+    r->answered = 1;
+    enum MHD_Result ret = MHD_queue_response(r->conn, status, resp);
+    MHD_destroy_response(resp);
+    return ret;
+}
+
+static char *error_json(const char *code, const char *message, const rd_error *err)
+{
+    cJSON *root = cJSON_CreateObject(), *e = cJSON_AddObjectToObject(root, "error");
+    cJSON_AddStringToObject(e, "code", code);
+    cJSON_AddStringToObject(e, "message", err ? err->message : message);
+    if (err && err->line > 0) {
+        cJSON_AddNumberToObject(e, "line", err->line);
+        cJSON_AddNumberToObject(e, "column", err->column);
+    }
+    char *text = cJSON_PrintUnformatted(root);
+    cJSON_Delete(root);
+    return text;
+}
+
+static enum MHD_Result reply_error_full(rd_req *r, unsigned status, const char *code, const rd_error *err,
+                                        const char *message, const char *header, const char *value)
+{
+    char *text = error_json(code, message, err);
+    if (!text)
+        return MHD_NO;
+    size_t len = strlen(text);
+    struct MHD_Response *resp = MHD_create_response_from_buffer(len, text, MHD_RESPMEM_MUST_FREE);
+    if (!resp) {
+        free(text);
+        return MHD_NO;
+    }
+    MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, "application/json");
+    if (header)
+        MHD_add_response_header(resp, header, value);
+    if (r->job_id[0])
+        MHD_add_response_header(resp, "X-Rayd-Job", r->job_id);
+    r->status = status;
+    r->bytes = len;
+    r->answered = 1;
+    enum MHD_Result ret = MHD_queue_response(r->conn, status, resp);
+    MHD_destroy_response(resp);
+    return ret;
+}
+
+enum MHD_Result rd_reply_error(rd_req *r, unsigned status, const char *code, const rd_error *err,
+                               const char *message)
+{
+    return reply_error_full(r, status, code, err, message, NULL, NULL);
+}
+
+enum MHD_Result rd_reply_error_hdr(rd_req *r, unsigned status, const char *code, const char *message,
+                                   const char *header, const char *value)
+{
+    return reply_error_full(r, status, code, NULL, message, header, value);
+}
+
+enum MHD_Result rd_reply_json(rd_req *r, unsigned status, char *json_text)
+{
+    if (!json_text)
+        return MHD_NO;
+    return rd_reply(r, status, "application/json", json_text, strlen(json_text), 1);
+}
+
+unsigned rd_status_for(rd_error_code c)
+{
+    switch (c) {
+    case RD_ERR_SYNTAX: return 400;
+    case RD_ERR_INVALID: return 422;
+    case RD_ERR_LIMIT: return 413;
+    case RD_ERR_IO: return 422;
+    case RD_ERR_CANCELLED: return 503;
+    default: return 503;
+    }
+}
+
+const char *rd_code_for(rd_error_code c)
+{
+    switch (c) {
+    case RD_ERR_SYNTAX: return "parse_error";
+    case RD_ERR_INVALID: return "invalid_scene";
+    case RD_ERR_LIMIT: return "too_large";
+    case RD_ERR_IO: return "missing_file";
+    case RD_ERR_CANCELLED: return "cancelled";
+    default: return "unavailable";
+    }
+}
+
+/* Scene types we read; other families are refused with 415 (a PNG or a
+ * form posted to /v1/render by mistake), anything else is sniffed. */
+static int refused_type(const char *ct)
+{
+    static const char *const families[] = {"image/", "audio/", "video/", "font/", "model/", "multipart/",
+                                           "application/pdf",
+                                           "application/zip", "application/gzip", NULL};
+    if (!ct)
+        return 0;
+    for (int i = 0; families[i]; i++)
+        if (strncasecmp(ct, families[i], strlen(families[i])) == 0)
+            return 1;
+    return 0;
+}
+
+static int route_of(const char *method, const char *url, int *method_ok, const char **allow)
+{
+    *method_ok = 1;
+    *allow = NULL;
+    int get = strcmp(method, "GET") == 0 || strcmp(method, "HEAD") == 0;
+    int post = strcmp(method, "POST") == 0;
+    int del = strcmp(method, "DELETE") == 0;
+    if (strcmp(url, "/v1/render") == 0) {
+        *method_ok = post;
+        *allow = "POST";
+        return R_RENDER;
+    }
+    if (strcmp(url, "/v1/jobs") == 0) {
+        *method_ok = post;
+        *allow = "POST";
+        return R_JOBS;
+    }
+    if (strncmp(url, "/v1/jobs/", 9) == 0) {
+        int image = strstr(url + 9, "/") != NULL;
+        *method_ok = get || (del && !image);
+        *allow = image ? "GET" : "GET, DELETE";
+        return R_JOB;
+    }
+    if (strcmp(url, "/v1/scenes") == 0 || strncmp(url, "/v1/scenes/", 11) == 0) {
+        *method_ok = get;
+        *allow = "GET";
+        return R_SCENES;
+    }
+    if (strcmp(url, "/healthz") == 0) {
+        *method_ok = get;
+        *allow = "GET";
+        return R_HEALTH;
+    }
+    if (strcmp(url, "/metrics") == 0) {
+        *method_ok = get;
+        *allow = "GET";
+        return R_METRICS;
+    }
+    if (strcmp(url, "/") == 0 || strcmp(url, "/index.html") == 0) {
+        *method_ok = get;
+        *allow = "GET";
+        return R_PAGE;
+    }
+    return R_NONE;
+}
+
+static enum MHD_Result dispatch(rd_req *r, const char *url)
+{
+    switch (r->kind) {
+    case R_RENDER: return rd_route_render(r, 0);
+    case R_JOBS: return rd_route_render(r, 1);
+    case R_JOB: {
+        const char *id = url + 9;
+        const char *slash = strchr(id, '/');
+        char idbuf[64];
+        size_t n = slash ? (size_t)(slash - id) : strlen(id);
+        if (n >= sizeof idbuf)
+            n = sizeof idbuf - 1;
+        memcpy(idbuf, id, n);
+        idbuf[n] = 0;
+        return rd_route_job(r, idbuf, slash ? slash : "");
+    }
+    case R_SCENES: return rd_route_scenes(r, url[10] == '/' ? url + 11 : NULL);
+    case R_HEALTH: {
+        static const char ok[] = "{\"status\":\"ok\"}\n";
+        return rd_reply(r, 200, "application/json", (void *)ok, sizeof ok - 1, 0);
+    }
+    case R_METRICS: return rd_route_metrics(r);
+    case R_PAGE: return rd_route_page(r);
+    default: return rd_reply_error(r, 404, "not_found", NULL, "no such route");
+    }
+}
+
+static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const char *url, const char *method,
+                                  const char *version, const char *upload, size_t *upload_size, void **con_cls)
+{
+    (void)version;
+    rd_server *srv = cls;
+    rd_req *r = *con_cls;
+    if (!r) {
+        r = calloc(1, sizeof *r);
+        if (!r)
+            return MHD_NO;
+        pthread_mutex_init(&r->mu, NULL);
+        r->srv = srv;
+        r->conn = conn;
+        r->t0 = now_ms();
+        snprintf(r->method, sizeof r->method, "%s", method);
+        snprintf(r->path, sizeof r->path, "%s", url);
+        *con_cls = r;
+        atomic_fetch_add(&srv->requests, 1);
+        int method_ok;
+        const char *allow;
+        r->kind = route_of(method, url, &method_ok, &allow);
+        if (r->kind != R_NONE && !method_ok)
+            return rd_reply_error_hdr(r, 405, "method_not_allowed", "method not allowed on this route",
+                                      MHD_HTTP_HEADER_ALLOW, allow);
+        if (r->kind == R_RENDER || r->kind == R_JOBS) {
+            /* Refuse before reading a body we would throw away. */
+            if (atomic_load(&srv->draining))
+                return rd_reply_error_hdr(r, 503, "draining", "the server is shutting down", "Retry-After", "5");
+            rd_jq_metrics m;
+            rd_jq_metrics_get(srv->jobs, &m);
+            if (m.queued + m.running >= srv->opt.jobs.queue_length)
+                return rd_reply_error_hdr(r, 503, "queue_full", "the render queue is full; try again shortly",
+                                          "Retry-After", "1");
+            const char *ct = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
+            if (refused_type(ct))
+                return rd_reply_error(r, 415, "unsupported_media_type", NULL,
+                                      "send a scene as application/json, text/plain or text/x-rayd-cfg");
+            const char *cl = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
+            if (cl && strtoull(cl, NULL, 10) > srv->opt.max_body_bytes) {
+                char msg[160];
+                snprintf(msg, sizeof msg, "the body is over the limit of %zu bytes (--max-body-bytes)",
+                         srv->opt.max_body_bytes);
+                return rd_reply_error(r, 413, "too_large", NULL, msg);
+            }
+        }
+        return MHD_YES;
+    }
+    if (*upload_size) {
+        size_t n = *upload_size;
+        *upload_size = 0;
+        if (r->answered)
+            return MHD_YES;
+        if (r->kind != R_RENDER && r->kind != R_JOBS)
+            return MHD_YES; /* bodies of other routes are ignored */
+        if (r->len + n > r->srv->opt.max_body_bytes) {
+            char msg[160];
+            snprintf(msg, sizeof msg, "the body is over the limit of %zu bytes (--max-body-bytes)",
+                     r->srv->opt.max_body_bytes);
+            free(r->body);
+            r->body = NULL;
+            return rd_reply_error(r, 413, "too_large", NULL, msg);
+        }
+        if (r->len + n + 1 > r->cap) {
+            size_t nc = r->cap ? r->cap : 4096;
+            while (nc < r->len + n + 1)
+                nc *= 2;
+            char *p = realloc(r->body, nc);
+            if (!p)
+                return MHD_NO;
+            r->body = p;
+            r->cap = nc;
+        }
+        memcpy(r->body + r->len, upload, n);
+        r->len += n;
+        r->body[r->len] = 0;
+        return MHD_YES;
+    }
+    if (r->answered)
+        return MHD_YES;
+    if (r->job)
+        return rd_route_render_resumed(r);
+    return dispatch(r, url);
+}
+
+static void log_request(rd_server *srv, rd_req *r, enum MHD_RequestTerminationCode toe)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    struct tm tm;
+    gmtime_r(&ts.tv_sec, &tm);
+    char when[96];
+    snprintf(when, sizeof when, "%04d-%02d-%02dT%02d:%02d:%02d.%03ldZ", tm.tm_year + 1900, tm.tm_mon + 1,
+             tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec, ts.tv_nsec / 1000000);
+    double ms = now_ms() - r->t0;
+    const char *end = toe == MHD_REQUEST_TERMINATED_COMPLETED_OK ? "" : " (connection closed early)";
+    if (srv->opt.log_json) {
+        cJSON *o = cJSON_CreateObject();
+        cJSON_AddStringToObject(o, "time", when);
+        cJSON_AddStringToObject(o, "method", r->method);
+        cJSON_AddStringToObject(o, "path", r->path);
+        cJSON_AddNumberToObject(o, "status", r->status);
+        cJSON_AddNumberToObject(o, "bytes", (double)r->bytes);
+        cJSON_AddNumberToObject(o, "ms", ms);
+        if (r->job_id[0])
+            cJSON_AddStringToObject(o, "job", r->job_id);
+        if (*end)
+            cJSON_AddBoolToObject(o, "aborted", 1);
+        char *t = cJSON_PrintUnformatted(o);
+        cJSON_Delete(o);
+        if (t) {
+            fprintf(stderr, "%s\n", t);
+            free(t);
+        }
+    } else {
+        fprintf(stderr, "%s %s %s %u %zu %.1fms%s%s%s\n", when, r->method, r->path, r->status, r->bytes, ms,
+                r->job_id[0] ? " job=" : "", r->job_id, end);
+    }
+}
+
+static void on_completed(void *cls, struct MHD_Connection *conn, void **con_cls,
+                         enum MHD_RequestTerminationCode toe)
+{
+    (void)conn;
+    rd_server *srv = cls;
+    rd_req *r = *con_cls;
+    if (!r)
+        return;
+    *con_cls = NULL;
+    if (r->status >= 100 && r->status < 600)
+        atomic_fetch_add(&srv->http_count[r->status / 100], 1);
+    log_request(srv, r, toe);
+    if (r->job) {
+        /* A client that went away no longer wants its render. */
+        rd_jq_detach(srv->jobs, r->job);
+        rd_jq_cancel(srv->jobs, r->job);
+        rd_jq_job_unref(r->job);
+    }
+    if (r->suspended)
+        atomic_fetch_sub(&srv->waiting, 1);
+    /* A render thread may still be inside on_done, just past its resume. */
+    pthread_mutex_lock(&r->mu);
+    pthread_mutex_unlock(&r->mu);
+    pthread_mutex_destroy(&r->mu);
+    free(r->body);
+    free(r);
+}
+
+rd_server *rd_server_start(const rd_server_options *opt, rd_error *err)
+{
+    rd_server *s = calloc(1, sizeof *s);
+    if (!s) {
+        rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+        return NULL;
+    }
+    s->opt = *opt;
+    s->jobs = rd_jq_start(&opt->jobs, err);
+    if (!s->jobs) {
+        free(s);
+        return NULL;
+    }
+    struct sockaddr_in addr;
+    memset(&addr, 0, sizeof addr);
+    addr.sin_family = AF_INET;
+    addr.sin_port = htons(opt->port);
+    if (inet_pton(AF_INET, opt->listen_host, &addr.sin_addr) != 1) {
+        rd_jq_stop(s->jobs);
+        free(s);
+        rd_error_set(err, RD_ERR_INVALID, 0, 0, "--listen: '%s' is not an IPv4 address", opt->listen_host);
+        return NULL;
+    }
+    unsigned flags = MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_EPOLL | MHD_ALLOW_SUSPEND_RESUME | MHD_USE_ERROR_LOG;
+    s->mhd = MHD_start_daemon(flags, opt->port, NULL, NULL, on_request, s, MHD_OPTION_SOCK_ADDR,
+                              (const struct sockaddr *)&addr, MHD_OPTION_THREAD_POOL_SIZE,
+                              (unsigned)(opt->http_threads < 2 ? 2 : opt->http_threads),
+                              MHD_OPTION_CONNECTION_LIMIT, opt->max_connections,
+                              MHD_OPTION_PER_IP_CONNECTION_LIMIT, opt->max_per_ip,
+                              MHD_OPTION_CONNECTION_TIMEOUT, opt->connection_timeout_s,
+                              MHD_OPTION_NOTIFY_COMPLETED, on_completed, s, MHD_OPTION_END);
+    if (!s->mhd) {
+        rd_jq_stop(s->jobs);
+        free(s);
+        rd_error_set(err, RD_ERR_IO, 0, 0, "cannot listen on %s:%u", opt->listen_host, (unsigned)opt->port);
+        return NULL;
+    }
+    const union MHD_DaemonInfo *info = MHD_get_daemon_info(s->mhd, MHD_DAEMON_INFO_BIND_PORT);
+    s->port = info ? info->port : opt->port;
+    return s;
+}
+
+uint16_t rd_server_port(const rd_server *s) { return s->port; }
+
+void rd_server_stop(rd_server *s, double drain_ms)
+{
+    if (!s)
+        return;
+    atomic_store(&s->draining, 1);
+    /* Running renders may finish; their clients get their images. */
+    rd_jq_drain(s->jobs, drain_ms);
+    /* The rest are cancelled and end within a tile each. */
+    rd_jq_cancel_all(s->jobs);
+    rd_jq_drain(s->jobs, 30000);
+    /* Every suspended client has been resumed: let MHD send their answers. */
+    for (int i = 0; i < 500 && atomic_load(&s->waiting) > 0; i++)
+        usleep(10000);
+    atomic_store(&s->stopped, 1);
+    MHD_socket fd = MHD_quiesce_daemon(s->mhd);
+    if (fd != MHD_INVALID_SOCKET)
+        close(fd);
+    MHD_stop_daemon(s->mhd);
+    /* Job references held by requests are gone; the queue can go. */
+    rd_jq_stop(s->jobs);
+    free(s);
+}

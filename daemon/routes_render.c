@@ -1,0 +1,264 @@
+#include <cJSON.h>
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "http_internal.h"
+#include "scene_assets.h"
+#include "scene_load.h"
+
+/* Applies the query parameters of http-api.md over the scene's render
+ * section. 0, or fills err (RD_ERR_SYNTAX) naming the parameter. */
+static int overrides(struct MHD_Connection *c, rd_scene *s, rd_error *err)
+{
+    static const struct {
+        const char *name;
+        long lo, hi;
+        size_t off;
+    } ints[] = {{"width", 1, 16384, offsetof(rd_render_settings, width)},
+                {"height", 1, 16384, offsetof(rd_render_settings, height)},
+                {"samples", 1, 65536, offsetof(rd_render_settings, samples)},
+                {"max_depth", 0, 64, offsetof(rd_render_settings, max_depth)}};
+    for (size_t i = 0; i < sizeof ints / sizeof ints[0]; i++) {
+        const char *v = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, ints[i].name);
+        if (!v)
+            continue;
+        char *end;
+        errno = 0;
+        long x = strtol(v, &end, 10);
+        if (!*v || *end || errno || x < ints[i].lo || x > ints[i].hi) {
+            rd_error_set(err, RD_ERR_SYNTAX, 0, 0, "query parameter %s: expected an integer in %ld..%ld, got '%.40s'",
+                         ints[i].name, ints[i].lo, ints[i].hi, v);
+            return 1;
+        }
+        *(int *)((char *)&s->render + ints[i].off) = (int)x;
+    }
+    const char *v = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "gamma");
+    if (v) {
+        char *end;
+        double g = strtod(v, &end);
+        if (!*v || *end || !(g > 0) || !(g < 1e300)) {
+            rd_error_set(err, RD_ERR_SYNTAX, 0, 0, "query parameter gamma: expected a number > 0, got '%.40s'", v);
+            return 1;
+        }
+        s->render.gamma = g;
+    }
+    v = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "seed");
+    if (v) {
+        char *end;
+        errno = 0;
+        unsigned long long x = strtoull(v, &end, 10);
+        if (!*v || *end || errno || v[0] == '-') {
+            rd_error_set(err, RD_ERR_SYNTAX, 0, 0, "query parameter seed: expected a non-negative integer, got '%.40s'", v);
+            return 1;
+        }
+        s->render.seed = x;
+    }
+    return 0;
+}
+
+static void on_done(rd_jq_job *job, void *user)
+{
+    (void)job;
+    rd_req *r = user;
+    pthread_mutex_lock(&r->mu);
+    r->finished = 1;
+    if (r->suspended && !atomic_load(&r->srv->stopped))
+        MHD_resume_connection(r->conn);
+    pthread_mutex_unlock(&r->mu);
+}
+
+static char *job_json(const rd_jq_info *in)
+{
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddStringToObject(o, "id", in->id);
+    cJSON_AddStringToObject(o, "status", rd_job_status_name(in->status));
+    cJSON_AddNumberToObject(o, "progress", in->progress);
+    cJSON_AddNumberToObject(o, "elapsed_ms", in->elapsed_ms);
+    cJSON_AddNumberToObject(o, "queued_ms", in->queued_ms);
+    cJSON_AddNumberToObject(o, "samples", in->samples);
+    cJSON_AddNumberToObject(o, "error_estimate", in->error_estimate);
+    cJSON_AddNumberToObject(o, "width", in->width);
+    cJSON_AddNumberToObject(o, "height", in->height);
+    cJSON *curve = cJSON_AddArrayToObject(o, "curve");
+    if (in->status == RD_JOB_DONE) {
+        double pt[3] = {in->elapsed_ms, in->samples, in->error_estimate};
+        cJSON_AddItemToArray(curve, cJSON_CreateDoubleArray(pt, 3));
+    }
+    if (in->status == RD_JOB_DONE || in->status == RD_JOB_RUNNING) {
+        cJSON *st = cJSON_AddObjectToObject(o, "stats");
+        cJSON_AddNumberToObject(st, "camera_rays", (double)in->stats.camera_rays);
+        cJSON_AddNumberToObject(st, "shadow_rays", (double)in->stats.shadow_rays);
+        cJSON_AddNumberToObject(st, "secondary_rays", (double)in->stats.secondary_rays);
+        cJSON_AddNumberToObject(st, "rays_per_second", in->stats.rays_per_second);
+        cJSON_AddNumberToObject(st, "prepare_ms", in->stats.prepare_ms);
+        cJSON_AddNumberToObject(st, "primitives", (double)in->stats.primitives);
+    }
+    if (in->status == RD_JOB_FAILED) {
+        cJSON *e = cJSON_AddObjectToObject(o, "error");
+        cJSON_AddStringToObject(e, "code", rd_code_for(in->error.code));
+        cJSON_AddStringToObject(e, "message", in->error.message);
+    }
+    char *t = cJSON_PrintUnformatted(o);
+    cJSON_Delete(o);
+    return t;
+}
+
+enum MHD_Result rd_route_render(rd_req *r, int async)
+{
+    rd_server *srv = r->srv;
+    if (atomic_load(&srv->draining))
+        return rd_reply_error_hdr(r, 503, "draining", "the server is shutting down", "Retry-After", "5");
+    if (!r->body || r->len == 0)
+        return rd_reply_error(r, 400, "parse_error", NULL, "the request has no scene in its body");
+    const char *ct = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
+    rd_scene_format fmt = RD_FMT_AUTO;
+    if (ct && strncasecmp(ct, "application/json", 16) == 0)
+        fmt = RD_FMT_JSON;
+    else if (ct && (strncasecmp(ct, "text/plain", 10) == 0 || strncasecmp(ct, "text/x-rayd-cfg", 15) == 0))
+        fmt = RD_FMT_CFG;
+    rd_scene scene;
+    rd_scene_init(&scene);
+    rd_error err = {0};
+    rd_error_code rc = rd_scene_parse(r->body, r->len, fmt, "<upload>", &srv->opt.limits, &scene, &err);
+    if (!rc && overrides(r->conn, &scene, &err))
+        rc = RD_ERR_SYNTAX;
+    if (!rc)
+        rc = rd_scene_check_limits(&scene, &srv->opt.limits, "<upload>", &err);
+    if (!rc) {
+        rd_asset_source src = rd_asset_folder(srv->opt.scenes_dir);
+        rd_warnings w = {0, ""};
+        rc = rd_scene_load_assets(&scene, &src, &srv->opt.limits, &w, &err);
+    }
+    if (rc) {
+        rd_scene_free(&scene);
+        return rd_reply_error(r, rd_status_for(rc), rd_code_for(rc), &err, NULL);
+    }
+    free(r->body);
+    r->body = NULL;
+    int fd = -1;
+    if (!async) {
+        const union MHD_ConnectionInfo *ci = MHD_get_connection_info(r->conn, MHD_CONNECTION_INFO_CONNECTION_FD);
+        fd = ci ? ci->connect_fd : -1;
+    }
+    rd_jq_job *job;
+    rc = rd_jq_submit(srv->jobs, &scene, fd, async ? NULL : on_done, async ? NULL : r, &job, &err);
+    if (rc == RD_ERR_LIMIT)
+        return rd_reply_error_hdr(r, 503, "queue_full", err.message, "Retry-After", "1");
+    if (rc)
+        return rd_reply_error(r, 503, "unavailable", &err, NULL);
+    rd_jq_info info;
+    rd_jq_info_get(srv->jobs, job, &info);
+    snprintf(r->job_id, sizeof r->job_id, "%s", info.id);
+    if (async) {
+        char loc[64];
+        snprintf(loc, sizeof loc, "/v1/jobs/%s", info.id);
+        char *text = job_json(&info);
+        rd_jq_job_unref(job);
+        if (!text)
+            return MHD_NO;
+        struct MHD_Response *resp = MHD_create_response_from_buffer(strlen(text), text, MHD_RESPMEM_MUST_FREE);
+        MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, "application/json");
+        MHD_add_response_header(resp, MHD_HTTP_HEADER_LOCATION, loc);
+        MHD_add_response_header(resp, "X-Rayd-Job", info.id);
+        r->status = 202;
+        r->bytes = strlen(text);
+        r->answered = 1;
+        enum MHD_Result ret = MHD_queue_response(r->conn, 202, resp);
+        MHD_destroy_response(resp);
+        return ret;
+    }
+    r->job = job;
+    pthread_mutex_lock(&r->mu);
+    int finished = r->finished;
+    if (!finished) {
+        MHD_suspend_connection(r->conn);
+        r->suspended = 1;
+        atomic_fetch_add(&srv->waiting, 1);
+    }
+    pthread_mutex_unlock(&r->mu);
+    if (finished)
+        return rd_route_render_resumed(r);
+    return MHD_YES;
+}
+
+enum MHD_Result rd_route_render_resumed(rd_req *r)
+{
+    rd_server *srv = r->srv;
+    rd_jq_info info;
+    rd_jq_info_get(srv->jobs, r->job, &info);
+    if (info.status == RD_JOB_DONE) {
+        unsigned char *png;
+        size_t len;
+        rd_error err = {0};
+        if (rd_jq_png(srv->jobs, r->job, 0, &png, &len, &err))
+            return rd_reply_error(r, 503, "unavailable", &err, NULL);
+        rd_jq_release_png(srv->jobs, r->job);
+        struct MHD_Response *resp = MHD_create_response_from_buffer(len, png, MHD_RESPMEM_MUST_FREE);
+        char buf[64];
+        MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, "image/png");
+        MHD_add_response_header(resp, "X-Rayd-Job", info.id);
+        snprintf(buf, sizeof buf, "%.3f", info.elapsed_ms);
+        MHD_add_response_header(resp, "X-Rayd-Render-Ms", buf);
+        snprintf(buf, sizeof buf, "%d", info.samples);
+        MHD_add_response_header(resp, "X-Rayd-Samples", buf);
+        snprintf(buf, sizeof buf, "%.6f", info.error_estimate);
+        MHD_add_response_header(resp, "X-Rayd-Error-Estimate", buf);
+        r->status = 200;
+        r->bytes = len;
+        r->answered = 1;
+        enum MHD_Result ret = MHD_queue_response(r->conn, 200, resp);
+        MHD_destroy_response(resp);
+        return ret;
+    }
+    if (info.status == RD_JOB_FAILED) {
+        unsigned st = info.error.code == RD_ERR_LIMIT ? 422 : rd_status_for(info.error.code);
+        return rd_reply_error(r, st, info.error.code == RD_ERR_LIMIT ? "time_limit" : rd_code_for(info.error.code),
+                              &info.error, NULL);
+    }
+    return rd_reply_error_hdr(r, 503, "cancelled", "the render was cancelled (the server is shutting down)",
+                              "Retry-After", "5");
+}
+
+enum MHD_Result rd_route_job(rd_req *r, const char *id, const char *rest)
+{
+    rd_server *srv = r->srv;
+    rd_jq_job *job = rd_jq_find(srv->jobs, id);
+    if (!job)
+        return rd_reply_error(r, 404, "not_found", NULL, "no job with that id (finished jobs expire, see --result-ttl)");
+    snprintf(r->job_id, sizeof r->job_id, "%s", id);
+    enum MHD_Result ret;
+    if (strcmp(r->method, "DELETE") == 0 && !*rest) {
+        rd_jq_cancel(srv->jobs, job);
+        rd_jq_info info;
+        rd_jq_info_get(srv->jobs, job, &info);
+        ret = rd_reply_json(r, 200, job_json(&info));
+    } else if (!*rest) {
+        rd_jq_info info;
+        rd_jq_info_get(srv->jobs, job, &info);
+        ret = rd_reply_json(r, 200, job_json(&info));
+    } else if (strcmp(rest, "/image") == 0) {
+        const char *p = MHD_lookup_connection_value(r->conn, MHD_GET_ARGUMENT_KIND, "partial");
+        int partial = p && strcmp(p, "0") != 0;
+        unsigned char *png;
+        size_t len;
+        rd_error err = {0};
+        if (rd_jq_png(srv->jobs, job, partial, &png, &len, &err)) {
+            rd_jq_info info;
+            rd_jq_info_get(srv->jobs, job, &info);
+            if (info.status == RD_JOB_DONE)
+                ret = rd_reply_error(r, 404, "expired", &err, NULL);
+            else if (info.status == RD_JOB_QUEUED || info.status == RD_JOB_RUNNING)
+                ret = rd_reply_error(r, 409, "not_ready", &err, NULL);
+            else
+                ret = rd_reply_error(r, 409, "no_image", &err, NULL);
+        } else {
+            ret = rd_reply(r, 200, "image/png", png, len, 1);
+        }
+    } else {
+        ret = rd_reply_error(r, 404, "not_found", NULL, "no such route");
+    }
+    rd_jq_job_unref(job);
+    return ret;
+}

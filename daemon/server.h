@@ -1,0 +1,37 @@
+/* rayd serve: the HTTP daemon (libmicrohttpd) in front of the job queue.
+ * Contract: http-api.md. */
+#ifndef RD_SERVER_H
+#define RD_SERVER_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "job_queue.h"
+#include "scene_limits.h"
+
+typedef struct {
+    const char *listen_host;    /* "127.0.0.1" */
+    uint16_t port;              /* 0: any free port */
+    int http_threads;           /* libmicrohttpd's thread pool, >= 2 */
+    rd_jq_options jobs;
+    rd_scene_limits limits;
+    size_t max_body_bytes;
+    unsigned max_connections;
+    unsigned max_per_ip;
+    unsigned connection_timeout_s;
+    const char *scenes_dir;     /* bundled scenes and the folder uploaded scenes' files resolve in */
+    int log_json;
+} rd_server_options;
+
+typedef struct rd_server rd_server;
+
+rd_server *rd_server_start(const rd_server_options *opt, rd_error *err);
+
+/* The port it listens on (useful with port 0). */
+uint16_t rd_server_port(const rd_server *s);
+
+/* Graceful stop: refuse new work (503), let running jobs finish for up to
+ * drain_ms, cancel the rest, answer every waiting client, stop. */
+void rd_server_stop(rd_server *s, double drain_ms);
+
+#endif
