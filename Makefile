@@ -8,7 +8,7 @@ endif
 BUILD   ?= build
 SAN     ?=
 PKGS    := libpng libcjson zlib libmicrohttpd
-TESTPKG := criterion
+TESTPKG := criterion libcurl
 
 SANFLAGS := -fsanitize=address,undefined
 OPT      := -O2
@@ -68,10 +68,12 @@ $(BUILD)/librayd.a: $(LIB_OBJ)
 	@ar rcs $@ $^
 
 $(BUILD)/rayd: $(DAEMON_OBJ) $(BUILD)/librayd.a
-	$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(BUILD)/librayd.a $(PKG_LIBS)
+	@echo "  LD  $@"
+	@$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(BUILD)/librayd.a $(PKG_LIBS)
 
 $(BUILD)/unit-tests: $(TEST_OBJ) $(CLI_OBJ) $(BUILD)/librayd.a
-	$(CC) $(LDFLAGS) -o $@ $(TEST_OBJ) $(CLI_OBJ) $(BUILD)/librayd.a $(PKG_LIBS) $(shell pkg-config --libs $(TESTPKG))
+	@echo "  LD  $@"
+	@$(CC) $(LDFLAGS) -o $@ $(TEST_OBJ) $(CLI_OBJ) $(BUILD)/librayd.a $(PKG_LIBS) $(shell pkg-config --libs $(TESTPKG))
 
 # One build and run of the unit suite with the current CC/SAN/BUILD.
 check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
@@ -85,14 +87,9 @@ test: deps
 	@$(MAKE) --no-print-directory check CC=gcc BUILD=build
 	@$(MAKE) --no-print-directory check CC=clang SAN=1 BUILD=build/clang-san
 
-# Until the daemon lands, `make run` renders every example scene into out/.
+# Starts the service on 127.0.0.1:8080 with the bundled scenes; Ctrl-C stops it.
 run: all $(GENERATED)
-	@mkdir -p out
-	@for f in scenes/*.cfg; do \
-	  n=$$(basename $$f .cfg); \
-	  $(BUILD)/rayd render $$f -o out/$$n.png || exit 1; \
-	done
-	@echo "rendered $$(ls out/*.png | wc -l) scenes into out/"
+	$(BUILD)/rayd serve --listen 127.0.0.1:8080 --scenes scenes
 
 bench: all
 	@sh deploy/deps.sh bench
