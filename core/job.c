@@ -159,6 +159,21 @@ void rd_job_rgb8(const rd_job *j, uint8_t *out)
             out[3 * i + ch] = (uint8_t)floor(rd_display(j->px[i].mean[ch], g) * 255.0 + 0.5);
 }
 
+void rd_job_tile_rgb8(const rd_job *j, int t, uint8_t *out)
+{
+    const rd_scene *s = j->scene;
+    int x0 = (t % j->tiles_x) * j->tile, y0 = (t / j->tiles_x) * j->tile;
+    int x1 = x0 + j->tile < s->render.width ? x0 + j->tile : s->render.width;
+    int y1 = y0 + j->tile < s->render.height ? y0 + j->tile : s->render.height;
+    double g = s->render.gamma;
+    for (int y = y0; y < y1; y++)
+        for (int x = x0; x < x1; x++) {
+            size_t i = (size_t)y * (size_t)s->render.width + (size_t)x;
+            for (int ch = 0; ch < 3; ch++)
+                out[3 * i + ch] = (uint8_t)floor(rd_display(j->px[i].mean[ch], g) * 255.0 + 0.5);
+        }
+}
+
 double rd_job_error_estimate(const rd_job *j)
 {
     size_t npix = (size_t)j->scene->render.width * (size_t)j->scene->render.height;

@@ -50,6 +50,9 @@ rd_error_code rd_job_image(const rd_job *j, rd_image *out, rd_error *err);
 /* 8-bit RGB of the image so far, without a linear copy: width·height·3 bytes. */
 void rd_job_rgb8(const rd_job *j, uint8_t *out);
 
+/* Writes tile t's pixels into out, a whole width·height·3 RGB8 image. */
+void rd_job_tile_rgb8(const rd_job *j, int t, uint8_t *out);
+
 /* Root-mean-square standard error of the pixel means (see render.h), over
  * every pixel, summed in pixel order. Pixels with fewer than 2 samples
  * contribute 0. */
