@@ -20,7 +20,9 @@ struct rd_job {
     rd_plan plan;
     pixel *px;
     int tile, tiles_x, tiles_total;
-    uint32_t *tile_samples;
+    int progressive, adaptive;
+    int pass, pass_samples;
+    double mean_weight;         /* adaptive: mean of w_i at the pass start */
     double plan_ms;
 };
 
@@ -31,7 +33,7 @@ static double now_ms(void)
     return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
 }
 
-rd_error_code rd_job_create(const rd_scene *s, int tile, rd_job **out, rd_error *err)
+rd_error_code rd_job_create(const rd_scene *s, const rd_job_options *opt, rd_job **out, rd_error *err)
 {
     *out = NULL;
     double t0 = now_ms();
@@ -39,7 +41,10 @@ rd_error_code rd_job_create(const rd_scene *s, int tile, rd_job **out, rd_error 
     if (!j)
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
     j->scene = s;
-    j->tile = tile < 1 ? 16 : tile;
+    j->tile = opt && opt->tile >= 1 ? opt->tile : 16;
+    j->progressive = opt ? opt->progressive : 0;
+    j->adaptive = opt ? opt->adaptive : 0;
+    j->pass_samples = s->render.samples < 1 ? 1 : s->render.samples;
     rd_error_code rc = rd_pinhole_make(&j->cam, &s->camera, s->render.width, s->render.height, err);
     if (rc) {
         free(j);
@@ -54,8 +59,7 @@ rd_error_code rd_job_create(const rd_scene *s, int tile, rd_job **out, rd_error 
     j->tiles_x = (s->render.width + j->tile - 1) / j->tile;
     j->tiles_total = j->tiles_x * ((s->render.height + j->tile - 1) / j->tile);
     j->px = calloc(npix, sizeof *j->px);
-    j->tile_samples = calloc((size_t)j->tiles_total, sizeof *j->tile_samples);
-    if (!j->px || !j->tile_samples) {
+    if (!j->px) {
         rd_job_free(j);
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory for a %dx%d image", s->render.width,
                             s->render.height);
@@ -71,7 +75,6 @@ void rd_job_free(rd_job *j)
         return;
     rd_plan_free(&j->plan);
     free(j->px);
-    free(j->tile_samples);
     free(j);
 }
 
@@ -79,7 +82,38 @@ int rd_job_tile_count(const rd_job *j) { return j->tiles_total; }
 int rd_job_width(const rd_job *j) { return j->scene->render.width; }
 int rd_job_height(const rd_job *j) { return j->scene->render.height; }
 const rd_scene *rd_job_scene(const rd_job *j) { return j->scene; }
-uint32_t rd_job_tile_samples(const rd_job *j, int t) { return j->tile_samples[t]; }
+
+/* s²/n² of a pixel: how much one more sample lowers its variance of the mean. */
+static double weight(const pixel *p)
+{
+    if (p->n < 2)
+        return 0;
+    double var = ((double)p->m2[0] + p->m2[1] + p->m2[2]) / (p->n - 1);
+    return var / ((double)p->n * p->n);
+}
+
+void rd_job_begin_pass(rd_job *j, int pass, int samples)
+{
+    j->pass = pass;
+    j->pass_samples = samples < 1 ? 1 : samples;
+    j->mean_weight = 0;
+    if (j->adaptive && pass > 0) {
+        size_t npix = (size_t)j->scene->render.width * (size_t)j->scene->render.height;
+        double sum = 0;
+        for (size_t i = 0; i < npix; i++)
+            sum += weight(&j->px[i]);
+        j->mean_weight = sum / (double)npix;
+    }
+}
+
+double rd_job_mean_samples(const rd_job *j)
+{
+    size_t npix = (size_t)j->scene->render.width * (size_t)j->scene->render.height;
+    double sum = 0;
+    for (size_t i = 0; i < npix; i++)
+        sum += j->px[i].n;
+    return sum / (double)npix;
+}
 
 static double finite_or_zero(double x, uint64_t *bad)
 {
@@ -89,16 +123,28 @@ static double finite_or_zero(double x, uint64_t *bad)
     return isnan(x) ? 0 : (x > 0 ? DBL_MAX : -DBL_MAX);
 }
 
-static void render_pixel(rd_job *j, int x, int y, int pass, int samples, rd_job_counts *c,
-                         rd_ray_counts *rc)
+static void render_pixel(rd_job *j, int x, int y, rd_job_counts *c, rd_ray_counts *rc)
 {
     const rd_scene *s = j->scene;
     uint64_t index = (uint64_t)y * (uint64_t)s->render.width + (uint64_t)x;
     pixel *p = &j->px[index];
+    int pass = j->pass, samples = j->pass_samples;
     /* Pass 0 keeps the pattern of a plain render; later passes draw new ones. */
-    uint32_t pattern = rd_pattern(s->render.seed + (uint64_t)pass * 0x9e3779b97f4a7c15ULL, index);
+    uint64_t pass_seed = s->render.seed + (uint64_t)pass * 0x9e3779b97f4a7c15ULL;
+    uint32_t pattern = rd_pattern(pass_seed, index);
     double g = s->render.gamma;
-    int centre = pass == 0 && samples == 1;
+    int centre = pass == 0 && samples == 1 && !j->progressive;
+    if (j->adaptive && pass > 0 && j->mean_weight > 0) {
+        /* This pixel's share depends only on its own state and the mean taken
+         * at the pass start: the same whatever thread renders it. */
+        double want = samples * (0.25 + 0.75 * weight(p) / j->mean_weight);
+        if (want > 8.0 * samples)
+            want = 8.0 * samples;
+        rd_rng pick = rd_rng_make(pass_seed ^ 0xadab7e5ULL, index, p->n);
+        samples = (int)want + (rd_rng_next(&pick) < want - floor(want));
+        if (samples < 1)
+            samples = p->n < 2 ? 1 : 0;
+    }
     for (int k = 0; k < samples; k++) {
         double px = 0.5, py = 0.5;
         if (!centre)
@@ -120,7 +166,7 @@ static void render_pixel(rd_job *j, int x, int y, int pass, int samples, rd_job_
     }
 }
 
-void rd_job_render_tile(rd_job *j, int t, int pass, int samples, rd_job_counts *c)
+void rd_job_render_tile(rd_job *j, int t, rd_job_counts *c)
 {
     const rd_scene *s = j->scene;
     int x0 = (t % j->tiles_x) * j->tile, y0 = (t / j->tiles_x) * j->tile;
@@ -129,10 +175,9 @@ void rd_job_render_tile(rd_job *j, int t, int pass, int samples, rd_job_counts *
     rd_ray_counts rc = {0, 0, 0};
     for (int y = y0; y < y1; y++)
         for (int x = x0; x < x1; x++)
-            render_pixel(j, x, y, pass, samples < 1 ? 1 : samples, c, &rc);
+            render_pixel(j, x, y, c, &rc);
     c->shadow += rc.shadow;
     c->secondary += rc.secondary;
-    j->tile_samples[t] += (uint32_t)(samples < 1 ? 1 : samples);
 }
 
 rd_error_code rd_job_image(const rd_job *j, rd_image *out, rd_error *err)

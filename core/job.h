@@ -26,8 +26,13 @@ typedef struct {
     uint64_t camera, shadow, secondary, nonfinite;
 } rd_job_counts;
 
-/* tile: edge in pixels (< 1 means 16). */
-rd_error_code rd_job_create(const rd_scene *s, int tile, rd_job **out, rd_error *err);
+typedef struct {
+    int tile;           /* edge in pixels; < 1 means 16 */
+    int progressive;    /* every pass jitters, even a first pass of one sample */
+    int adaptive;       /* passes after the first give more samples to noisier pixels */
+} rd_job_options;
+
+rd_error_code rd_job_create(const rd_scene *s, const rd_job_options *opt, rd_job **out, rd_error *err);
 void rd_job_free(rd_job *j);
 
 int rd_job_tile_count(const rd_job *j);
@@ -35,13 +40,22 @@ int rd_job_width(const rd_job *j);
 int rd_job_height(const rd_job *j);
 const rd_scene *rd_job_scene(const rd_job *j);
 
-/* Adds `samples` samples to every pixel of tile t as pass `pass`. With one
- * pass of one sample, that sample goes through the pixel centre; otherwise
- * the pass's samples are correlated multi-jittered within the pixel. */
-void rd_job_render_tile(rd_job *j, int t, int pass, int samples, rd_job_counts *counts);
+/* Starts pass `pass` of `samples` samples per pixel (on average, when
+ * adaptive). Call it once, between passes, with no tile being rendered:
+ * it reads every pixel. */
+void rd_job_begin_pass(rd_job *j, int pass, int samples);
 
-/* Samples per pixel so far in tile t. */
-uint32_t rd_job_tile_samples(const rd_job *j, int t);
+/* Adds the current pass's samples to every pixel of tile t. With one pass of
+ * one sample and not progressive, the sample goes through the pixel centre;
+ * otherwise a pixel's samples in a pass are correlated multi-jittered.
+ * Adaptive passes after the first give pixel i about
+ * samples·(1/4 + 3/4·w_i/mean(w)) samples, w_i = s_i²/n_i² (the drop in its
+ * variance one more sample buys), at most 8·samples. */
+void rd_job_render_tile(rd_job *j, int t, rd_job_counts *counts);
+
+/* Mean samples per pixel so far. */
+double rd_job_mean_samples(const rd_job *j);
+
 
 /* The mean colours as an image (out->rgb malloc'ed; free with
  * rd_image_free). Pixels with no sample yet are black. */

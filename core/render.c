@@ -10,9 +10,10 @@
 
 typedef struct {
     rd_job *job;
-    int samples;
     const rd_render_options *opt;
     atomic_int next, done;
+    int tiles_done_before;      /* for progress across passes */
+    int tiles_all;
 } shared;
 
 typedef struct {
@@ -41,12 +42,32 @@ static void *work(void *arg)
         int t = atomic_fetch_add(&sh->next, 1);
         if (t >= total)
             break;
-        rd_job_render_tile(sh->job, t, 0, sh->samples, &w->counts);
+        rd_job_render_tile(sh->job, t, &w->counts);
         int done = atomic_fetch_add(&sh->done, 1) + 1;
         if (sh->opt->progress)
-            sh->opt->progress(sh->opt->user, done, total);
+            sh->opt->progress(sh->opt->user, sh->tiles_done_before + done, sh->tiles_all);
     }
     return NULL;
+}
+
+/* One pass over every tile with `threads` threads (the caller is one). */
+static int run_pass(shared *sh, worker *ws, int threads)
+{
+    atomic_store(&sh->next, 0);
+    atomic_store(&sh->done, 0);
+    int started = 0;
+    for (int i = 0; i < threads; i++) {
+        ws[i].sh = sh;
+        if (i == 0)
+            continue;
+        if (pthread_create(&ws[i].tid, NULL, work, &ws[i]) != 0)
+            break;
+        started = i;
+    }
+    work(&ws[0]);
+    for (int i = 1; i <= started; i++)
+        pthread_join(ws[i].tid, NULL);
+    return started + 1;
 }
 
 static double now_ms(void)
@@ -73,9 +94,11 @@ rd_error_code rd_render(const rd_scene *s, const rd_render_options *opt_in, rd_i
     memset(out, 0, sizeof *out);
     memset(stats, 0, sizeof *stats);
     int threads = opt.threads < 1 ? 1 : opt.threads;
+    rd_progress_settings ps = {s->render.samples, opt.time_budget_ms, opt.target_error, opt.adaptive};
+    rd_job_options jo = {opt.tile, rd_progress_is_progressive(&ps), opt.adaptive};
 
     rd_job *job;
-    rd_error_code rc = rd_job_create(s, opt.tile, &job, err);
+    rd_error_code rc = rd_job_create(s, &jo, &job, err);
     if (rc)
         return rc;
     rd_job_plan_stats(job, stats);
@@ -85,45 +108,62 @@ rd_error_code rd_render(const rd_scene *s, const rd_render_options *opt_in, rd_i
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
     }
     shared sh;
+    memset(&sh, 0, sizeof sh);
     sh.job = job;
-    sh.samples = s->render.samples < 1 ? 1 : s->render.samples;
     sh.opt = &opt;
-    atomic_init(&sh.next, 0);
-    atomic_init(&sh.done, 0);
+    sh.tiles_all = rd_job_tile_count(job);
 
-    int started = 0;
-    for (int i = 0; i < threads; i++) {
-        ws[i].sh = &sh;
-        if (i == 0)
-            continue; /* the caller's thread is worker 0 */
-        if (pthread_create(&ws[i].tid, NULL, work, &ws[i]) != 0)
+    int spp = 0, last_spp = 0, cancelled = 0, used = 1;
+    double last_ms = 0, error = 0;
+    rd_stop_reason why = RD_STOP_NONE;
+    for (int pass = 0;; pass++) {
+        int n = rd_progress_next(&ps, pass, spp, last_ms, last_spp, now_ms() - t0, error, &why);
+        if (n == 0)
             break;
-        started = i;
+        double p0 = now_ms();
+        rd_job_begin_pass(job, pass, n);
+        used = run_pass(&sh, ws, threads);
+        for (int i = 0; i < threads; i++)
+            cancelled |= ws[i].cancelled;
+        if (cancelled) {
+            why = RD_STOP_CANCELLED;
+            break;
+        }
+        sh.tiles_done_before += sh.tiles_all;
+        spp += n;
+        last_spp = n;
+        last_ms = now_ms() - p0;
+        stats->passes = pass + 1;
+        /* A fixed render needs the estimate once, at the end. */
+        if (rd_progress_is_progressive(&ps) || pass == 0)
+            error = rd_job_error_estimate(job);
+        if (stats->curve_len < RD_CURVE_MAX) {
+            rd_curve_point *cp = &stats->curve[stats->curve_len++];
+            cp->ms = now_ms() - t0;
+            cp->samples = spp;
+            cp->error = error;
+        }
     }
-    work(&ws[0]);
-    for (int i = 1; i <= started; i++)
-        pthread_join(ws[i].tid, NULL);
-
-    int cancelled = 0;
     for (int i = 0; i < threads; i++) {
         stats->camera_rays += ws[i].counts.camera;
         stats->shadow_rays += ws[i].counts.shadow;
         stats->secondary_rays += ws[i].counts.secondary;
         stats->nonfinite += ws[i].counts.nonfinite;
-        cancelled |= ws[i].cancelled;
     }
     free(ws);
-    if (cancelled && atomic_load(&sh.done) < rd_job_tile_count(job)) {
+    if (cancelled) {
         rd_job_free(job);
         return rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "render cancelled");
     }
     rc = rd_job_image(job, out, err);
-    stats->error_estimate = rd_job_error_estimate(job);
+    stats->error_estimate = error;
+    stats->mean_samples = rd_job_mean_samples(job);
     rd_job_free(job);
     if (rc)
         return rc;
-    stats->samples = sh.samples;
-    stats->threads = started + 1;
+    stats->stopped_by = why;
+    stats->samples = (int)floor(stats->mean_samples + 0.5);
+    stats->threads = used;
     stats->wall_ms = now_ms() - t0;
     uint64_t rays = stats->camera_rays + stats->shadow_rays + stats->secondary_rays;
     stats->rays_per_second = stats->wall_ms > 0 ? rays / (stats->wall_ms / 1e3) : 0;

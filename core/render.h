@@ -9,6 +9,7 @@
 #include <stdint.h>
 
 #include "error.h"
+#include "progress.h"
 #include "scene.h"
 
 typedef struct {
@@ -18,13 +19,20 @@ typedef struct {
     /* Optional; called by a worker after each tile, possibly concurrently. */
     void (*progress)(void *user, int tiles_done, int tiles_total);
     void *user;
+    /* Progressive rendering (progress.h): either makes the render run
+     * passes until the scene's samples, the budget or the target error,
+     * whichever comes first. */
+    double time_budget_ms;      /* <= 0: none */
+    double target_error;        /* <= 0: none */
+    int adaptive;               /* later passes spend samples where the error is */
 } rd_render_options;
 
 typedef struct {
     double wall_ms;
     uint64_t camera_rays, shadow_rays, secondary_rays;
     double rays_per_second;     /* all three kinds over wall time */
-    int samples;                /* per pixel */
+    int samples;                /* per pixel (rounded mean, when adaptive) */
+    double mean_samples;        /* exact mean per pixel */
     /* Root-mean-square standard error of the pixel means, over pixels and
      * channels, in output units (after clamp and gamma, 1 = 255): predicts
      * the RMSE of this image against a converged one. 0 with one sample. */
@@ -36,6 +44,10 @@ typedef struct {
     size_t bvh_nodes;
     size_t world_bytes;         /* memory of the prepared surfaces and the BVH */
     size_t primitives;          /* spheres, planes and triangles traced */
+    rd_stop_reason stopped_by;  /* which rule ended the render */
+    int passes;
+    rd_curve_point curve[RD_CURVE_MAX]; /* error against time, one point per pass */
+    int curve_len;
 } rd_render_stats;
 
 typedef struct {

@@ -24,6 +24,10 @@ static const char render_help[] =
     "      --threads N     worker threads, 1..1024 (default: the number of cores);\n"
     "                      the image does not depend on it\n"
     "      --png-level N   zlib level 0..9 for the PNG (default 1)\n"
+    "      --time-budget-ms T  render in passes and stop before T ms are spent\n"
+    "      --target-error E    render in passes until the error estimate is <= E\n"
+    "                      (either makes --samples the cap, not the count)\n"
+    "      --adaptive      later passes spend samples where the estimated error is\n"
     "      --max-...  N    a size limit; 'rayd limits' lists them with defaults\n"
     "  -h, --help          this text\n"
     "\n"
@@ -34,8 +38,10 @@ static const char render_help[] =
     "  render: WxH samples=N threads=N time_ms=T camera_rays=N shadow_rays=N\n"
     "  secondary_rays=N rays_per_s=R error_estimate=E nonfinite=N prepare_ms=T\n"
     "  bvh_build_ms=T bvh_nodes=N primitives=N world_bytes=B\n"
+    "  stopped_by=samples|time_budget|target_error passes=N curve=MS:SPP:ERR,...\n"
     "error_estimate is the estimated RMS error of the image against a converged\n"
-    "render, in [0,1] units (1 = 255 levels); 0 with one sample per pixel.\n";
+    "render, in [0,1] units (1 = 255 levels); 0 with one sample per pixel. curve\n"
+    "has one point per pass: elapsed ms, samples per pixel, error estimate.\n";
 
 int rd_cli_int(const char *s, long lo, long hi, long *out)
 {
@@ -64,16 +70,20 @@ static int exit_for(rd_error_code c)
 
 int rd_cmd_render(int argc, char **argv)
 {
-    enum { O_WIDTH = 256, O_HEIGHT, O_SAMPLES, O_SEED, O_THREADS, O_PNG_LEVEL };
+    enum { O_WIDTH = 256, O_HEIGHT, O_SAMPLES, O_SEED, O_THREADS, O_PNG_LEVEL, O_BUDGET, O_TARGET, O_ADAPTIVE };
     static const struct option opts[] = {
         {"output", required_argument, NULL, 'o'}, {"width", required_argument, NULL, O_WIDTH},
         {"height", required_argument, NULL, O_HEIGHT}, {"samples", required_argument, NULL, O_SAMPLES},
         {"seed", required_argument, NULL, O_SEED}, {"threads", required_argument, NULL, O_THREADS},
         {"png-level", required_argument, NULL, O_PNG_LEVEL}, {"help", no_argument, NULL, 'h'},
+        {"time-budget-ms", required_argument, NULL, O_BUDGET}, {"target-error", required_argument, NULL, O_TARGET},
+        {"adaptive", no_argument, NULL, O_ADAPTIVE},
         {NULL, 0, NULL, 0}};
     const char *output = NULL;
     long width = 0, height = 0, samples = 0, threads = sysconf(_SC_NPROCESSORS_ONLN), level = -1;
     const char *seed = NULL;
+    double budget = 0, target = 0;
+    int adaptive = 0;
     if (threads < 1)
         threads = 1;
     rd_scene_limits lim = rd_scene_limits_default();
@@ -108,6 +118,21 @@ int rd_cmd_render(int argc, char **argv)
             if (rd_cli_int(optarg, 0, 9, &level))
                 return usage_error("--png-level: expected an integer in 0..9, got '%s'", optarg);
             break;
+        case O_BUDGET:
+        case O_TARGET: {
+            char *end;
+            double v = strtod(optarg, &end);
+            if (!*optarg || *end || !(v > 0) || !(v < 1e15))
+                return usage_error(c == O_BUDGET ? "--time-budget-ms: expected a number > 0, got '%s'"
+                                                 : "--target-error: expected a number > 0, got '%s'",
+                                   optarg);
+            if (c == O_BUDGET)
+                budget = v;
+            else
+                target = v;
+            break;
+        }
+        case O_ADAPTIVE: adaptive = 1; break;
         case ':': return usage_error("%s needs a value", argv[optind - 1]);
         default: return usage_error("unknown option '%s'", argv[optind - 1]);
         }
@@ -160,6 +185,9 @@ int rd_cmd_render(int argc, char **argv)
 
     rd_render_options ro = {0};
     ro.threads = (int)threads;
+    ro.time_budget_ms = budget;
+    ro.target_error = target;
+    ro.adaptive = adaptive;
     rd_image img;
     rd_render_stats st;
     rc = rd_render(&scene, &ro, &img, &st, &err);
@@ -186,12 +214,15 @@ int rd_cmd_render(int argc, char **argv)
     fprintf(stderr,
             "render: %dx%d samples=%d threads=%d time_ms=%.3f camera_rays=%llu shadow_rays=%llu "
             "secondary_rays=%llu rays_per_s=%.4g error_estimate=%.6f nonfinite=%llu prepare_ms=%.3f "
-            "bvh_build_ms=%.3f bvh_nodes=%zu primitives=%zu world_bytes=%zu\n",
+            "bvh_build_ms=%.3f bvh_nodes=%zu primitives=%zu world_bytes=%zu stopped_by=%s passes=%d curve=",
             img.width, img.height, st.samples, st.threads, st.wall_ms,
             (unsigned long long)st.camera_rays, (unsigned long long)st.shadow_rays,
             (unsigned long long)st.secondary_rays, st.rays_per_second, st.error_estimate,
             (unsigned long long)st.nonfinite, st.prepare_ms, st.bvh_build_ms, st.bvh_nodes, st.primitives,
-            st.world_bytes);
+            st.world_bytes, rd_stop_reason_name(st.stopped_by), st.passes);
+    for (int i = 0; i < st.curve_len; i++)
+        fprintf(stderr, "%s%.3f:%d:%.6f", i ? "," : "", st.curve[i].ms, st.curve[i].samples, st.curve[i].error);
+    fputc('\n', stderr);
     free(png);
     free(rgb);
     rd_image_free(&img);

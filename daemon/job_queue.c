@@ -319,7 +319,8 @@ static void *worker(void *arg)
             pthread_mutex_unlock(&q->mu);
             rd_job *core = NULL;
             rd_error err = {0};
-            rd_error_code rc = rd_job_create(&j->scene, 16, &core, &err);
+            rd_job_options jo = {16, 0, 0};
+            rd_error_code rc = rd_job_create(&j->scene, &jo, &core, &err);
             unsigned char *ts = NULL;
             if (!rc && !(ts = calloc((size_t)rd_job_tile_count(core), 1)))
                 rc = rd_error_set(&err, RD_ERR_NOMEM, 0, 0, "out of memory");
@@ -349,7 +350,7 @@ static void *worker(void *arg)
         j->inflight++;
         pthread_mutex_unlock(&q->mu);
         rd_job_counts c = {0, 0, 0, 0};
-        rd_job_render_tile(j->core, tile, 0, j->samples, &c);
+        rd_job_render_tile(j->core, tile, &c);
         pthread_mutex_lock(&q->mu);
         j->tile_state[tile] = TILE_DONE;
         j->counts.camera += c.camera;

@@ -65,7 +65,7 @@ done
 
 # The statistics line has every field.
 "$RAYD" render scenes/phong.cfg -o "$T/s.png" --width 32 --height 24 --samples 4 2>"$T/err"
-grep -Eq '^render: 32x24 samples=4 threads=[0-9]+ time_ms=[0-9.]+ camera_rays=3072 shadow_rays=[0-9]+ secondary_rays=0 rays_per_s=[0-9.e+]+ error_estimate=[0-9.]+ nonfinite=0 prepare_ms=[0-9.]+ bvh_build_ms=[0-9.]+ bvh_nodes=[0-9]+ primitives=4 world_bytes=[0-9]+$' "$T/err" &&
+grep -Eq '^render: 32x24 samples=4 threads=[0-9]+ time_ms=[0-9.]+ camera_rays=3072 shadow_rays=[0-9]+ secondary_rays=0 rays_per_s=[0-9.e+]+ error_estimate=[0-9.]+ nonfinite=0 prepare_ms=[0-9.]+ bvh_build_ms=[0-9.]+ bvh_nodes=[0-9]+ primitives=4 world_bytes=[0-9]+ stopped_by=samples passes=1 curve=[0-9.]+:4:[0-9.]+$' "$T/err" &&
     ok || bad "statistics line: $(cat "$T/err")"
 
 # Same bytes whatever the thread count.
