@@ -35,7 +35,7 @@ typedef struct {
 /* One point of the error-against-time curve, taken after a pass. */
 typedef struct {
     double ms;                  /* since the render started (plan included) */
-    int samples;                /* per pixel so far (the mean, when adaptive) */
+    double samples;             /* mean per pixel so far */
     double error;               /* the estimate then */
 } rd_curve_point;
 

@@ -140,7 +140,7 @@ rd_error_code rd_render(const rd_scene *s, const rd_render_options *opt_in, rd_i
         if (stats->curve_len < RD_CURVE_MAX) {
             rd_curve_point *cp = &stats->curve[stats->curve_len++];
             cp->ms = now_ms() - t0;
-            cp->samples = spp;
+            cp->samples = ps.adaptive ? rd_job_mean_samples(job) : spp;
             cp->error = error;
         }
     }

@@ -221,7 +221,7 @@ int rd_cmd_render(int argc, char **argv)
             (unsigned long long)st.nonfinite, st.prepare_ms, st.bvh_build_ms, st.bvh_nodes, st.primitives,
             st.world_bytes, rd_stop_reason_name(st.stopped_by), st.passes);
     for (int i = 0; i < st.curve_len; i++)
-        fprintf(stderr, "%s%.3f:%d:%.6f", i ? "," : "", st.curve[i].ms, st.curve[i].samples, st.curve[i].error);
+        fprintf(stderr, "%s%.3f:%g:%.6f", i ? "," : "", st.curve[i].ms, st.curve[i].samples, st.curve[i].error);
     fputc('\n', stderr);
     free(png);
     free(rgb);

@@ -1,6 +1,7 @@
 #define _GNU_SOURCE /* POLLRDHUP */
 #include "job_queue.h"
 
+#include <math.h>
 #include <poll.h>
 #include <pthread.h>
 #include <stdatomic.h>
@@ -28,6 +29,13 @@ struct rd_jq_job {
     int tiles_total, next_tile, tiles_done, inflight;
     unsigned char *tile_state;
     int samples;
+    rd_progress_settings progress;
+    int pass, spp;
+    double pass_t0, last_pass_ms;
+    int last_pass_spp;
+    rd_stop_reason stopped_by;
+    rd_curve_point curve[RD_CURVE_MAX];
+    int curve_len;
     int cancel;                 /* asked to stop */
     int timed_out;
     int watch_fd;
@@ -227,9 +235,41 @@ static int hung_up(int fd)
     return recv(fd, &c, 1, MSG_PEEK | MSG_DONTWAIT) == 0;
 }
 
-/* Encodes the finished image outside the lock. */
-static void encode(rd_jq *q, rd_jq_job *j)
+/* The last tile of a pass is done: estimate the error, add a curve point,
+ * and start the next pass or encode the image. Outside the lock, with
+ * j->finishing set so no other thread touches the job. Returns 1 when the
+ * job ended. */
+static int end_of_pass(rd_jq *q, rd_jq_job *j)
 {
+    double est = rd_job_error_estimate(j->core);
+    double now = now_ms();
+    j->spp += j->last_pass_spp;
+    j->last_pass_ms = now - j->pass_t0;
+    if (j->curve_len < RD_CURVE_MAX) {
+        rd_curve_point *cp = &j->curve[j->curve_len++];
+        cp->ms = now - j->t_start;
+        cp->samples = j->progress.adaptive ? rd_job_mean_samples(j->core) : j->spp;
+        cp->error = est;
+    }
+    rd_stop_reason why;
+    int next = rd_progress_next(&j->progress, j->pass + 1, j->spp, j->last_pass_ms, j->last_pass_spp,
+                                now - j->t_start, est, &why);
+    if (next > 0) {
+        rd_job_begin_pass(j->core, j->pass + 1, next);
+        pthread_mutex_lock(&q->mu);
+        j->error_estimate = est;
+        j->pass++;
+        j->last_pass_spp = next;
+        j->pass_t0 = now_ms();
+        j->next_tile = 0;
+        j->tiles_done = 0;
+        memset(j->tile_state, TILE_DONE, (size_t)j->tiles_total);
+        j->finishing = 0;
+        pthread_cond_broadcast(&q->work_cv);
+        pthread_mutex_unlock(&q->mu);
+        return 0;
+    }
+    j->stopped_by = why;
     int w = rd_job_width(j->core), h = rd_job_height(j->core);
     uint8_t *rgb = malloc((size_t)w * (size_t)h * 3);
     rd_error err = {0};
@@ -241,10 +281,11 @@ static void encode(rd_jq *q, rd_jq_job *j)
         rc = rd_png_encode(rgb, w, h, &q->opt.png, &png, &len, &err);
         free(rgb);
     }
-    double est = rd_job_error_estimate(j->core);
+    double mean = rd_job_mean_samples(j->core);
     pthread_mutex_lock(&q->mu);
     j->finishing = 0;
     j->error_estimate = est;
+    j->samples = (int)floor(mean + 0.5);
     if (rc) {
         j->error = err;
         finish_locked(q, j, RD_JOB_FAILED);
@@ -258,6 +299,7 @@ static void encode(rd_jq *q, rd_jq_job *j)
         sweep(q);
     }
     pthread_mutex_unlock(&q->mu);
+    return 1;
 }
 
 static void *worker(void *arg)
@@ -319,7 +361,7 @@ static void *worker(void *arg)
             pthread_mutex_unlock(&q->mu);
             rd_job *core = NULL;
             rd_error err = {0};
-            rd_job_options jo = {16, 0, 0};
+            rd_job_options jo = {16, rd_progress_is_progressive(&j->progress), j->progress.adaptive};
             rd_error_code rc = rd_job_create(&j->scene, &jo, &core, &err);
             unsigned char *ts = NULL;
             if (!rc && !(ts = calloc((size_t)rd_job_tile_count(core), 1)))
@@ -337,6 +379,12 @@ static void *worker(void *arg)
                 j->core = core;
                 j->tile_state = ts;
                 j->tiles_total = rd_job_tile_count(core);
+                rd_stop_reason why;
+                j->pass = 0;
+                j->spp = 0;
+                j->last_pass_spp = rd_progress_next(&j->progress, 0, 0, 0, 0, 0, 0, &why);
+                j->pass_t0 = now_ms();
+                rd_job_begin_pass(core, 0, j->last_pass_spp);
                 rd_job_plan_stats(core, &j->stats);
                 j->status = RD_JOB_RUNNING;
                 q->running_count++;
@@ -362,8 +410,8 @@ static void *worker(void *arg)
         if (j->tiles_done == j->tiles_total && !j->cancel) {
             j->finishing = 1;
             pthread_mutex_unlock(&q->mu);
-            encode(q, j);
-            call_done(j);
+            if (end_of_pass(q, j))
+                call_done(j);
             pthread_mutex_lock(&q->mu);
         } else if (j->cancel && j->inflight == 0) {
             pthread_cond_broadcast(&q->work_cv); /* someone ends it */
@@ -438,8 +486,8 @@ void rd_jq_stop(rd_jq *q)
     free(q);
 }
 
-rd_error_code rd_jq_submit(rd_jq *q, rd_scene *scene, int watch_fd, rd_jq_done_fn done, void *user,
-                           rd_jq_job **out, rd_error *err)
+rd_error_code rd_jq_submit(rd_jq *q, rd_scene *scene, const rd_progress_settings *progress, int watch_fd,
+                           rd_jq_done_fn done, void *user, rd_jq_job **out, rd_error *err)
 {
     *out = NULL;
     rd_jq_job *j = calloc(1, sizeof *j);
@@ -451,6 +499,9 @@ rd_error_code rd_jq_submit(rd_jq *q, rd_scene *scene, int watch_fd, rd_jq_done_f
     j->scene = *scene;
     memset(scene, 0, sizeof *scene);
     j->samples = j->scene.render.samples < 1 ? 1 : j->scene.render.samples;
+    if (progress)
+        j->progress = *progress;
+    j->progress.max_samples = j->samples;
     j->watch_fd = watch_fd;
     j->done = done;
     j->user = user;
@@ -530,10 +581,23 @@ void rd_jq_info_get(rd_jq *q, rd_jq_job *j, rd_jq_info *out)
     out->progress = j->status == RD_JOB_DONE ? 1.0
                     : j->tiles_total > 0     ? (double)j->tiles_done / j->tiles_total
                                              : 0;
+    if (j->status == RD_JOB_RUNNING && rd_progress_is_progressive(&j->progress)) {
+        /* Progress of a progressive job: samples toward the cap, or time toward the budget. */
+        double by_spp = (j->spp + (double)j->last_pass_spp * j->tiles_done / (j->tiles_total ? j->tiles_total : 1)) /
+                        j->progress.max_samples;
+        double by_time = j->progress.time_budget_ms > 0 ? (now_ms() - j->t_start) / j->progress.time_budget_ms : 0;
+        out->progress = by_spp > by_time ? by_spp : by_time;
+        if (out->progress > 0.99)
+            out->progress = 0.99;
+    }
     double now = now_ms();
     out->elapsed_ms = j->t_start > 0 ? (j->t_end > 0 ? j->t_end : now) - j->t_start : 0;
     out->queued_ms = (j->t_start > 0 ? j->t_start : now) - j->t_submit;
-    out->samples = j->status == RD_JOB_DONE ? j->samples : 0;
+    out->samples = j->status == RD_JOB_DONE ? j->samples : j->spp;
+    out->stopped_by = j->stopped_by;
+    out->passes = j->pass + (j->status == RD_JOB_DONE ? 1 : 0);
+    out->curve_len = j->curve_len;
+    memcpy(out->curve, j->curve, sizeof j->curve);
     out->error_estimate = j->error_estimate;
     out->stats = j->stats;
     if (j->active) {

@@ -16,6 +16,7 @@
 
 #include "error.h"
 #include "png_write.h"
+#include "progress.h"
 #include "render.h"
 #include "scene.h"
 
@@ -49,8 +50,8 @@ void rd_jq_stop(rd_jq *q);
  * cancelled, between tiles, once the peer has hung up. done may be NULL.
  * On RD_ERR_LIMIT the queue is full and the scene is freed. The returned
  * job carries one reference for the caller. */
-rd_error_code rd_jq_submit(rd_jq *q, rd_scene *scene, int watch_fd, rd_jq_done_fn done, void *user,
-                           rd_jq_job **out, rd_error *err);
+rd_error_code rd_jq_submit(rd_jq *q, rd_scene *scene, const rd_progress_settings *progress, int watch_fd,
+                           rd_jq_done_fn done, void *user, rd_jq_job **out, rd_error *err);
 
 /* Finds a job by id and returns it with a new reference, or NULL. */
 rd_jq_job *rd_jq_find(rd_jq *q, const char *id);
@@ -76,6 +77,10 @@ typedef struct {
     rd_render_stats stats;
     rd_error error;             /* when failed */
     int width, height;
+    rd_stop_reason stopped_by;
+    int passes;
+    rd_curve_point curve[RD_CURVE_MAX];
+    int curve_len;
 } rd_jq_info;
 
 void rd_jq_info_get(rd_jq *q, rd_jq_job *j, rd_jq_info *out);

@@ -58,6 +58,36 @@ static int overrides(struct MHD_Connection *c, rd_scene *s, rd_error *err)
     return 0;
 }
 
+/* time_budget_ms, target_error and adaptive from the query. */
+static int progress_params(struct MHD_Connection *c, rd_progress_settings *p, rd_error *err)
+{
+    memset(p, 0, sizeof *p);
+    static const char *const names[] = {"time_budget_ms", "target_error"};
+    double *dst[] = {&p->time_budget_ms, &p->target_error};
+    for (int i = 0; i < 2; i++) {
+        const char *v = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, names[i]);
+        if (!v)
+            continue;
+        char *end;
+        double x = strtod(v, &end);
+        if (!*v || *end || !(x > 0) || !(x < 1e15)) {
+            rd_error_set(err, RD_ERR_SYNTAX, 0, 0, "query parameter %s: expected a number > 0, got '%.40s'", names[i], v);
+            return 1;
+        }
+        *dst[i] = x;
+    }
+    const char *a = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "adaptive");
+    if (a) {
+        if (strcmp(a, "1") == 0 || strcmp(a, "true") == 0)
+            p->adaptive = 1;
+        else if (strcmp(a, "0") != 0 && strcmp(a, "false") != 0) {
+            rd_error_set(err, RD_ERR_SYNTAX, 0, 0, "query parameter adaptive: expected 0 or 1, got '%.40s'", a);
+            return 1;
+        }
+    }
+    return 0;
+}
+
 static void on_done(rd_jq_job *job, void *user)
 {
     (void)job;
@@ -82,10 +112,13 @@ static char *job_json(const rd_jq_info *in)
     cJSON_AddNumberToObject(o, "width", in->width);
     cJSON_AddNumberToObject(o, "height", in->height);
     cJSON *curve = cJSON_AddArrayToObject(o, "curve");
-    if (in->status == RD_JOB_DONE) {
-        double pt[3] = {in->elapsed_ms, in->samples, in->error_estimate};
+    for (int i = 0; i < in->curve_len; i++) {
+        double pt[3] = {in->curve[i].ms, in->curve[i].samples, in->curve[i].error};
         cJSON_AddItemToArray(curve, cJSON_CreateDoubleArray(pt, 3));
     }
+    cJSON_AddNumberToObject(o, "passes", in->passes);
+    if (in->status == RD_JOB_DONE)
+        cJSON_AddStringToObject(o, "stopped_by", rd_stop_reason_name(in->stopped_by));
     if (in->status == RD_JOB_DONE || in->status == RD_JOB_RUNNING) {
         cJSON *st = cJSON_AddObjectToObject(o, "stats");
         cJSON_AddNumberToObject(st, "camera_rays", (double)in->stats.camera_rays);
@@ -121,6 +154,9 @@ enum MHD_Result rd_route_render(rd_req *r, int async)
     rd_scene scene;
     rd_scene_init(&scene);
     rd_error err = {0};
+    rd_progress_settings prog;
+    if (progress_params(r->conn, &prog, &err))
+        return rd_reply_error(r, 400, "parse_error", &err, NULL);
     rd_error_code rc = rd_scene_parse(r->body, r->len, fmt, "<upload>", &srv->opt.limits, &scene, &err);
     if (!rc && overrides(r->conn, &scene, &err))
         rc = RD_ERR_SYNTAX;
@@ -143,7 +179,7 @@ enum MHD_Result rd_route_render(rd_req *r, int async)
         fd = ci ? ci->connect_fd : -1;
     }
     rd_jq_job *job;
-    rc = rd_jq_submit(srv->jobs, &scene, fd, async ? NULL : on_done, async ? NULL : r, &job, &err);
+    rc = rd_jq_submit(srv->jobs, &scene, &prog, fd, async ? NULL : on_done, async ? NULL : r, &job, &err);
     if (rc == RD_ERR_LIMIT)
         return rd_reply_error_hdr(r, 503, "queue_full", err.message, "Retry-After", "1");
     if (rc)
@@ -205,6 +241,9 @@ enum MHD_Result rd_route_render_resumed(rd_req *r)
         MHD_add_response_header(resp, "X-Rayd-Samples", buf);
         snprintf(buf, sizeof buf, "%.6f", info.error_estimate);
         MHD_add_response_header(resp, "X-Rayd-Error-Estimate", buf);
+        MHD_add_response_header(resp, "X-Rayd-Stopped-By", rd_stop_reason_name(info.stopped_by));
+        snprintf(buf, sizeof buf, "%d", info.passes);
+        MHD_add_response_header(resp, "X-Rayd-Passes", buf);
         r->status = 200;
         r->bytes = len;
         r->answered = 1;
