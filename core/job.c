@@ -7,11 +7,18 @@
 #include "camera.h"
 #include "trace.h"
 
+/* Samples alternate between two independent half-sets (by the pixel's
+ * running count); each half is stratified on its own. The two half-means
+ * differ only by noise, so their squared difference measures the variance
+ * of the mean without bias, even though stratified samples make a pixel's
+ * own sample variance overstate it (two-buffer estimation, as in Rousselle,
+ * Knaus & Zwicker, "Adaptive Rendering with Non-Local Means Filtering",
+ * SIGGRAPH Asia 2012). */
 typedef struct {
-    double mean[3];     /* linear colour */
-    float dmean[3];     /* display value, for the error estimate */
-    float m2[3];
-    uint32_t n;
+    double mean[3];     /* linear colour, all samples */
+    float half[2][3];   /* display value means of the two half-sets */
+    float m2[3];        /* Welford sum of squares of display values: adaptive weights */
+    uint32_t n, nh[2];
 } pixel;
 
 struct rd_job {
@@ -92,6 +99,13 @@ static double weight(const pixel *p)
     return var / ((double)p->n * p->n);
 }
 
+/* The display mean of all samples, from the two half-means. */
+static double display_mean(const pixel *p, int ch)
+{
+    uint32_t n = p->nh[0] + p->nh[1];
+    return n ? ((double)p->half[0][ch] * p->nh[0] + (double)p->half[1][ch] * p->nh[1]) / n : 0;
+}
+
 void rd_job_begin_pass(rd_job *j, int pass, int samples)
 {
     j->pass = pass;
@@ -145,10 +159,17 @@ static void render_pixel(rd_job *j, int x, int y, rd_job_counts *c, rd_ray_count
         if (samples < 1)
             samples = p->n < 2 ? 1 : 0;
     }
+    /* Which half-set each of this pass's samples joins, and its index there. */
+    uint32_t first = p->n;
+    uint32_t in_half[2] = {0, 0}, count[2] = {0, 0};
+    for (int k = 0; k < samples; k++)
+        count[(first + (uint32_t)k) & 1]++;
+    uint32_t pattern_half[2] = {pattern, rd_pattern(pass_seed ^ 0x6a09e667f3bcc909ULL, index)};
     for (int k = 0; k < samples; k++) {
+        int h = (int)((first + (uint32_t)k) & 1);
         double px = 0.5, py = 0.5;
         if (!centre)
-            rd_cmj((uint32_t)k, (uint32_t)samples, pattern, &px, &py);
+            rd_cmj(in_half[h]++, count[h], pattern_half[h], &px, &py);
         rd_ray r = rd_pinhole_ray(&j->cam, x + px, y + py);
         rd_rng rng = rd_rng_make(s->render.seed, index, (uint64_t)p->n);
         c->camera++;
@@ -156,12 +177,16 @@ static void render_pixel(rd_job *j, int x, int y, rd_job_counts *c, rd_ray_count
         double cv[3] = {finite_or_zero(col.x, &c->nonfinite), finite_or_zero(col.y, &c->nonfinite),
                         finite_or_zero(col.z, &c->nonfinite)};
         uint32_t n = ++p->n;
+        uint32_t nh = ++p->nh[h];
         for (int ch = 0; ch < 3; ch++) {
             p->mean[ch] += (cv[ch] - p->mean[ch]) / n;
             double d = rd_display(cv[ch], g);
-            double delta = d - p->dmean[ch];
-            p->dmean[ch] = (float)(p->dmean[ch] + delta / n);
-            p->m2[ch] = (float)(p->m2[ch] + delta * (d - p->dmean[ch]));
+            double old_all = n > 1 ? ((double)p->half[0][ch] * (p->nh[0] - (h == 0)) +
+                                      (double)p->half[1][ch] * (p->nh[1] - (h == 1))) / (n - 1)
+                                   : 0;
+            p->half[h][ch] = (float)(p->half[h][ch] + (d - p->half[h][ch]) / nh);
+            double new_all = display_mean(p, ch);
+            p->m2[ch] = (float)(p->m2[ch] + (d - old_all) * (d - new_all));
         }
     }
 }
@@ -225,8 +250,15 @@ double rd_job_error_estimate(const rd_job *j)
     double sum = 0;
     for (size_t i = 0; i < npix; i++) {
         const pixel *p = &j->px[i];
-        if (p->n > 1)
-            sum += ((double)p->m2[0] + p->m2[1] + p->m2[2]) / ((double)(p->n - 1) * p->n);
+        double a = p->nh[0], b = p->nh[1];
+        if (a < 1 || b < 1)
+            continue;
+        /* E[(mA - mB)^2] = s^2 (1/a + 1/b) and Var(mean) = s^2/(a + b). */
+        double k = a * b / ((a + b) * (a + b));
+        for (int ch = 0; ch < 3; ch++) {
+            double d = (double)p->half[0][ch] - p->half[1][ch];
+            sum += d * d * k;
+        }
     }
     return sqrt(sum / (3.0 * (double)npix));
 }
