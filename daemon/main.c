@@ -12,6 +12,7 @@ static const char help[] =
     "Commands:\n"
     "  render SCENE -o OUT.png   render a .cfg or .json scene to PNG\n"
     "  serve [--listen H:P]      run the HTTP render service\n"
+    "  grade --assignment A --image P   grade a student's image against the reference\n"
     "  converge SCENE            error against samples and time, with a plot\n"
     "  convert IN OUT            turn a cfg scene into JSON or back\n"
     "  limits                    list the size limits and their defaults\n"
@@ -31,6 +32,8 @@ int main(int argc, char **argv)
     }
     if (strcmp(argv[1], "render") == 0)
         return rd_cmd_render(argc - 1, argv + 1);
+    if (strcmp(argv[1], "grade") == 0)
+        return rd_cmd_grade(argc - 1, argv + 1);
     if (strcmp(argv[1], "converge") == 0)
         return rd_cmd_converge(argc - 1, argv + 1);
     if (strcmp(argv[1], "serve") == 0)
