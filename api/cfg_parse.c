@@ -116,12 +116,12 @@ static rd_error_code key_value(parser *ps, int line, const char *ls, const char 
         p++;
     if (p >= le || *p != '=')
         return rd_builder_error(ps->b, err, RD_ERR_SYNTAX, at(line, ls, p), "expected '=' after key '%.*s'",
-                                (int)(klen > 60 ? 60 : klen), k);
+                                (int)rd_utf8_prefix(k, klen, 60), k);
     p++;
     if (!ps->open)
         return rd_builder_error(ps->b, err, RD_ERR_SYNTAX, key_loc,
                                 "key '%.*s' outside any section; start one with a header such as [render]",
-                                (int)(klen > 60 ? 60 : klen), k);
+                                (int)rd_utf8_prefix(k, klen, 60), k);
     if (ps->n == ps->cap) {
         size_t nc = ps->cap ? ps->cap * 2 : 16;
         rd_entry *e = realloc(ps->entries, nc * sizeof *e);
@@ -179,7 +179,8 @@ rd_error_code rd_cfg_parse(const char *text, size_t len, const char *source,
     size_t bad = rd_utf8_invalid_at(text, len);
     if (bad < len) {
         int line = 1;
-        const char *ls = text;
+        /* Columns never count a byte-order mark. */
+        const char *ls = len >= 3 && memcmp(text, "\xef\xbb\xbf", 3) == 0 && bad >= 3 ? text + 3 : text;
         for (const char *q = text; q < text + bad; q++)
             if (*q == '\n')
                 line++, ls = q + 1;

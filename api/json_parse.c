@@ -12,6 +12,9 @@
 #include "suggest.h"
 #include "utf8.h"
 
+/* A name as "%.*s" arguments: at most 60 characters, none of them split. */
+#define CUT(s) (int)rd_utf8_prefix((s), strlen(s), 60), (s)
+
 #define PATH_MAX_LEN 300
 #define NUM_TEXT 32
 
@@ -36,7 +39,7 @@ static rd_loc path_loc(const char *path)
 static rd_loc text_loc(const char *text, size_t off)
 {
     int line = 1;
-    const char *ls = text;
+    const char *ls = off >= 3 && memcmp(text, "\xef\xbb\xbf", 3) == 0 ? text + 3 : text;
     for (size_t i = 0; i < off; i++)
         if (text[i] == '\n')
             line++, ls = text + i + 1;
@@ -144,7 +147,7 @@ static rd_error_code section(jparser *jp, const char *kind, const char *name, co
             continue;
         rd_entry *e = &jp->entries[k];
         memset(e, 0, sizeof *e);
-        snprintf(jp->paths[k], PATH_MAX_LEN, "%.200s.%.60s", path, m->string);
+        snprintf(jp->paths[k], PATH_MAX_LEN, "%.200s.%.*s", path, CUT(m->string));
         e->key = m->string;
         e->key_len = strlen(m->string);
         e->key_loc = path_loc(jp->paths[k]);
@@ -200,19 +203,19 @@ static rd_error_code duplicates(jparser *jp, const cJSON *obj, const char *path,
             if (a->string && b->string && strcmp(a->string, b->string) == 0) {
                 char p[PATH_MAX_LEN];
                 if (*path)
-                    snprintf(p, sizeof p, "%.200s.%.60s", path, a->string);
+                    snprintf(p, sizeof p, "%.200s.%.*s", path, CUT(a->string));
                 else
-                    snprintf(p, sizeof p, "%.60s", a->string);
-                return rd_builder_error(jp->b, err, RD_ERR_SYNTAX, path_loc(p), "duplicate key '%.60s'",
-                                        a->string);
+                    snprintf(p, sizeof p, "%.*s", CUT(a->string));
+                return rd_builder_error(jp->b, err, RD_ERR_SYNTAX, path_loc(p), "duplicate key '%.*s'",
+                                        CUT(a->string));
             }
     for (const cJSON *a = obj->child; a; a = a->next)
         if (cJSON_IsObject(a) || cJSON_IsArray(a)) {
             char p[PATH_MAX_LEN];
             if (*path)
-                snprintf(p, sizeof p, "%.200s.%.60s", path, a->string ? a->string : "");
+                snprintf(p, sizeof p, "%.200s.%.*s", path, CUT(a->string ? a->string : ""));
             else
-                snprintf(p, sizeof p, "%.60s", a->string ? a->string : "");
+                snprintf(p, sizeof p, "%.*s", CUT(a->string ? a->string : ""));
             if (cJSON_IsObject(a)) {
                 rd_error_code rc = duplicates(jp, a, p, err);
                 if (rc)
@@ -253,9 +256,9 @@ static rd_error_code top_level(jparser *jp, const cJSON *root, rd_error *err)
         if (!known) {
             const char *best = rd_suggest_result(&sg, strlen(m->string));
             char p[PATH_MAX_LEN];
-            snprintf(p, sizeof p, "%.60s", m->string);
-            return rd_builder_error(jp->b, err, RD_ERR_SYNTAX, path_loc(p), "unknown key '%.60s'%s%s%s",
-                                    m->string, best ? "; did you mean '" : "", best ? best : "",
+            snprintf(p, sizeof p, "%.*s", CUT(m->string));
+            return rd_builder_error(jp->b, err, RD_ERR_SYNTAX, path_loc(p), "unknown key '%.*s'%s%s%s",
+                                    CUT(m->string), best ? "; did you mean '" : "", best ? best : "",
                                     best ? "'?" : "");
         }
     }
@@ -275,7 +278,7 @@ static rd_error_code top_level(jparser *jp, const cJSON *root, rd_error *err)
             return rc;
         for (const cJSON *m = v->child; m; m = m->next) {
             char p[PATH_MAX_LEN];
-            snprintf(p, sizeof p, "materials.%.60s", m->string);
+            snprintf(p, sizeof p, "materials.%.*s", CUT(m->string));
             if ((rc = expect_object(jp, m, p, "a material", err)) ||
                 (rc = section(jp, "material", m->string, p, m, NULL, err)))
                 return rc;
@@ -327,8 +330,8 @@ static rd_error_code top_level(jparser *jp, const cJSON *root, rd_error *err)
                 const char *best = rd_suggest_result(&sg, strlen(type));
                 snprintf(q, sizeof q, "%.200s.type", p);
                 return rd_builder_error(jp->b, err, RD_ERR_SYNTAX, path_loc(q),
-                                        "type: expected one of sphere, plane, triangle, mesh, got '%.60s'%s%s%s",
-                                        type, best ? "; did you mean '" : "", best ? best : "",
+                                        "type: expected one of sphere, plane, triangle, mesh, got '%.*s'%s%s%s",
+                                        CUT(type), best ? "; did you mean '" : "", best ? best : "",
                                         best ? "'?" : "");
             }
             if ((rc = section(jp, type, name, p, m, object_skip, err)))

@@ -9,6 +9,7 @@
 #include "camera.h"
 #include "scene_keys.h"
 #include "suggest.h"
+#include "utf8.h"
 #include "value_parse.h"
 
 typedef struct {
@@ -33,6 +34,9 @@ struct rd_builder {
     mat_ref *refs;
     size_t nrefs, caprefs;
 };
+
+/* Bytes of at most 60 characters of s: names and keys quoted in messages. */
+static int cut(const char *s, size_t len) { return (int)rd_utf8_prefix(s, len, 60); }
 
 static void vformat(rd_error *err, rd_error_code code, const char *source, rd_loc loc,
                     const char *fmt, va_list ap)
@@ -153,7 +157,7 @@ static int in_range(const rd_key *k, double v)
 static rd_error_code numbers(rd_builder *b, const rd_key *k, const rd_value *v, int n, double *out,
                              rd_error *err)
 {
-    char pb[300], tb[48], rb[64];
+    char pb[300], tb[176], rb[64];
     if (v->total != n) {
         if (n == 1)
             return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected a number, got %d values",
@@ -191,7 +195,7 @@ static rd_error_code one_token(rd_builder *b, const rd_key *k, const rd_value *v
 static rd_error_code enum_value(rd_builder *b, const rd_key *k, const rd_value *v, int *out,
                                 rd_error *err)
 {
-    char tb[48], list[200] = "";
+    char tb[176], list[200] = "";
     rd_error_code rc = one_token(b, k, v, "a word", err);
     if (rc)
         return rc;
@@ -218,7 +222,7 @@ static rd_error_code apply(rd_builder *b, const rd_key *k, const rd_entry *e, vo
 {
     const rd_value *v = &e->value;
     void *dst = (char *)base + k->offset;
-    char tb[48], pb[300];
+    char tb[176], pb[300];
     double d[3];
     rd_error_code rc;
     switch (k->type) {
@@ -326,7 +330,7 @@ static const char *subtype_noun(rd_section_kind sec)
 static void section_label(char *buf, size_t size, rd_section_kind sec, const char *name, size_t nlen)
 {
     if (name && nlen)
-        snprintf(buf, size, "[%s %.*s]", rd_section_kind_name(sec), (int)(nlen > 60 ? 60 : nlen), name);
+        snprintf(buf, size, "[%s %.*s]", rd_section_kind_name(sec), cut(name, nlen), name);
     else
         snprintf(buf, size, "[%s]", rd_section_kind_name(sec));
 }
@@ -345,9 +349,9 @@ static rd_error_code check_name(rd_builder *b, rd_section_kind sec, const char *
             if (b->names[i].line > 0)
                 return rd_builder_error(b, err, RD_ERR_SYNTAX, where,
                                         "duplicate %s name '%.*s' (first at line %d)",
-                                        rd_section_kind_name(sec), (int)nlen, name, b->names[i].line);
+                                        rd_section_kind_name(sec), cut(name, nlen), name, b->names[i].line);
             return rd_builder_error(b, err, RD_ERR_SYNTAX, where, "duplicate %s name '%.*s'",
-                                    rd_section_kind_name(sec), (int)nlen, name);
+                                    rd_section_kind_name(sec), cut(name, nlen), name);
         }
     }
     if (b->nnames == b->capnames) {
@@ -388,7 +392,7 @@ static rd_error_code unknown_key(rd_builder *b, rd_section_kind sec, const rd_en
         if (keys[i].section == sec)
             rd_suggest_offer(&sg, e->key, e->key_len, keys[i].name);
     const char *best = rd_suggest_result(&sg, e->key_len);
-    int shown = e->key_len > 60 ? 60 : (int)e->key_len;
+    int shown = cut(e->key, e->key_len);
     if (best)
         return rd_builder_error(b, err, RD_ERR_SYNTAX, e->key_loc,
                                 "unknown key '%.*s' in %s; did you mean '%s'?", shown, e->key, label, best);
@@ -408,6 +412,9 @@ static rd_error_code check_section(rd_builder *b, rd_section_kind sec, void *bas
     if (sec == RD_SEC_CAMERA) {
         rd_camera *c = base;
         rd_vec3 view = v3_sub(c->target, c->eye);
+        if (!v3_is_finite(view))
+            return rd_builder_error(b, err, RD_ERR_INVALID, loc_of(find_entry(e, n, "target"), where),
+                                    "camera: target - eye is too large to represent (move them closer)");
         if (!(v3_max_abs(view) > 0))
             return rd_builder_error(b, err, RD_ERR_INVALID, loc_of(find_entry(e, n, "target"), where),
                                     "camera: target must differ from eye");
@@ -491,7 +498,7 @@ rd_error_code rd_builder_section(rd_builder *b, const char *kind, size_t kind_le
         for (size_t i = 0; i < sizeof kinds / sizeof kinds[0]; i++)
             rd_suggest_offer(&sg, kind, kind_len, kinds[i]);
         const char *best = rd_suggest_result(&sg, kind_len);
-        int shown = kind_len > 60 ? 60 : (int)kind_len;
+        int shown = cut(kind, kind_len);
         return rd_builder_error(b, err, RD_ERR_SYNTAX, where, "unknown section kind '%.*s'%s%s%s", shown,
                                 kind, best ? "; did you mean '" : "", best ? best : "", best ? "'?" : "");
     }
@@ -525,7 +532,7 @@ rd_error_code rd_builder_section(rd_builder *b, const char *kind, size_t kind_le
         for (size_t j = 0; j < i; j++)
             if (entries[i].key_len == entries[j].key_len &&
                 memcmp(entries[i].key, entries[j].key, entries[i].key_len) == 0) {
-                int shown = entries[i].key_len > 60 ? 60 : (int)entries[i].key_len;
+                int shown = cut(entries[i].key, entries[i].key_len);
                 if (entries[j].key_loc.line > 0)
                     return rd_builder_error(b, err, RD_ERR_SYNTAX, entries[i].key_loc,
                                             "duplicate key '%.*s' in %s (first at line %d)", shown,
@@ -649,8 +656,8 @@ rd_error_code rd_builder_finish(rd_builder *b, rd_error *err)
             for (size_t j = 0; j < s->material_count; j++)
                 rd_suggest_offer(&sg, o->material_name, strlen(o->material_name), s->materials[j].name);
             const char *best = rd_suggest_result(&sg, strlen(o->material_name));
-            return rd_builder_error(b, err, RD_ERR_INVALID, l, "no material named '%.60s'%s%s%s",
-                                    o->material_name, best ? "; did you mean '" : "", best ? best : "",
+            return rd_builder_error(b, err, RD_ERR_INVALID, l, "no material named '%.*s'%s%s%s",
+                                    cut(o->material_name, strlen(o->material_name)), o->material_name, best ? "; did you mean '" : "", best ? best : "",
                                     best ? "'?" : "");
         }
         o->material = m;

@@ -43,3 +43,17 @@ int rd_utf8_column(const char *line_start, const char *pos)
             col++;
     return col;
 }
+
+size_t rd_utf8_prefix(const char *s, size_t len, size_t max_chars)
+{
+    size_t i = 0, chars = 0;
+    while (i < len && chars < max_chars) {
+        unsigned char c = (unsigned char)s[i];
+        size_t n = c < 0x80 ? 1 : (c & 0xe0) == 0xc0 ? 2 : (c & 0xf0) == 0xe0 ? 3 : (c & 0xf8) == 0xf0 ? 4 : 1;
+        if (i + n > len)
+            break;
+        i += n;
+        chars++;
+    }
+    return i;
+}

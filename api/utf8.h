@@ -9,6 +9,10 @@
  * valid. A NUL byte counts as invalid here: scene text never contains one. */
 size_t rd_utf8_invalid_at(const char *s, size_t len);
 
+/* Bytes of the longest prefix of s (len bytes) holding at most max_chars
+ * characters and no split character: for cutting text in messages. */
+size_t rd_utf8_prefix(const char *s, size_t len, size_t max_chars);
+
 /* 1-based character column of offset pos in the line starting at line_start. */
 int rd_utf8_column(const char *line_start, const char *pos);
 

@@ -1,5 +1,7 @@
 #include "value_parse.h"
 
+#include "utf8.h"
+
 #include <ctype.h>
 #include <errno.h>
 #include <math.h>
@@ -113,16 +115,23 @@ int rd_parse_u64(const rd_token *t, unsigned long long *out)
 
 const char *rd_token_show(const rd_token *t, char *buf, size_t size)
 {
-    size_t n = t->len > 40 ? 40 : t->len;
-    if (n + 4 > size)
-        n = size > 4 ? size - 4 : 0;
+    /* At most 40 characters, never a split one; quoted tokens keep their
+     * quotes, so '"45"' does not read like the number 45. */
+    size_t n = rd_utf8_prefix(t->text, t->len, 40);
+    size_t room = size > 8 ? size - 8 : 0;
+    if (n > room)
+        n = rd_utf8_prefix(t->text, room, room);
     size_t j = 0;
+    if (t->quoted)
+        buf[j++] = '"';
     for (size_t i = 0; i < n; i++)
         buf[j++] = (unsigned char)t->text[i] < 0x20 || t->text[i] == 0x7f ? '?' : t->text[i];
     if (n < t->len) {
         memcpy(buf + j, "...", 3);
         j += 3;
     }
+    if (t->quoted)
+        buf[j++] = '"';
     buf[j] = 0;
     return buf;
 }

@@ -16,8 +16,9 @@ int rd_parse_int(const rd_token *t, long long lo, long long hi, long long *out);
 /* 0: an unsigned 64-bit integer; 1: otherwise. */
 int rd_parse_u64(const rd_token *t, unsigned long long *out);
 
-/* The token as it should be quoted in a message: at most 40 characters,
- * control bytes shown as '?', "..." when cut. buf holds at least 48 bytes. */
+/* The token as it should be quoted in a message: at most 40 characters
+ * (never a split one), control bytes shown as '?', "..." when cut, and its
+ * quotes when it was a quoted string. buf holds at least 176 bytes. */
 const char *rd_token_show(const rd_token *t, char *buf, size_t size);
 
 #endif

@@ -31,6 +31,8 @@ static const char serve_help[] =
     "  --drain-ms N            on SIGTERM, how long running renders may finish (default 10000)\n"
     "  --png-level N           zlib level 0..9 of answers (default 1)\n"
     "  --scenes DIR            bundled scenes, and where scenes' files resolve (default scenes)\n"
+    "  --assignments DIR       graded assignments (default scenes/assignments)\n"
+    "  --cache-dir DIR         keep grading references on disk too (default: memory only)\n"
     "  --log-format text|json  one line per request on stderr (default text)\n"
     "  --max-...  N            scene size limits, as for 'rayd render' (see 'rayd limits')\n";
 
@@ -69,6 +71,7 @@ int rd_cmd_serve(int argc, char **argv)
     o.max_per_ip = 512;
     o.connection_timeout_s = 30;
     o.scenes_dir = "scenes";
+    o.assignments_dir = "scenes/assignments";
     double drain_ms = 10000;
     const char *port_file = NULL;
 
@@ -147,6 +150,10 @@ int rd_cmd_serve(int argc, char **argv)
             o.jobs.png.level = (int)x;
         } else if (strcmp(a, "--scenes") == 0) {
             o.scenes_dir = v;
+        } else if (strcmp(a, "--assignments") == 0) {
+            o.assignments_dir = v;
+        } else if (strcmp(a, "--cache-dir") == 0) {
+            o.cache_dir = v;
         } else if (strcmp(a, "--log-format") == 0) {
             if (strcmp(v, "json") == 0)
                 o.log_json = 1;

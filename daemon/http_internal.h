@@ -20,7 +20,11 @@ struct rd_server {
     atomic_ullong requests;
     atomic_int waiting;             /* suspended synchronous renders */
     atomic_int stopped;
+    struct rd_grades *grades;       /* grade results and the reference cache */
 };
+
+/* One grading request in progress (routes_grade.c). */
+typedef struct rd_grade_req rd_grade_req;
 
 typedef struct {
     rd_server *srv;
@@ -40,6 +44,9 @@ typedef struct {
     pthread_mutex_t mu;
     rd_jq_job *job;
     int suspended, finished;
+    /* POST /v1/grade */
+    struct MHD_PostProcessor *post;
+    rd_grade_req *grade;
 } rd_req;
 
 /* Queue a response and record status and size for the log. Takes ownership
@@ -68,6 +75,18 @@ enum MHD_Result rd_route_job(rd_req *r, const char *id, const char *rest);
 enum MHD_Result rd_route_scenes(rd_req *r, const char *name);
 enum MHD_Result rd_route_metrics(rd_req *r);
 enum MHD_Result rd_route_page(rd_req *r);
+/* The list, or with name "NAME/scene" that assignment's scene text. */
+enum MHD_Result rd_route_assignments(rd_req *r, const char *name);
+/* First call of POST /v1/grade: set up the form reader (or answer 415). */
+enum MHD_Result rd_route_grade_begin(rd_req *r);
+enum MHD_Result rd_route_grade_data(rd_req *r, const char *data, size_t size);
+enum MHD_Result rd_route_grade(rd_req *r);
+enum MHD_Result rd_route_grade_resumed(rd_req *r);
+enum MHD_Result rd_route_grade_files(rd_req *r, const char *rest);
+void rd_grade_req_free(rd_req *r);
+
+struct rd_grades *rd_grades_new(void);
+void rd_grades_free(struct rd_grades *g);
 
 /* The web page, generated from daemon/web/index.html. */
 extern const char rd_web_index_html[];

@@ -10,7 +10,7 @@
 
 #include "http_internal.h"
 
-enum { R_NONE, R_RENDER, R_JOBS, R_JOB, R_SCENES, R_HEALTH, R_METRICS, R_PAGE };
+enum { R_NONE, R_RENDER, R_JOBS, R_JOB, R_SCENES, R_HEALTH, R_METRICS, R_PAGE, R_GRADE, R_ASSIGNMENTS, R_GRADES };
 
 static double now_ms(void)
 {
@@ -160,6 +160,21 @@ static int route_of(const char *method, const char *url, int *method_ok, const c
         *allow = image ? "GET" : "GET, DELETE";
         return R_JOB;
     }
+    if (strcmp(url, "/v1/grade") == 0) {
+        *method_ok = post;
+        *allow = "POST";
+        return R_GRADE;
+    }
+    if (strcmp(url, "/v1/assignments") == 0 || strncmp(url, "/v1/assignments/", 16) == 0) {
+        *method_ok = get;
+        *allow = "GET";
+        return R_ASSIGNMENTS;
+    }
+    if (strncmp(url, "/v1/grades/", 11) == 0) {
+        *method_ok = get;
+        *allow = "GET";
+        return R_GRADES;
+    }
     if (strcmp(url, "/v1/scenes") == 0 || strncmp(url, "/v1/scenes/", 11) == 0) {
         *method_ok = get;
         *allow = "GET";
@@ -205,6 +220,9 @@ static enum MHD_Result dispatch(rd_req *r, const char *url)
         return rd_reply(r, 200, "application/json", (void *)ok, sizeof ok - 1, 0);
     }
     case R_METRICS: return rd_route_metrics(r);
+    case R_GRADE: return rd_route_grade(r);
+    case R_ASSIGNMENTS: return rd_route_assignments(r, url[15] == '/' ? url + 16 : NULL);
+    case R_GRADES: return rd_route_grade_files(r, url + 11);
     case R_PAGE: return rd_route_page(r);
     default: return rd_reply_error(r, 404, "not_found", NULL, "no such route");
     }
@@ -234,6 +252,16 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
         if (r->kind != R_NONE && !method_ok)
             return rd_reply_error_hdr(r, 405, "method_not_allowed", "method not allowed on this route",
                                       MHD_HTTP_HEADER_ALLOW, allow);
+        if (r->kind == R_GRADE) {
+            const char *cl = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
+            if (cl && strtoull(cl, NULL, 10) > 3 * srv->opt.max_body_bytes) {
+                char msg[160];
+                snprintf(msg, sizeof msg, "the form is over the limit of %zu bytes (--max-body-bytes, per field)",
+                         srv->opt.max_body_bytes);
+                return rd_reply_error(r, 413, "too_large", NULL, msg);
+            }
+            return rd_route_grade_begin(r);
+        }
         if (r->kind == R_RENDER || r->kind == R_JOBS) {
             /* Refuse before reading a body we would throw away. */
             if (atomic_load(&srv->draining))
@@ -262,6 +290,8 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
         *upload_size = 0;
         if (r->answered)
             return MHD_YES;
+        if (r->kind == R_GRADE)
+            return r->post ? rd_route_grade_data(r, upload, n) : MHD_YES;
         if (r->kind != R_RENDER && r->kind != R_JOBS)
             return MHD_YES; /* bodies of other routes are ignored */
         if (r->len + n > r->srv->opt.max_body_bytes) {
@@ -290,7 +320,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
     if (r->answered)
         return MHD_YES;
     if (r->job)
-        return rd_route_render_resumed(r);
+        return r->kind == R_GRADE ? rd_route_grade_resumed(r) : rd_route_render_resumed(r);
     return dispatch(r, url);
 }
 
@@ -353,6 +383,7 @@ static void on_completed(void *cls, struct MHD_Connection *conn, void **con_cls,
     pthread_mutex_lock(&r->mu);
     pthread_mutex_unlock(&r->mu);
     pthread_mutex_destroy(&r->mu);
+    rd_grade_req_free(r);
     free(r->body);
     free(r);
 }
@@ -365,8 +396,10 @@ rd_server *rd_server_start(const rd_server_options *opt, rd_error *err)
         return NULL;
     }
     s->opt = *opt;
-    s->jobs = rd_jq_start(&opt->jobs, err);
+    s->grades = rd_grades_new();
+    s->jobs = s->grades ? rd_jq_start(&opt->jobs, err) : NULL;
     if (!s->jobs) {
+        rd_grades_free(s->grades);
         free(s);
         return NULL;
     }
@@ -376,6 +409,7 @@ rd_server *rd_server_start(const rd_server_options *opt, rd_error *err)
     addr.sin_port = htons(opt->port);
     if (inet_pton(AF_INET, opt->listen_host, &addr.sin_addr) != 1) {
         rd_jq_stop(s->jobs);
+        rd_grades_free(s->grades);
         free(s);
         rd_error_set(err, RD_ERR_INVALID, 0, 0, "--listen: '%s' is not an IPv4 address", opt->listen_host);
         return NULL;
@@ -390,6 +424,7 @@ rd_server *rd_server_start(const rd_server_options *opt, rd_error *err)
                               MHD_OPTION_NOTIFY_COMPLETED, on_completed, s, MHD_OPTION_END);
     if (!s->mhd) {
         rd_jq_stop(s->jobs);
+        rd_grades_free(s->grades);
         free(s);
         rd_error_set(err, RD_ERR_IO, 0, 0, "cannot listen on %s:%u", opt->listen_host, (unsigned)opt->port);
         return NULL;
@@ -421,5 +456,6 @@ void rd_server_stop(rd_server *s, double drain_ms)
     MHD_stop_daemon(s->mhd);
     /* Job references held by requests are gone; the queue can go. */
     rd_jq_stop(s->jobs);
+    rd_grades_free(s->grades);
     free(s);
 }

@@ -20,6 +20,8 @@ typedef struct {
     unsigned max_per_ip;
     unsigned connection_timeout_s;
     const char *scenes_dir;     /* bundled scenes and the folder uploaded scenes' files resolve in */
+    const char *assignments_dir;/* graded assignments */
+    const char *cache_dir;      /* grading references on disk; NULL: memory only */
     int log_json;
 } rd_server_options;
 
