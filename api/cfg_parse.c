@@ -59,6 +59,9 @@ static rd_error_code header(parser *ps, int line, const char *ls, const char *p,
         return rd_builder_error(ps->b, err, RD_ERR_SYNTAX, at(line, ls, p),
                                 "expected a section kind after '['");
     size_t klen = (size_t)(p - k);
+    if (klen > RD_MAX_KEY_BYTES)
+        return rd_builder_error(ps->b, err, RD_ERR_SYNTAX, where, "a section kind longer than %d bytes",
+                                RD_MAX_KEY_BYTES);
     while (p < le && is_space(*p))
         p++;
     const char *name = NULL;
@@ -112,6 +115,8 @@ static rd_error_code key_value(parser *ps, int line, const char *ls, const char 
                                 "expected '[section]' or 'key = value'");
     rd_loc key_loc = at(line, ls, k);
     size_t klen = (size_t)(p - k);
+    if (klen > RD_MAX_KEY_BYTES)
+        return rd_builder_error(ps->b, err, RD_ERR_SYNTAX, key_loc, "a key longer than %d bytes", RD_MAX_KEY_BYTES);
     while (p < le && is_space(*p))
         p++;
     if (p >= le || *p != '=')
@@ -141,7 +146,7 @@ static rd_error_code key_value(parser *ps, int line, const char *ls, const char 
     while (p < le) {
         if (*p == '#' || *p == ';')
             break;
-        rd_token t = {p, 0, 0, rd_utf8_column(ls, p)};
+        rd_token t = {p, 0, 0, 0, 0, rd_utf8_column(ls, p)};
         if (*p == '"') {
             const char *q = memchr(p + 1, '"', (size_t)(le - p - 1));
             if (!q)

@@ -7,6 +7,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "json_check.h"
+#include "name_set.h"
 #include "number_text.h"
 #include "scene_builder.h"
 #include "suggest.h"
@@ -47,39 +49,6 @@ static rd_loc text_loc(const char *text, size_t off)
     return l;
 }
 
-/* Walks the raw text for what cJSON would accept but a scene must not hold:
- * nesting deeper than max_depth and \u0000 escapes. */
-static rd_error_code prescan(const char *text, size_t len, size_t max_depth, const char *source,
-                             rd_error *err)
-{
-    size_t depth = 0;
-    int in_string = 0;
-    for (size_t i = 0; i < len; i++) {
-        char c = text[i];
-        if (in_string) {
-            if (c == '\\') {
-                if (i + 5 < len && memcmp(text + i + 1, "u0000", 5) == 0)
-                    return rd_loc_error(err, RD_ERR_SYNTAX, source, text_loc(text, i),
-                                        "a string holds a NUL character (\\u0000)");
-                i++;
-            } else if (c == '"') {
-                in_string = 0;
-            }
-        } else if (c == '"') {
-            in_string = 1;
-        } else if (c == '{' || c == '[') {
-            if (++depth > max_depth)
-                return rd_loc_error(err, RD_ERR_LIMIT, source, text_loc(text, i),
-                                    "nesting deeper than the limit of %zu (%s)", max_depth,
-                                    rd_limit_flag(offsetof(rd_scene_limits, max_nesting)));
-        } else if (c == '}' || c == ']') {
-            if (depth)
-                depth--;
-        }
-    }
-    return RD_OK;
-}
-
 static int grow(jparser *jp, size_t n)
 {
     if (n <= jp->cap)
@@ -107,13 +76,16 @@ static int grow(jparser *jp, size_t n)
  * characters, anything else a word that no key accepts. */
 static rd_token token_of(const cJSON *v, char *numbuf)
 {
-    rd_token t = {"", 0, 1, 0};
+    rd_token t = {"", 0, 0, 0, 1, 0};
     if (cJSON_IsNumber(v)) {
         rd_number_text(v->valuedouble, numbuf, NUM_TEXT);
         t.text = numbuf;
-        t.quoted = 0;
+        t.number = 1;
+        t.other = 0;
     } else if (cJSON_IsString(v)) {
         t.text = v->valuestring;
+        t.quoted = 1;
+        t.other = 0;
     } else if (cJSON_IsArray(v)) {
         t.text = "[...]";
     } else if (cJSON_IsObject(v)) {
@@ -198,17 +170,22 @@ static rd_error_code string_member(jparser *jp, const cJSON *obj, const char *ke
 
 static rd_error_code duplicates(jparser *jp, const cJSON *obj, const char *path, rd_error *err)
 {
-    for (const cJSON *a = obj->child; a; a = a->next)
-        for (const cJSON *b = obj->child; b != a; b = b->next)
-            if (a->string && b->string && strcmp(a->string, b->string) == 0) {
-                char p[PATH_MAX_LEN];
-                if (*path)
-                    snprintf(p, sizeof p, "%.200s.%.*s", path, CUT(a->string));
-                else
-                    snprintf(p, sizeof p, "%.*s", CUT(a->string));
-                return rd_builder_error(jp->b, err, RD_ERR_SYNTAX, path_loc(p), "duplicate key '%.*s'",
-                                        CUT(a->string));
-            }
+    /* A set of the member names keeps objects with many members linear. */
+    rd_name_set seen;
+    rd_name_set_init(&seen);
+    const cJSON *dup = NULL;
+    for (const cJSON *a = obj->child; a && !dup; a = a->next)
+        if (a->string && rd_name_set_add(&seen, 0, a->string, strlen(a->string), 1) >= 0)
+            dup = a;
+    rd_name_set_free(&seen);
+    if (dup) {
+        char p[PATH_MAX_LEN];
+        if (*path)
+            snprintf(p, sizeof p, "%.200s.%.*s", path, CUT(dup->string));
+        else
+            snprintf(p, sizeof p, "%.*s", CUT(dup->string));
+        return rd_builder_error(jp->b, err, RD_ERR_SYNTAX, path_loc(p), "duplicate key '%.*s'", CUT(dup->string));
+    }
     for (const cJSON *a = obj->child; a; a = a->next)
         if (cJSON_IsObject(a) || cJSON_IsArray(a)) {
             char p[PATH_MAX_LEN];
@@ -357,7 +334,9 @@ rd_error_code rd_json_parse(const char *text, size_t len, const char *source,
         return rd_loc_error(err, RD_ERR_SYNTAX, jp.source, text_loc(text, bad),
                             text[bad] ? "invalid UTF-8" : "NUL byte in the scene text");
     size_t skip = len >= 3 && memcmp(text, "\xef\xbb\xbf", 3) == 0 ? 3 : 0;
-    rd_error_code rc = prescan(text + skip, len - skip, jp.lim.max_nesting, jp.source, err);
+    /* Columns do not count the byte-order mark, as in cfg. */
+    rd_error_code rc = rd_json_check(text + skip, len - skip, jp.source, jp.lim.max_nesting,
+                                     jp.lim.max_name > RD_MAX_KEY_BYTES ? jp.lim.max_name : RD_MAX_KEY_BYTES, err);
     if (rc)
         return rc;
     const char *end = NULL;

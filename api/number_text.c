@@ -11,7 +11,7 @@ void rd_number_text(double v, char *buf, size_t size)
         return;
     }
     /* Whole numbers as integers: 640, not 6.4e+02. */
-    if (v == floor(v) && fabs(v) < 1e15) {
+    if (v == floor(v) && fabs(v) <= 9007199254740992.0) { /* 2^53: every integer exact */
         snprintf(buf, size, "%.0f", v);
         if (v == 0 && signbit(v))
             snprintf(buf, size, "-0");

@@ -78,7 +78,7 @@ static int numbers(const char **pp, const char *le, double *out, int max, const 
         const char *t = p;
         while (p < le && !is_space(*p) && *p != '#')
             p++;
-        rd_token tok = {t, (size_t)(p - t), 0, 0};
+        rd_token tok = {t, (size_t)(p - t), 0, 0, 0, 0};
         double v;
         int r = rd_parse_real(&tok, &v);
         if (r) {

@@ -8,15 +8,11 @@
 
 #include "camera.h"
 #include "scene_keys.h"
+#include "name_set.h"
 #include "suggest.h"
 #include "utf8.h"
 #include "value_parse.h"
 
-typedef struct {
-    rd_section_kind kind;
-    char *name;
-    int line;
-} named;
 
 typedef struct {
     size_t object;
@@ -29,8 +25,7 @@ struct rd_builder {
     const char *source;
     rd_scene_limits lim;
     int seen[RD_SEC_COUNT];     /* render/camera: 1 + line of the first one */
-    named *names;
-    size_t nnames, capnames;
+    rd_name_set names;  /* (kind, name) -> first line, for duplicates */
     mat_ref *refs;
     size_t nrefs, caprefs;
 };
@@ -89,6 +84,7 @@ rd_builder *rd_builder_new(rd_scene *s, const char *source, const rd_scene_limit
     b->s = s;
     b->source = source ? source : "<scene>";
     b->lim = lim ? *lim : rd_scene_limits_default();
+    rd_name_set_init(&b->names);
     return b;
 }
 
@@ -96,11 +92,9 @@ void rd_builder_free(rd_builder *b)
 {
     if (!b)
         return;
-    for (size_t i = 0; i < b->nnames; i++)
-        free(b->names[i].name);
+    rd_name_set_free(&b->names);
     for (size_t i = 0; i < b->nrefs; i++)
         free(b->refs[i].path);
-    free(b->names);
     free(b->refs);
     free(b);
 }
@@ -170,15 +164,15 @@ static rd_error_code numbers(rd_builder *b, const rd_key *k, const rd_value *v, 
         int r = rd_parse_real(&v->tok[i], &out[i]);
         rd_loc l = token_loc(v, i, pb, sizeof pb);
         if (r == 1)
-            return rd_builder_error(b, err, RD_ERR_SYNTAX, l, "%s: expected a number%s, got '%s'",
-                                    k->name, rb, rd_token_show(&v->tok[i], tb, sizeof tb));
+            return rd_builder_error(b, err, RD_ERR_SYNTAX, l, "%s: expected a number%s, got %s",
+                                    k->name, rb, rd_token_what(&v->tok[i], tb, sizeof tb));
         if (r == 2)
-            return rd_builder_error(b, err, RD_ERR_SYNTAX, l, "%s: expected a finite number, got '%s'",
-                                    k->name, rd_token_show(&v->tok[i], tb, sizeof tb));
+            return rd_builder_error(b, err, RD_ERR_SYNTAX, l, "%s: expected a finite number, got %s",
+                                    k->name, rd_token_what(&v->tok[i], tb, sizeof tb));
         if (!in_range(k, out[i]))
             return rd_builder_error(b, err, k->degenerate ? RD_ERR_INVALID : RD_ERR_SYNTAX, l,
-                                    "%s: expected a number%s, got '%s'", k->name, rb,
-                                    rd_token_show(&v->tok[i], tb, sizeof tb));
+                                    "%s: expected a number%s, got %s", k->name, rb,
+                                    rd_token_what(&v->tok[i], tb, sizeof tb));
     }
     return RD_OK;
 }
@@ -195,7 +189,7 @@ static rd_error_code one_token(rd_builder *b, const rd_key *k, const rd_value *v
 static rd_error_code enum_value(rd_builder *b, const rd_key *k, const rd_value *v, int *out,
                                 rd_error *err)
 {
-    char tb[176], list[200] = "";
+    char tb[200], list[200] = "";
     rd_error_code rc = one_token(b, k, v, "a word", err);
     if (rc)
         return rc;
@@ -211,8 +205,8 @@ static rd_error_code enum_value(rd_builder *b, const rd_key *k, const rd_value *
         snprintf(list + strlen(list), sizeof list - strlen(list), "%s%s", i ? ", " : "", k->words[i]);
     }
     const char *best = rd_suggest_result(&sg, t->len);
-    return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected one of %s, got '%s'%s%s%s",
-                            k->name, list, rd_token_show(t, tb, sizeof tb),
+    return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected one of %s, got %s%s%s%s",
+                            k->name, list, rd_token_what(t, tb, sizeof tb),
                             best ? "; did you mean '" : "", best ? best : "", best ? "'?" : "");
 }
 
@@ -222,9 +216,25 @@ static rd_error_code apply(rd_builder *b, const rd_key *k, const rd_entry *e, vo
 {
     const rd_value *v = &e->value;
     void *dst = (char *)base + k->offset;
-    char tb[176], pb[300];
+    char tb[200], pb[300];
     double d[3];
     rd_error_code rc;
+    int json = v->loc.path != NULL;
+    int vector = k->type == RD_KT_VEC2 || k->type == RD_KT_VEC3;
+    if (json && v->is_array && !vector && k->type != RD_KT_REAL_OR_VEC3)
+        return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected %s, got an array", k->name,
+                                k->type == RD_KT_NAME     ? "a name (a string)"
+                                : k->type == RD_KT_STRING ? "a string"
+                                : k->type == RD_KT_ENUM   ? "a word (a string)"
+                                                          : "a number");
+    if (json && vector && !v->is_array)
+        return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected an array of %d numbers, got %s", k->name,
+                                k->type == RD_KT_VEC2 ? 2 : 3, rd_token_what(&v->tok[0], tb, sizeof tb));
+    if ((k->type == RD_KT_NAME || k->type == RD_KT_STRING || k->type == RD_KT_ENUM) && v->total == 1 &&
+        (v->tok[0].number || v->tok[0].other))
+        return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected %s, got %s", k->name,
+                                k->type == RD_KT_ENUM ? "a word (a string)" : "a name (a string)",
+                                rd_token_what(&v->tok[0], tb, sizeof tb));
     switch (k->type) {
     case RD_KT_INT: {
         long long x;
@@ -232,9 +242,9 @@ static rd_error_code apply(rd_builder *b, const rd_key *k, const rd_entry *e, vo
             return rc;
         if (rd_parse_int(&v->tok[0], (long long)k->lo, (long long)k->hi, &x))
             return rd_builder_error(b, err, RD_ERR_SYNTAX, token_loc(v, 0, pb, sizeof pb),
-                                    "%s: expected an integer in %lld..%lld, got '%s'", k->name,
+                                    "%s: expected an integer in %lld..%lld, got %s", k->name,
                                     (long long)k->lo, (long long)k->hi,
-                                    rd_token_show(&v->tok[0], tb, sizeof tb));
+                                    rd_token_what(&v->tok[0], tb, sizeof tb));
         *(int *)dst = (int)x;
         return RD_OK;
     }
@@ -244,8 +254,11 @@ static rd_error_code apply(rd_builder *b, const rd_key *k, const rd_entry *e, vo
             return rc;
         if (rd_parse_u64(&v->tok[0], &x))
             return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc,
-                                    "%s: expected an integer in 0..18446744073709551615, got '%s'",
-                                    k->name, rd_token_show(&v->tok[0], tb, sizeof tb));
+                                    "%s: expected an integer in 0..18446744073709551615, got %s%s", k->name,
+                                    rd_token_what(&v->tok[0], tb, sizeof tb),
+                                    v->tok[0].number ? " (JSON numbers above 2^53 lose digits: write a large seed "
+                                                       "as a string)"
+                                                     : "");
         *(uint64_t *)dst = x;
         return RD_OK;
     }
@@ -343,32 +356,15 @@ static rd_error_code check_name(rd_builder *b, rd_section_kind sec, const char *
                                 "%s name is longer than the limit of %zu bytes (%s)",
                                 rd_section_kind_name(sec), b->lim.max_name,
                                 rd_limit_flag(offsetof(rd_scene_limits, max_name)));
-    for (size_t i = 0; i < b->nnames; i++) {
-        if (b->names[i].kind == sec && strlen(b->names[i].name) == nlen &&
-            memcmp(b->names[i].name, name, nlen) == 0) {
-            if (b->names[i].line > 0)
-                return rd_builder_error(b, err, RD_ERR_SYNTAX, where,
-                                        "duplicate %s name '%.*s' (first at line %d)",
-                                        rd_section_kind_name(sec), cut(name, nlen), name, b->names[i].line);
-            return rd_builder_error(b, err, RD_ERR_SYNTAX, where, "duplicate %s name '%.*s'",
-                                    rd_section_kind_name(sec), cut(name, nlen), name);
-        }
-    }
-    if (b->nnames == b->capnames) {
-        size_t nc = b->capnames ? b->capnames * 2 : 16;
-        named *p = realloc(b->names, nc * sizeof *p);
-        if (!p)
-            return rd_builder_error(b, err, RD_ERR_NOMEM, where, "out of memory");
-        b->names = p;
-        b->capnames = nc;
-    }
-    char *copy = dupn(name, nlen);
-    if (!copy)
+    long first = rd_name_set_add(&b->names, (int)sec, name, nlen, where.line);
+    if (first == -2)
         return rd_builder_error(b, err, RD_ERR_NOMEM, where, "out of memory");
-    b->names[b->nnames].kind = sec;
-    b->names[b->nnames].name = copy;
-    b->names[b->nnames].line = where.line;
-    b->nnames++;
+    if (first > 0)
+        return rd_builder_error(b, err, RD_ERR_SYNTAX, where, "duplicate %s name '%.*s' (first at line %ld)",
+                                rd_section_kind_name(sec), cut(name, nlen), name, first);
+    if (first == 0)
+        return rd_builder_error(b, err, RD_ERR_SYNTAX, where, "duplicate %s name '%.*s'", rd_section_kind_name(sec),
+                                cut(name, nlen), name);
     return RD_OK;
 }
 
@@ -527,6 +523,13 @@ rd_error_code rd_builder_section(rd_builder *b, const char *kind, size_t kind_le
             return rc;
     }
 
+    for (size_t i = 0; i < n; i++)
+        if (entries[i].key_len > RD_MAX_KEY_BYTES)
+            return rd_builder_error(b, err, RD_ERR_SYNTAX, entries[i].key_loc, "a key longer than %d bytes",
+                                    RD_MAX_KEY_BYTES);
+    if (n > RD_MAX_SECTION_KEYS)
+        return rd_builder_error(b, err, RD_ERR_LIMIT, where, "%s has %zu keys; a section holds at most %d", label, n,
+                                RD_MAX_SECTION_KEYS);
     /* Same key twice in one section. */
     for (size_t i = 1; i < n; i++)
         for (size_t j = 0; j < i; j++)

@@ -16,6 +16,14 @@
 #include "scene_limits.h"
 #include "scene_value.h"
 
+/* No key of the format is longer; longer ones are refused before any
+ * did-you-mean search. */
+#define RD_MAX_KEY_BYTES 64
+
+/* Sections hold a handful of keys; more than this is refused, so that the
+ * duplicate check stays cheap. */
+#define RD_MAX_SECTION_KEYS 256
+
 typedef struct {
     const char *key;    /* not NUL-terminated */
     size_t key_len;

@@ -13,6 +13,8 @@ typedef struct {
     const char *text;   /* not NUL-terminated; points into the reader's buffer */
     size_t len;
     int quoted;         /* a "string" in cfg, a string in JSON */
+    int number;         /* a JSON number (cfg words may be numbers too: 0 here) */
+    int other;          /* JSON true, false, null, an object or a nested array */
     int column;         /* cfg: 1-based character column; JSON: 0 */
 } rd_token;
 

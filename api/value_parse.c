@@ -7,6 +7,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <stdio.h>
 #include <strings.h>
 
 /* Longest number text accepted; more digits than this carry no precision. */
@@ -50,7 +51,7 @@ static int is_nonfinite_word(const char *s, size_t n)
 
 int rd_parse_real(const rd_token *t, double *out)
 {
-    if (t->quoted)
+    if (t->quoted || t->other)
         return 1;
     if (is_nonfinite_word(t->text, t->len))
         return 2;
@@ -81,7 +82,7 @@ static int is_integer_text(const char *s, size_t n, int allow_sign)
 
 int rd_parse_int(const rd_token *t, long long lo, long long hi, long long *out)
 {
-    if (t->quoted || t->len > 40 || !is_integer_text(t->text, t->len, 1))
+    if (t->quoted || t->other || t->len > 40 || !is_integer_text(t->text, t->len, 1))
         return 1;
     char buf[48];
     memcpy(buf, t->text, t->len);
@@ -100,7 +101,8 @@ int rd_parse_u64(const rd_token *t, unsigned long long *out)
     size_t n = t->len;
     if (n > 0 && s[0] == '+')
         s++, n--;
-    if (t->quoted || n > 30 || !is_integer_text(s, n, 0))
+    /* A quoted seed is accepted: JSON numbers above 2^53 lose digits. */
+    if (t->other || n > 30 || !is_integer_text(s, n, 0))
         return 1;
     char buf[40];
     memcpy(buf, s, n);
@@ -122,8 +124,10 @@ const char *rd_token_show(const rd_token *t, char *buf, size_t size)
     if (n > room)
         n = rd_utf8_prefix(t->text, room, room);
     size_t j = 0;
-    if (t->quoted)
-        buf[j++] = '"';
+    if (t->quoted) {
+        memcpy(buf, "the string \"", 12);
+        j = 12;
+    }
     for (size_t i = 0; i < n; i++)
         buf[j++] = (unsigned char)t->text[i] < 0x20 || t->text[i] == 0x7f ? '?' : t->text[i];
     if (n < t->len) {
@@ -133,5 +137,15 @@ const char *rd_token_show(const rd_token *t, char *buf, size_t size)
     if (t->quoted)
         buf[j++] = '"';
     buf[j] = 0;
+    return buf;
+}
+
+const char *rd_token_what(const rd_token *t, char *buf, size_t size)
+{
+    if (t->other)
+        return t->text; /* "true", "null", "[...]", "{...}" */
+    char inner[176];
+    rd_token_show(t, inner, sizeof inner);
+    snprintf(buf, size, t->quoted ? "%s" : "'%s'", inner);
     return buf;
 }
