@@ -36,7 +36,7 @@ TEST_OBJ   := $(patsubst %.c,$(BUILD)/%.o,$(TEST_SRC))
 # The CLI's objects without main(), so tests can drive subcommands.
 CLI_OBJ    := $(filter-out $(BUILD)/daemon/main.o,$(DAEMON_OBJ))
 
-.PHONY: all deps test check run bench clean scenes
+.PHONY: all deps test check run bench clean scenes fuzz
 
 # Large inputs are generated, not kept in git.
 GENERATED := scenes/generated/knot.obj
@@ -88,10 +88,19 @@ check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
 	RAYD=$(BUILD)/rayd sh tests/formats_test.sh
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/schema_test.py
 
-# gcc plain, then clang with AddressSanitizer and UndefinedBehaviorSanitizer.
+# gcc plain, then clang with AddressSanitizer and UndefinedBehaviorSanitizer,
+# then a short fuzzing smoke of both scene parsers.
 test: deps
 	@$(MAKE) --no-print-directory check CC=gcc BUILD=build
 	@$(MAKE) --no-print-directory check CC=clang SAN=1 BUILD=build/clang-san
+	@sh tests/fuzz/run.sh $(FUZZ_SMOKE_SECONDS)
+
+FUZZ_SMOKE_SECONDS ?= 30
+FUZZ_SECONDS ?= 300
+
+# Coverage-guided fuzzing (libFuzzer) of the cfg and JSON readers.
+fuzz: deps
+	@sh tests/fuzz/run.sh $(FUZZ_SECONDS)
 
 # Starts the service on 127.0.0.1:8080 with the bundled scenes; Ctrl-C stops it.
 run: all $(GENERATED)

@@ -54,7 +54,7 @@ rd_error_code rd_png_decode(const unsigned char *data, size_t len, size_t max_pi
     /* Read after a longjmp, so volatile. */
     unsigned char *volatile pixels = NULL;
     png_bytep *volatile rows = NULL;
-    volatile int limit_hit = 0;
+    volatile rd_error_code limit_hit = RD_OK;
     if (setjmp(png_jmpbuf(png))) {
         png_destroy_read_struct(&png, &info, NULL);
         free(pixels);
@@ -62,19 +62,19 @@ rd_error_code rd_png_decode(const unsigned char *data, size_t len, size_t max_pi
         free(out->rgb);
         out->rgb = NULL;
         if (limit_hit)
-            return err->code;
+            return limit_hit;
         return rd_error_set(err, RD_ERR_SYNTAX, 0, 0, "damaged PNG: %s", r.msg[0] ? r.msg : "unreadable");
     }
     png_set_read_fn(png, &r, read_fn);
-    /* Refuse absurd sizes in libpng itself too, before any row is read. */
-    png_set_user_limits(png, 1u << 20, 1u << 20);
+    /* Our own pixel limit decides (below); libpng's default of 1,000,000
+     * per side would call a wide but small image damaged. */
+    png_set_user_limits(png, 0x7fffffffu, 0x7fffffffu);
     png_read_info(png, info);
     png_uint_32 w = png_get_image_width(png, info), h = png_get_image_height(png, info);
     int ctype = png_get_color_type(png, info), depth = png_get_bit_depth(png, info);
     if ((unsigned long long)w * h > max_pixels) {
-        rd_error_set(err, RD_ERR_LIMIT, 0, 0, "PNG of %ux%u is %llu pixels, over the limit of %zu (%s)",
-                     (unsigned)w, (unsigned)h, (unsigned long long)w * h, max_pixels, limit_flag);
-        limit_hit = 1;
+        limit_hit = rd_error_set(err, RD_ERR_LIMIT, 0, 0, "PNG of %ux%u is %llu pixels, over the limit of %zu (%s)",
+                                 (unsigned)w, (unsigned)h, (unsigned long long)w * h, max_pixels, limit_flag);
         png_longjmp(png, 1);
     }
     out->had_alpha = (ctype & PNG_COLOR_MASK_ALPHA) || png_get_valid(png, info, PNG_INFO_tRNS);

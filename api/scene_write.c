@@ -250,19 +250,42 @@ rd_error_code rd_scene_write_cfg(const rd_scene *s, char **out, rd_error *err)
     return finish(&b, out, err);
 }
 
+/* Numbers go in as raw text that reads back to the same double: cJSON's
+ * own printing keeps 15 digits when they compare "close enough". */
+static cJSON *raw_number(double v)
+{
+    char t[40];
+    rd_number_text(v, t, sizeof t);
+    return cJSON_CreateRaw(t);
+}
+
+static cJSON *raw_numbers(const double *v, int n)
+{
+    cJSON *a = cJSON_CreateArray();
+    for (int i = 0; a && i < n; i++)
+        cJSON_AddItemToArray(a, raw_number(v[i]));
+    return a;
+}
+
 static cJSON *json_value(const rd_key *k, const void *base)
 {
     const char *f = (const char *)base + k->offset;
     switch (k->type) {
-    case RD_KT_INT: return cJSON_CreateNumber(*(const int *)f);
-    case RD_KT_SEED: return cJSON_CreateNumber((double)*(const uint64_t *)f);
-    case RD_KT_REAL: return cJSON_CreateNumber(*(const double *)f);
-    case RD_KT_VEC2: return cJSON_CreateDoubleArray((const double *)f, 2);
+    case RD_KT_INT: return raw_number(*(const int *)f);
+    case RD_KT_SEED: {
+        /* Above 2^53 a JSON number would lose digits: write a string. */
+        uint64_t v = *(const uint64_t *)f;
+        char t[32];
+        snprintf(t, sizeof t, "%llu", (unsigned long long)v);
+        return v <= (1ULL << 53) ? cJSON_CreateRaw(t) : cJSON_CreateString(t);
+    }
+    case RD_KT_REAL: return raw_number(*(const double *)f);
+    case RD_KT_VEC2: return raw_numbers((const double *)f, 2);
     case RD_KT_VEC3:
     case RD_KT_REAL_OR_VEC3: {
         const rd_vec3 *v = (const rd_vec3 *)f;
         double a[3] = {v->x, v->y, v->z};
-        return cJSON_CreateDoubleArray(a, 3);
+        return raw_numbers(a, 3);
     }
     case RD_KT_ENUM: return cJSON_CreateString(k->words[*(const int *)f]);
     case RD_KT_NAME:

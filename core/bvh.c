@@ -267,7 +267,10 @@ rd_bvh_ray rd_bvh_ray_make(rd_ray r)
     b.o = r.o;
     double d[3] = {r.d.x, r.d.y, r.d.z}, inv[3];
     for (int k = 0; k < 3; k++) {
-        inv[k] = 1.0 / d[k];
+        b.flat[k] = d[k] == 0;
+        inv[k] = b.flat[k] ? 0 : 1.0 / d[k];
+        /* A subnormal component overflows 1/d: huge but finite keeps the
+         * products free of NaN. */
         if (!isfinite(inv[k]))
             inv[k] = copysign(DBL_MAX, d[k]);
         b.neg[k] = inv[k] < 0;

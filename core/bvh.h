@@ -34,12 +34,13 @@ typedef struct {
 rd_error_code rd_bvh_build(rd_bvh *b, const rd_vec3 *lo, const rd_vec3 *hi, size_t n, rd_error *err);
 void rd_bvh_free(rd_bvh *b);
 
-/* Precomputed for slab tests: 1/d with zero components replaced by a huge
- * finite value of the same sign, so no 0·∞ = NaN can arise (a ray lying in
- * a box's face counts as inside it). */
+/* Precomputed for slab tests: 1/d, and for a zero direction component a
+ * flag: such a ray is inside that slab for every t when its origin is
+ * (faces included), and never otherwise. No 0·∞ = NaN can arise. */
 typedef struct {
     rd_vec3 o, inv;
     int neg[3];
+    int flat[3];        /* direction component exactly 0: the slab is all or nothing */
 } rd_bvh_ray;
 
 rd_bvh_ray rd_bvh_ray_make(rd_ray r);
@@ -55,6 +56,13 @@ static inline int rd_bvh_box_hit(const rd_bvh_node *n, const rd_bvh_ray *r, doub
     double t0 = 0, t1 = tmax;
     const double o[3] = {r->o.x, r->o.y, r->o.z}, inv[3] = {r->inv.x, r->inv.y, r->inv.z};
     for (int k = 0; k < 3; k++) {
+        if (r->flat[k]) {
+            if (o[k] < n->lo[k] || o[k] > n->hi[k]) {
+                *tnear = INFINITY;
+                return 0;
+            }
+            continue;
+        }
         double lo = r->neg[k] ? n->hi[k] : n->lo[k];
         double hi = r->neg[k] ? n->lo[k] : n->hi[k];
         double a = (lo - o[k]) * inv[k];

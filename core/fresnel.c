@@ -5,13 +5,20 @@
 double rd_fresnel_dielectric(double cosi, double n1, double n2, double *cost_out)
 {
     cosi = cosi < 0 ? 0 : (cosi > 1 ? 1 : cosi);
+    if (n1 == n2) {
+        /* No boundary: everything goes through, at any angle. */
+        *cost_out = cosi;
+        return 0;
+    }
     double eta = n1 / n2;
-    double sin2t = eta * eta * (1 - cosi * cosi);
-    if (sin2t >= 1) {
+    /* cos²θt = 1 - η²(1 - cos²θi), written so that it does not cancel near
+     * grazing incidence. */
+    double cos2t = (1 - eta * eta) + eta * eta * cosi * cosi;
+    if (!(cos2t > 0)) {
         *cost_out = 0;
         return 1;
     }
-    double cost = sqrt(1 - sin2t);
+    double cost = sqrt(cos2t);
     *cost_out = cost;
     double rs = (n1 * cosi - n2 * cost) / (n1 * cosi + n2 * cost);
     double rp = (n1 * cost - n2 * cosi) / (n1 * cost + n2 * cosi);

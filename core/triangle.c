@@ -51,7 +51,7 @@ double rd_tri_intersect(const rd_vec3 v[3], rd_ray r, double tmax, double bary[3
         V = -V;
         W = -W;
     }
-    if (T <= 0 || !(T < tmax * det))
+    if (T <= 0 || !(T < tmax * det * (1 + 4 * DBL_EPSILON)))
         return 0;
     /* Corners that are exactly collinear can still shear into a sliver
      * with det != 0 by rounding; such a triangle has no normal and must
@@ -60,11 +60,14 @@ double rd_tri_intersect(const rd_vec3 v[3], rd_ray r, double tmax, double bary[3
     if (ng.x == 0 && ng.y == 0 && ng.z == 0)
         return 0;
     double inv = 1.0 / det;
+    double t = T * inv;
+    /* Decide on the t returned, so tmax means the same for every triangle. */
+    if (!(t > 0 && t < tmax))
+        return 0;
     bary[0] = U * inv;
     bary[1] = V * inv;
     bary[2] = W * inv;
-    double t = T * inv;
-    return t > 0 ? t : 0;
+    return t;
 }
 
 void rd_triangle_fill_hit(const rd_triangle *tr, const double b[3], rd_hit *h)
