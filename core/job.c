@@ -16,8 +16,9 @@
  * SIGGRAPH Asia 2012). */
 typedef struct {
     double mean[3];     /* linear colour, all samples */
-    float half[2][3];   /* display value means of the two half-sets */
+    float half[2][3];   /* linear means of the two half-sets */
     float m2[3];        /* Welford sum of squares of display values: adaptive weights */
+    float dmean[3];     /* display-value mean, for m2 */
     uint32_t n, nh[2];
 } pixel;
 
@@ -99,12 +100,7 @@ static double weight(const pixel *p)
     return var / ((double)p->n * p->n);
 }
 
-/* The display mean of all samples, from the two half-means. */
-static double display_mean(const pixel *p, int ch)
-{
-    uint32_t n = p->nh[0] + p->nh[1];
-    return n ? ((double)p->half[0][ch] * p->nh[0] + (double)p->half[1][ch] * p->nh[1]) / n : 0;
-}
+
 
 void rd_job_begin_pass(rd_job *j, int pass, int samples)
 {
@@ -150,10 +146,13 @@ static void render_pixel(rd_job *j, int x, int y, rd_job_counts *c, rd_ray_count
     int centre = pass == 0 && samples == 1 && !j->progressive;
     if (j->adaptive && pass > 0 && j->mean_weight > 0) {
         /* This pixel's share depends only on its own state and the mean taken
-         * at the pass start: the same whatever thread renders it. */
-        double want = samples * (0.25 + 0.75 * weight(p) / j->mean_weight);
-        if (want > 8.0 * samples)
-            want = 8.0 * samples;
+         * at the pass start: the same whatever thread renders it. Half the
+         * pass goes to every pixel alike, so none whose first samples
+         * happened to agree is starved; the other half follows the error.
+         * The cap only stops a single pixel from stalling its tile. */
+        double want = samples * (0.5 + 0.5 * weight(p) / j->mean_weight);
+        if (want > 64.0 * samples)
+            want = 64.0 * samples;
         rd_rng pick = rd_rng_make(pass_seed ^ 0xadab7e5ULL, index, p->n);
         samples = (int)want + (rd_rng_next(&pick) < want - floor(want));
         if (samples < 1)
@@ -180,13 +179,10 @@ static void render_pixel(rd_job *j, int x, int y, rd_job_counts *c, rd_ray_count
         uint32_t nh = ++p->nh[h];
         for (int ch = 0; ch < 3; ch++) {
             p->mean[ch] += (cv[ch] - p->mean[ch]) / n;
-            double d = rd_display(cv[ch], g);
-            double old_all = n > 1 ? ((double)p->half[0][ch] * (p->nh[0] - (h == 0)) +
-                                      (double)p->half[1][ch] * (p->nh[1] - (h == 1))) / (n - 1)
-                                   : 0;
-            p->half[h][ch] = (float)(p->half[h][ch] + (d - p->half[h][ch]) / nh);
-            double new_all = display_mean(p, ch);
-            p->m2[ch] = (float)(p->m2[ch] + (d - old_all) * (d - new_all));
+            p->half[h][ch] = (float)(p->half[h][ch] + (cv[ch] - p->half[h][ch]) / nh);
+            double d = rd_display(cv[ch], g), delta = d - p->dmean[ch];
+            p->dmean[ch] = (float)(p->dmean[ch] + delta / n);
+            p->m2[ch] = (float)(p->m2[ch] + delta * (d - p->dmean[ch]));
         }
     }
 }
@@ -255,8 +251,10 @@ double rd_job_error_estimate(const rd_job *j)
             continue;
         /* E[(mA - mB)^2] = s^2 (1/a + 1/b) and Var(mean) = s^2/(a + b). */
         double k = a * b / ((a + b) * (a + b));
+        /* The image shows display(mean), so compare the halves as displayed. */
+        double g = j->scene->render.gamma;
         for (int ch = 0; ch < 3; ch++) {
-            double d = (double)p->half[0][ch] - p->half[1][ch];
+            double d = rd_display(p->half[0][ch], g) - rd_display(p->half[1][ch], g);
             sum += d * d * k;
         }
     }

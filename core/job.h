@@ -49,8 +49,8 @@ void rd_job_begin_pass(rd_job *j, int pass, int samples);
  * one sample and not progressive, the sample goes through the pixel centre;
  * otherwise a pixel's samples in a pass are correlated multi-jittered.
  * Adaptive passes after the first give pixel i about
- * samples·(1/4 + 3/4·w_i/mean(w)) samples, w_i = s_i²/n_i² (the drop in its
- * variance one more sample buys), at most 8·samples. */
+ * samples·(1/2 + 1/2·w_i/mean(w)) samples, w_i = s_i²/n_i² (the drop in its
+ * variance one more sample buys), at most 64·samples. */
 void rd_job_render_tile(rd_job *j, int t, rd_job_counts *counts);
 
 /* Mean samples per pixel so far. */

@@ -76,12 +76,18 @@ static double randfloat(uint32_t i, uint32_t p)
 
 void rd_cmj(uint32_t s, uint32_t n, uint32_t p, double *x, double *y)
 {
+    /* An m×k grid with m·k = n exactly (m the largest divisor of n up to
+     * √n): a grid with a partly filled last row would leave part of the
+     * pixel under-sampled and bias the mean. Prime n gives a 1×n grid,
+     * still stratified in both axes (n-rooks). */
+    if (n == 0)
+        n = 1;
     uint32_t m = (uint32_t)sqrt((double)n);
-    if (m * m < n && (m + 1) * (m + 1) <= n)
-        m++;
+    while (m > 1 && n % m != 0)
+        m--;
     if (m == 0)
         m = 1;
-    uint32_t k = (n + m - 1) / m; /* rows; m·k >= n */
+    uint32_t k = n / m;
     s = permute(s, n, p * 0x51633e2dU);
     uint32_t sx = permute(s % m, m, p * 0x68bc21ebU);
     uint32_t sy = permute(s / m, k, p * 0x02e5be93U);

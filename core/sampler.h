@@ -16,8 +16,10 @@ rd_rng rd_rng_make(uint64_t seed, uint64_t a, uint64_t b);
 double rd_rng_next(rd_rng *r);
 
 /* Sample s of n in the unit square, correlated multi-jittered (Kensler,
- * "Correlated Multi-Jittered Sampling", Pixar TM 13-01, 2013): stratified in
- * both axes for any n, with pattern p choosing the permutation. */
+ * "Correlated Multi-Jittered Sampling", Pixar TM 13-01, 2013) on an m×k
+ * grid with m·k = n exactly: stratified in both axes for any n, every
+ * stratum filled, so the mean of any n samples is unbiased. Pattern p
+ * chooses the permutation. */
 void rd_cmj(uint32_t s, uint32_t n, uint32_t p, double *x, double *y);
 
 /* A 32-bit pattern number from a seed and a pixel index. */

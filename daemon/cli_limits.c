@@ -28,10 +28,8 @@ int rd_cli_take_limits(int *argc, char **argv, rd_scene_limits *lim, const char 
                     }
                 }
             }
-            if (!hit) {
-                fprintf(stderr, "%s: unknown limit '%s' (see 'rayd limits')\n", who, a);
-                return RD_EXIT_USAGE;
-            }
+            /* Not a scene limit: the command's own flag (serve has
+             * --max-body-bytes and others) or a mistake it reports. */
         }
         if (!hit) {
             argv[out++] = argv[i];

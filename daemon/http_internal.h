@@ -39,6 +39,8 @@ typedef struct {
     char *body;
     size_t len, cap;
     int answered;           /* a response was queued early (413, 415, 503) */
+    int too_big;            /* the body passed --max-body-bytes; the rest is dropped */
+    size_t discarded;
     int kind;               /* which route, see http_server.c */
     /* a synchronous render */
     pthread_mutex_t mu;

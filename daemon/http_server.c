@@ -294,13 +294,17 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
             return r->post ? rd_route_grade_data(r, upload, n) : MHD_YES;
         if (r->kind != R_RENDER && r->kind != R_JOBS)
             return MHD_YES; /* bodies of other routes are ignored */
-        if (r->len + n > r->srv->opt.max_body_bytes) {
-            char msg[160];
-            snprintf(msg, sizeof msg, "the body is over the limit of %zu bytes (--max-body-bytes)",
-                     r->srv->opt.max_body_bytes);
+        if (r->too_big || r->len + n > r->srv->opt.max_body_bytes) {
+            /* A chunked body (no Content-Length to refuse up front) went
+             * past the limit. libmicrohttpd 0.9.75 cannot answer in the
+             * middle of an upload, so drop the rest (nothing is kept) and
+             * answer 413 at its end; one that runs more than 1 MiB further
+             * gets its connection closed instead of being read on. */
             free(r->body);
             r->body = NULL;
-            return rd_reply_error(r, 413, "too_large", NULL, msg);
+            r->too_big = 1;
+            r->discarded += n;
+            return r->discarded > (1u << 20) ? MHD_NO : MHD_YES;
         }
         if (r->len + n + 1 > r->cap) {
             size_t nc = r->cap ? r->cap : 4096;
@@ -319,6 +323,12 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
     }
     if (r->answered)
         return MHD_YES;
+    if (r->too_big) {
+        char msg[160];
+        snprintf(msg, sizeof msg, "the body is over the limit of %zu bytes (--max-body-bytes)",
+                 r->srv->opt.max_body_bytes);
+        return rd_reply_error(r, 413, "too_large", NULL, msg);
+    }
     if (r->job)
         return r->kind == R_GRADE ? rd_route_grade_resumed(r) : rd_route_render_resumed(r);
     return dispatch(r, url);

@@ -49,8 +49,14 @@ struct rd_jq_job {
     size_t png_len;
     rd_error error;
     int active, registered;
+    int sync;                   /* a waiting client takes the PNG: limits do not evict it */
+    int hung_up;                /* cancelled because its client went away */
+    int width, height;
     rd_jq_job *next_active, *next_all;
 };
+
+/* Finished jobs whose status stays readable, at most. */
+enum { KEPT_MAX = 4096 };
 
 struct rd_jq {
     pthread_mutex_t mu;
@@ -143,9 +149,16 @@ static void remove_active(rd_jq *q, rd_jq_job *j)
 static void sweep(rd_jq *q)
 {
     double now = now_ms();
+    size_t finished = 0;
+    for (rd_jq_job *j = q->all; j; j = j->next_all)
+        finished += !j->active;
     for (rd_jq_job **pp = &q->all; *pp;) {
         rd_jq_job *j = *pp;
-        if (!j->active && j->t_end > 0 && now - j->t_end > q->opt.result_ttl_ms) {
+        /* The list is newest first: past KEPT_MAX finished ones, the oldest go. */
+        int too_many = !j->active && finished > KEPT_MAX;
+        if (!j->active && j->t_end > 0 && !(j->sync && j->png) &&
+            (now - j->t_end > q->opt.result_ttl_ms || too_many)) {
+            finished--;
             *pp = j->next_all;
             j->registered = 0;
             q->kept--;
@@ -162,7 +175,7 @@ static void sweep(rd_jq *q)
     while (q->result_bytes > q->opt.result_memory) {
         rd_jq_job *oldest = NULL;
         for (rd_jq_job *j = q->all; j; j = j->next_all)
-            if (j->png && (!oldest || j->t_end < oldest->t_end))
+            if (j->png && !j->sync && (!oldest || j->t_end < oldest->t_end))
                 oldest = j;
         if (!oldest)
             break;
@@ -206,6 +219,7 @@ static void finish_locked(rd_jq *q, rd_jq_job *j, rd_job_status st)
     if (st != RD_JOB_DONE) {
         rd_job_free(j->core);
         j->core = NULL;
+        rd_scene_free(&j->scene);
     }
     j->watch_fd = -1;
     pthread_cond_broadcast(&q->idle_cv);
@@ -296,6 +310,8 @@ static int end_of_pass(rd_jq *q, rd_jq_job *j)
         finish_locked(q, j, RD_JOB_DONE);
         rd_job_free(j->core);
         j->core = NULL;
+        /* Only the status and the PNG outlive the render. */
+        rd_scene_free(&j->scene);
         sweep(q);
     }
     pthread_mutex_unlock(&q->mu);
@@ -318,8 +334,10 @@ static void *worker(void *arg)
                 j->cancel = 1;
                 j->timed_out = 1;
             }
-            if (!j->cancel && j->watch_fd >= 0 && hung_up(j->watch_fd))
+            if (!j->cancel && j->watch_fd >= 0 && hung_up(j->watch_fd)) {
                 j->cancel = 1;
+                j->hung_up = 1;
+            }
             if (j->cancel) {
                 if (j->inflight == 0) {
                     if (j->timed_out) {
@@ -499,6 +517,9 @@ rd_error_code rd_jq_submit(rd_jq *q, rd_scene *scene, const rd_progress_settings
     j->scene = *scene;
     memset(scene, 0, sizeof *scene);
     j->samples = j->scene.render.samples < 1 ? 1 : j->scene.render.samples;
+    j->width = j->scene.render.width;
+    j->height = j->scene.render.height;
+    j->sync = done != NULL;
     if (progress)
         j->progress = *progress;
     j->progress.max_samples = j->samples;
@@ -556,6 +577,7 @@ void rd_jq_detach(rd_jq *q, rd_jq_job *j)
     j->done = NULL;
     j->user = NULL;
     j->watch_fd = -1;
+    j->sync = 0;
     pthread_mutex_unlock(&q->mu);
 }
 
@@ -606,8 +628,9 @@ void rd_jq_info_get(rd_jq *q, rd_jq_job *j, rd_jq_info *out)
         out->stats.secondary_rays = j->counts.secondary;
     }
     out->error = j->error;
-    out->width = j->scene.render.width;
-    out->height = j->scene.render.height;
+    out->width = j->width;
+    out->height = j->height;
+    out->hung_up = j->hung_up;
     pthread_mutex_unlock(&q->mu);
 }
 
@@ -656,6 +679,7 @@ void rd_jq_release_png(rd_jq *q, rd_jq_job *j)
         free(j->png);
         j->png = NULL;
     }
+    j->sync = 0;
     pthread_mutex_unlock(&q->mu);
 }
 

@@ -78,6 +78,7 @@ typedef struct {
     rd_error error;             /* when failed */
     int width, height;
     rd_stop_reason stopped_by;
+    int hung_up;                /* cancelled because its client went away */
     int passes;
     rd_curve_point curve[RD_CURVE_MAX];
     int curve_len;

@@ -256,6 +256,8 @@ enum MHD_Result rd_route_render_resumed(rd_req *r)
         return rd_reply_error(r, st, info.error.code == RD_ERR_LIMIT ? "time_limit" : rd_code_for(info.error.code),
                               &info.error, NULL);
     }
+    if (info.hung_up)
+        return MHD_NO; /* nobody to answer: close, and the log says so */
     return rd_reply_error_hdr(r, 503, "cancelled", "the render was cancelled (the server is shutting down)",
                               "Retry-After", "5");
 }
