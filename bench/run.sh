@@ -375,18 +375,21 @@ if [ -n "$LARGE" ]; then
         esac
     done
 
-    # The converter against the hand-written file: both through POV-Ray.
-    printf '  checking bench/cfg2pov.py on diffuse.cfg ... ' >&2
-    "$PYTHON" bench/cfg2pov.py scenes/diffuse.cfg "$GEN/diffuse.pov" --width "$LW" --height "$LH" \
-        >"$GEN/cfg2pov-diffuse.log" 2>&1 || die_log "$GEN/cfg2pov-diffuse.log" "bench/cfg2pov.py failed on scenes/diffuse.cfg"
-    run_povray bench/diffuse.pov check-hand "$T1" "$LW" "$LH"
-    hand=$p_out
-    run_povray "$GEN/diffuse.pov" check-cfg2pov "$T1" "$LW" "$LH"
-    conv=$p_out
-    run_rayd scenes/diffuse.cfg check "$T1" "$LW" "$LH"
-    echo "done" >&2
-    echo "  cfg2pov check, scenes/diffuse.cfg at ${LW}x${LH}, both by POV-Ray: bench/diffuse.pov vs cfg2pov: $(pngdiff "$hand" "$conv")"
-    echo "                                                   rayd vs POV-Ray(cfg2pov): $(pngdiff "$r_out" "$conv")"
+    # The converter against the hand-written files: both through POV-Ray.
+    for s in diffuse phong; do
+        printf '  checking bench/cfg2pov.py on %s.cfg ... ' "$s" >&2
+        "$PYTHON" bench/cfg2pov.py "scenes/$s.cfg" "$GEN/$s.pov" --width "$LW" --height "$LH" \
+            >"$GEN/cfg2pov-$s.log" 2>&1 || die_log "$GEN/cfg2pov-$s.log" "bench/cfg2pov.py failed on scenes/$s.cfg"
+        run_povray "bench/$s.pov" "check-$s-hand" "$T1" "$LW" "$LH"
+        hand=$p_out
+        run_povray "$GEN/$s.pov" "check-$s-cfg2pov" "$T1" "$LW" "$LH"
+        conv=$p_out
+        run_rayd "scenes/$s.cfg" "check-$s" "$T1" "$LW" "$LH"
+        echo "done" >&2
+        echo "  cfg2pov check, scenes/$s.cfg at ${LW}x${LH}:"
+        echo "    POV-Ray on bench/$s.pov vs on cfg2pov's file: $(pngdiff "$hand" "$conv")"
+        echo "    rayd vs POV-Ray on cfg2pov's file:    $(pngdiff "$r_out" "$conv")"
+    done
     echo
 
     # Every rayd and povray run here is timed under GNU time for its peak memory.
@@ -443,7 +446,7 @@ if [ -n "$LARGE" ]; then
             "povray", "povray", "povray", "povray", "povray", "ratio", "ratio"
         printf fmt, "scene", "thr", "wall ms", "load ms", "prep ms", "render ms", "Mrays/s", \
             "wall ms", "parse ms", "bound ms", "trace ms", "Mrays/s", "wall", "render"
-        print "----------------------------------------------------------------------------------------------------------------"
+        print "------------------------------------------------------------------------------------------------------------------"
         for (i = 1; i <= n; i++)
             printf fmt, S[i], T[i], f(RW[i], "%.1f"), f(RO[i], "%.1f"), f(RP[i], "%.1f"), \
                 f(RR[i], "%.1f"), f(m(RN[i], RR[i]), "%.2f"), f(PW[i], "%.1f"), f(PP[i], "%.1f"), \
@@ -492,7 +495,7 @@ if [ -n "$LARGE" ]; then
             printf "  bvh_nodes        %12d\n", nodes
             printf "  primitives       %12d\n", prims
             printf "  world_bytes      %12d   (%.1f MiB)\n", bytes, bytes / 1048576
-            printf "  bytes/primitive  %12.1f   (world_bytes / primitives)\n", bytes / prims
+            printf "  bytes/triangle   %12.1f   (world_bytes / primitives)\n", bytes / prims
             if (rss == "nan")
                 print  "  peak RSS                  n/a   (not measured)"
             else
@@ -554,10 +557,10 @@ if [ -n "$BASE" ]; then
         echo "scenes/diffuse.cfg, ${W}x${H}, --threads 1, best of $RUNS; render = time_ms, wall = whole process:"
         awk -v base="$BASE" -v cur="${rev:-current}" -v bm="$bb_ms" -v bw="$bb_w" -v cm="$bc_ms" -v cw="$bc_w" '
         BEGIN {
-            printf "  %-26s %10s %10s\n", "", "render ms", "wall ms"
-            printf "  %-26s %10.1f %10.1f\n", "rayd at " base " (foundation)", bm, bw
-            printf "  %-26s %10.1f %10.1f\n", "this rayd (" cur ")", cm, cw
-            printf "  %-26s %10.2f %10.2f   (this / foundation; < 1 means this rayd is faster)\n", \
+            printf "  %-30s %10s %10s\n", "", "render ms", "wall ms"
+            printf "  %-30s %10.1f %10.1f\n", "rayd at " base " (foundation)", bm, bw
+            printf "  %-30s %10.1f %10.1f\n", "this rayd (" cur ")", cm, cw
+            printf "  %-30s %10.2f %10.2f   (this / foundation; < 1 means this rayd is faster)\n", \
                 "ratio", cm / bm, cw / bw
         }'
         echo "  images, foundation vs this rayd: $(pngdiff "$base_png" "$cur_png")"
