@@ -141,7 +141,6 @@ static void render_pixel(rd_job *j, int x, int y, rd_job_counts *c, rd_ray_count
     int pass = j->pass, samples = j->pass_samples;
     /* Pass 0 keeps the pattern of a plain render; later passes draw new ones. */
     uint64_t pass_seed = s->render.seed + (uint64_t)pass * 0x9e3779b97f4a7c15ULL;
-    uint32_t pattern = rd_pattern(pass_seed, index);
     double g = s->render.gamma;
     int centre = pass == 0 && samples == 1 && !j->progressive;
     if (j->adaptive && pass > 0 && j->mean_weight > 0) {
@@ -158,19 +157,27 @@ static void render_pixel(rd_job *j, int x, int y, rd_job_counts *c, rd_ray_count
         if (samples < 1)
             samples = p->n < 2 ? 1 : 0;
     }
-    /* Which half-set each of this pass's samples joins, and its index there. */
+    /* Which half-set each of this pass's samples joins, and its index there.
+     * A centre sample needs no pattern at all. */
     uint32_t first = p->n;
     uint32_t in_half[2] = {0, 0}, count[2] = {0, 0};
-    for (int k = 0; k < samples; k++)
-        count[(first + (uint32_t)k) & 1]++;
-    uint32_t pattern_half[2] = {pattern, rd_pattern(pass_seed ^ 0x6a09e667f3bcc909ULL, index)};
+    uint32_t pattern_half[2] = {0, 0};
+    if (!centre) {
+        for (int k = 0; k < samples; k++)
+            count[(first + (uint32_t)k) & 1]++;
+        pattern_half[0] = rd_pattern(pass_seed, index);
+        pattern_half[1] = rd_pattern(pass_seed ^ 0x6a09e667f3bcc909ULL, index);
+    }
     for (int k = 0; k < samples; k++) {
         int h = (int)((first + (uint32_t)k) & 1);
         double px = 0.5, py = 0.5;
         if (!centre)
             rd_cmj(in_half[h]++, count[h], pattern_half[h], &px, &py);
         rd_ray r = rd_pinhole_ray(&j->cam, x + px, y + py);
-        rd_rng rng = rd_rng_make(s->render.seed, index, (uint64_t)p->n);
+        /* Only area lights draw random numbers during tracing. */
+        rd_rng rng = {0};
+        if (j->plan.stochastic)
+            rng = rd_rng_make(s->render.seed, index, (uint64_t)p->n);
         c->camera++;
         rd_rgb col = rd_trace(&j->plan, r, 0, &rng, rc);
         double cv[3] = {finite_or_zero(col.x, &c->nonfinite), finite_or_zero(col.y, &c->nonfinite),
@@ -180,10 +187,14 @@ static void render_pixel(rd_job *j, int x, int y, rd_job_counts *c, rd_ray_count
         for (int ch = 0; ch < 3; ch++) {
             p->mean[ch] += (cv[ch] - p->mean[ch]) / n;
             p->half[h][ch] = (float)(p->half[h][ch] + (cv[ch] - p->half[h][ch]) / nh);
-            double d = rd_display(cv[ch], g), delta = d - p->dmean[ch];
-            p->dmean[ch] = (float)(p->dmean[ch] + delta / n);
-            p->m2[ch] = (float)(p->m2[ch] + delta * (d - p->dmean[ch]));
         }
+        /* The spread of display values only steers adaptive passes. */
+        if (j->adaptive)
+            for (int ch = 0; ch < 3; ch++) {
+                double d = rd_display(cv[ch], g), delta = d - p->dmean[ch];
+                p->dmean[ch] = (float)(p->dmean[ch] + delta / n);
+                p->m2[ch] = (float)(p->m2[ch] + delta * (d - p->dmean[ch]));
+            }
     }
 }
 

@@ -1,5 +1,21 @@
 #include "ray.h"
 
+#include <stdint.h>
+#include <string.h>
+
+/* The next double after x toward +inf (up) or -inf, for finite x: the same
+ * value as nextafter(), without a library call per component. */
+static inline double step(double x, int up)
+{
+    if (x == 0)
+        return up ? 0x1p-1074 : -0x1p-1074;
+    uint64_t b;
+    memcpy(&b, &x, sizeof b);
+    b += ((x > 0) == up) ? 1 : (uint64_t)-1;
+    memcpy(&x, &b, sizeof x);
+    return x;
+}
+
 rd_vec3 rd_offset_origin(const rd_hit *h, rd_vec3 dir)
 {
     rd_vec3 n = h->ng;
@@ -14,10 +30,12 @@ rd_vec3 rd_offset_origin(const rd_hit *h, rd_vec3 dir)
     double c[3] = {o.x, o.y, o.z};
     double nn[3] = {n.x * d, n.y * d, n.z * d};
     for (int i = 0; i < 3; i++) {
+        if (!isfinite(c[i]))
+            continue;
         if (nn[i] > 0)
-            c[i] = nextafter(c[i], INFINITY);
+            c[i] = step(c[i], 1);
         else if (nn[i] < 0)
-            c[i] = nextafter(c[i], -INFINITY);
+            c[i] = step(c[i], 0);
     }
     return v3(c[0], c[1], c[2]);
 }

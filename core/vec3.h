@@ -20,7 +20,14 @@ static inline rd_vec3 v3_cross(rd_vec3 a, rd_vec3 b)
     return v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
 }
 static inline double v3_len(rd_vec3 a) { return sqrt(v3_dot(a, a)); }
-static inline double v3_max_abs(rd_vec3 a) { return fmax(fabs(a.x), fmax(fabs(a.y), fabs(a.z))); }
+/* Largest |component|; inline comparisons (libm's fmax is a call on the hot
+ * path). A NaN component is passed over, as with fmax. */
+static inline double v3_max_abs(rd_vec3 a)
+{
+    double x = fabs(a.x), y = fabs(a.y), z = fabs(a.z);
+    double m = x > y ? x : (y == y ? y : x);
+    return z > m ? z : (m == m ? m : z);
+}
 static inline int v3_is_finite(rd_vec3 a) { return isfinite(a.x) && isfinite(a.y) && isfinite(a.z); }
 static inline int v3_eq(rd_vec3 a, rd_vec3 b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
 

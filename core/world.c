@@ -301,8 +301,17 @@ int rd_world_closest(const rd_world *w, rd_ray r, double tmax, rd_hit *h)
     if (w->use_bvh) {
         bvh_closest(w, r, &b);
     } else {
-        for (uint32_t i = 0; i < w->nspheres + w->ntris; i++)
-            test_prim(w, i, r, &b);
+        /* A few primitives: plain loops, no per-primitive dispatch. */
+        for (size_t i = 0; i < w->nspheres; i++) {
+            double t = rd_sphere_intersect(&w->spheres[i], r, b.t);
+            if (t > 0) {
+                b.t = t;
+                b.kind = K_SPHERE;
+                b.idx = i;
+            }
+        }
+        for (size_t i = 0; i < w->ntris; i++)
+            test_prim(w, (uint32_t)(w->nspheres + i), r, &b);
     }
     if (b.kind == K_NONE)
         return 0;
@@ -364,8 +373,12 @@ int rd_world_any(const rd_world *w, rd_ray r, double tmax)
             return 1;
     if (w->use_bvh)
         return bvh_any(w, r, tmax);
-    for (uint32_t i = 0; i < w->nspheres + w->ntris; i++)
-        if (any_prim(w, i, r, tmax))
+    for (size_t i = 0; i < w->nspheres; i++)
+        if (rd_sphere_intersect(&w->spheres[i], r, tmax) > 0)
+            return 1;
+    double bary[3];
+    for (size_t i = 0; i < w->ntris; i++)
+        if (rd_tri_intersect(w->tris[i].v, r, tmax, bary) > 0)
             return 1;
     return 0;
 }
