@@ -79,14 +79,19 @@ Test(cmj, stratified_perfect_squares)
 
 Test(cmj, non_square_counts_fine_strata_once)
 {
-    /* n = 8 uses a 2x4 grid; n = 12 a 3x4; n = 5 a 2x3 grid with one cell
-     * unused. In each case the m·k fine columns and rows of width 1/(m·k)
-     * hold at most one point. */
-    uint32_t ns[] = {2, 3, 5, 6, 8, 12, 20, 50, 1000};
+    /* n = 8 uses a 2x4 grid, n = 12 a 3x4, n = 5 (prime) a 1x5: always
+     * m·k = n with m the largest divisor up to sqrt(n), so no cell is left
+     * empty (an empty cell would bias the pixel mean). Each of the n fine
+     * columns and rows of width 1/n holds exactly one point, and each of
+     * the m×k cells exactly one. */
+    uint32_t ns[] = {2, 3, 5, 6, 7, 8, 10, 12, 20, 50, 97, 1000};
     for (size_t i = 0; i < sizeof ns / sizeof ns[0]; i++) {
         uint32_t n = ns[i];
         uint32_t m = (uint32_t)floor(sqrt((double)n));
-        uint32_t k = (n + m - 1) / m, mk = m * k;
+        while (m > 1 && n % m)
+            m--;
+        uint32_t k = n / m, mk = m * k;
+        cr_assert_eq(mk, n);
         for (uint32_t p = 0; p < 20; p++) {
             double xs[1000], ys[1000];
             int col[1024] = {0}, row[1024] = {0};
@@ -96,9 +101,14 @@ Test(cmj, non_square_counts_fine_strata_once)
                 row[(uint32_t)floor(ys[s] * mk)]++;
             }
             for (uint32_t j = 0; j < mk; j++) {
-                cr_assert(col[j] <= 1, "n=%u: fine column %u of %u holds %d points", n, j, mk, col[j]);
-                cr_assert(row[j] <= 1, "n=%u: fine row %u of %u holds %d points", n, j, mk, row[j]);
+                cr_assert(col[j] == 1, "n=%u: fine column %u of %u holds %d points", n, j, mk, col[j]);
+                cr_assert(row[j] == 1, "n=%u: fine row %u of %u holds %d points", n, j, mk, row[j]);
             }
+            int cell[1024] = {0};
+            for (uint32_t s2 = 0; s2 < n; s2++)
+                cell[(uint32_t)floor(ys[s2] * k) * m + (uint32_t)floor(xs[s2] * m)]++;
+            for (uint32_t j = 0; j < n; j++)
+                cr_assert(cell[j] == 1, "n=%u: cell %u of the %ux%u grid holds %d points", n, j, m, k, cell[j]);
         }
     }
 }
