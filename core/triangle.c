@@ -80,7 +80,8 @@ void rd_triangle_fill_hit(const rd_triangle *tr, const double b[3], rd_hit *h)
               fmax(v3_max_abs(tr->v0), fmax(v3_max_abs(tr->v1), v3_max_abs(tr->v2)));
     h->n = h->ng;
     if (tr->has_normals) {
-        rd_vec3 n = v3_add(v3_add(v3_scale(tr->n0, b[0]), v3_scale(tr->n1, b[1])), v3_scale(tr->n2, b[2]));
+        rd_vec3 n = v3_add(v3_add(v3_scale(v3_normalize(tr->n0), b[0]), v3_scale(v3_normalize(tr->n1), b[1])),
+                           v3_scale(v3_normalize(tr->n2), b[2]));
         n = v3_normalize(n);
         /* Normals that cancel fall back to the geometric one. */
         if (!(v3_max_abs(n) > 0))

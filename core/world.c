@@ -259,9 +259,11 @@ static void fill_tri(const rd_world *w, const best_hit *b, rd_hit *h)
     if (t->mesh < 0) {
         const rd_object *o = &w->scene->objects[t->object];
         if (o->has_normals) {
-            n0 = o->n[0];
-            n1 = o->n[1];
-            n2 = o->n[2];
+            /* Unit normals first, as for meshes: the same triangle shades
+             * the same whether written in the scene or loaded from OBJ. */
+            n0 = v3_normalize(o->n[0]);
+            n1 = v3_normalize(o->n[1]);
+            n2 = v3_normalize(o->n[2]);
             normals = 1;
         }
     } else {
