@@ -3,14 +3,19 @@
 #include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
+#include <strings.h>
 
 #include "utf8.h"
 
 typedef struct {
     const char *text, *p, *end, *source;
-    size_t max_depth, max_key;
+    size_t max_depth, max_name;
     rd_error *err;
 } checker;
+
+/* Keys of the format are at most this long; the keys of "materials" are
+ * material names, bounded by --max-name-bytes instead. */
+#define KEY_BYTES 64
 
 static rd_error_code fail_at(checker *c, const char *at, rd_error_code code, const char *fmt, ...)
     __attribute__((format(printf, 4, 5)));
@@ -43,6 +48,7 @@ static int hex(char ch)
     return (ch >= '0' && ch <= '9') ? ch - '0' : (ch >= 'a' && ch <= 'f') ? ch - 'a' + 10 : (ch >= 'A' && ch <= 'F') ? ch - 'A' + 10 : -1;
 }
 
+/* key: 0 a value, 1 a key of the format, 2 a material name. */
 static rd_error_code string(checker *c, int key)
 {
     const char *start = c->p++;
@@ -50,8 +56,12 @@ static rd_error_code string(checker *c, int key)
         unsigned char ch = (unsigned char)*c->p;
         if (ch == '"') {
             c->p++;
-            if (key && (size_t)(c->p - start - 2) > c->max_key)
-                return fail_at(c, start, RD_ERR_SYNTAX, "a key longer than %zu bytes", c->max_key);
+            size_t n = (size_t)(c->p - start - 2);
+            if (key == 1 && n > KEY_BYTES)
+                return fail_at(c, start, RD_ERR_SYNTAX, "a key longer than %d bytes", KEY_BYTES);
+            if (key == 2 && n > c->max_name)
+                return fail_at(c, start, RD_ERR_LIMIT,
+                               "a material name longer than the limit of %zu bytes (--max-name-bytes)", c->max_name);
             return RD_OK;
         }
         if (ch < 0x20)
@@ -139,7 +149,7 @@ static rd_error_code number(checker *c)
     return RD_OK;
 }
 
-static rd_error_code value(checker *c, size_t depth);
+static rd_error_code value(checker *c, size_t depth, int names);
 
 static rd_error_code literal(checker *c, const char *word)
 {
@@ -155,7 +165,8 @@ static rd_error_code literal(checker *c, const char *word)
     return RD_OK;
 }
 
-static rd_error_code value(checker *c, size_t depth)
+/* names: this value, if an object, is keyed by material names. */
+static rd_error_code value(checker *c, size_t depth, int names)
 {
     ws(c);
     if (c->p >= c->end)
@@ -166,6 +177,7 @@ static rd_error_code value(checker *c, size_t depth)
         if (depth + 1 > c->max_depth)
             return fail_at(c, c->p, RD_ERR_LIMIT, "nesting deeper than the limit of %zu (--max-nesting)", c->max_depth);
         char close = ch == '{' ? '}' : ']';
+        const char *comma = NULL;
         c->p++;
         ws(c);
         if (c->p >= c->end)
@@ -175,16 +187,19 @@ static rd_error_code value(checker *c, size_t depth)
             return RD_OK;
         }
         for (;;) {
+            int child_names = 0;
             if (ch == '{') {
                 ws(c);
                 if (c->p >= c->end)
                     return eof(c);
                 if (*c->p != '"')
-                    return fail_at(c, c->p, RD_ERR_SYNTAX,
-                                   *c->p == '}' ? "a ',' before '}' (JSON allows no trailing comma)"
-                                                : "expected a key in double quotes");
-                if ((rc = string(c, 1)))
+                    return *c->p == '}' && comma
+                               ? fail_at(c, comma, RD_ERR_SYNTAX, "a ',' before '}' (JSON allows no trailing comma)")
+                               : fail_at(c, c->p, RD_ERR_SYNTAX, "expected a key in double quotes");
+                const char *k = c->p + 1;
+                if ((rc = string(c, names ? 2 : 1)))
                     return rc;
+                child_names = depth == 0 && c->p - k - 1 == 9 && memcmp(k, "materials", 9) == 0;
                 ws(c);
                 if (c->p >= c->end)
                     return eof(c);
@@ -193,10 +208,10 @@ static rd_error_code value(checker *c, size_t depth)
                 c->p++;
             } else {
                 ws(c);
-                if (c->p < c->end && *c->p == ']')
-                    return fail_at(c, c->p, RD_ERR_SYNTAX, "a ',' before ']' (JSON allows no trailing comma)");
+                if (c->p < c->end && *c->p == ']' && comma)
+                    return fail_at(c, comma, RD_ERR_SYNTAX, "a ',' before ']' (JSON allows no trailing comma)");
             }
-            if ((rc = value(c, depth + 1)))
+            if ((rc = value(c, depth + 1, child_names)))
                 return rc;
             ws(c);
             if (c->p >= c->end)
@@ -207,11 +222,14 @@ static rd_error_code value(checker *c, size_t depth)
             }
             if (*c->p != ',')
                 return fail_at(c, c->p, RD_ERR_SYNTAX, "expected ',' or '%c'", close);
+            comma = c->p;
             c->p++;
         }
     }
     if (ch == '"')
         return string(c, 0);
+    if (ch == '-' && c->p + 1 < c->end && c->p[1] == 'I')
+        return fail_at(c, c->p, RD_ERR_SYNTAX, "NaN and Infinity are not JSON numbers");
     if (ch == '-' || (ch >= '0' && ch <= '9'))
         return number(c);
     if (ch == 't')
@@ -220,16 +238,18 @@ static rd_error_code value(checker *c, size_t depth)
         return literal(c, "false");
     if (ch == 'n')
         return literal(c, "null");
-    if (ch == 'N' || ch == 'I')
+    /* NaN, NAN, Inf, INF, Infinity: the spellings other languages write. */
+    if ((ch == 'N' || ch == 'I') && (size_t)(c->end - c->p) >= 3 &&
+        (strncasecmp(c->p, "nan", 3) == 0 || strncasecmp(c->p, "inf", 3) == 0))
         return fail_at(c, c->p, RD_ERR_SYNTAX, "NaN and Infinity are not JSON numbers");
     return fail_at(c, c->p, RD_ERR_SYNTAX, "expected a value");
 }
 
-rd_error_code rd_json_check(const char *text, size_t len, const char *source, size_t max_depth, size_t max_key,
+rd_error_code rd_json_check(const char *text, size_t len, const char *source, size_t max_depth, size_t max_name,
                             rd_error *err)
 {
-    checker c = {text, text, text + len, source, max_depth, max_key, err};
-    rd_error_code rc = value(&c, 0);
+    checker c = {text, text, text + len, source, max_depth, max_name, err};
+    rd_error_code rc = value(&c, 0, 0);
     if (rc)
         return rc;
     ws(&c);

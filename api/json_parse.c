@@ -335,8 +335,7 @@ rd_error_code rd_json_parse(const char *text, size_t len, const char *source,
                             text[bad] ? "invalid UTF-8" : "NUL byte in the scene text");
     size_t skip = len >= 3 && memcmp(text, "\xef\xbb\xbf", 3) == 0 ? 3 : 0;
     /* Columns do not count the byte-order mark, as in cfg. */
-    rd_error_code rc = rd_json_check(text + skip, len - skip, jp.source, jp.lim.max_nesting,
-                                     jp.lim.max_name > RD_MAX_KEY_BYTES ? jp.lim.max_name : RD_MAX_KEY_BYTES, err);
+    rd_error_code rc = rd_json_check(text + skip, len - skip, jp.source, jp.lim.max_nesting, jp.lim.max_name, err);
     if (rc)
         return rc;
     const char *end = NULL;

@@ -221,12 +221,19 @@ static rd_error_code apply(rd_builder *b, const rd_key *k, const rd_entry *e, vo
     rd_error_code rc;
     int json = v->loc.path != NULL;
     int vector = k->type == RD_KT_VEC2 || k->type == RD_KT_VEC3;
-    if (json && v->is_array && !vector && k->type != RD_KT_REAL_OR_VEC3)
-        return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected %s, got an array", k->name,
-                                k->type == RD_KT_NAME     ? "a name (a string)"
-                                : k->type == RD_KT_STRING ? "a string"
-                                : k->type == RD_KT_ENUM   ? "a word (a string)"
-                                                          : "a number");
+    if (json && v->is_array && !vector && k->type != RD_KT_REAL_OR_VEC3) {
+        char what[80];
+        if (k->type == RD_KT_INT)
+            snprintf(what, sizeof what, "an integer in %lld..%lld", (long long)k->lo, (long long)k->hi);
+        else
+            snprintf(what, sizeof what, "%s",
+                     k->type == RD_KT_NAME     ? "a name (a string)"
+                     : k->type == RD_KT_STRING ? "a string"
+                     : k->type == RD_KT_ENUM   ? "a word (a string)"
+                     : k->type == RD_KT_SEED   ? "an integer"
+                                               : "a number");
+        return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected %s, got an array", k->name, what);
+    }
     if (json && vector && !v->is_array)
         return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected an array of %d numbers, got %s", k->name,
                                 k->type == RD_KT_VEC2 ? 2 : 3, rd_token_what(&v->tok[0], tb, sizeof tb));
@@ -252,6 +259,12 @@ static rd_error_code apply(rd_builder *b, const rd_key *k, const rd_entry *e, vo
         unsigned long long x;
         if ((rc = one_token(b, k, v, "an integer", err)))
             return rc;
+        /* A JSON number at or above 2^53 may already have lost digits. */
+        if (v->tok[0].number && strtod(v->tok[0].text, NULL) >= 9007199254740992.0)
+            return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc,
+                                    "%s: a JSON number of 2^53 or more may have lost digits; write the seed as a "
+                                    "string, e.g. \"18446744073709551615\"",
+                                    k->name);
         if (rd_parse_u64(&v->tok[0], &x))
             return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc,
                                     "%s: expected an integer in 0..18446744073709551615, got %s%s", k->name,

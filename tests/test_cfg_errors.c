@@ -236,7 +236,7 @@ static const struct row rows[] = {
     /* A quoted "45" is a string: showing it without its quotes would make
      * "expected a number, got '45'" contradict itself. */
     ROW("fov_quoted_number", "[camera]\nfov = \"45\"\n", SYN, 2, 7,
-        "t.cfg:2:7: fov: expected a number in (0, 180), got '\"45\"'"),
+        "t.cfg:2:7: fov: expected a number in (0, 180), got the string \"45\""),
     ROW("material_type_unknown", "[material m]\ntype = plastic\n", SYN, 2, 8,
         "t.cfg:2:8: type: expected one of " MAT_LIST ", got 'plastic'"),
     ROW("material_type_typo", "[material m]\ntype = phnog\n", SYN, 2, 8,
