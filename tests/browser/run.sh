@@ -1,0 +1,28 @@
+#!/bin/sh
+# Browser test of the page `rayd serve` shows at GET /: drives Debian's
+# Chromium with playwright-core against a daemon the test starts itself.
+# Run from anywhere; works from the repository root:  tests/browser/run.sh
+# Needs: build/rayd (make build/rayd; or RAYD=path), node >= 20 with npm,
+# /usr/bin/chromium (Debian package chromium). Screenshots: build/browser-screenshots/.
+set -eu
+here=$(cd "$(dirname "$0")" && pwd)
+root=$(cd "$here/../.." && pwd)
+cd "$root"
+
+if [ ! -x /usr/bin/chromium ]; then
+    echo "tests/browser: /usr/bin/chromium not found; install Debian's Chromium: apt-get install -y chromium" >&2
+    exit 1
+fi
+if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
+    echo "tests/browser: node and npm are needed (node >= 20)" >&2
+    exit 1
+fi
+rayd=${RAYD:-build/rayd}
+if [ ! -x "$rayd" ]; then
+    echo "tests/browser: no daemon at $rayd; build it first: make build/rayd (or set RAYD)" >&2
+    exit 1
+fi
+if [ ! -f tests/browser/node_modules/playwright-core/package.json ]; then
+    npm ci --prefix tests/browser --no-audit --no-fund --loglevel=error >/dev/null
+fi
+exec node --test tests/browser/
