@@ -89,10 +89,12 @@ check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/schema_test.py
 
 # gcc plain, then clang with AddressSanitizer and UndefinedBehaviorSanitizer,
-# then a short fuzzing smoke of both scene parsers.
+# then the web page in headless Chromium, then a short fuzzing smoke of both
+# scene parsers.
 test: deps
 	@$(MAKE) --no-print-directory check CC=gcc BUILD=build
 	@$(MAKE) --no-print-directory check CC=clang SAN=1 BUILD=build/clang-san
+	@RAYD=build/rayd sh tests/browser/run.sh
 	@sh tests/fuzz/run.sh $(FUZZ_SMOKE_SECONDS)
 
 FUZZ_SMOKE_SECONDS ?= 30

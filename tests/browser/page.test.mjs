@@ -173,7 +173,7 @@ async function openPage(options = {}) {
 // Console errors, less Chromium's own 404 for /favicon.ico (a known defect,
 // tested on its own below; it comes and goes with timing).
 const consoleErrors = (log) => log.console
-  .filter((m) => m.type === "error" && !/\/favicon\.ico$/.test(m.url))
+  .filter((m) => m.type === "error")
   .map((m) => `${m.text} (${m.url})`);
 
 // The whole page, or (fullPage false) what the screen shows now.
@@ -261,7 +261,7 @@ test("(a) page loads cleanly, an example scene fills the editor, Render shows th
     assert.ok(names.includes("phong.json"), "example list has the JSON scenes too");
     assert.equal(await page.inputValue("#scene-text"), "", "editor starts empty");
     assert.equal(await text(page, "#render-stats"), "No render yet.");
-    // (Whether an empty image box shows before a render: see the todo test at the end.)
+    // (Whether an empty image box shows before a render: see the test at the end.)
     // Wide screen: scene and image side by side, grading under both.
     const s = await box(page, "#scene-panel"), i = await box(page, "#image-panel"), g = await box(page, "#grade-panel");
     assert.ok(i.left >= s.right && Math.abs(i.top - s.top) < 2, "scene and image panels side by side at 1280 px");
@@ -287,7 +287,7 @@ test("(a) page loads cleanly, an example scene fills the editor, Render shows th
     assert.ok(await colours(page, "render-img") > 100, "the picture is a rendering, not a blank");
     const stats = await text(page, "#render-stats");
     assert.match(stats, /Rendered in \d+(\.\d+)? ms/, stats);
-    assert.match(stats, /\b\d+ samples per pixel/, stats);
+    assert.match(stats, /\b\d+ samples? per pixel/, stats);
     assert.doesNotMatch(stats, /NaN|null|undefined/, stats);
     await shot(page, "a3-rendered");
 
@@ -560,16 +560,12 @@ test("(e) at phone width (375×740) the panels stack and nothing scrolls sideway
   }
 });
 
-// ---- known defects -------------------------------------------------------
-// Each is a real fault of daemon/web/index.html as of this test's writing,
-// kept as a `todo` test: it runs and is reported ("# todo N") but does not
-// fail the suite. Once the page is fixed, delete the `todo` option so the
-// test guards the fix. RAYD_BROWSER_STRICT=1 runs them as ordinary tests.
-const knownDefect = (why) => (process.env.RAYD_BROWSER_STRICT === "1" ? false : why);
+// ---- faults the page once had ---------------------------------------------
+// Each test below found a real fault of daemon/web/index.html; they now
+// guard the fixes.
 
-test("(defect) before the first render the Image panel shows no empty image box", {
+test("(regression) before the first render the Image panel shows no empty image box", {
   timeout: TEST_MS,
-  todo: knownDefect("img.result {display:block} overrides the hidden attribute: a broken-image box saying 'rendered image' shows; fix: [hidden] { display: none !important; }"),
 }, async () => {
   const { context, page } = await openPage();
   try {
@@ -581,9 +577,8 @@ test("(defect) before the first render the Image panel shows no empty image box"
   }
 });
 
-test("(defect) loading the page asks for no missing /favicon.ico", {
+test("(regression) loading the page asks for no missing /favicon.ico", {
   timeout: TEST_MS,
-  todo: knownDefect("the page names no icon, so Chromium asks for /favicon.ico, gets 404 and logs a console error; fix: <link rel=\"icon\" href=\"data:,\">"),
 }, async () => {
   const { context, page } = await openPage();
   try {
@@ -595,9 +590,8 @@ test("(defect) loading the page asks for no missing /favicon.ico", {
   }
 });
 
-test("(defect) the slider's thumb sits over the split it moves", {
+test("(regression) the slider's thumb sits over the split it moves", {
   timeout: TEST_MS,
-  todo: knownDefect("the slider is as wide as the column, the images only 320 px: the thumb is up to 300 px away from the split; fix: wrap .compare and the slider in one shrink-to-fit box"),
 }, async () => {
   const { context, page } = await openPage();
   try {
@@ -621,9 +615,8 @@ test("(defect) the slider's thumb sits over the split it moves", {
   }
 });
 
-test("(defect) a refused upload leaves no results of the previous grade on show", {
+test("(regression) a refused upload leaves no results of the previous grade on show", {
   timeout: TEST_MS,
-  todo: knownDefect("grade() hides only the verdict: after a 415/422 the old metrics and heat map stay next to the error, as if they were the new file's; fix: hide #metrics and #grade-images when a grade starts"),
 }, async () => {
   const { context, page } = await openPage();
   try {
@@ -641,9 +634,8 @@ test("(defect) a refused upload leaves no results of the previous grade on show"
   }
 });
 
-test("(defect) at phone width the grading form lines up with the other panels' contents", {
+test("(regression) at phone width the grading form lines up with the other panels' contents", {
   timeout: TEST_MS,
-  todo: knownDefect("the phone media query gives .grade-grid the 10 px padding meant for main: the grading form sits 10 px further in; fix: pad main only"),
 }, async () => {
   const { context, page } = await openPage({ viewport: { width: 375, height: 740 }, deviceScaleFactor: 2, isMobile: true, hasTouch: true });
   try {
