@@ -83,7 +83,7 @@ $(BUILD)/unit-tests: $(TEST_OBJ) $(CLI_OBJ) $(BUILD)/librayd.a
 
 # One build and run of the unit suite with the current CC/SAN/BUILD.
 check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
-	RAYD=$(BUILD)/rayd $(BUILD)/unit-tests --jobs 2
+	RAYD=$(BUILD)/rayd LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan.supp $(BUILD)/unit-tests --jobs 2
 	RAYD=$(BUILD)/rayd sh tests/cli_test.sh
 	RAYD=$(BUILD)/rayd sh tests/formats_test.sh
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/schema_test.py
