@@ -56,6 +56,19 @@ typedef struct {
 enum MHD_Result rd_reply(rd_req *r, unsigned status, const char *type, void *body, size_t len,
                          int must_free);
 
+/* The same with extra headers: name, value, ..., NULL. */
+enum MHD_Result rd_reply_with(rd_req *r, unsigned status, const char *type, void *body, size_t len, int must_free,
+                              const char *const *headers);
+
+/* A synchronous request's job: rd_req_on_done is the job's done callback
+ * (it resumes the connection); rd_req_wait suspends the connection until
+ * then, or returns 1 when the job has already ended. */
+void rd_req_on_done(rd_jq_job *job, void *user);
+int rd_req_wait(rd_req *r, rd_jq_job *job);
+
+/* The client's socket, for the job to watch for a hang-up; -1 if unknown. */
+int rd_req_socket(rd_req *r);
+
 /* An error answer: {"error": {"code", "message"[, "line", "column"]}}. */
 enum MHD_Result rd_reply_error(rd_req *r, unsigned status, const char *code, const rd_error *err,
                                const char *message);

@@ -19,7 +19,8 @@ static double now_ms(void)
     return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
 }
 
-enum MHD_Result rd_reply(rd_req *r, unsigned status, const char *type, void *body, size_t len, int must_free)
+enum MHD_Result rd_reply_with(rd_req *r, unsigned status, const char *type, void *body, size_t len, int must_free,
+                              const char *const *headers)
 {
     struct MHD_Response *resp =
         MHD_create_response_from_buffer(len, body, must_free ? MHD_RESPMEM_MUST_FREE : MHD_RESPMEM_PERSISTENT);
@@ -32,12 +33,19 @@ enum MHD_Result rd_reply(rd_req *r, unsigned status, const char *type, void *bod
         MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, type);
     if (r->job_id[0])
         MHD_add_response_header(resp, "X-Rayd-Job", r->job_id);
+    for (int i = 0; headers && headers[i] && headers[i + 1]; i += 2)
+        MHD_add_response_header(resp, headers[i], headers[i + 1]);
     r->status = status;
     r->bytes = len;
     r->answered = 1;
     enum MHD_Result ret = MHD_queue_response(r->conn, status, resp);
     MHD_destroy_response(resp);
     return ret;
+}
+
+enum MHD_Result rd_reply(rd_req *r, unsigned status, const char *type, void *body, size_t len, int must_free)
+{
+    return rd_reply_with(r, status, type, body, len, must_free, NULL);
 }
 
 static char *error_json(const char *code, const char *message, const rd_error *err)
@@ -60,23 +68,8 @@ static enum MHD_Result reply_error_full(rd_req *r, unsigned status, const char *
     char *text = error_json(code, message, err);
     if (!text)
         return MHD_NO;
-    size_t len = strlen(text);
-    struct MHD_Response *resp = MHD_create_response_from_buffer(len, text, MHD_RESPMEM_MUST_FREE);
-    if (!resp) {
-        free(text);
-        return MHD_NO;
-    }
-    MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, "application/json");
-    if (header)
-        MHD_add_response_header(resp, header, value);
-    if (r->job_id[0])
-        MHD_add_response_header(resp, "X-Rayd-Job", r->job_id);
-    r->status = status;
-    r->bytes = len;
-    r->answered = 1;
-    enum MHD_Result ret = MHD_queue_response(r->conn, status, resp);
-    MHD_destroy_response(resp);
-    return ret;
+    const char *headers[] = {header, value, NULL};
+    return rd_reply_with(r, status, "application/json", text, strlen(text), 1, header ? headers : NULL);
 }
 
 enum MHD_Result rd_reply_error(rd_req *r, unsigned status, const char *code, const rd_error *err,
@@ -96,6 +89,37 @@ enum MHD_Result rd_reply_json(rd_req *r, unsigned status, char *json_text)
     if (!json_text)
         return MHD_NO;
     return rd_reply(r, status, "application/json", json_text, strlen(json_text), 1);
+}
+
+void rd_req_on_done(rd_jq_job *job, void *user)
+{
+    (void)job;
+    rd_req *r = user;
+    pthread_mutex_lock(&r->mu);
+    r->finished = 1;
+    if (r->suspended && !atomic_load(&r->srv->stopped))
+        MHD_resume_connection(r->conn);
+    pthread_mutex_unlock(&r->mu);
+}
+
+int rd_req_wait(rd_req *r, rd_jq_job *job)
+{
+    r->job = job;
+    pthread_mutex_lock(&r->mu);
+    int finished = r->finished;
+    if (!finished) {
+        MHD_suspend_connection(r->conn);
+        r->suspended = 1;
+        atomic_fetch_add(&r->srv->waiting, 1);
+    }
+    pthread_mutex_unlock(&r->mu);
+    return finished;
+}
+
+int rd_req_socket(rd_req *r)
+{
+    const union MHD_ConnectionInfo *ci = MHD_get_connection_info(r->conn, MHD_CONNECTION_INFO_CONNECTION_FD);
+    return ci ? ci->connect_fd : -1;
 }
 
 unsigned rd_status_for(rd_error_code c)

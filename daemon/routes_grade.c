@@ -281,17 +281,6 @@ static enum MHD_Result answer(rd_req *r)
     return rd_reply_json(r, 200, text);
 }
 
-static void on_ref_done(rd_jq_job *job, void *user)
-{
-    (void)job;
-    rd_req *r = user;
-    pthread_mutex_lock(&r->mu);
-    r->finished = 1;
-    if (r->suspended && !atomic_load(&r->srv->stopped))
-        MHD_resume_connection(r->conn);
-    pthread_mutex_unlock(&r->mu);
-}
-
 enum MHD_Result rd_route_grade(rd_req *r)
 {
     rd_server *srv = r->srv;
@@ -386,9 +375,8 @@ enum MHD_Result rd_route_grade(rd_req *r)
         return answer(r);
     }
     /* Render the reference as an ordinary job; answer when it is done. */
-    const union MHD_ConnectionInfo *ci = MHD_get_connection_info(r->conn, MHD_CONNECTION_INFO_CONNECTION_FD);
     rd_jq_job *job;
-    rc = rd_jq_submit(srv->jobs, &s, NULL, ci ? ci->connect_fd : -1, on_ref_done, r, &job, &err);
+    rc = rd_jq_submit(srv->jobs, &s, NULL, rd_req_socket(r), rd_req_on_done, r, &job, &err);
     if (rc == RD_ERR_LIMIT)
         return rd_reply_error_hdr(r, 503, "queue_full", err.message, "Retry-After", "1");
     if (rc)
@@ -396,16 +384,7 @@ enum MHD_Result rd_route_grade(rd_req *r)
     rd_jq_info info;
     rd_jq_info_get(srv->jobs, job, &info);
     snprintf(r->job_id, sizeof r->job_id, "%s", info.id);
-    r->job = job;
-    pthread_mutex_lock(&r->mu);
-    int finished = r->finished;
-    if (!finished) {
-        MHD_suspend_connection(r->conn);
-        r->suspended = 1;
-        atomic_fetch_add(&srv->waiting, 1);
-    }
-    pthread_mutex_unlock(&r->mu);
-    return finished ? rd_route_grade_resumed(r) : MHD_YES;
+    return rd_req_wait(r, job) ? rd_route_grade_resumed(r) : MHD_YES;
 }
 
 enum MHD_Result rd_route_grade_resumed(rd_req *r)

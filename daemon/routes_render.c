@@ -88,17 +88,6 @@ static int progress_params(struct MHD_Connection *c, rd_progress_settings *p, rd
     return 0;
 }
 
-static void on_done(rd_jq_job *job, void *user)
-{
-    (void)job;
-    rd_req *r = user;
-    pthread_mutex_lock(&r->mu);
-    r->finished = 1;
-    if (r->suspended && !atomic_load(&r->srv->stopped))
-        MHD_resume_connection(r->conn);
-    pthread_mutex_unlock(&r->mu);
-}
-
 static char *job_json(const rd_jq_info *in)
 {
     cJSON *o = cJSON_CreateObject();
@@ -173,13 +162,9 @@ enum MHD_Result rd_route_render(rd_req *r, int async)
     }
     free(r->body);
     r->body = NULL;
-    int fd = -1;
-    if (!async) {
-        const union MHD_ConnectionInfo *ci = MHD_get_connection_info(r->conn, MHD_CONNECTION_INFO_CONNECTION_FD);
-        fd = ci ? ci->connect_fd : -1;
-    }
     rd_jq_job *job;
-    rc = rd_jq_submit(srv->jobs, &scene, &prog, fd, async ? NULL : on_done, async ? NULL : r, &job, &err);
+    rc = rd_jq_submit(srv->jobs, &scene, &prog, async ? -1 : rd_req_socket(r), async ? NULL : rd_req_on_done,
+                      async ? NULL : r, &job, &err);
     if (rc == RD_ERR_LIMIT)
         return rd_reply_error_hdr(r, 503, "queue_full", err.message, "Retry-After", "1");
     if (rc)
@@ -194,29 +179,10 @@ enum MHD_Result rd_route_render(rd_req *r, int async)
         rd_jq_job_unref(job);
         if (!text)
             return MHD_NO;
-        struct MHD_Response *resp = MHD_create_response_from_buffer(strlen(text), text, MHD_RESPMEM_MUST_FREE);
-        MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, "application/json");
-        MHD_add_response_header(resp, MHD_HTTP_HEADER_LOCATION, loc);
-        MHD_add_response_header(resp, "X-Rayd-Job", info.id);
-        r->status = 202;
-        r->bytes = strlen(text);
-        r->answered = 1;
-        enum MHD_Result ret = MHD_queue_response(r->conn, 202, resp);
-        MHD_destroy_response(resp);
-        return ret;
+        const char *headers[] = {MHD_HTTP_HEADER_LOCATION, loc, NULL};
+        return rd_reply_with(r, 202, "application/json", text, strlen(text), 1, headers);
     }
-    r->job = job;
-    pthread_mutex_lock(&r->mu);
-    int finished = r->finished;
-    if (!finished) {
-        MHD_suspend_connection(r->conn);
-        r->suspended = 1;
-        atomic_fetch_add(&srv->waiting, 1);
-    }
-    pthread_mutex_unlock(&r->mu);
-    if (finished)
-        return rd_route_render_resumed(r);
-    return MHD_YES;
+    return rd_req_wait(r, job) ? rd_route_render_resumed(r) : MHD_YES;
 }
 
 enum MHD_Result rd_route_render_resumed(rd_req *r)
@@ -231,25 +197,15 @@ enum MHD_Result rd_route_render_resumed(rd_req *r)
         if (rd_jq_png(srv->jobs, r->job, 0, &png, &len, &err))
             return rd_reply_error(r, 503, "unavailable", &err, NULL);
         rd_jq_release_png(srv->jobs, r->job);
-        struct MHD_Response *resp = MHD_create_response_from_buffer(len, png, MHD_RESPMEM_MUST_FREE);
-        char buf[64];
-        MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, "image/png");
-        MHD_add_response_header(resp, "X-Rayd-Job", info.id);
-        snprintf(buf, sizeof buf, "%.3f", info.elapsed_ms);
-        MHD_add_response_header(resp, "X-Rayd-Render-Ms", buf);
-        snprintf(buf, sizeof buf, "%d", info.samples);
-        MHD_add_response_header(resp, "X-Rayd-Samples", buf);
-        snprintf(buf, sizeof buf, "%.6f", info.error_estimate);
-        MHD_add_response_header(resp, "X-Rayd-Error-Estimate", buf);
-        MHD_add_response_header(resp, "X-Rayd-Stopped-By", rd_stop_reason_name(info.stopped_by));
-        snprintf(buf, sizeof buf, "%d", info.passes);
-        MHD_add_response_header(resp, "X-Rayd-Passes", buf);
-        r->status = 200;
-        r->bytes = len;
-        r->answered = 1;
-        enum MHD_Result ret = MHD_queue_response(r->conn, 200, resp);
-        MHD_destroy_response(resp);
-        return ret;
+        char ms[32], spp[32], est[32], passes[32];
+        snprintf(ms, sizeof ms, "%.3f", info.elapsed_ms);
+        snprintf(spp, sizeof spp, "%d", info.samples);
+        snprintf(est, sizeof est, "%.6f", info.error_estimate);
+        snprintf(passes, sizeof passes, "%d", info.passes);
+        const char *headers[] = {"X-Rayd-Render-Ms", ms, "X-Rayd-Samples", spp, "X-Rayd-Error-Estimate", est,
+                                 "X-Rayd-Stopped-By", rd_stop_reason_name(info.stopped_by), "X-Rayd-Passes", passes,
+                                 NULL};
+        return rd_reply_with(r, 200, "image/png", png, len, 1, headers);
     }
     if (info.status == RD_JOB_FAILED) {
         unsigned st = info.error.code == RD_ERR_LIMIT ? 422 : rd_status_for(info.error.code);
