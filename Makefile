@@ -28,7 +28,7 @@ PKG_LIBS   = $(shell pkg-config --libs $(PKGS)) -lm -lpthread
 CORE_SRC   := $(wildcard core/*.c)
 API_SRC    := $(wildcard api/*.c)
 DAEMON_SRC := $(wildcard daemon/*.c)
-TEST_SRC   := $(wildcard tests/*.c)
+TEST_SRC   := $(wildcard tests/*.c) tests/stability/cases.c
 
 LIB_OBJ    := $(patsubst %.c,$(BUILD)/%.o,$(CORE_SRC) $(API_SRC))
 DAEMON_OBJ := $(patsubst %.c,$(BUILD)/%.o,$(DAEMON_SRC)) $(BUILD)/gen/web_page.o
@@ -36,7 +36,7 @@ TEST_OBJ   := $(patsubst %.c,$(BUILD)/%.o,$(TEST_SRC))
 # The CLI's objects without main(), so tests can drive subcommands.
 CLI_OBJ    := $(filter-out $(BUILD)/daemon/main.o,$(DAEMON_OBJ))
 
-.PHONY: all deps test check run bench clean scenes fuzz
+.PHONY: all deps test check run bench clean scenes fuzz stability
 
 # Large inputs are generated, not kept in git.
 GENERATED := scenes/generated/knot.obj
@@ -99,6 +99,14 @@ test: deps
 
 FUZZ_SMOKE_SECONDS ?= 30
 FUZZ_SECONDS ?= 300
+
+# The numerical-stability report: every extreme case, its property, the
+# measured worst error, pass or fail, written to docs/stability.md.
+stability: deps
+	@$(MAKE) --no-print-directory $(BUILD)/librayd.a
+	@$(CC) $(CPPFLAGS) -Itests $(PKG_CFLAGS) -std=c11 -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -O2 \
+	    tests/stability/report.c tests/stability/cases.c $(BUILD)/librayd.a $(PKG_LIBS) -o $(BUILD)/stability-report
+	@$(BUILD)/stability-report --threads 2
 
 # Coverage-guided fuzzing (libFuzzer) of the cfg and JSON readers.
 fuzz: deps

@@ -31,20 +31,15 @@ struct rd_job {
     int progressive, adaptive;
     int pass, pass_samples;
     double mean_weight;         /* adaptive: mean of w_i at the pass start */
+    double deadline_ms;
     double plan_ms;
 };
 
-static double now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
-}
 
 rd_error_code rd_job_create(const rd_scene *s, const rd_job_options *opt, rd_job **out, rd_error *err)
 {
     *out = NULL;
-    double t0 = now_ms();
+    double t0 = rd_now_ms();
     rd_job *j = calloc(1, sizeof *j);
     if (!j)
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
@@ -72,7 +67,7 @@ rd_error_code rd_job_create(const rd_scene *s, const rd_job_options *opt, rd_job
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory for a %dx%d image", s->render.width,
                             s->render.height);
     }
-    j->plan_ms = now_ms() - t0;
+    j->plan_ms = rd_now_ms() - t0;
     *out = j;
     return RD_OK;
 }
@@ -198,18 +193,24 @@ static void render_pixel(rd_job *j, int x, int y, rd_job_counts *c, rd_ray_count
     }
 }
 
-void rd_job_render_tile(rd_job *j, int t, rd_job_counts *c)
+void rd_job_set_deadline(rd_job *j, double deadline_ms) { j->deadline_ms = deadline_ms; }
+
+int rd_job_render_tile(rd_job *j, int t, rd_job_counts *c)
 {
     const rd_scene *s = j->scene;
     int x0 = (t % j->tiles_x) * j->tile, y0 = (t / j->tiles_x) * j->tile;
     int x1 = x0 + j->tile < s->render.width ? x0 + j->tile : s->render.width;
     int y1 = y0 + j->tile < s->render.height ? y0 + j->tile : s->render.height;
-    rd_ray_counts rc = {0, 0, 0};
-    for (int y = y0; y < y1; y++)
-        for (int x = x0; x < x1; x++)
+    rd_ray_counts rc = {0, 0, 0, j->deadline_ms, 4096, 0};
+    for (int y = y0; y < y1 && !rc.stopped; y++) {
+        if (j->deadline_ms > 0 && rd_now_ms() > j->deadline_ms)
+            rc.stopped = 1;
+        for (int x = x0; x < x1 && !rc.stopped; x++)
             render_pixel(j, x, y, c, &rc);
+    }
     c->shadow += rc.shadow;
     c->secondary += rc.secondary;
+    return !rc.stopped;
 }
 
 rd_error_code rd_job_image(const rd_job *j, rd_image *out, rd_error *err)

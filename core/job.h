@@ -45,13 +45,19 @@ const rd_scene *rd_job_scene(const rd_job *j);
  * it reads every pixel. */
 void rd_job_begin_pass(rd_job *j, int pass, int samples);
 
-/* Adds the current pass's samples to every pixel of tile t. With one pass of
+/* Adds the current pass's samples to every pixel of tile t; returns 1, or
+ * 0 when the deadline passed before it finished. With one pass of
  * one sample and not progressive, the sample goes through the pixel centre;
  * otherwise a pixel's samples in a pass are correlated multi-jittered.
  * Adaptive passes after the first give pixel i about
  * samples·(1/2 + 1/2·w_i/mean(w)) samples, w_i = s_i²/n_i² (the drop in its
  * variance one more sample buys), at most 64·samples. */
-void rd_job_render_tile(rd_job *j, int t, rd_job_counts *counts);
+int rd_job_render_tile(rd_job *j, int t, rd_job_counts *counts);
+
+/* Stops rendering once the monotonic clock passes deadline_ms (see
+ * rd_now_ms; 0 = never), checked between pixels and inside deep recursion.
+ * rd_job_render_tile then returns 0 and the tile is incomplete. */
+void rd_job_set_deadline(rd_job *j, double deadline_ms);
 
 /* Mean samples per pixel so far. */
 double rd_job_mean_samples(const rd_job *j);

@@ -13,5 +13,8 @@ double rd_pow_cos(rd_vec3 a, rd_vec3 b, double n)
     double x = 0.5 * v3_dot(d, d);
     if (x >= 1)
         return 0;
+    /* Far from the peak the dot product itself is the accurate one. */
+    if (x > 0.5)
+        return exp(n * log(c > 1 ? 1 : c));
     return exp(n * log1p(-x));
 }

@@ -7,6 +7,7 @@
 #include <time.h>
 
 #include "job.h"
+#include "trace.h"
 
 typedef struct {
     rd_job *job;
@@ -70,12 +71,6 @@ static int run_pass(shared *sh, worker *ws, int threads)
     return started + 1;
 }
 
-static double now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
-}
 
 void rd_image_free(rd_image *img)
 {
@@ -87,7 +82,7 @@ void rd_image_free(rd_image *img)
 rd_error_code rd_render(const rd_scene *s, const rd_render_options *opt_in, rd_image *out,
                         rd_render_stats *stats, rd_error *err)
 {
-    double t0 = now_ms();
+    double t0 = rd_now_ms();
     rd_render_options opt = {0};
     if (opt_in)
         opt = *opt_in;
@@ -117,10 +112,10 @@ rd_error_code rd_render(const rd_scene *s, const rd_render_options *opt_in, rd_i
     double last_ms = 0, error = 0;
     rd_stop_reason why = RD_STOP_NONE;
     for (int pass = 0;; pass++) {
-        int n = rd_progress_next(&ps, pass, spp, last_ms, last_spp, now_ms() - t0, error, &why);
+        int n = rd_progress_next(&ps, pass, spp, last_ms, last_spp, rd_now_ms() - t0, error, &why);
         if (n == 0)
             break;
-        double p0 = now_ms();
+        double p0 = rd_now_ms();
         rd_job_begin_pass(job, pass, n);
         used = run_pass(&sh, ws, threads);
         for (int i = 0; i < threads; i++)
@@ -132,14 +127,14 @@ rd_error_code rd_render(const rd_scene *s, const rd_render_options *opt_in, rd_i
         sh.tiles_done_before += sh.tiles_all;
         spp += n;
         last_spp = n;
-        last_ms = now_ms() - p0;
+        last_ms = rd_now_ms() - p0;
         stats->passes = pass + 1;
         /* A fixed render needs the estimate once, at the end. */
         if (rd_progress_is_progressive(&ps) || pass == 0)
             error = rd_job_error_estimate(job);
         if (stats->curve_len < RD_CURVE_MAX) {
             rd_curve_point *cp = &stats->curve[stats->curve_len++];
-            cp->ms = now_ms() - t0;
+            cp->ms = rd_now_ms() - t0;
             cp->samples = ps.adaptive ? rd_job_mean_samples(job) : spp;
             cp->error = error;
         }
@@ -164,7 +159,7 @@ rd_error_code rd_render(const rd_scene *s, const rd_render_options *opt_in, rd_i
     stats->stopped_by = why;
     stats->samples = (int)floor(stats->mean_samples + 0.5);
     stats->threads = used;
-    stats->wall_ms = now_ms() - t0;
+    stats->wall_ms = rd_now_ms() - t0;
     uint64_t rays = stats->camera_rays + stats->shadow_rays + stats->secondary_rays;
     stats->rays_per_second = stats->wall_ms > 0 ? rays / (stats->wall_ms / 1e3) : 0;
     return RD_OK;

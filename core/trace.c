@@ -1,16 +1,25 @@
 #include "trace.h"
 
+#include <float.h>
 #include <stdlib.h>
+#include <time.h>
 #include <string.h>
 
 #include "fresnel.h"
 #include "material.h"
 #include "texture.h"
 
-/* A shadow ray toward a light point stops this fraction short of it, so that
- * a light sitting on a surface is not hidden by that surface. Relative, so
- * it scales with the scene. */
-#define SHADOW_END (1.0 - 0x1.0p-30)
+/* Colour sums saturate here, far above white and far below overflow, so
+ * that lights of any finite colour never add up to infinity. */
+#define RD_MAX_RADIANCE 1e300
+
+static rd_rgb saturate(rd_rgb c)
+{
+    double v[3] = {c.x, c.y, c.z};
+    for (int i = 0; i < 3; i++)
+        v[i] = v[i] > RD_MAX_RADIANCE ? RD_MAX_RADIANCE : (v[i] < -RD_MAX_RADIANCE ? -RD_MAX_RADIANCE : v[i]);
+    return v3(v[0], v[1], v[2]);
+}
 
 rd_error_code rd_plan_build(rd_plan *p, const rd_scene *s, rd_error *err)
 {
@@ -57,8 +66,9 @@ void rd_plan_free(rd_plan *p)
     memset(p, 0, sizeof *p);
 }
 
-static int shadowed(const rd_plan *p, const rd_hit *h, const rd_light_sample *ls,
-                    rd_ray_counts *counts)
+/* Not inlined: it would grow every recursion level's stack frame. */
+__attribute__((noinline)) static int shadowed(const rd_plan *p, const rd_hit *h, const rd_light_sample *ls,
+                                              rd_ray_counts *counts)
 {
     rd_ray sr;
     sr.o = rd_offset_origin(h, ls->to_light);
@@ -68,13 +78,43 @@ static int shadowed(const rd_plan *p, const rd_hit *h, const rd_light_sample *ls
         return rd_world_any(&p->world, sr, INFINITY);
     }
     /* Aim from the pushed-off origin, so the ray still ends at the light. */
-    sr.d = v3_add(ls->to_light, v3_sub(h->p, sr.o));
-    return rd_world_any(&p->world, sr, SHADOW_END);
+    rd_vec3 d = v3_add(ls->to_light, v3_sub(h->p, sr.o));
+    double span = v3_max_abs(d);
+    if (!(span > 0) || !isfinite(span))
+        return 0;
+    /* Stop just short of the light: by the rounding error of the two end
+     * points, so a light on a surface is not hidden by it while one a hair
+     * inside a closed object still is. Relative, so it scales. */
+    double end = 1.0 - 64 * DBL_EPSILON * (v3_max_abs(h->p) + v3_max_abs(v3_add(h->p, ls->to_light))) / span;
+    if (!(end > 0))
+        return 0;
+    /* A direction of length about 1 (an exact power-of-two rescaling, with
+     * tmax scaled back) keeps the sphere test's squares in range for
+     * lights and scenes at any scale. */
+    int e = ilogb(span);
+    sr.d = v3(ldexp(d.x, -e), ldexp(d.y, -e), ldexp(d.z, -e));
+    return rd_world_any(&p->world, sr, ldexp(end, e));
+}
+
+double rd_now_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
 }
 
 static rd_rgb trace_secondary(const rd_plan *p, const rd_hit *h, rd_vec3 dir, int depth,
                               rd_rng *rng, rd_ray_counts *counts)
 {
+    if (counts->stopped)
+        return v3(0, 0, 0);
+    if (counts->deadline_ms > 0 && counts->secondary >= counts->next_check) {
+        counts->next_check = counts->secondary + 4096;
+        if (rd_now_ms() > counts->deadline_ms) {
+            counts->stopped = 1;
+            return v3(0, 0, 0);
+        }
+    }
     rd_ray r;
     r.o = rd_offset_origin(h, dir);
     r.d = dir;
@@ -122,17 +162,17 @@ rd_rgb rd_trace(const rd_plan *p, rd_ray r, int depth, rd_rng *rng, rd_ray_count
                     continue;
                 if (shadowed(p, &h, &ls, counts))
                     continue;
-                color = v3_add(color, v3_mul(ls.color, rd_calc_reflected_light(m, &h, ls.L, V)));
+                color = saturate(v3_add(color, v3_mul(ls.color, rd_calc_reflected_light(m, &h, ls.L, V))));
             }
         }
     }
-    color = v3_add(color, m->ambient);
+    color = saturate(v3_add(color, m->ambient));
 
     if (depth >= s->render.max_depth || is_black(m->ks))
         return color;
     if (m->type == RD_MAT_PERFECT_SPECULAR) {
         rd_vec3 d = v3_normalize(v3_reflect(r.d, h.n));
-        color = v3_add(color, v3_mul(m->ks, trace_secondary(p, &h, d, depth, rng, counts)));
+        color = saturate(v3_add(color, v3_mul(m->ks, trace_secondary(p, &h, d, depth, rng, counts))));
     } else if (m->type == RD_MAT_SPECULAR_REFRACTION) {
         double n1 = h.front ? 1.0 : m->ior, n2 = h.front ? m->ior : 1.0;
         double cosi = -v3_dot(r.d, h.n), cost;
@@ -148,7 +188,7 @@ rd_rgb rd_trace(const rd_plan *p, rd_ray r, int depth, rd_rng *rng, rd_ray_count
             t = v3_normalize(t);
             sum = v3_add(sum, v3_scale(trace_secondary(p, &h, t, depth, rng, counts), 1 - F));
         }
-        color = v3_add(color, v3_mul(m->ks, sum));
+        color = saturate(v3_add(color, v3_mul(m->ks, saturate(sum))));
     }
     return color;
 }

@@ -21,7 +21,17 @@ typedef struct {
 
 typedef struct {
     uint64_t camera, shadow, secondary;
+    /* Optional deadline (monotonic ms, 0 = none), looked at every 4096
+     * secondary rays: a glass ray tree is binary and max_depth may be 64,
+     * so one camera ray can otherwise run for hours. Once passed, `stopped`
+     * is set and tracing returns black at once. */
+    double deadline_ms;
+    uint64_t next_check;
+    int stopped;
 } rd_ray_counts;
+
+/* Monotonic milliseconds, the clock of deadline_ms. */
+double rd_now_ms(void);
 
 rd_error_code rd_plan_build(rd_plan *p, const rd_scene *s, rd_error *err);
 void rd_plan_free(rd_plan *p);

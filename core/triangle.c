@@ -42,6 +42,13 @@ double rd_tri_intersect(const rd_vec3 v[3], rd_ray r, double tmax, double bary[3
     double det = U + V + W;
     if (det == 0 || !isfinite(det))
         return 0;
+    /* A sliver whose corners are collinear up to rounding, or a ray in the
+     * triangle's plane: U, V, W are then rounding noise, and so is their
+     * sum. No hit unless det clearly exceeds that noise. */
+    double noise = 8 * DBL_EPSILON *
+                   (fabs(Cx * By) + fabs(Cy * Bx) + fabs(Ax * Cy) + fabs(Ay * Cx) + fabs(Bx * Ay) + fabs(By * Ax));
+    if (fabs(det) <= noise)
+        return 0;
     double T = U * sz * comp(A, kz) + V * sz * comp(B, kz) + W * sz * comp(C, kz);
     /* t = T/det must lie in (0, tmax); compare without dividing. */
     if (det < 0) {

@@ -1,5 +1,7 @@
 #include "world.h"
 
+#include "trace.h"
+
 #include <float.h>
 #include <stdlib.h>
 #include <string.h>
@@ -23,12 +25,6 @@ void rd_world_free(rd_world *w)
     memset(w, 0, sizeof *w);
 }
 
-static double now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
-}
 
 static rd_error_code nomem(rd_world *w, rd_error *err)
 {
@@ -104,7 +100,7 @@ rd_error_code rd_world_build(rd_world *w, const rd_scene *s, rd_error *err)
     }
     size_t nb = w->nspheres + w->ntris;
     if (nb > RD_WORLD_BVH_MIN) {
-        double t0 = now_ms();
+        double t0 = rd_now_ms();
         rd_vec3 *lo = malloc(nb * sizeof *lo), *hi = malloc(nb * sizeof *hi);
         if (!lo || !hi) {
             free(lo);
@@ -131,7 +127,7 @@ rd_error_code rd_world_build(rd_world *w, const rd_scene *s, rd_error *err)
             return rc;
         }
         w->use_bvh = 1;
-        w->build_ms = now_ms() - t0;
+        w->build_ms = rd_now_ms() - t0;
     }
     return RD_OK;
 }

@@ -395,6 +395,8 @@ static void *worker(void *arg)
                 pthread_mutex_lock(&q->mu);
             } else {
                 j->core = core;
+                if (q->opt.job_timeout_ms > 0)
+                    rd_job_set_deadline(core, j->t_start + q->opt.job_timeout_ms);
                 j->tile_state = ts;
                 j->tiles_total = rd_job_tile_count(core);
                 rd_stop_reason why;
@@ -416,8 +418,13 @@ static void *worker(void *arg)
         j->inflight++;
         pthread_mutex_unlock(&q->mu);
         rd_job_counts c = {0, 0, 0, 0};
-        rd_job_render_tile(j->core, tile, &c);
+        int complete = rd_job_render_tile(j->core, tile, &c);
         pthread_mutex_lock(&q->mu);
+        if (!complete && !j->cancel) {
+            /* The tile ran past the job's time limit. */
+            j->cancel = 1;
+            j->timed_out = 1;
+        }
         j->tile_state[tile] = TILE_DONE;
         j->counts.camera += c.camera;
         j->counts.shadow += c.shadow;
