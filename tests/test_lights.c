@@ -107,7 +107,7 @@ static rd_rgb trace_to(const rd_scene *s, rd_vec3 x, rd_ray_counts *counts)
     r.o = v3(0, 0, 0); /* the eye, in the world's camera-relative frame */
     r.d = v3_normalize(v3_sub(x, s->camera.eye));
     rd_rng rng = rd_rng_make(s->render.seed, 0, 0);
-    rd_ray_counts local = {0, 0, 0};
+    rd_ray_counts local = {0};
     rd_rgb c = rd_trace(&p, r, 0, &rng, counts ? counts : &local);
     rd_plan_free(&p);
     return c;
@@ -199,7 +199,7 @@ Test(light_models, spot_cutoff_is_exact)
         double tin = tan(29.999 * M_PI / 180), tout = tan(30.001 * M_PI / 180);
         rd_vec3 xin = v3(tin * cos(phi), tin * sin(phi), 0);
         rd_vec3 xout = v3(tout * cos(phi), tout * sin(phi), 0);
-        rd_ray_counts cin = {0, 0, 0}, cout = {0, 0, 0};
+        rd_ray_counts cin = {0}, cout = {0};
         rd_rgb in = trace_to(&s, xin, &cin);
         rd_rgb out = trace_to(&s, xout, &cout);
         /* Inside: kd · cos α with cos α = cos 29.999° (N = +z, the spot
