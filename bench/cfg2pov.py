@@ -2,10 +2,14 @@
 """cfg2pov.py: a rayd cfg scene written as a POV-Ray 3.7 scene, for bench/run.sh.
 
 usage: cfg2pov.py SCENE.cfg OUT.pov [--width W --height H]
+                  [--area-size N] [--area-adaptive A]
 
 W x H is the image size the .pov will be rendered at (POV-Ray's camera needs
-the aspect ratio); it defaults to the cfg's [render] width and height. Render
-the result as bench/run.sh does:
+the aspect ratio); it defaults to the cfg's [render] width and height.
+--area-size N gives every area light N x N points instead of the cfg's
+samples per side; --area-adaptive A adds POV-Ray's `adaptive A` to them
+(default: none, every point is sampled). Render the result as bench/run.sh
+does:
 
     povray +IOUT.pov +OOUT.png +FN +WW +HH -D -A +Q9 File_Gamma=1.0
 
@@ -18,6 +22,12 @@ hand-written bench/diffuse.pov and bench/phong.pov (see bench/README.md):
   - lights: point -> light_source at the same position and colour (no
     attenuation, hard shadows); directional -> a `parallel` light_source
     placed far up-light of the scene, pointing along the cfg's direction;
+    area (samples n) -> a light_source at the parallelogram's centre with
+    `area_light edge1*(n-1)/n, edge2*(n-1)/n, n, n jitter area_illumination
+    on`: POV-Ray spaces its points A/(n-1) apart from -A/2 to +A/2 and
+    jitters each by half a spacing, so these are rayd's n x n jittered
+    cells, and both split the colour evenly over the points (same
+    brightness); see area_light() for what still differs;
   - materials (pigment = kd, `diffuse 1 brilliance 1`, i.e. kd*cos):
       diffuse        exact;
       phong          exact for grey ks: `phong ks phong_size shininess`;
@@ -39,9 +49,10 @@ hand-written bench/diffuse.pov and bench/phong.pov (see bench/README.md):
   - output gamma: rayd writes clamp(c)^(1/gamma); the .pov has assumed_gamma 1
     and the command line must say File_Gamma=<gamma> (1 by default).
 The scene is expected to be one rayd accepts (rayd validates it; this does not).
-Not supported (an error): spot and area lights, mirrors, glass, textures,
-pseudo_normal_color, JSON scenes. samples > 1 gets a warning: POV-Ray's -A
-renders one ray per pixel centre, +A would be its own antialiasing.
+Not supported (an error): spot lights, area lights of 1 x 1 (POV-Ray does
+not jitter those), mirrors, glass, textures, pseudo_normal_color, JSON
+scenes. samples > 1 gets a warning: POV-Ray's -A renders one ray per pixel
+centre, +A would be its own antialiasing.
 """
 import math
 import os
@@ -299,7 +310,51 @@ def write_mesh(out, keys, base, tex, name):
         out.write("  texture { %s }\n}\n" % tex)
 
 
-def convert(cfg, dst, width, height):
+def area_light(keys, col, name, area):
+    """A rayd area light as a POV-Ray jittered area_light with the same cells.
+
+    rayd: `samples` = n puts one jittered point in each of n x n equal cells
+    of the parallelogram corner + a*edge1 + b*edge2 (a, b in [0, 1]), each
+    carrying color/n^2. POV-Ray 3.7: `area_light A1, A2, n1, n2` places its
+    n1 x n2 lights at (i/(n1-1) - 1/2)*A1 + (j/(n2-1) - 1/2)*A2 about the
+    light_source's location, and `jitter` moves each by up to half a spacing
+    (A/(n-1)) either way; each carries color/(n1*n2) (the average over the
+    grid), so its total is `color` too. With A = edge*(n-1)/n and the
+    location at the parallelogram's centre, POV-Ray's spacing is edge/n and
+    its jitter cells are exactly rayd's n x n cells. `area_illumination on`
+    makes POV-Ray shade (diffuse, highlight) from every point as rayd does;
+    without it POV-Ray shades from the centre only. Two differences remain:
+    POV-Ray averages its shadow samples by recursive corner quartering (a
+    trapezoid rule: edge points weigh 1/2, corners 1/4), so its light is a
+    little centre-heavy and its penumbrae a little narrower; and it traces
+    the visibility with other jitter than the shading and multiplies the
+    two averages, which darkens surfaces where the light sets below their
+    horizon. Both fade as n grows. area = (n, adaptive):
+    n overrides the cfg's samples per side (POV-Ray's adaptive mode wants
+    2^k + 1); adaptive None writes no `adaptive` (every point sampled).
+    """
+    corner = get(keys, "corner", None, 3)
+    e1 = get(keys, "edge1", None, 3)
+    e2 = get(keys, "edge2", None, 3)
+    n = area[0] if area and area[0] else int(get(keys, "samples", 4, 1))
+    adaptive = area[1] if area else None
+    centre = [corner[i] + 0.5 * (e1[i] + e2[i]) for i in range(3)]
+    if n < 2:
+        # POV-Ray puts a 1 x 1 area light at its centre, unjittered; rayd
+        # jitters its one point over the whole light. 2 x 2 is the nearest.
+        raise Bad("area light %s: samples %d: POV-Ray needs at least 2 per side (use --area-size)"
+                  % (name or "", n))
+    k = (n - 1) / n
+    a1 = [x * k for x in e1]
+    a2 = [x * k for x in e2]
+    text = ("light_source { %s color rgb %s\n  area_light %s, %s, %d, %d jitter%s\n  area_illumination on\n}"
+            % (vec(centre), vec(col), vec(a1), vec(a2), n, n,
+               "" if adaptive is None else " adaptive %d" % adaptive))
+    return ("%s  // %s, rayd area light: corner %s edge1 %s edge2 %s, %d x %d cells\n"
+            % (text, name or "", vec(corner), vec(e1), vec(e2), n, n))
+
+
+def convert(cfg, dst, width, height, area=None):
     warnings = []
 
     def warn(msg):
@@ -369,6 +424,8 @@ def convert(cfg, dst, width, height):
                 at = [-far * x / n for x in d]
                 out.write("light_source { %s color rgb %s parallel point_at <0, 0, 0> }  // %s, directional %s\n"
                           % (vec(at), vec(col), name or "", vec(d)))
+            elif typ == "area":
+                out.write(area_light(keys, col, name, area))
             else:
                 raise Bad("%s:%d: %s lights are not supported by cfg2pov" % (cfg, ln, typ))
         out.write("\n")
@@ -424,6 +481,7 @@ def convert(cfg, dst, width, height):
 def main(argv):
     args = argv[1:]
     width = height = None
+    area_n = area_a = None
     pos = []
     i = 0
     while i < len(args):
@@ -437,6 +495,18 @@ def main(argv):
             else:
                 height = v
             i += 2
+        elif a in ("--area-size", "--area-adaptive") and i + 1 < len(args):
+            try:
+                v = int(args[i + 1])
+            except ValueError:
+                v = -1
+            if v < (2 if a == "--area-size" else 0):
+                sys.exit("cfg2pov: %s: bad value '%s'" % (a, args[i + 1]))
+            if a == "--area-size":
+                area_n = v
+            else:
+                area_a = v
+            i += 2
         elif a in ("-h", "--help"):
             print(__doc__)
             return 0
@@ -444,10 +514,11 @@ def main(argv):
             pos.append(a)
             i += 1
     if len(pos) != 2:
-        print("usage: cfg2pov.py SCENE.cfg OUT.pov [--width W --height H]", file=sys.stderr)
+        print("usage: cfg2pov.py SCENE.cfg OUT.pov [--width W --height H] [--area-size N] [--area-adaptive A]",
+              file=sys.stderr)
         return 2
     try:
-        convert(pos[0], pos[1], width, height)
+        convert(pos[0], pos[1], width, height, (area_n, area_a))
     except (Bad, OSError, UnicodeDecodeError) as e:
         try:
             os.unlink(pos[1] + ".tmp")

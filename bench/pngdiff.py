@@ -1,12 +1,17 @@
 #!/usr/bin/python3
 """pngdiff.py: how many pixels of two PNG images differ, for bench/run.sh.
 
-usage: pngdiff.py A.png B.png
+usage: pngdiff.py [--rmse] A.png B.png
 
 Prints one line:
     pixels=N differ=D over1=M max=K
 N pixels in each image, D pixels that differ in any channel, M of them by more
 than 1/255 in some channel, K the largest difference of any channel (0..255).
+With --rmse it prints instead
+    rmse=E mean_a=MA mean_b=MB pixels=N
+E the root-mean-square difference over every pixel and channel, and MA, MB
+the mean of each image's values, all in output units where 1 = 255 levels
+(the units of rayd's error_estimate and of `rayd converge`).
 Exit status 0 when compared (whatever the result), 2 when an image cannot be
 read or the sizes differ.
 
@@ -95,9 +100,24 @@ def read_png(path):
     return w, h, out
 
 
+def rmse(wa, ha, a, b):
+    """Root-mean-square difference and both means, 1 = 255 levels."""
+    sq = sa = sb = 0
+    for ra, rb in zip(a, b):
+        sa += sum(ra)
+        sb += sum(rb)
+        if ra != rb:
+            sq += sum((x - y) * (x - y) for x, y in zip(ra, rb))
+    n = 3 * wa * ha
+    return (sq / n) ** 0.5 / 255.0, sa / n / 255.0, sb / n / 255.0
+
+
 def main(argv):
+    want_rmse = len(argv) == 4 and argv[1] == "--rmse"
+    if want_rmse:
+        argv = argv[:1] + argv[2:]
     if len(argv) != 3:
-        print("usage: pngdiff.py A.png B.png", file=sys.stderr)
+        print("usage: pngdiff.py [--rmse] A.png B.png", file=sys.stderr)
         return 2
     try:
         wa, ha, a = read_png(argv[1])
@@ -108,6 +128,10 @@ def main(argv):
     if (wa, ha) != (wb, hb):
         print("pngdiff: sizes differ: %dx%d and %dx%d" % (wa, ha, wb, hb), file=sys.stderr)
         return 2
+    if want_rmse:
+        e, ma, mb = rmse(wa, ha, a, b)
+        print("rmse=%.6f mean_a=%.6f mean_b=%.6f pixels=%d" % (e, ma, mb, wa * ha))
+        return 0
     differ = over1 = mx = 0
     for ra, rb in zip(a, b):
         if ra == rb:

@@ -42,7 +42,16 @@ int rd_progress_next(const rd_progress_settings *p, int done, int spp, double la
     }
     if (done > 0 && p->time_budget_ms > 0) {
         double per_sample = last_pass_spp > 0 ? last_pass_ms / last_pass_spp : 0;
-        if (elapsed_ms >= p->time_budget_ms || elapsed_ms + per_sample * next > p->time_budget_ms) {
+        double left = p->time_budget_ms - elapsed_ms;
+        if (left <= 0 || (per_sample > 0 && per_sample > left)) {
+            *why = RD_STOP_TIME_BUDGET;
+            return 0;
+        }
+        /* A doubled pass that would not fit shrinks to what the budget has
+         * room for, instead of leaving the rest of the budget unused. */
+        if (per_sample > 0 && per_sample * next > left)
+            next = (int)(left / per_sample);
+        if (next < 1) {
             *why = RD_STOP_TIME_BUDGET;
             return 0;
         }

@@ -6,9 +6,9 @@
  * first pass giving every pixel the two samples an error estimate needs)
  * until one of the stop rules holds, whichever comes first:
  *   - `samples` per pixel have been taken;
- *   - the next pass is predicted to end past `time_budget_ms` (prediction:
- *     the last pass's time per sample times the next pass's samples), or
- *     the budget is already spent;
+ *   - not even one more sample per pixel fits in `time_budget_ms`
+ *     (prediction: the last pass's time per sample); a doubled pass that
+ *     would not fit is shrunk to the samples that do;
  *   - the error estimate is at or below `target_error`.
  * The first pass always runs. The decision uses only the numbers given, so
  * the same history gives the same schedule. */

@@ -27,6 +27,7 @@ struct rd_jq_job {
     rd_job *core;
     int preparing, finishing;
     int tiles_total, next_tile, tiles_done, inflight;
+    uint64_t tiles_given;       /* over all passes: the fair-share key */
     unsigned char *tile_state;
     int samples;
     rd_progress_settings progress;
@@ -353,10 +354,13 @@ static void *worker(void *arg)
                 }
                 continue;
             }
-            if (j->status == RD_JOB_QUEUED || (j->status == RD_JOB_RUNNING && j->next_tile < j->tiles_total)) {
+            /* Fair share: the next tile goes to the job that has been given
+             * the fewest so far, the oldest on a tie. A lone job gets every
+             * core; a small job arriving behind a large one starts at once
+             * and finishes in about its own render time. */
+            if ((j->status == RD_JOB_QUEUED || (j->status == RD_JOB_RUNNING && j->next_tile < j->tiles_total)) &&
+                (!pick || j->tiles_given < pick->tiles_given))
                 pick = j;
-                break;
-            }
         }
         if (ended) {
             ended->refs++;
@@ -414,6 +418,7 @@ static void *worker(void *arg)
             continue;
         }
         tile = j->next_tile++;
+        j->tiles_given++;
         j->tile_state[tile] = TILE_RENDERING;
         j->inflight++;
         pthread_mutex_unlock(&q->mu);
