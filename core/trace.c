@@ -1,6 +1,7 @@
 #include "trace.h"
 
 #include <float.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <time.h>
 #include <string.h>
@@ -90,10 +91,22 @@ __attribute__((noinline)) static int shadowed(const rd_plan *p, const rd_hit *h,
         return 0;
     /* A direction of length about 1 (an exact power-of-two rescaling, with
      * tmax scaled back) keeps the sphere test's squares in range for
-     * lights and scenes at any scale. */
-    int e = ilogb(span);
-    sr.d = v3(ldexp(d.x, -e), ldexp(d.y, -e), ldexp(d.z, -e));
-    return rd_world_any(&p->world, sr, ldexp(end, e));
+     * lights and scenes at any scale. The exponent comes from the bits:
+     * ilogb and ldexp are library calls on every shadow ray. */
+    uint64_t bits;
+    memcpy(&bits, &span, sizeof bits);
+    int e = (int)((bits >> 52) & 0x7ff) - 1023;
+    if (e < -1000 || e > 1000) {
+        e = ilogb(span);
+        sr.d = v3(ldexp(d.x, -e), ldexp(d.y, -e), ldexp(d.z, -e));
+        return rd_world_any(&p->world, sr, ldexp(end, e));
+    }
+    double down, up;
+    uint64_t b1 = (uint64_t)(1023 - e) << 52, b2 = (uint64_t)(1023 + e) << 52;
+    memcpy(&down, &b1, sizeof down);
+    memcpy(&up, &b2, sizeof up);
+    sr.d = v3_scale(d, down);
+    return rd_world_any(&p->world, sr, end * up);
 }
 
 double rd_now_ms(void)
