@@ -7,26 +7,27 @@
 #include "camera.h"
 #include "trace.h"
 
-/* Samples alternate between two independent half-sets (by the pixel's
+/* Per-pixel state lives in separate arrays, each allocated only when the
+ * render needs it: a fixed one-sample render keeps 28 bytes a pixel (its
+ * mean and count), since touching more memory than that made the first
+ * write to each page, not the tracing, the cost of a large image.
+ *
+ * Samples alternate between two independent half-sets (by the pixel's
  * running count); each half is stratified on its own. The two half-means
  * differ only by noise, so their squared difference measures the variance
  * of the mean without bias, even though stratified samples make a pixel's
  * own sample variance overstate it (two-buffer estimation, as in Rousselle,
  * Knaus & Zwicker, "Adaptive Rendering with Non-Local Means Filtering",
  * SIGGRAPH Asia 2012). */
-typedef struct {
-    double mean[3];     /* linear colour, all samples */
-    float half[2][3];   /* linear means of the two half-sets */
-    float m2[3];        /* Welford sum of squares of display values: adaptive weights */
-    float dmean[3];     /* display-value mean, for m2 */
-    uint32_t n, nh[2];
-} pixel;
-
 struct rd_job {
     const rd_scene *scene;
     rd_pinhole cam;
     rd_plan plan;
-    pixel *px;
+    double *mean;       /* 3 a pixel: linear colour, all samples; always */
+    uint32_t *n;        /* samples a pixel; always */
+    float *half;        /* 6 a pixel: linear means of the two half-sets; when estimating */
+    uint32_t *nh;       /* 2 a pixel: their counts; when estimating */
+    float *stat;        /* 6 a pixel: display mean and Welford sum of squares; adaptive only */
     int tile, tiles_x, tiles_total;
     int progressive, adaptive;
     int pass, pass_samples;
@@ -61,8 +62,21 @@ rd_error_code rd_job_create(const rd_scene *s, const rd_job_options *opt, rd_job
     size_t npix = (size_t)s->render.width * (size_t)s->render.height;
     j->tiles_x = (s->render.width + j->tile - 1) / j->tile;
     j->tiles_total = j->tiles_x * ((s->render.height + j->tile - 1) / j->tile);
-    j->px = calloc(npix, sizeof *j->px);
-    if (!j->px) {
+    /* One centre sample a pixel has nothing to estimate from. */
+    int estimating = j->progressive || s->render.samples > 1;
+    /* Not calloc: its pages start as the shared zero page, and the first
+     * read-then-write of a pixel then copies the page and flushes every
+     * CPU's TLB, which serialised the threads. Each tile writes its own
+     * pixels' starting values before its first pass instead. */
+    j->mean = malloc(npix * 3 * sizeof *j->mean);
+    j->n = malloc(npix * sizeof *j->n);
+    if (estimating) {
+        j->half = malloc(npix * 6 * sizeof *j->half);
+        j->nh = malloc(npix * 2 * sizeof *j->nh);
+    }
+    if (j->adaptive)
+        j->stat = malloc(npix * 6 * sizeof *j->stat);
+    if (!j->mean || !j->n || (estimating && (!j->half || !j->nh)) || (j->adaptive && !j->stat)) {
         rd_job_free(j);
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory for a %dx%d image", s->render.width,
                             s->render.height);
@@ -77,7 +91,11 @@ void rd_job_free(rd_job *j)
     if (!j)
         return;
     rd_plan_free(&j->plan);
-    free(j->px);
+    free(j->mean);
+    free(j->n);
+    free(j->half);
+    free(j->nh);
+    free(j->stat);
     free(j);
 }
 
@@ -86,13 +104,16 @@ int rd_job_width(const rd_job *j) { return j->scene->render.width; }
 int rd_job_height(const rd_job *j) { return j->scene->render.height; }
 const rd_scene *rd_job_scene(const rd_job *j) { return j->scene; }
 
-/* s²/n² of a pixel: how much one more sample lowers its variance of the mean. */
-static double weight(const pixel *p)
+/* s²/n² of pixel i: how much one more sample lowers its variance of the
+ * mean. Adaptive renders only. */
+static double weight(const rd_job *j, size_t i)
 {
-    if (p->n < 2)
+    uint32_t n = j->n[i];
+    if (n < 2)
         return 0;
-    double var = ((double)p->m2[0] + p->m2[1] + p->m2[2]) / (p->n - 1);
-    return var / ((double)p->n * p->n);
+    const float *m2 = &j->stat[6 * i + 3];
+    double var = ((double)m2[0] + m2[1] + m2[2]) / (n - 1);
+    return var / ((double)n * n);
 }
 
 
@@ -106,7 +127,7 @@ void rd_job_begin_pass(rd_job *j, int pass, int samples)
         size_t npix = (size_t)j->scene->render.width * (size_t)j->scene->render.height;
         double sum = 0;
         for (size_t i = 0; i < npix; i++)
-            sum += weight(&j->px[i]);
+            sum += weight(j, i);
         j->mean_weight = sum / (double)npix;
     }
 }
@@ -116,7 +137,7 @@ double rd_job_mean_samples(const rd_job *j)
     size_t npix = (size_t)j->scene->render.width * (size_t)j->scene->render.height;
     double sum = 0;
     for (size_t i = 0; i < npix; i++)
-        sum += j->px[i].n;
+        sum += j->n[i];
     return sum / (double)npix;
 }
 
@@ -132,7 +153,6 @@ static void render_pixel(rd_job *j, int x, int y, rd_job_counts *c, rd_ray_count
 {
     const rd_scene *s = j->scene;
     uint64_t index = (uint64_t)y * (uint64_t)s->render.width + (uint64_t)x;
-    pixel *p = &j->px[index];
     int pass = j->pass, samples = j->pass_samples;
     /* Pass 0 keeps the pattern of a plain render; later passes draw new ones. */
     uint64_t pass_seed = s->render.seed + (uint64_t)pass * 0x9e3779b97f4a7c15ULL;
@@ -144,17 +164,18 @@ static void render_pixel(rd_job *j, int x, int y, rd_job_counts *c, rd_ray_count
          * pass goes to every pixel alike, so none whose first samples
          * happened to agree is starved; the other half follows the error.
          * The cap only stops a single pixel from stalling its tile. */
-        double want = samples * (0.5 + 0.5 * weight(p) / j->mean_weight);
+        double want = samples * (0.5 + 0.5 * weight(j, index) / j->mean_weight);
         if (want > 64.0 * samples)
             want = 64.0 * samples;
-        rd_rng pick = rd_rng_make(pass_seed ^ 0xadab7e5ULL, index, p->n);
+        rd_rng pick = rd_rng_make(pass_seed ^ 0xadab7e5ULL, index, j->n[index]);
         samples = (int)want + (rd_rng_next(&pick) < want - floor(want));
         if (samples < 1)
-            samples = p->n < 2 ? 1 : 0;
+            samples = j->n[index] < 2 ? 1 : 0;
     }
     /* Which half-set each of this pass's samples joins, and its index there.
      * A centre sample needs no pattern at all. */
-    uint32_t first = p->n;
+    uint32_t first = j->n[index];
+    double *mean = &j->mean[3 * index];
     uint32_t in_half[2] = {0, 0}, count[2] = {0, 0};
     uint32_t pattern_half[2] = {0, 0};
     if (!centre) {
@@ -172,24 +193,29 @@ static void render_pixel(rd_job *j, int x, int y, rd_job_counts *c, rd_ray_count
         /* Only area lights draw random numbers during tracing. */
         rd_rng rng = {0};
         if (j->plan.stochastic)
-            rng = rd_rng_make(s->render.seed, index, (uint64_t)p->n);
+            rng = rd_rng_make(s->render.seed, index, (uint64_t)j->n[index]);
         c->camera++;
         rd_rgb col = rd_trace(&j->plan, r, 0, &rng, rc);
         double cv[3] = {finite_or_zero(col.x, &c->nonfinite), finite_or_zero(col.y, &c->nonfinite),
                         finite_or_zero(col.z, &c->nonfinite)};
-        uint32_t n = ++p->n;
-        uint32_t nh = ++p->nh[h];
-        for (int ch = 0; ch < 3; ch++) {
-            p->mean[ch] += (cv[ch] - p->mean[ch]) / n;
-            p->half[h][ch] = (float)(p->half[h][ch] + (cv[ch] - p->half[h][ch]) / nh);
+        uint32_t n = ++j->n[index];
+        for (int ch = 0; ch < 3; ch++)
+            mean[ch] += (cv[ch] - mean[ch]) / n;
+        if (j->half) {
+            uint32_t nh = ++j->nh[2 * index + h];
+            float *hm = &j->half[6 * index + 3 * h];
+            for (int ch = 0; ch < 3; ch++)
+                hm[ch] = (float)(hm[ch] + (cv[ch] - hm[ch]) / nh);
         }
         /* The spread of display values only steers adaptive passes. */
-        if (j->adaptive)
+        if (j->stat) {
+            float *dmean = &j->stat[6 * index], *m2 = dmean + 3;
             for (int ch = 0; ch < 3; ch++) {
-                double d = rd_display(cv[ch], g), delta = d - p->dmean[ch];
-                p->dmean[ch] = (float)(p->dmean[ch] + delta / n);
-                p->m2[ch] = (float)(p->m2[ch] + delta * (d - p->dmean[ch]));
+                double d = rd_display(cv[ch], g), delta = d - dmean[ch];
+                dmean[ch] = (float)(dmean[ch] + delta / n);
+                m2[ch] = (float)(m2[ch] + delta * (d - dmean[ch]));
             }
+        }
     }
 }
 
@@ -201,6 +227,18 @@ int rd_job_render_tile(rd_job *j, int t, rd_job_counts *c)
     int x0 = (t % j->tiles_x) * j->tile, y0 = (t / j->tiles_x) * j->tile;
     int x1 = x0 + j->tile < s->render.width ? x0 + j->tile : s->render.width;
     int y1 = y0 + j->tile < s->render.height ? y0 + j->tile : s->render.height;
+    if (j->pass == 0)
+        for (int y = y0; y < y1; y++) {
+            size_t i = (size_t)y * (size_t)s->render.width + (size_t)x0, w = (size_t)(x1 - x0);
+            memset(&j->mean[3 * i], 0, 3 * w * sizeof *j->mean);
+            memset(&j->n[i], 0, w * sizeof *j->n);
+            if (j->half) {
+                memset(&j->half[6 * i], 0, 6 * w * sizeof *j->half);
+                memset(&j->nh[2 * i], 0, 2 * w * sizeof *j->nh);
+            }
+            if (j->stat)
+                memset(&j->stat[6 * i], 0, 6 * w * sizeof *j->stat);
+        }
     rd_ray_counts rc = {0, 0, 0, j->deadline_ms, 4096, 0};
     for (int y = y0; y < y1 && !rc.stopped; y++) {
         if (j->deadline_ms > 0 && rd_now_ms() > j->deadline_ms)
@@ -223,9 +261,16 @@ rd_error_code rd_job_image(const rd_job *j, rd_image *out, rd_error *err)
         out->width = out->height = 0;
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory for the image");
     }
-    for (size_t i = 0; i < npix; i++)
-        memcpy(&out->rgb[3 * i], j->px[i].mean, 3 * sizeof(double));
+    memcpy(out->rgb, j->mean, npix * 3 * sizeof(double));
     return RD_OK;
+}
+
+void rd_job_take_image(rd_job *j, rd_image *out)
+{
+    out->width = j->scene->render.width;
+    out->height = j->scene->render.height;
+    out->rgb = j->mean;
+    j->mean = NULL;
 }
 
 void rd_job_rgb8(const rd_job *j, uint8_t *out)
@@ -234,7 +279,7 @@ void rd_job_rgb8(const rd_job *j, uint8_t *out)
     double g = j->scene->render.gamma;
     for (size_t i = 0; i < npix; i++)
         for (int ch = 0; ch < 3; ch++)
-            out[3 * i + ch] = (uint8_t)floor(rd_display(j->px[i].mean[ch], g) * 255.0 + 0.5);
+            out[3 * i + ch] = (uint8_t)floor(rd_display(j->mean[3 * i + ch], g) * 255.0 + 0.5);
 }
 
 void rd_job_tile_rgb8(const rd_job *j, int t, uint8_t *out)
@@ -248,7 +293,7 @@ void rd_job_tile_rgb8(const rd_job *j, int t, uint8_t *out)
         for (int x = x0; x < x1; x++) {
             size_t i = (size_t)y * (size_t)s->render.width + (size_t)x;
             for (int ch = 0; ch < 3; ch++)
-                out[3 * i + ch] = (uint8_t)floor(rd_display(j->px[i].mean[ch], g) * 255.0 + 0.5);
+                out[3 * i + ch] = (uint8_t)floor(rd_display(j->mean[3 * i + ch], g) * 255.0 + 0.5);
         }
 }
 
@@ -256,17 +301,19 @@ double rd_job_error_estimate(const rd_job *j)
 {
     size_t npix = (size_t)j->scene->render.width * (size_t)j->scene->render.height;
     double sum = 0;
+    if (!j->half)
+        return 0;
+    double g = j->scene->render.gamma;
     for (size_t i = 0; i < npix; i++) {
-        const pixel *p = &j->px[i];
-        double a = p->nh[0], b = p->nh[1];
+        double a = j->nh[2 * i], b = j->nh[2 * i + 1];
         if (a < 1 || b < 1)
             continue;
         /* E[(mA - mB)^2] = s^2 (1/a + 1/b) and Var(mean) = s^2/(a + b). */
         double k = a * b / ((a + b) * (a + b));
         /* The image shows display(mean), so compare the halves as displayed. */
-        double g = j->scene->render.gamma;
+        const float *ha = &j->half[6 * i], *hb = ha + 3;
         for (int ch = 0; ch < 3; ch++) {
-            double d = rd_display(p->half[0][ch], g) - rd_display(p->half[1][ch], g);
+            double d = rd_display(ha[ch], g) - rd_display(hb[ch], g);
             sum += d * d * k;
         }
     }

@@ -67,6 +67,10 @@ double rd_job_mean_samples(const rd_job *j);
  * rd_image_free). Pixels with no sample yet are black. */
 rd_error_code rd_job_image(const rd_job *j, rd_image *out, rd_error *err);
 
+/* Moves the mean colours out as the image (no copy); the job keeps
+ * answering everything but rd_job_image and rd_job_rgb8 afterwards. */
+void rd_job_take_image(rd_job *j, rd_image *out);
+
 /* 8-bit RGB of the image so far, without a linear copy: width·height·3 bytes. */
 void rd_job_rgb8(const rd_job *j, uint8_t *out);
 

@@ -17,8 +17,10 @@ typedef struct {
     int tiles_all;
 } shared;
 
+/* Each worker's counters on cache lines of their own: they change on every
+ * ray, and sharing a line between threads serialises them. */
 typedef struct {
-    shared *sh;
+    _Alignas(128) shared *sh;
     rd_job_counts counts;
     int cancelled;
     pthread_t tid;
@@ -97,7 +99,9 @@ rd_error_code rd_render(const rd_scene *s, const rd_render_options *opt_in, rd_i
     if (rc)
         return rc;
     rd_job_plan_stats(job, stats);
-    worker *ws = calloc((size_t)threads, sizeof *ws);
+    worker *ws = aligned_alloc(128, ((size_t)threads * sizeof(worker) + 127) / 128 * 128);
+    if (ws)
+        memset(ws, 0, (size_t)threads * sizeof *ws);
     if (!ws) {
         rd_job_free(job);
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
@@ -150,12 +154,10 @@ rd_error_code rd_render(const rd_scene *s, const rd_render_options *opt_in, rd_i
         rd_job_free(job);
         return rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "render cancelled");
     }
-    rc = rd_job_image(job, out, err);
     stats->error_estimate = error;
     stats->mean_samples = rd_job_mean_samples(job);
+    rd_job_take_image(job, out);
     rd_job_free(job);
-    if (rc)
-        return rc;
     stats->stopped_by = why;
     stats->samples = (int)floor(stats->mean_samples + 0.5);
     stats->threads = used;
