@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "json_text.h"
 #include "scene.h"
 #include "scene_keys.h"
 
@@ -190,18 +191,7 @@ rd_error_code rd_scene_schema(char **out, rd_error *err)
                           section_schema(RD_SEC_MATERIAL, NULL, rd_material_type_words, NULL));
     cJSON_AddItemToObject(props, "objects", objects_schema());
     cJSON_AddFalseToObject(root, "additionalProperties");
-    char *text = cJSON_Print(root);
-    cJSON_Delete(root);
-    if (!text)
-        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
-    size_t n = strlen(text);
-    char *copy = malloc(n + 2);
-    if (copy) {
-        memcpy(copy, text, n);
-        copy[n] = '\n';
-        copy[n + 1] = 0;
-    }
-    cJSON_free(text);
+    char *copy = rd_json_print(root);
     if (!copy)
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
     *out = copy;

@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "json_text.h"
 #include "number_text.h"
 #include "scene_keys.h"
 
@@ -340,22 +341,9 @@ rd_error_code rd_scene_write_json(const rd_scene *s, char **out, rd_error *err)
         rd_section_kind sec = object_section(o);
         cJSON_AddItemToArray(objs, json_section(sec, 0, o, o, o->name, rd_section_kind_name(sec)));
     }
-    char *text = cJSON_Print(root);
-    cJSON_Delete(root);
-    if (!text)
+    char *copy = rd_json_print(root);
+    if (!copy)
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory writing the scene");
-    /* cJSON's allocator is malloc unless hooks are installed; copy to be sure
-     * the caller's free() matches, and end the file with a newline. */
-    size_t n = strlen(text);
-    char *copy = malloc(n + 2);
-    if (!copy) {
-        cJSON_free(text);
-        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory writing the scene");
-    }
-    memcpy(copy, text, n);
-    copy[n] = '\n';
-    copy[n + 1] = 0;
-    cJSON_free(text);
     *out = copy;
     return RD_OK;
 }

@@ -1,0 +1,22 @@
+#include "json_text.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+char *rd_json_print(cJSON *root)
+{
+    char *text = root ? cJSON_Print(root) : NULL;
+    cJSON_Delete(root);
+    if (!text)
+        return NULL;
+    /* A copy, so free() matches whatever allocator cJSON was built with. */
+    size_t n = strlen(text);
+    char *copy = malloc(n + 2);
+    if (copy) {
+        memcpy(copy, text, n);
+        copy[n] = '\n';
+        copy[n + 1] = 0;
+    }
+    cJSON_free(text);
+    return copy;
+}
