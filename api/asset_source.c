@@ -41,6 +41,23 @@ char *rd_dirname(const char *path)
     return d;
 }
 
+rd_error_code rd_path_inside(const char *dir, const char *name, char *real_file, rd_error *err)
+{
+    char full[PATH_MAX];
+    if ((size_t)snprintf(full, PATH_MAX, "%s/%s", dir, name) >= PATH_MAX)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "'%.200s': path too long", name);
+    /* A symbolic link may still point outside: compare the real paths. */
+    char real_dir[PATH_MAX];
+    if (!realpath(dir, real_dir))
+        return rd_error_set(err, RD_ERR_IO, 0, 0, "%s: %s", dir, strerror(errno));
+    if (!realpath(full, real_file))
+        return rd_error_set(err, RD_ERR_IO, 0, 0, "'%.200s': %s", name, strerror(errno));
+    size_t dl = strlen(real_dir);
+    if (strncmp(real_file, real_dir, dl) != 0 || (real_file[dl] != '/' && dl != 1))
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "'%.200s' leads outside the scene's folder", name);
+    return RD_OK;
+}
+
 static rd_error_code folder_read(const rd_asset_source *src, const char *name, size_t max_bytes,
                                  const char *flag, unsigned char **data, size_t *len, rd_error *err)
 {
@@ -50,20 +67,12 @@ static rd_error_code folder_read(const rd_asset_source *src, const char *name, s
         return rd_error_set(err, RD_ERR_INVALID, 0, 0,
                             "'%.200s' is not a path inside the scene's folder (no absolute paths, no '..')",
                             name);
-    char full[PATH_MAX];
-    if ((size_t)snprintf(full, sizeof full, "%s/%s", src->dir, name) >= sizeof full)
-        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "'%.200s': path too long", name);
-    /* A symbolic link may still point outside: compare the real paths. */
-    char real_dir[PATH_MAX], real_file[PATH_MAX];
-    if (!realpath(src->dir, real_dir))
-        return rd_error_set(err, RD_ERR_IO, 0, 0, "%s: %s", src->dir, strerror(errno));
-    if (!realpath(full, real_file))
-        return rd_error_set(err, RD_ERR_IO, 0, 0, "'%.200s': %s", name, strerror(errno));
-    size_t dl = strlen(real_dir);
-    if (strncmp(real_file, real_dir, dl) != 0 || (real_file[dl] != '/' && dl != 1))
-        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "'%.200s' leads outside the scene's folder", name);
+    char real_file[PATH_MAX];
+    rd_error_code rc = rd_path_inside(src->dir, name, real_file, err);
+    if (rc)
+        return rc;
     char *text;
-    rd_error_code rc = rd_read_file(real_file, max_bytes, flag, &text, len, err);
+    rc = rd_read_file(real_file, max_bytes, flag, &text, len, err);
     if (rc == RD_OK)
         *data = (unsigned char *)text;
     else if (rc == RD_ERR_IO || rc == RD_ERR_LIMIT) {

@@ -24,6 +24,11 @@ rd_asset_source rd_asset_folder(const char *dir);
  * malloc'ed. */
 char *rd_dirname(const char *path);
 
+/* Resolves dir/name, following links, into real_file (PATH_MAX bytes);
+ * RD_ERR_INVALID when the result lies outside dir's real path, RD_ERR_IO
+ * when it does not exist. Every route that serves a file by name uses it. */
+rd_error_code rd_path_inside(const char *dir, const char *name, char *real_file, rd_error *err);
+
 /* 1 when name is a relative path without "..", "." or empty components,
  * without backslashes or NUL: one that cannot climb out of its folder. */
 int rd_asset_name_ok(const char *name);

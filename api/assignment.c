@@ -2,11 +2,13 @@
 
 #include <dirent.h>
 #include <errno.h>
+#include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
+#include "asset_source.h"
 #include "scene_load.h"
 
 static int name_ok(const char *n)
@@ -97,16 +99,23 @@ rd_error_code rd_assignment_load(const char *dir, const char *name, rd_assignmen
     snprintf(a->name, sizeof a->name, "%s", name);
     snprintf(a->title, sizeof a->title, "%s", name);
     a->thresholds = rd_grade_thresholds_default();
-    if ((size_t)snprintf(a->scene_path, sizeof a->scene_path, "%s/%s.cfg", dir, name) >= sizeof a->scene_path)
-        return rd_error_set(err, RD_ERR_IO, 0, 0, "assignment path too long");
-    if (access(a->scene_path, R_OK) != 0)
+    /* Both files must really lie in the folder: a link out of it is no
+     * assignment (the scene route would otherwise serve any file). */
+    char file[80], real[PATH_MAX];
+    snprintf(file, sizeof file, "%s.cfg", name);
+    if (rd_path_inside(dir, file, real, err) != RD_OK || access(real, R_OK) != 0)
         return rd_error_set(err, RD_ERR_IO, 0, 0, "no assignment named '%s'", name);
-    char gpath[600];
-    snprintf(gpath, sizeof gpath, "%s/%s.grade", dir, name);
+    if ((size_t)snprintf(a->scene_path, sizeof a->scene_path, "%s/%s", dir, file) >= sizeof a->scene_path)
+        return rd_error_set(err, RD_ERR_IO, 0, 0, "assignment path too long");
+    char gpath[PATH_MAX];
+    snprintf(file, sizeof file, "%s.grade", name);
+    snprintf(gpath, sizeof gpath, "%s/%s", dir, file);
     char *text;
     size_t len;
     if (access(gpath, F_OK) != 0)
-        return RD_OK;
+        return RD_OK; /* no .grade file: the default thresholds */
+    if (rd_path_inside(dir, file, real, err) != RD_OK)
+        return rd_error_set(err, RD_ERR_IO, 0, 0, "%s: leads outside the assignments folder", gpath);
     rd_error_code rc = rd_read_file(gpath, 65536, "(grade files are at most 64 KiB)", &text, &len, err);
     if (rc)
         return rc;

@@ -5,7 +5,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <fcntl.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include "cfg_parse.h"
 #include "json_parse.h"
@@ -35,29 +37,38 @@ rd_error_code rd_read_file(const char *path, size_t max_bytes, const char *flag,
 {
     *out = NULL;
     *len = 0;
-    FILE *f = fopen(path, "rb");
-    if (!f)
+    /* Non-blocking, so that opening a FIFO or a device cannot hang the
+     * caller; the type is checked on the descriptor before any read. */
+    int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0)
         return rd_error_set(err, RD_ERR_IO, 0, 0, "%s: cannot open: %s", path, strerror(errno));
     struct stat st;
-    if (fstat(fileno(f), &st) != 0 || !S_ISREG(st.st_mode)) {
-        fclose(f);
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+        close(fd);
         return rd_error_set(err, RD_ERR_IO, 0, 0, "%s: not a regular file", path);
     }
     if ((unsigned long long)st.st_size > max_bytes) {
-        fclose(f);
+        close(fd);
         return rd_error_set(err, RD_ERR_LIMIT, 0, 0, "%s: %lld bytes, over the limit of %zu (%s)", path,
                             (long long)st.st_size, max_bytes, flag);
     }
     size_t n = (size_t)st.st_size;
     char *buf = malloc(n + 1);
     if (!buf) {
-        fclose(f);
+        close(fd);
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "%s: out of memory", path);
     }
-    size_t got = fread(buf, 1, n, f);
-    int bad = ferror(f);
-    fclose(f);
-    if (bad || got != n) {
+    size_t got = 0;
+    while (got < n) {
+        ssize_t k = read(fd, buf + got, n - got);
+        if (k < 0 && errno == EINTR)
+            continue;
+        if (k <= 0)
+            break;
+        got += (size_t)k;
+    }
+    close(fd);
+    if (got != n) {
         free(buf);
         return rd_error_set(err, RD_ERR_IO, 0, 0, "%s: read error", path);
     }

@@ -9,7 +9,9 @@ typedef enum {
     RD_ERR_LIMIT,       /* over a configured size limit */
     RD_ERR_IO,          /* a file could not be read or written */
     RD_ERR_NOMEM,
-    RD_ERR_CANCELLED
+    RD_ERR_CANCELLED,
+    RD_ERR_TIMEOUT,     /* a render ran past its time limit */
+    RD_ERR_BUSY         /* no room now (queue full): try again later */
 } rd_error_code;
 
 typedef struct {

@@ -33,9 +33,30 @@ struct rd_job {
     int pass, pass_samples;
     double mean_weight;         /* adaptive: mean of w_i at the pass start */
     double deadline_ms;
+    const atomic_int *cancel;
     double plan_ms;
 };
 
+
+/* World bytes a primitive costs at most: its record (a triangle's is the
+ * largest), two BVH nodes, its leaf index, and the double bounds and
+ * centroid the builder holds while it works. */
+enum { WORLD_BYTES_PER_PRIM = 512 };
+
+size_t rd_job_estimate_bytes(const rd_scene *s, const rd_job_options *opt)
+{
+    size_t npix = (size_t)s->render.width * (size_t)s->render.height;
+    int progressive = opt && opt->progressive, adaptive = opt && opt->adaptive;
+    size_t per_pixel = 3 * sizeof(double) + sizeof(uint32_t) + 3; /* mean, count, 8-bit output */
+    if (progressive || s->render.samples > 1)
+        per_pixel += 6 * sizeof(float) + 2 * sizeof(uint32_t);
+    if (adaptive)
+        per_pixel += 6 * sizeof(float);
+    size_t prims = s->object_count;
+    for (size_t i = 0; i < s->mesh_count; i++)
+        prims += s->meshes[i].nfaces;
+    return rd_scene_bytes(s) + prims * WORLD_BYTES_PER_PRIM + npix * per_pixel + sizeof(rd_job);
+}
 
 rd_error_code rd_job_create(const rd_scene *s, const rd_job_options *opt, rd_job **out, rd_error *err)
 {
@@ -185,6 +206,8 @@ static void render_pixel(rd_job *j, int x, int y, rd_job_counts *c, rd_ray_count
         pattern_half[1] = rd_pattern(pass_seed ^ 0x6a09e667f3bcc909ULL, index);
     }
     for (int k = 0; k < samples; k++) {
+        if (rd_counts_tick(rc))
+            return;
         int h = (int)((first + (uint32_t)k) & 1);
         double px = 0.5, py = 0.5;
         if (!centre)
@@ -221,6 +244,8 @@ static void render_pixel(rd_job *j, int x, int y, rd_job_counts *c, rd_ray_count
 
 void rd_job_set_deadline(rd_job *j, double deadline_ms) { j->deadline_ms = deadline_ms; }
 
+void rd_job_set_cancel(rd_job *j, const atomic_int *cancel) { j->cancel = cancel; }
+
 int rd_job_render_tile(rd_job *j, int t, rd_job_counts *c)
 {
     const rd_scene *s = j->scene;
@@ -239,10 +264,9 @@ int rd_job_render_tile(rd_job *j, int t, rd_job_counts *c)
             if (j->stat)
                 memset(&j->stat[6 * i], 0, 6 * w * sizeof *j->stat);
         }
-    rd_ray_counts rc = {0, 0, 0, j->deadline_ms, 4096, 0};
+    rd_ray_counts rc;
+    rd_counts_init(&rc, j->deadline_ms, j->cancel);
     for (int y = y0; y < y1 && !rc.stopped; y++) {
-        if (j->deadline_ms > 0 && rd_now_ms() > j->deadline_ms)
-            rc.stopped = 1;
         for (int x = x0; x < x1 && !rc.stopped; x++)
             render_pixel(j, x, y, c, &rc);
     }

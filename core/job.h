@@ -13,6 +13,7 @@
 #ifndef RD_JOB_H
 #define RD_JOB_H
 
+#include <stdatomic.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -31,6 +32,13 @@ typedef struct {
     int progressive;    /* every pass jitters, even a first pass of one sample */
     int adaptive;       /* passes after the first give more samples to noisier pixels */
 } rd_job_options;
+
+/* The most memory a job of this scene holds, in bytes: the scene itself,
+ * its world and BVH (with what building them needs), the per-pixel state
+ * the options call for, and an 8-bit copy of the image. Computed from the
+ * layouts before anything is allocated, for admission against a budget;
+ * the scene's meshes must be loaded. */
+size_t rd_job_estimate_bytes(const rd_scene *s, const rd_job_options *opt);
 
 rd_error_code rd_job_create(const rd_scene *s, const rd_job_options *opt, rd_job **out, rd_error *err);
 void rd_job_free(rd_job *j);
@@ -55,9 +63,13 @@ void rd_job_begin_pass(rd_job *j, int pass, int samples);
 int rd_job_render_tile(rd_job *j, int t, rd_job_counts *counts);
 
 /* Stops rendering once the monotonic clock passes deadline_ms (see
- * rd_now_ms; 0 = never), checked between pixels and inside deep recursion.
- * rd_job_render_tile then returns 0 and the tile is incomplete. */
+ * rd_now_ms; 0 = never), or once *cancel becomes non-zero (NULL = never;
+ * the flag must outlive the job). Both are looked at about once a
+ * millisecond of tracing, inside the sample, light and recursion loops
+ * (trace.h), so a stop takes effect within a few milliseconds whatever the
+ * scene. rd_job_render_tile then returns 0 and the tile is incomplete. */
 void rd_job_set_deadline(rd_job *j, double deadline_ms);
+void rd_job_set_cancel(rd_job *j, const atomic_int *cancel);
 
 /* Mean samples per pixel so far. */
 double rd_job_mean_samples(const rd_job *j);

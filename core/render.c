@@ -45,7 +45,10 @@ static void *work(void *arg)
         int t = atomic_fetch_add(&sh->next, 1);
         if (t >= total)
             break;
-        rd_job_render_tile(sh->job, t, &w->counts);
+        if (!rd_job_render_tile(sh->job, t, &w->counts)) {
+            w->cancelled = 1;
+            break;
+        }
         int done = atomic_fetch_add(&sh->done, 1) + 1;
         if (sh->opt->progress)
             sh->opt->progress(sh->opt->user, sh->tiles_done_before + done, sh->tiles_all);
@@ -99,6 +102,7 @@ rd_error_code rd_render(const rd_scene *s, const rd_render_options *opt_in, rd_i
     if (rc)
         return rc;
     rd_job_plan_stats(job, stats);
+    rd_job_set_cancel(job, opt.cancel);
     worker *ws = aligned_alloc(128, ((size_t)threads * sizeof(worker) + 127) / 128 * 128);
     if (ws)
         memset(ws, 0, (size_t)threads * sizeof *ws);

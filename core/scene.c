@@ -144,3 +144,18 @@ int rd_scene_find_material(const rd_scene *s, const char *name)
             return (int)i;
     return -1;
 }
+
+size_t rd_scene_bytes(const rd_scene *s)
+{
+    size_t n = s->light_cap * sizeof *s->lights + s->material_cap * sizeof *s->materials +
+               s->object_cap * sizeof *s->objects + s->texture_count * sizeof *s->textures +
+               s->mesh_count * sizeof *s->meshes;
+    for (size_t i = 0; i < s->texture_count; i++)
+        n += (size_t)s->textures[i].width * (size_t)s->textures[i].height * 3 * sizeof(float);
+    for (size_t i = 0; i < s->mesh_count; i++) {
+        const rd_mesh *m = &s->meshes[i];
+        n += m->npositions * sizeof *m->positions + m->nnormals * sizeof *m->normals + m->nuvs * sizeof *m->uvs +
+             m->nfaces * sizeof *m->faces;
+    }
+    return n;
+}

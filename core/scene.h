@@ -148,6 +148,10 @@ const char *rd_material_type_name(rd_material_type t);
 /* Releases a mesh's arrays (not the struct itself). */
 void rd_mesh_free(rd_mesh *m);
 
+/* Bytes the scene holds: its arrays, decoded textures and loaded meshes
+ * (names and strings aside). For memory budgets. */
+size_t rd_scene_bytes(const rd_scene *s);
+
 /* Index of the material with that name, or -1. */
 int rd_scene_find_material(const rd_scene *s, const char *name);
 

@@ -116,18 +116,49 @@ double rd_now_ms(void)
     return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
 }
 
+void rd_counts_init(rd_ray_counts *c, double deadline_ms, const atomic_int *cancel)
+{
+    memset(c, 0, sizeof *c);
+    c->deadline_ms = deadline_ms;
+    c->cancel = cancel;
+    c->check_every = 256;
+    /* Nothing to look at: the countdown never reaches zero. */
+    c->until_check = deadline_ms > 0 || cancel ? c->check_every : INT64_MAX;
+    c->last_check_ms = c->until_check == INT64_MAX ? 0 : rd_now_ms();
+}
+
+int rd_counts_check(rd_ray_counts *c)
+{
+    if (c->stopped) {
+        c->until_check = 1;
+        return 1;
+    }
+    if (!(c->deadline_ms > 0) && !c->cancel) {
+        c->until_check = INT64_MAX;
+        return 0;
+    }
+    double now = rd_now_ms();
+    if ((c->cancel && atomic_load_explicit(c->cancel, memory_order_relaxed)) ||
+        (c->deadline_ms > 0 && now > c->deadline_ms)) {
+        c->stopped = 1;
+        c->until_check = 1;
+        return 1;
+    }
+    double dt = now - c->last_check_ms;
+    if (dt > 2 && c->check_every > 1)
+        c->check_every /= 2;
+    else if (dt < 0.5 && c->check_every < (1 << 20))
+        c->check_every *= 2;
+    c->last_check_ms = now;
+    c->until_check = c->check_every;
+    return 0;
+}
+
 static rd_rgb trace_secondary(const rd_plan *p, const rd_hit *h, rd_vec3 dir, int depth,
                               rd_rng *rng, rd_ray_counts *counts)
 {
-    if (counts->stopped)
+    if (rd_counts_tick(counts))
         return v3(0, 0, 0);
-    if (counts->deadline_ms > 0 && counts->secondary >= counts->next_check) {
-        counts->next_check = counts->secondary + 4096;
-        if (rd_now_ms() > counts->deadline_ms) {
-            counts->stopped = 1;
-            return v3(0, 0, 0);
-        }
-    }
     rd_ray r;
     r.o = rd_offset_origin(h, dir);
     r.d = dir;
@@ -162,6 +193,8 @@ rd_rgb rd_trace(const rd_plan *p, rd_ray r, int depth, rd_rng *rng, rd_ray_count
         for (size_t i = 0; i < p->nlights; i++) {
             const rd_light_prep *lp = &p->lights[i];
             for (int k = 0; k < lp->samples; k++) {
+                if (rd_counts_tick(counts))
+                    return color;
                 double ux = 0.5, uy = 0.5;
                 if (lp->type == RD_LIGHT_AREA) {
                     ux = rd_rng_next(rng);

@@ -2,6 +2,7 @@
 #ifndef RD_TRACE_H
 #define RD_TRACE_H
 
+#include <stdatomic.h>
 #include <stdint.h>
 
 #include "light.h"
@@ -21,17 +22,37 @@ typedef struct {
 
 typedef struct {
     uint64_t camera, shadow, secondary;
-    /* Optional deadline (monotonic ms, 0 = none), looked at every 4096
-     * secondary rays: a glass ray tree is binary and max_depth may be 64,
-     * so one camera ray can otherwise run for hours. Once passed, `stopped`
-     * is set and tracing returns black at once. */
+    /* Stopping in bounded time. A glass ray tree is binary and max_depth
+     * may be 64, and an area light may send thousands of shadow rays a hit,
+     * so one camera ray can otherwise run for hours. Every unit of work (a
+     * camera sample, a light sample, a secondary ray) counts down
+     * until_check; at zero the deadline (monotonic ms, 0 = none) and the
+     * cancel flag (NULL = none) are looked at, and the interval adapts so
+     * that looks come about once a millisecond whatever a unit costs. Once
+     * either fires, `stopped` is set and tracing returns black at once.
+     * Set up with rd_counts_init; the looks never change what is traced. */
     double deadline_ms;
-    uint64_t next_check;
+    const atomic_int *cancel;
+    int64_t until_check, check_every;
+    double last_check_ms;
     int stopped;
 } rd_ray_counts;
 
 /* Monotonic milliseconds, the clock of deadline_ms. */
 double rd_now_ms(void);
+
+/* Zero counts that stop at deadline_ms (0 = never) or once *cancel is
+ * non-zero (cancel may be NULL). */
+void rd_counts_init(rd_ray_counts *c, double deadline_ms, const atomic_int *cancel);
+
+/* The slow half of rd_counts_tick: returns c->stopped after a look. */
+int rd_counts_check(rd_ray_counts *c);
+
+/* One unit of work done; 1 when the render must stop. */
+static inline int rd_counts_tick(rd_ray_counts *c)
+{
+    return --c->until_check > 0 ? 0 : rd_counts_check(c);
+}
 
 rd_error_code rd_plan_build(rd_plan *p, const rd_scene *s, rd_error *err);
 void rd_plan_free(rd_plan *p);

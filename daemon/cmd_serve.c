@@ -26,6 +26,13 @@ static const char serve_help[] =
     "  --max-connections N     open connections at most (default 1024)\n"
     "  --max-per-ip N          open connections per client address (default 512)\n"
     "  --connection-timeout N  seconds an idle connection is kept (default 30)\n"
+    "  --header-timeout-ms N   a request's headers must arrive within N ms of its start (default 10000)\n"
+    "  --body-timeout-ms N     its body within N ms of its headers (default 60000)\n"
+    "  --max-query-args N      query arguments at most; more get 431 (default 64)\n"
+    "  --memory-budget N       bytes for running jobs, results and grading caches; a job starts only\n"
+    "                          when it fits, one that never could gets 413 (default: half the RAM)\n"
+    "  --grade-cache-bytes N   grading references and kept grade images (default 268435456)\n"
+    "  --max-jobs-kept N       finished jobs whose status stays readable (default 4096)\n"
     "  --result-memory N       bytes of finished PNGs kept for /v1/jobs (default 268435456)\n"
     "  --result-ttl N          seconds a finished job stays readable (default 600)\n"
     "  --drain-ms N            on SIGTERM, how long running renders may finish (default 10000)\n"
@@ -70,6 +77,13 @@ int rd_cmd_serve(int argc, char **argv)
     o.max_connections = 1024;
     o.max_per_ip = 512;
     o.connection_timeout_s = 30;
+    o.header_timeout_ms = 10000;
+    o.body_timeout_ms = 60000;
+    o.max_query_args = 64;
+    o.grade_cache_bytes = 256u << 20;
+    o.jobs.kept_max = 4096;
+    long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    o.jobs.memory_budget = pages > 0 && page > 0 ? (size_t)pages * (size_t)page / 2 : (size_t)4 << 30;
     o.scenes_dir = "scenes";
     o.assignments_dir = "scenes/assignments";
     double drain_ms = 10000;
@@ -132,6 +146,30 @@ int rd_cmd_serve(int argc, char **argv)
             if (parse_size(a, v, 1, 86400, &x))
                 return RD_EXIT_USAGE;
             o.connection_timeout_s = (unsigned)x;
+        } else if (strcmp(a, "--header-timeout-ms") == 0) {
+            if (parse_size(a, v, 1, 1ull << 30, &x))
+                return RD_EXIT_USAGE;
+            o.header_timeout_ms = (double)x;
+        } else if (strcmp(a, "--body-timeout-ms") == 0) {
+            if (parse_size(a, v, 1, 1ull << 30, &x))
+                return RD_EXIT_USAGE;
+            o.body_timeout_ms = (double)x;
+        } else if (strcmp(a, "--max-query-args") == 0) {
+            if (parse_size(a, v, 1, 10000, &x))
+                return RD_EXIT_USAGE;
+            o.max_query_args = (unsigned)x;
+        } else if (strcmp(a, "--memory-budget") == 0) {
+            if (parse_size(a, v, 1u << 20, 1ull << 50, &x))
+                return RD_EXIT_USAGE;
+            o.jobs.memory_budget = x;
+        } else if (strcmp(a, "--grade-cache-bytes") == 0) {
+            if (parse_size(a, v, 0, 1ull << 40, &x))
+                return RD_EXIT_USAGE;
+            o.grade_cache_bytes = x;
+        } else if (strcmp(a, "--max-jobs-kept") == 0) {
+            if (parse_size(a, v, 1, 10000000, &x))
+                return RD_EXIT_USAGE;
+            o.jobs.kept_max = x;
         } else if (strcmp(a, "--result-memory") == 0) {
             if (parse_size(a, v, 0, 1ull << 40, &x))
                 return RD_EXIT_USAGE;
@@ -180,8 +218,8 @@ int rd_cmd_serve(int argc, char **argv)
         return RD_EXIT_IO;
     }
     unsigned port = rd_server_port(srv);
-    fprintf(stderr, "rayd serve: listening on http://%s:%u/ (%d render threads, queue %zu)\n", host, port,
-            o.jobs.workers, o.jobs.queue_length);
+    fprintf(stderr, "rayd serve: listening on http://%s:%u/ (%d render threads, queue %zu, memory budget %zu MiB)\n",
+            host, port, o.jobs.workers, o.jobs.queue_length, o.jobs.memory_budget >> 20);
     if (port_file) {
         char tmp[4096];
         snprintf(tmp, sizeof tmp, "%s.tmp", port_file);

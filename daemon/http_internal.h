@@ -21,6 +21,14 @@ struct rd_server {
     atomic_int waiting;             /* suspended synchronous renders */
     atomic_int stopped;
     struct rd_grades *grades;       /* grade results and the reference cache */
+    /* Every open connection with its deadline, for the reaper thread. */
+    pthread_mutex_t conn_mu;
+    pthread_cond_t conn_cv;
+    struct rd_conn *conns;
+    pthread_t reaper;
+    int reaper_on, reaper_stop;
+    atomic_ullong deadline_closed;  /* connections closed by a header or body deadline */
+    atomic_ullong raw_refused;      /* requests refused before libmicrohttpd parsed them */
 };
 
 /* One grading request in progress (routes_grade.c). */
@@ -42,6 +50,10 @@ typedef struct {
     int too_big;            /* the body passed --max-body-bytes; the rest is dropped */
     size_t discarded;
     int kind;               /* which route, see http_server.c */
+    int started;            /* on_request has seen the request */
+    int http11;             /* HTTP/1.1: may be sent an interim 102 while it waits */
+    int async;              /* POST /v1/jobs: answered 202 once the scene is read */
+    int refused;            /* answered on the socket before parsing; close */
     /* a synchronous render */
     pthread_mutex_t mu;
     rd_jq_job *job;
@@ -100,7 +112,7 @@ enum MHD_Result rd_route_grade_resumed(rd_req *r);
 enum MHD_Result rd_route_grade_files(rd_req *r, const char *rest);
 void rd_grade_req_free(rd_req *r);
 
-struct rd_grades *rd_grades_new(void);
+struct rd_grades *rd_grades_new(rd_jq *jobs, size_t cache_bytes);
 void rd_grades_free(struct rd_grades *g);
 
 /* The web page, generated from daemon/web/index.html. */

@@ -19,6 +19,134 @@ static double now_ms(void)
     return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
 }
 
+/* An open connection. libmicrohttpd's own timeout counts idle time, which
+ * every trickled byte resets; these deadlines count from when the headers
+ * (or the body) began, so a client that sends a byte a second cannot hold
+ * a slot. */
+struct rd_conn {
+    int fd;
+    double deadline;            /* monotonic ms; 0 = none (the request is being answered) */
+    struct rd_conn *prev, *next;
+};
+
+static void set_deadline(rd_server *s, struct MHD_Connection *conn, double after_ms)
+{
+    const union MHD_ConnectionInfo *ci = MHD_get_connection_info(conn, MHD_CONNECTION_INFO_SOCKET_CONTEXT);
+    struct rd_conn *c = ci ? ci->socket_context : NULL;
+    if (!c)
+        return;
+    pthread_mutex_lock(&s->conn_mu);
+    c->deadline = after_ms > 0 ? now_ms() + after_ms : 0;
+    pthread_mutex_unlock(&s->conn_mu);
+}
+
+static void on_connection(void *cls, struct MHD_Connection *conn, void **socket_context,
+                          enum MHD_ConnectionNotificationCode code)
+{
+    rd_server *s = cls;
+    if (!socket_context)
+        return;
+    if (code == MHD_CONNECTION_NOTIFY_STARTED) {
+        const union MHD_ConnectionInfo *ci = MHD_get_connection_info(conn, MHD_CONNECTION_INFO_CONNECTION_FD);
+        struct rd_conn *c = ci ? calloc(1, sizeof *c) : NULL;
+        *socket_context = c;
+        if (!c)
+            return;
+        c->fd = ci->connect_fd;
+        pthread_mutex_lock(&s->conn_mu);
+        c->deadline = now_ms() + s->opt.header_timeout_ms;
+        c->next = s->conns;
+        if (s->conns)
+            s->conns->prev = c;
+        s->conns = c;
+        pthread_mutex_unlock(&s->conn_mu);
+        return;
+    }
+    /* Closed: libmicrohttpd closes the socket after this returns, so the
+     * reaper never touches a descriptor that may have been reused. */
+    struct rd_conn *c = *socket_context;
+    if (!c)
+        return;
+    pthread_mutex_lock(&s->conn_mu);
+    if (c->prev)
+        c->prev->next = c->next;
+    else
+        s->conns = c->next;
+    if (c->next)
+        c->next->prev = c->prev;
+    pthread_mutex_unlock(&s->conn_mu);
+    free(c);
+    *socket_context = NULL;
+}
+
+/* Ten times a second: connections past their deadline are shut down;
+ * libmicrohttpd then sees the end of the stream and closes them. */
+static void *reaper(void *arg)
+{
+    rd_server *s = arg;
+    pthread_mutex_lock(&s->conn_mu);
+    while (!s->reaper_stop) {
+        double now = now_ms();
+        for (struct rd_conn *c = s->conns; c; c = c->next)
+            if (c->deadline > 0 && now > c->deadline) {
+                shutdown(c->fd, SHUT_RDWR);
+                c->deadline = 0;
+                atomic_fetch_add(&s->deadline_closed, 1);
+            }
+        struct timespec ts;
+        clock_gettime(CLOCK_REALTIME, &ts);
+        ts.tv_nsec += 100 * 1000000L;
+        if (ts.tv_nsec >= 1000000000L) {
+            ts.tv_sec++;
+            ts.tv_nsec -= 1000000000L;
+        }
+        pthread_cond_timedwait(&s->conn_cv, &s->conn_mu, &ts);
+    }
+    pthread_mutex_unlock(&s->conn_mu);
+    return NULL;
+}
+
+/* Called with the request line before libmicrohttpd splits the query.
+ * Thousands of arguments exhaust its per-connection memory, after which it
+ * can send nothing at all, so such a request is answered 431 here, on the
+ * socket, and the sending side closed; libmicrohttpd then drops the
+ * connection. The request state starts here too (on_request fills it). */
+static void *on_uri(void *cls, const char *uri, struct MHD_Connection *conn)
+{
+    rd_server *s = cls;
+    rd_req *r = calloc(1, sizeof *r);
+    if (!r)
+        return NULL;
+    pthread_mutex_init(&r->mu, NULL);
+    r->srv = s;
+    r->conn = conn;
+    r->t0 = now_ms();
+    const char *q = uri ? strchr(uri, '?') : NULL;
+    unsigned args = q ? 1 : 0;
+    for (const char *p = q; p && *p; p++)
+        args += *p == '&';
+    if (args > s->opt.max_query_args) {
+        char body[200], head[400];
+        int bl = snprintf(body, sizeof body,
+                          "{\"error\":{\"code\":\"too_many_arguments\",\"message\":\"the query has %u arguments, "
+                          "over the limit of %u (--max-query-args)\"}}",
+                          args, s->opt.max_query_args);
+        int hl = snprintf(head, sizeof head,
+                          "HTTP/1.1 431 Request Header Fields Too Large\r\nContent-Type: application/json\r\n"
+                          "Content-Length: %d\r\nConnection: close\r\n\r\n",
+                          bl);
+        int fd = rd_req_socket(r);
+        if (fd >= 0 && send(fd, head, (size_t)hl, MSG_NOSIGNAL | MSG_DONTWAIT) == hl)
+            send(fd, body, (size_t)bl, MSG_NOSIGNAL | MSG_DONTWAIT);
+        if (fd >= 0)
+            shutdown(fd, SHUT_WR);
+        r->refused = 1;
+        r->status = 431;
+        atomic_fetch_add(&s->raw_refused, 1);
+    }
+    return r;
+}
+
 enum MHD_Result rd_reply_with(rd_req *r, unsigned status, const char *type, void *body, size_t len, int must_free,
                               const char *const *headers)
 {
@@ -130,6 +258,8 @@ unsigned rd_status_for(rd_error_code c)
     case RD_ERR_LIMIT: return 413;
     case RD_ERR_IO: return 422;
     case RD_ERR_CANCELLED: return 503;
+    case RD_ERR_TIMEOUT: return 422;
+    case RD_ERR_BUSY: return 503;
     default: return 503;
     }
 }
@@ -142,6 +272,8 @@ const char *rd_code_for(rd_error_code c)
     case RD_ERR_LIMIT: return "too_large";
     case RD_ERR_IO: return "missing_file";
     case RD_ERR_CANCELLED: return "cancelled";
+    case RD_ERR_TIMEOUT: return "time_limit";
+    case RD_ERR_BUSY: return "queue_full";
     default: return "unavailable";
     }
 }
@@ -255,20 +387,18 @@ static enum MHD_Result dispatch(rd_req *r, const char *url)
 static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const char *url, const char *method,
                                   const char *version, const char *upload, size_t *upload_size, void **con_cls)
 {
-    (void)version;
     rd_server *srv = cls;
     rd_req *r = *con_cls;
-    if (!r) {
-        r = calloc(1, sizeof *r);
-        if (!r)
-            return MHD_NO;
-        pthread_mutex_init(&r->mu, NULL);
-        r->srv = srv;
-        r->conn = conn;
-        r->t0 = now_ms();
+    if (!r)
+        return MHD_NO;
+    if (r->refused)
+        return MHD_NO;
+    if (!r->started) {
+        r->started = 1;
+        r->http11 = version && strcmp(version, MHD_HTTP_VERSION_1_1) == 0;
         snprintf(r->method, sizeof r->method, "%s", method);
         snprintf(r->path, sizeof r->path, "%s", url);
-        *con_cls = r;
+        set_deadline(srv, conn, srv->opt.body_timeout_ms);
         atomic_fetch_add(&srv->requests, 1);
         int method_ok;
         const char *allow;
@@ -345,6 +475,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
         r->body[r->len] = 0;
         return MHD_YES;
     }
+    set_deadline(srv, conn, 0);
     if (r->answered)
         return MHD_YES;
     if (r->too_big) {
@@ -396,12 +527,14 @@ static void log_request(rd_server *srv, rd_req *r, enum MHD_RequestTerminationCo
 static void on_completed(void *cls, struct MHD_Connection *conn, void **con_cls,
                          enum MHD_RequestTerminationCode toe)
 {
-    (void)conn;
     rd_server *srv = cls;
     rd_req *r = *con_cls;
     if (!r)
         return;
     *con_cls = NULL;
+    /* A kept-alive connection may idle for --connection-timeout, then has
+     * the header deadline for its next request. */
+    set_deadline(srv, conn, srv->opt.connection_timeout_s * 1e3 + srv->opt.header_timeout_ms);
     if (r->status >= 100 && r->status < 600)
         atomic_fetch_add(&srv->http_count[r->status / 100], 1);
     log_request(srv, r, toe);
@@ -422,6 +555,23 @@ static void on_completed(void *cls, struct MHD_Connection *conn, void **con_cls,
     free(r);
 }
 
+static void free_server(rd_server *s)
+{
+    if (s->reaper_on) {
+        pthread_mutex_lock(&s->conn_mu);
+        s->reaper_stop = 1;
+        pthread_cond_broadcast(&s->conn_cv);
+        pthread_mutex_unlock(&s->conn_mu);
+        pthread_join(s->reaper, NULL);
+    }
+    /* Workers may be finishing grades: the queue stops first. */
+    rd_jq_stop(s->jobs);
+    rd_grades_free(s->grades);
+    pthread_mutex_destroy(&s->conn_mu);
+    pthread_cond_destroy(&s->conn_cv);
+    free(s);
+}
+
 rd_server *rd_server_start(const rd_server_options *opt, rd_error *err)
 {
     rd_server *s = calloc(1, sizeof *s);
@@ -430,21 +580,23 @@ rd_server *rd_server_start(const rd_server_options *opt, rd_error *err)
         return NULL;
     }
     s->opt = *opt;
-    s->grades = rd_grades_new();
-    s->jobs = s->grades ? rd_jq_start(&opt->jobs, err) : NULL;
-    if (!s->jobs) {
-        rd_grades_free(s->grades);
-        free(s);
+    pthread_mutex_init(&s->conn_mu, NULL);
+    pthread_cond_init(&s->conn_cv, NULL);
+    s->jobs = rd_jq_start(&opt->jobs, err);
+    s->grades = s->jobs ? rd_grades_new(s->jobs, opt->grade_cache_bytes) : NULL;
+    if (!s->grades || pthread_create(&s->reaper, NULL, reaper, s) != 0) {
+        if (s->jobs && !s->grades)
+            rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+        free_server(s);
         return NULL;
     }
+    s->reaper_on = 1;
     struct sockaddr_in addr;
     memset(&addr, 0, sizeof addr);
     addr.sin_family = AF_INET;
     addr.sin_port = htons(opt->port);
     if (inet_pton(AF_INET, opt->listen_host, &addr.sin_addr) != 1) {
-        rd_jq_stop(s->jobs);
-        rd_grades_free(s->grades);
-        free(s);
+        free_server(s);
         rd_error_set(err, RD_ERR_INVALID, 0, 0, "--listen: '%s' is not an IPv4 address", opt->listen_host);
         return NULL;
     }
@@ -455,11 +607,11 @@ rd_server *rd_server_start(const rd_server_options *opt, rd_error *err)
                               MHD_OPTION_CONNECTION_LIMIT, opt->max_connections,
                               MHD_OPTION_PER_IP_CONNECTION_LIMIT, opt->max_per_ip,
                               MHD_OPTION_CONNECTION_TIMEOUT, opt->connection_timeout_s,
+                              MHD_OPTION_URI_LOG_CALLBACK, on_uri, s,
+                              MHD_OPTION_NOTIFY_CONNECTION, on_connection, s,
                               MHD_OPTION_NOTIFY_COMPLETED, on_completed, s, MHD_OPTION_END);
     if (!s->mhd) {
-        rd_jq_stop(s->jobs);
-        rd_grades_free(s->grades);
-        free(s);
+        free_server(s);
         rd_error_set(err, RD_ERR_IO, 0, 0, "cannot listen on %s:%u", opt->listen_host, (unsigned)opt->port);
         return NULL;
     }
@@ -477,7 +629,8 @@ void rd_server_stop(rd_server *s, double drain_ms)
     atomic_store(&s->draining, 1);
     /* Running renders may finish; their clients get their images. */
     rd_jq_drain(s->jobs, drain_ms);
-    /* The rest are cancelled and end within a tile each. */
+    /* The rest are cancelled and end within milliseconds (a job being
+     * prepared, within its parse). */
     rd_jq_cancel_all(s->jobs);
     rd_jq_drain(s->jobs, 30000);
     /* Every suspended client has been resumed: let MHD send their answers. */
@@ -489,7 +642,5 @@ void rd_server_stop(rd_server *s, double drain_ms)
         close(fd);
     MHD_stop_daemon(s->mhd);
     /* Job references held by requests are gone; the queue can go. */
-    rd_jq_stop(s->jobs);
-    rd_grades_free(s->grades);
-    free(s);
+    free_server(s);
 }

@@ -13,19 +13,27 @@
 #include <time.h>
 
 #include "job.h"
+#include "trace.h"
 
 const double rd_jq_buckets[12] = {0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1, 2.5, 5, 10, 30};
 
 enum { TILE_PENDING, TILE_RENDERING, TILE_DONE };
+
+/* Where a job is. Clients see "queued" until it runs; a phase ending in
+ * -ING is owned by one worker outside the lock, and nobody else touches the
+ * job's render state then. */
+typedef enum { PH_NEW, PH_PREPARING, PH_WAITING, PH_STARTING, PH_RUNNING, PH_FINISHING, PH_ENDED } phase;
 
 struct rd_jq_job {
     rd_jq *q;
     int refs;
     char id[24];
     rd_job_status status;
+    phase ph;
+    rd_jq_task task;
     rd_scene scene;
+    int render;                 /* prepare left the render in */
     rd_job *core;
-    int preparing, finishing;
     int tiles_total, next_tile, tiles_done, inflight;
     uint64_t tiles_given;       /* over all passes: the fair-share key */
     unsigned char *tile_state;
@@ -39,9 +47,12 @@ struct rd_jq_job {
     int curve_len;
     int cancel;                 /* asked to stop */
     int timed_out;
-    int watch_fd;
+    int hung_up;                /* cancelled because its client went away */
+    atomic_int stop;            /* cancel as the tracer sees it */
+    int watch_fd, watch_http11, probe_sent;
     rd_jq_done_fn done;
     void *user;
+    int notify_prepared;
     double t_submit, t_start, t_end;
     rd_job_counts counts;
     rd_render_stats stats;
@@ -49,26 +60,26 @@ struct rd_jq_job {
     unsigned char *png;
     size_t png_len;
     rd_error error;
+    size_t charged;             /* bytes of the budget it holds */
+    size_t footprint;           /* what it will hold once admitted */
     int active, registered;
     int sync;                   /* a waiting client takes the PNG: limits do not evict it */
-    int hung_up;                /* cancelled because its client went away */
+    int was_sync;
     int width, height;
     rd_jq_job *next_active, *next_all;
 };
 
-/* Finished jobs whose status stays readable, at most. */
-enum { KEPT_MAX = 4096 };
-
 struct rd_jq {
     pthread_mutex_t mu;
-    pthread_cond_t work_cv, idle_cv;
+    pthread_cond_t work_cv, idle_cv, watch_cv;
     rd_jq_options opt;
-    pthread_t *threads;
-    int nthreads;
+    pthread_t *threads, watchdog;
+    int nthreads, has_watchdog;
     int stopping;
     rd_jq_job *active_head, *active_tail;
     rd_jq_job *all;
-    size_t active_count, running_count, kept, result_bytes;
+    size_t active_count, running_count, kept, result_bytes, reserved;
+    atomic_llong external;
     uint64_t counter, key;
     uint64_t n_done, n_failed, n_cancelled, rays, render_count;
     double render_sum;
@@ -81,12 +92,7 @@ const char *rd_job_status_name(rd_job_status s)
     return (unsigned)s < 5 ? names[s] : "?";
 }
 
-static double now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
-}
+static double now_ms(void) { return rd_now_ms(); }
 
 static uint64_t mix(uint64_t z)
 {
@@ -102,6 +108,8 @@ static void job_free(rd_jq_job *j)
     rd_scene_free(&j->scene);
     free(j->tile_state);
     free(j->png);
+    if (j->task.free)
+        j->task.free(j->task.arg);
     free(j);
 }
 
@@ -127,6 +135,21 @@ void rd_jq_job_unref(rd_jq_job *j)
     pthread_mutex_unlock(&q->mu);
 }
 
+void *rd_jq_task_arg(rd_jq_job *j) { return j->task.arg; }
+
+/* The budget a job holds becomes n bytes. Under q->mu. */
+static void charge(rd_jq *q, rd_jq_job *j, size_t n)
+{
+    q->reserved = q->reserved - j->charged + n;
+    j->charged = n;
+}
+
+static size_t used_bytes(rd_jq *q)
+{
+    long long ext = atomic_load(&q->external);
+    return q->reserved + q->result_bytes + (ext > 0 ? (size_t)ext : 0);
+}
+
 static void remove_active(rd_jq *q, rd_jq_job *j)
 {
     rd_jq_job **pp = &q->active_head, *prev = NULL;
@@ -145,33 +168,61 @@ static void remove_active(rd_jq *q, rd_jq_job *j)
     }
 }
 
-/* Drops finished jobs past their TTL, then the oldest results while over
- * the memory limit. Under q->mu. */
+static void drop_registered(rd_jq *q, rd_jq_job **pp)
+{
+    rd_jq_job *j = *pp;
+    *pp = j->next_all;
+    j->registered = 0;
+    q->kept--;
+    if (j->png) {
+        q->result_bytes -= j->png_len;
+        free(j->png);
+        j->png = NULL;
+    }
+    unref_locked(j);
+}
+
+static int finished(const rd_jq_job *j) { return !j->active && j->t_end > 0; }
+
+/* Removes finished jobs of one kind (answered synchronous ones, or the
+ * rest) past the newest `keep` of that kind. The list is newest first.
+ * Under q->mu. */
+static void keep_newest(rd_jq *q, int sync_kind, size_t keep)
+{
+    size_t seen = 0;
+    for (rd_jq_job **pp = &q->all; *pp;) {
+        rd_jq_job *j = *pp;
+        if (finished(j) && j->was_sync == sync_kind && !(j->sync && j->png) && ++seen > keep)
+            drop_registered(q, pp);
+        else
+            pp = &j->next_all;
+    }
+}
+
+/* Drops finished jobs past their TTL, then the oldest past --max-jobs-kept
+ * (answered synchronous renders before asynchronous results, which a
+ * client may still come for), then the oldest results while over the
+ * result memory. Under q->mu. */
 static void sweep(rd_jq *q)
 {
     double now = now_ms();
-    size_t finished = 0;
-    for (rd_jq_job *j = q->all; j; j = j->next_all)
-        finished += !j->active;
+    size_t n_sync = 0, n_async = 0;
     for (rd_jq_job **pp = &q->all; *pp;) {
         rd_jq_job *j = *pp;
-        /* The list is newest first: past KEPT_MAX finished ones, the oldest go. */
-        int too_many = !j->active && finished > KEPT_MAX;
-        if (!j->active && j->t_end > 0 && !(j->sync && j->png) &&
-            (now - j->t_end > q->opt.result_ttl_ms || too_many)) {
-            finished--;
-            *pp = j->next_all;
-            j->registered = 0;
-            q->kept--;
-            if (j->png) {
-                q->result_bytes -= j->png_len;
-                free(j->png);
-                j->png = NULL;
-            }
-            unref_locked(j);
-        } else {
-            pp = &j->next_all;
+        if (finished(j) && !(j->sync && j->png) && now - j->t_end > q->opt.result_ttl_ms) {
+            drop_registered(q, pp);
+            continue;
         }
+        if (finished(j))
+            *(j->was_sync ? &n_sync : &n_async) += 1;
+        pp = &j->next_all;
+    }
+    if (n_sync + n_async > q->opt.kept_max) {
+        size_t excess = n_sync + n_async - q->opt.kept_max;
+        size_t from_sync = excess < n_sync ? excess : n_sync;
+        keep_newest(q, 1, n_sync - from_sync);
+        if (excess > from_sync)
+            keep_newest(q, 0, n_async - (excess - from_sync));
     }
     while (q->result_bytes > q->opt.result_memory) {
         rd_jq_job *oldest = NULL;
@@ -192,6 +243,7 @@ static void finish_locked(rd_jq *q, rd_jq_job *j, rd_job_status st)
 {
     remove_active(q, j);
     j->status = st;
+    j->ph = PH_ENDED;
     j->t_end = now_ms();
     if (st == RD_JOB_DONE) {
         q->n_done++;
@@ -206,24 +258,33 @@ static void finish_locked(rd_jq *q, rd_jq_job *j, rd_job_status st)
     } else {
         q->n_cancelled++;
     }
-    q->rays += j->counts.camera + j->counts.shadow + j->counts.secondary;
+    uint64_t rays = j->counts.camera + j->counts.shadow + j->counts.secondary;
+    q->rays += rays;
     j->stats.camera_rays = j->counts.camera;
     j->stats.shadow_rays = j->counts.shadow;
     j->stats.secondary_rays = j->counts.secondary;
     j->stats.nonfinite = j->counts.nonfinite;
     j->stats.samples = j->samples;
     j->stats.wall_ms = j->t_start > 0 ? j->t_end - j->t_start : 0;
-    uint64_t rays = j->counts.camera + j->counts.shadow + j->counts.secondary;
     j->stats.rays_per_second = j->stats.wall_ms > 0 ? rays / (j->stats.wall_ms / 1e3) : 0;
     j->stats.error_estimate = j->error_estimate;
-    /* A job that did not finish gives its memory back at once. */
-    if (st != RD_JOB_DONE) {
-        rd_job_free(j->core);
-        j->core = NULL;
-        rd_scene_free(&j->scene);
-    }
+    /* Only the status and the PNG outlive the render. */
+    rd_job_free(j->core);
+    j->core = NULL;
+    rd_scene_free(&j->scene);
+    charge(q, j, 0);
     j->watch_fd = -1;
+    if (j->png)
+        q->result_bytes += j->png_len;
+    sweep(q);
     pthread_cond_broadcast(&q->idle_cv);
+    pthread_cond_broadcast(&q->work_cv); /* memory came free */
+}
+
+static void fail_locked(rd_jq *q, rd_jq_job *j, const rd_error *err)
+{
+    j->error = *err;
+    finish_locked(q, j, RD_JOB_FAILED);
 }
 
 /* Called without the lock; the callback is read under it, since a request
@@ -239,84 +300,353 @@ static void call_done(rd_jq_job *j)
         fn(j, user);
 }
 
-static int hung_up(int fd)
+/* Runs the done callback of a job that just ended or was prepared, with
+ * the lock released and the job kept alive meanwhile. Under q->mu. */
+static void notify_locked(rd_jq *q, rd_jq_job *j)
 {
+    j->refs++;
+    pthread_mutex_unlock(&q->mu);
+    call_done(j);
+    pthread_mutex_lock(&q->mu);
+    unref_locked(j);
+}
+
+/* 1 when the client is gone. An end of stream alone may be a half-close: a
+ * client that sent its request and shut its sending side still reads the
+ * answer. An HTTP/1.1 client in that state is sent one interim "102
+ * Processing" (which clients skip); a peer that has really closed answers
+ * it with a reset, seen at a later look. */
+static int client_gone(rd_jq_job *j)
+{
+    int fd = j->watch_fd;
     struct pollfd p = {fd, POLLIN | POLLRDHUP, 0};
     if (poll(&p, 1, 0) <= 0)
         return 0;
-    if (p.revents & (POLLRDHUP | POLLHUP | POLLERR | POLLNVAL))
+    if (p.revents & (POLLHUP | POLLERR | POLLNVAL))
         return 1;
     char c;
-    return recv(fd, &c, 1, MSG_PEEK | MSG_DONTWAIT) == 0;
+    int eof = (p.revents & POLLRDHUP) || recv(fd, &c, 1, MSG_PEEK | MSG_DONTWAIT) == 0;
+    if (!eof)
+        return 0;
+    if (!j->watch_http11)
+        return 1;
+    if (!j->probe_sent) {
+        static const char processing[] = "HTTP/1.1 102 Processing\r\n\r\n";
+        j->probe_sent = 1;
+        if (send(fd, processing, sizeof processing - 1, MSG_NOSIGNAL | MSG_DONTWAIT) < 0)
+            return 1;
+    }
+    return 0;
+}
+
+static void cancel_locked(rd_jq *q, rd_jq_job *j)
+{
+    j->cancel = 1;
+    j->watch_fd = -1;
+    atomic_store(&j->stop, 1);
+    pthread_cond_broadcast(&q->work_cv);
+}
+
+/* Every 20 ms: time limits and hung-up clients of jobs whose render
+ * threads are all busy tracing. */
+static void *watchdog(void *arg)
+{
+    rd_jq *q = arg;
+    pthread_mutex_lock(&q->mu);
+    while (!q->stopping) {
+        double now = now_ms();
+        for (rd_jq_job *j = q->active_head; j; j = j->next_active) {
+            if (j->cancel)
+                continue;
+            int started = j->ph == PH_STARTING || j->ph == PH_RUNNING;
+            if (started && q->opt.job_timeout_ms > 0 && now - j->t_start > q->opt.job_timeout_ms) {
+                j->timed_out = 1;
+                cancel_locked(q, j);
+            } else if (j->watch_fd >= 0 && client_gone(j)) {
+                j->hung_up = 1;
+                cancel_locked(q, j);
+            }
+        }
+        struct timespec ts;
+        clock_gettime(CLOCK_REALTIME, &ts);
+        ts.tv_nsec += 20 * 1000000L;
+        if (ts.tv_nsec >= 1000000000L) {
+            ts.tv_sec++;
+            ts.tv_nsec -= 1000000000L;
+        }
+        pthread_cond_timedwait(&q->watch_cv, &q->mu, &ts);
+    }
+    pthread_mutex_unlock(&q->mu);
+    return NULL;
+}
+
+/* A cancelled job nobody is working on ends here. Under q->mu. */
+static void end_cancelled(rd_jq *q, rd_jq_job *j)
+{
+    if (j->timed_out) {
+        rd_error e;
+        rd_error_set(&e, RD_ERR_TIMEOUT, 0, 0, "the render took longer than the limit of %.0f ms (--job-timeout-ms)",
+                     q->opt.job_timeout_ms);
+        fail_locked(q, j, &e);
+    } else {
+        finish_locked(q, j, RD_JOB_CANCELLED);
+    }
+    notify_locked(q, j);
+}
+
+static rd_job_options core_options(const rd_jq_job *j)
+{
+    rd_job_options jo = {16, rd_progress_is_progressive(&j->progress), j->progress.adaptive};
+    return jo;
+}
+
+/* Runs the task's preparation outside the lock. Under q->mu (released and
+ * taken again). */
+static void prepare_job(rd_jq *q, rd_jq_job *j)
+{
+    j->ph = PH_PREPARING;
+    pthread_mutex_unlock(&q->mu);
+    rd_error err = {0};
+    int render = 1;
+    rd_error_code rc = j->task.prepare ? j->task.prepare(j->task.arg, &j->scene, &render, &err) : RD_OK;
+    size_t need = 0;
+    if (!rc && render) {
+        j->samples = j->scene.render.samples < 1 ? 1 : j->scene.render.samples;
+        j->progress.max_samples = j->samples;
+        rd_job_options jo = core_options(j);
+        need = rd_job_estimate_bytes(&j->scene, &jo);
+        if (q->opt.memory_budget && need > q->opt.memory_budget)
+            rc = rd_error_set(&err, RD_ERR_LIMIT, 0, 0,
+                              "the render needs about %zu MiB, over the limit of %zu MiB (--memory-budget)",
+                              need >> 20, q->opt.memory_budget >> 20);
+    }
+    size_t held = rc ? 0 : rd_scene_bytes(&j->scene);
+    pthread_mutex_lock(&q->mu);
+    j->render = render;
+    j->width = j->scene.render.width;
+    j->height = j->scene.render.height;
+    if (rc) {
+        fail_locked(q, j, &err);
+    } else if (j->cancel) {
+        end_cancelled(q, j);
+        return;
+    } else {
+        charge(q, j, held);
+        j->footprint = need;
+        j->ph = PH_WAITING;
+        pthread_cond_broadcast(&q->work_cv);
+    }
+    if (j->notify_prepared || rc)
+        notify_locked(q, j);
+}
+
+/* Called once a job's last tile or its preparation is done: the task's
+ * finish or the PNG, outside the lock. Under q->mu (released and taken
+ * again). */
+static void finish_job(rd_jq *q, rd_jq_job *j)
+{
+    j->ph = PH_FINISHING;
+    if (j->t_start == 0)
+        j->t_start = now_ms();
+    pthread_mutex_unlock(&q->mu);
+    rd_error err = {0};
+    rd_error_code rc = RD_OK;
+    unsigned char *png = NULL;
+    size_t len = 0;
+    uint8_t *rgb = NULL;
+    int w = j->core ? rd_job_width(j->core) : 0, h = j->core ? rd_job_height(j->core) : 0;
+    if (j->core && !(rgb = malloc((size_t)w * (size_t)h * 3)))
+        rc = rd_error_set(&err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    if (rgb)
+        rd_job_rgb8(j->core, rgb);
+    if (!rc && j->task.finish)
+        rc = j->task.finish(j->task.arg, rgb, w, h, &err);
+    else if (!rc && rgb)
+        rc = rd_png_encode(rgb, w, h, &q->opt.png, &png, &len, &err);
+    free(rgb);
+    double mean = j->core ? rd_job_mean_samples(j->core) : 0;
+    pthread_mutex_lock(&q->mu);
+    j->samples = (int)floor(mean + 0.5);
+    if (rc) {
+        fail_locked(q, j, &err);
+    } else {
+        j->png = png;
+        j->png_len = len;
+        finish_locked(q, j, RD_JOB_DONE);
+    }
+    notify_locked(q, j);
+}
+
+/* Admitted: allocate the render's state outside the lock. Under q->mu
+ * (released and taken again). */
+static void start_job(rd_jq *q, rd_jq_job *j)
+{
+    j->ph = PH_STARTING;
+    j->t_start = now_ms();
+    charge(q, j, j->footprint);
+    pthread_mutex_unlock(&q->mu);
+    rd_job *core = NULL;
+    rd_error err = {0};
+    rd_job_options jo = core_options(j);
+    rd_error_code rc = rd_job_create(&j->scene, &jo, &core, &err);
+    unsigned char *ts = NULL;
+    if (!rc && !(ts = calloc((size_t)rd_job_tile_count(core), 1)))
+        rc = rd_error_set(&err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    if (!rc) {
+        if (q->opt.job_timeout_ms > 0)
+            rd_job_set_deadline(core, j->t_start + q->opt.job_timeout_ms);
+        rd_job_set_cancel(core, &j->stop);
+        rd_job_plan_stats(core, &j->stats);
+    }
+    pthread_mutex_lock(&q->mu);
+    if (rc) {
+        rd_job_free(core);
+        fail_locked(q, j, &err);
+        notify_locked(q, j);
+        return;
+    }
+    j->core = core;
+    j->tile_state = ts;
+    j->tiles_total = rd_job_tile_count(core);
+    rd_stop_reason why;
+    j->pass = 0;
+    j->spp = 0;
+    j->last_pass_spp = rd_progress_next(&j->progress, 0, 0, 0, 0, 0, 0, &why);
+    j->pass_t0 = now_ms();
+    rd_job_begin_pass(core, 0, j->last_pass_spp);
+    j->status = RD_JOB_RUNNING;
+    j->ph = PH_RUNNING;
+    q->running_count++;
+    pthread_cond_broadcast(&q->work_cv);
 }
 
 /* The last tile of a pass is done: estimate the error, add a curve point,
- * and start the next pass or encode the image. Outside the lock, with
- * j->finishing set so no other thread touches the job. Returns 1 when the
- * job ended. */
-static int end_of_pass(rd_jq *q, rd_jq_job *j)
+ * and start the next pass or finish. Under q->mu, with the job in
+ * PH_FINISHING so no other worker touches it while the lock is released
+ * for the estimate. */
+static void end_of_pass(rd_jq *q, rd_jq_job *j)
 {
+    j->ph = PH_FINISHING;
+    pthread_mutex_unlock(&q->mu);
     double est = rd_job_error_estimate(j->core);
+    double mean = j->progress.adaptive ? rd_job_mean_samples(j->core) : 0;
     double now = now_ms();
+    pthread_mutex_lock(&q->mu);
     j->spp += j->last_pass_spp;
     j->last_pass_ms = now - j->pass_t0;
+    j->error_estimate = est;
     if (j->curve_len < RD_CURVE_MAX) {
         rd_curve_point *cp = &j->curve[j->curve_len++];
         cp->ms = now - j->t_start;
-        cp->samples = j->progress.adaptive ? rd_job_mean_samples(j->core) : j->spp;
+        cp->samples = j->progress.adaptive ? mean : j->spp;
         cp->error = est;
     }
     rd_stop_reason why;
     int next = rd_progress_next(&j->progress, j->pass + 1, j->spp, j->last_pass_ms, j->last_pass_spp,
                                 now - j->t_start, est, &why);
-    if (next > 0) {
-        rd_job_begin_pass(j->core, j->pass + 1, next);
-        pthread_mutex_lock(&q->mu);
-        j->error_estimate = est;
-        j->pass++;
-        j->last_pass_spp = next;
-        j->pass_t0 = now_ms();
-        j->next_tile = 0;
-        j->tiles_done = 0;
-        memset(j->tile_state, TILE_DONE, (size_t)j->tiles_total);
-        j->finishing = 0;
-        pthread_cond_broadcast(&q->work_cv);
-        pthread_mutex_unlock(&q->mu);
-        return 0;
+    if (next == 0) {
+        j->stopped_by = why;
+        finish_job(q, j);
+        return;
     }
-    j->stopped_by = why;
-    int w = rd_job_width(j->core), h = rd_job_height(j->core);
-    uint8_t *rgb = malloc((size_t)w * (size_t)h * 3);
-    rd_error err = {0};
-    unsigned char *png = NULL;
-    size_t len = 0;
-    rd_error_code rc = RD_ERR_NOMEM;
-    if (rgb) {
-        rd_job_rgb8(j->core, rgb);
-        rc = rd_png_encode(rgb, w, h, &q->opt.png, &png, &len, &err);
-        free(rgb);
+    if (j->cancel) {
+        j->ph = PH_RUNNING; /* reaped by the next worker to look */
+        return;
     }
-    double mean = rd_job_mean_samples(j->core);
-    pthread_mutex_lock(&q->mu);
-    j->finishing = 0;
-    j->error_estimate = est;
-    j->samples = (int)floor(mean + 0.5);
-    if (rc) {
-        j->error = err;
-        finish_locked(q, j, RD_JOB_FAILED);
-    } else {
-        j->png = png;
-        j->png_len = len;
-        q->result_bytes += len;
-        finish_locked(q, j, RD_JOB_DONE);
-        rd_job_free(j->core);
-        j->core = NULL;
-        /* Only the status and the PNG outlive the render. */
-        rd_scene_free(&j->scene);
-        sweep(q);
-    }
+    /* Nothing renders this job now, so the pass may read every pixel. */
+    rd_job_begin_pass(j->core, j->pass + 1, next);
+    j->pass++;
+    j->last_pass_spp = next;
+    j->pass_t0 = now_ms();
+    j->next_tile = 0;
+    j->tiles_done = 0;
+    memset(j->tile_state, TILE_DONE, (size_t)j->tiles_total);
+    j->ph = PH_RUNNING;
+    pthread_cond_broadcast(&q->work_cv);
+}
+
+static void render_tile(rd_jq *q, rd_jq_job *j)
+{
+    int tile = j->next_tile++;
+    j->tiles_given++;
+    j->tile_state[tile] = TILE_RENDERING;
+    j->inflight++;
     pthread_mutex_unlock(&q->mu);
-    return 1;
+    rd_job_counts c = {0, 0, 0, 0};
+    int complete = rd_job_render_tile(j->core, tile, &c);
+    pthread_mutex_lock(&q->mu);
+    if (!complete && !j->cancel) {
+        /* Stopped by the core's own deadline before the watchdog saw it. */
+        j->timed_out = 1;
+        cancel_locked(q, j);
+    }
+    j->tile_state[tile] = TILE_DONE;
+    j->counts.camera += c.camera;
+    j->counts.shadow += c.shadow;
+    j->counts.secondary += c.secondary;
+    j->counts.nonfinite += c.nonfinite;
+    j->tiles_done++;
+    j->inflight--;
+    if (j->tiles_done == j->tiles_total && !j->cancel)
+        end_of_pass(q, j);
+    else if (j->cancel && j->inflight == 0)
+        pthread_cond_broadcast(&q->work_cv); /* someone ends it */
+}
+
+static int busy(const rd_jq_job *j)
+{
+    return j->ph == PH_PREPARING || j->ph == PH_STARTING || j->ph == PH_FINISHING;
+}
+
+/* May this prepared job start now? The oldest waiting job that does not fit
+ * holds its place: younger ones start only if they fit beside it, so a
+ * stream of small jobs cannot starve a large one. When nothing runs, the
+ * oldest starts anyway (results and caches make room as they age).
+ * Under q->mu. */
+static int admit(rd_jq *q, const rd_jq_job *j, size_t *held_back)
+{
+    if (!q->opt.memory_budget)
+        return 1;
+    size_t used = used_bytes(q) - j->charged;
+    if (used + *held_back + j->footprint <= q->opt.memory_budget)
+        return 1;
+    if (*held_back == 0 && q->running_count == 0) {
+        int starting = 0;
+        for (const rd_jq_job *o = q->active_head; o; o = o->next_active)
+            starting |= o->ph == PH_STARTING;
+        if (!starting)
+            return 1;
+    }
+    *held_back += j->footprint;
+    return 0;
+}
+
+/* What a free worker does next: a cancelled job to end, a new job to
+ * prepare, a prepared one to start, or the next tile by fair share.
+ * Under q->mu. */
+static rd_jq_job *pick(rd_jq *q)
+{
+    rd_jq_job *tile_job = NULL;
+    size_t held_back = 0;
+    for (rd_jq_job *j = q->active_head; j; j = j->next_active) {
+        if (busy(j))
+            continue;
+        if (j->cancel) {
+            if (j->inflight == 0)
+                return j;
+            continue;
+        }
+        if (j->ph == PH_NEW)
+            return j;
+        if (j->ph == PH_WAITING && admit(q, j, &held_back))
+            return j;
+        /* Fair share: the next tile goes to the job that has been given
+         * the fewest so far, the oldest on a tie. */
+        if (j->ph == PH_RUNNING && j->next_tile < j->tiles_total &&
+            (!tile_job || j->tiles_given < tile_job->tiles_given))
+            tile_job = j;
+    }
+    return tile_job;
 }
 
 static void *worker(void *arg)
@@ -324,128 +654,22 @@ static void *worker(void *arg)
     rd_jq *q = arg;
     pthread_mutex_lock(&q->mu);
     while (!q->stopping) {
-        rd_jq_job *pick = NULL, *ended = NULL;
-        int tile = -1;
-        double now = now_ms();
-        for (rd_jq_job *j = q->active_head; j; j = j->next_active) {
-            if (j->preparing || j->finishing)
-                continue;
-            if (!j->cancel && j->status == RD_JOB_RUNNING && q->opt.job_timeout_ms > 0 &&
-                now - j->t_start > q->opt.job_timeout_ms) {
-                j->cancel = 1;
-                j->timed_out = 1;
-            }
-            if (!j->cancel && j->watch_fd >= 0 && hung_up(j->watch_fd)) {
-                j->cancel = 1;
-                j->hung_up = 1;
-            }
-            if (j->cancel) {
-                if (j->inflight == 0) {
-                    if (j->timed_out) {
-                        rd_error_set(&j->error, RD_ERR_LIMIT, 0, 0,
-                                     "the render took longer than the limit of %.0f ms (--job-timeout-ms)",
-                                     q->opt.job_timeout_ms);
-                        finish_locked(q, j, RD_JOB_FAILED);
-                    } else {
-                        finish_locked(q, j, RD_JOB_CANCELLED);
-                    }
-                    ended = j;
-                    break;
-                }
-                continue;
-            }
-            /* Fair share: the next tile goes to the job that has been given
-             * the fewest so far, the oldest on a tie. A lone job gets every
-             * core; a small job arriving behind a large one starts at once
-             * and finishes in about its own render time. */
-            if ((j->status == RD_JOB_QUEUED || (j->status == RD_JOB_RUNNING && j->next_tile < j->tiles_total)) &&
-                (!pick || j->tiles_given < pick->tiles_given))
-                pick = j;
-        }
-        if (ended) {
-            ended->refs++;
-            pthread_mutex_unlock(&q->mu);
-            call_done(ended);
-            pthread_mutex_lock(&q->mu);
-            unref_locked(ended);
-            continue;
-        }
-        if (!pick) {
+        rd_jq_job *j = pick(q);
+        if (!j) {
             pthread_cond_wait(&q->work_cv, &q->mu);
             continue;
         }
-        rd_jq_job *j = pick;
         j->refs++;
-        if (j->status == RD_JOB_QUEUED) {
-            /* Build the plan (and BVH) outside the lock; other workers move on. */
-            j->preparing = 1;
-            j->t_start = now_ms();
-            pthread_mutex_unlock(&q->mu);
-            rd_job *core = NULL;
-            rd_error err = {0};
-            rd_job_options jo = {16, rd_progress_is_progressive(&j->progress), j->progress.adaptive};
-            rd_error_code rc = rd_job_create(&j->scene, &jo, &core, &err);
-            unsigned char *ts = NULL;
-            if (!rc && !(ts = calloc((size_t)rd_job_tile_count(core), 1)))
-                rc = rd_error_set(&err, RD_ERR_NOMEM, 0, 0, "out of memory");
-            pthread_mutex_lock(&q->mu);
-            j->preparing = 0;
-            if (rc) {
-                rd_job_free(core);
-                j->error = err;
-                finish_locked(q, j, RD_JOB_FAILED);
-                pthread_mutex_unlock(&q->mu);
-                call_done(j);
-                pthread_mutex_lock(&q->mu);
-            } else {
-                j->core = core;
-                if (q->opt.job_timeout_ms > 0)
-                    rd_job_set_deadline(core, j->t_start + q->opt.job_timeout_ms);
-                j->tile_state = ts;
-                j->tiles_total = rd_job_tile_count(core);
-                rd_stop_reason why;
-                j->pass = 0;
-                j->spp = 0;
-                j->last_pass_spp = rd_progress_next(&j->progress, 0, 0, 0, 0, 0, 0, &why);
-                j->pass_t0 = now_ms();
-                rd_job_begin_pass(core, 0, j->last_pass_spp);
-                rd_job_plan_stats(core, &j->stats);
-                j->status = RD_JOB_RUNNING;
-                q->running_count++;
-                pthread_cond_broadcast(&q->work_cv);
-            }
-            unref_locked(j);
-            continue;
-        }
-        tile = j->next_tile++;
-        j->tiles_given++;
-        j->tile_state[tile] = TILE_RENDERING;
-        j->inflight++;
-        pthread_mutex_unlock(&q->mu);
-        rd_job_counts c = {0, 0, 0, 0};
-        int complete = rd_job_render_tile(j->core, tile, &c);
-        pthread_mutex_lock(&q->mu);
-        if (!complete && !j->cancel) {
-            /* The tile ran past the job's time limit. */
-            j->cancel = 1;
-            j->timed_out = 1;
-        }
-        j->tile_state[tile] = TILE_DONE;
-        j->counts.camera += c.camera;
-        j->counts.shadow += c.shadow;
-        j->counts.secondary += c.secondary;
-        j->counts.nonfinite += c.nonfinite;
-        j->tiles_done++;
-        j->inflight--;
-        if (j->tiles_done == j->tiles_total && !j->cancel) {
-            j->finishing = 1;
-            pthread_mutex_unlock(&q->mu);
-            if (end_of_pass(q, j))
-                call_done(j);
-            pthread_mutex_lock(&q->mu);
-        } else if (j->cancel && j->inflight == 0) {
-            pthread_cond_broadcast(&q->work_cv); /* someone ends it */
-        }
+        if (j->cancel)
+            end_cancelled(q, j);
+        else if (j->ph == PH_NEW)
+            prepare_job(q, j);
+        else if (j->ph == PH_WAITING && !j->render)
+            finish_job(q, j);
+        else if (j->ph == PH_WAITING)
+            start_job(q, j);
+        else
+            render_tile(q, j);
         unref_locked(j);
     }
     pthread_mutex_unlock(&q->mu);
@@ -462,9 +686,12 @@ rd_jq *rd_jq_start(const rd_jq_options *opt, rd_error *err)
     q->opt = *opt;
     if (q->opt.workers < 1)
         q->opt.workers = 1;
+    if (q->opt.kept_max < 1)
+        q->opt.kept_max = 1;
     pthread_mutex_init(&q->mu, NULL);
     pthread_cond_init(&q->work_cv, NULL);
     pthread_cond_init(&q->idle_cv, NULL);
+    pthread_cond_init(&q->watch_cv, NULL);
     if (getrandom(&q->key, sizeof q->key, 0) != (ssize_t)sizeof q->key)
         q->key = (uint64_t)now_ms() * 0x2545f4914f6cdd1dULL;
     q->threads = calloc((size_t)q->opt.workers, sizeof *q->threads);
@@ -478,9 +705,9 @@ rd_jq *rd_jq_start(const rd_jq_options *opt, rd_error *err)
             break;
         q->nthreads++;
     }
-    if (q->nthreads == 0) {
-        free(q->threads);
-        free(q);
+    q->has_watchdog = q->nthreads > 0 && pthread_create(&q->watchdog, NULL, watchdog, q) == 0;
+    if (!q->has_watchdog) {
+        rd_jq_stop(q);
         rd_error_set(err, RD_ERR_NOMEM, 0, 0, "cannot start render threads");
         return NULL;
     }
@@ -495,64 +722,73 @@ void rd_jq_stop(rd_jq *q)
     pthread_mutex_lock(&q->mu);
     q->stopping = 1;
     pthread_cond_broadcast(&q->work_cv);
+    pthread_cond_broadcast(&q->watch_cv);
     pthread_mutex_unlock(&q->mu);
     for (int i = 0; i < q->nthreads; i++)
         pthread_join(q->threads[i], NULL);
+    if (q->has_watchdog)
+        pthread_join(q->watchdog, NULL);
     /* Jobs still active were cancelled but never reached by a worker. */
+    pthread_mutex_lock(&q->mu);
     while (q->active_head) {
         rd_jq_job *j = q->active_head;
         finish_locked(q, j, RD_JOB_CANCELLED);
-        call_done(j);
+        notify_locked(q, j);
     }
     while (q->all) {
         rd_jq_job *j = q->all;
         q->all = j->next_all;
         unref_locked(j);
     }
+    pthread_mutex_unlock(&q->mu);
     free(q->threads);
     pthread_mutex_destroy(&q->mu);
     pthread_cond_destroy(&q->work_cv);
     pthread_cond_destroy(&q->idle_cv);
+    pthread_cond_destroy(&q->watch_cv);
     free(q);
 }
 
-rd_error_code rd_jq_submit(rd_jq *q, rd_scene *scene, const rd_progress_settings *progress, int watch_fd,
-                           rd_jq_done_fn done, void *user, rd_jq_job **out, rd_error *err)
+rd_error_code rd_jq_submit(rd_jq *q, const rd_jq_task *task, const rd_jq_submit_options *so, rd_jq_job **out,
+                           rd_error *err)
 {
     *out = NULL;
     rd_jq_job *j = calloc(1, sizeof *j);
     if (!j) {
-        rd_scene_free(scene);
+        if (task->free)
+            task->free(task->arg);
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
     }
     j->q = q;
-    j->scene = *scene;
-    memset(scene, 0, sizeof *scene);
-    j->samples = j->scene.render.samples < 1 ? 1 : j->scene.render.samples;
-    j->width = j->scene.render.width;
-    j->height = j->scene.render.height;
-    j->sync = done != NULL;
-    if (progress)
-        j->progress = *progress;
-    j->progress.max_samples = j->samples;
-    j->watch_fd = watch_fd;
-    j->done = done;
-    j->user = user;
+    j->task = *task;
+    rd_scene_init(&j->scene);
+    if (so) {
+        j->progress = so->progress;
+        j->watch_fd = so->watch_fd;
+        j->watch_http11 = so->watch_http11;
+        j->done = so->done;
+        j->user = so->user;
+        j->notify_prepared = so->notify_prepared;
+    } else {
+        j->watch_fd = -1;
+    }
+    j->sync = j->was_sync = j->done != NULL && !j->notify_prepared;
     j->t_submit = now_ms();
     pthread_mutex_lock(&q->mu);
     sweep(q);
     if (q->stopping || q->active_count >= q->opt.queue_length) {
         pthread_mutex_unlock(&q->mu);
-        rd_scene_free(&j->scene);
-        free(j);
-        return rd_error_set(err, RD_ERR_LIMIT, 0, 0, "the render queue is full (%zu jobs, --queue)",
+        job_free(j);
+        return rd_error_set(err, RD_ERR_BUSY, 0, 0, "the render queue is full (%zu jobs, --queue)",
                             q->opt.queue_length);
     }
     snprintf(j->id, sizeof j->id, "%016llx", (unsigned long long)mix(q->key ^ ++q->counter));
     j->refs = 2; /* the registry's and the caller's */
     j->status = RD_JOB_QUEUED;
+    j->ph = PH_NEW;
     j->active = 1;
     j->registered = 1;
+    charge(q, j, task->input_bytes);
     if (q->active_tail)
         q->active_tail->next_active = j;
     else
@@ -566,6 +802,41 @@ rd_error_code rd_jq_submit(rd_jq *q, rd_scene *scene, const rd_progress_settings
     pthread_mutex_unlock(&q->mu);
     *out = j;
     return RD_OK;
+}
+
+/* A scene given at submission: preparation only hands it over. */
+static rd_error_code take_scene(void *arg, rd_scene *scene, int *render, rd_error *err)
+{
+    (void)render, (void)err;
+    rd_scene *given = arg;
+    rd_scene_free(scene);
+    *scene = *given;
+    rd_scene_init(given);
+    return RD_OK;
+}
+
+static void free_scene(void *arg)
+{
+    rd_scene *s = arg;
+    if (s) {
+        rd_scene_free(s);
+        free(s);
+    }
+}
+
+rd_error_code rd_jq_submit_scene(rd_jq *q, rd_scene *scene, const rd_jq_submit_options *so, rd_jq_job **out,
+                                 rd_error *err)
+{
+    rd_scene *copy = malloc(sizeof *copy);
+    if (!copy) {
+        rd_scene_free(scene);
+        *out = NULL;
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    }
+    *copy = *scene;
+    rd_scene_init(scene);
+    rd_jq_task t = {take_scene, NULL, free_scene, copy, rd_scene_bytes(copy)};
+    return rd_jq_submit(q, &t, so, out, err);
 }
 
 rd_jq_job *rd_jq_find(rd_jq *q, const char *id)
@@ -597,13 +868,27 @@ int rd_jq_cancel(rd_jq *q, rd_jq_job *j)
 {
     pthread_mutex_lock(&q->mu);
     int live = j->active;
-    if (live) {
-        j->cancel = 1;
-        j->watch_fd = -1;
-        pthread_cond_broadcast(&q->work_cv);
-    }
+    if (live && !j->cancel)
+        cancel_locked(q, j);
     pthread_mutex_unlock(&q->mu);
     return live;
+}
+
+static double progress_of(const rd_jq_job *j)
+{
+    if (j->status == RD_JOB_DONE)
+        return 1.0;
+    double p = j->tiles_total > 0 ? (double)j->tiles_done / j->tiles_total : 0;
+    if (j->status == RD_JOB_RUNNING && rd_progress_is_progressive(&j->progress)) {
+        /* Samples toward the cap, or time toward the budget. */
+        double by_spp = (j->spp + (double)j->last_pass_spp * j->tiles_done / (j->tiles_total ? j->tiles_total : 1)) /
+                        j->progress.max_samples;
+        double by_time = j->progress.time_budget_ms > 0 ? (now_ms() - j->t_start) / j->progress.time_budget_ms : 0;
+        p = by_spp > by_time ? by_spp : by_time;
+        if (p > 0.99)
+            p = 0.99;
+    }
+    return p;
 }
 
 void rd_jq_info_get(rd_jq *q, rd_jq_job *j, rd_jq_info *out)
@@ -612,18 +897,7 @@ void rd_jq_info_get(rd_jq *q, rd_jq_job *j, rd_jq_info *out)
     memset(out, 0, sizeof *out);
     snprintf(out->id, sizeof out->id, "%s", j->id);
     out->status = j->status;
-    out->progress = j->status == RD_JOB_DONE ? 1.0
-                    : j->tiles_total > 0     ? (double)j->tiles_done / j->tiles_total
-                                             : 0;
-    if (j->status == RD_JOB_RUNNING && rd_progress_is_progressive(&j->progress)) {
-        /* Progress of a progressive job: samples toward the cap, or time toward the budget. */
-        double by_spp = (j->spp + (double)j->last_pass_spp * j->tiles_done / (j->tiles_total ? j->tiles_total : 1)) /
-                        j->progress.max_samples;
-        double by_time = j->progress.time_budget_ms > 0 ? (now_ms() - j->t_start) / j->progress.time_budget_ms : 0;
-        out->progress = by_spp > by_time ? by_spp : by_time;
-        if (out->progress > 0.99)
-            out->progress = 0.99;
-    }
+    out->progress = progress_of(j);
     double now = now_ms();
     out->elapsed_ms = j->t_start > 0 ? (j->t_end > 0 ? j->t_end : now) - j->t_start : 0;
     out->queued_ms = (j->t_start > 0 ? j->t_start : now) - j->t_submit;
@@ -643,6 +917,7 @@ void rd_jq_info_get(rd_jq *q, rd_jq_job *j, rd_jq_info *out)
     out->width = j->width;
     out->height = j->height;
     out->hung_up = j->hung_up;
+    out->prepared = j->ph >= PH_WAITING;
     pthread_mutex_unlock(&q->mu);
 }
 
@@ -661,7 +936,7 @@ rd_error_code rd_jq_png(rd_jq *q, rd_jq_job *j, int partial, unsigned char **png
         pthread_mutex_unlock(&q->mu);
         return copy ? RD_OK : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
     }
-    if (!partial || j->status != RD_JOB_RUNNING || !j->core || j->finishing) {
+    if (!partial || j->ph != PH_RUNNING || !j->core) {
         rd_job_status st = j->status;
         pthread_mutex_unlock(&q->mu);
         if (st == RD_JOB_DONE)
@@ -695,9 +970,22 @@ void rd_jq_release_png(rd_jq *q, rd_jq_job *j)
     pthread_mutex_unlock(&q->mu);
 }
 
+void rd_jq_external_bytes(rd_jq *q, long long delta)
+{
+    atomic_fetch_add(&q->external, delta);
+    if (delta < 0) {
+        pthread_mutex_lock(&q->mu);
+        pthread_cond_broadcast(&q->work_cv);
+        pthread_mutex_unlock(&q->mu);
+    }
+}
+
 void rd_jq_metrics_get(rd_jq *q, rd_jq_metrics *m)
 {
     pthread_mutex_lock(&q->mu);
+    memset(m, 0, sizeof *m);
+    for (rd_jq_job *j = q->active_head; j; j = j->next_active)
+        m->waiting_memory += j->ph == PH_WAITING;
     m->queued = q->active_count - q->running_count;
     m->running = q->running_count;
     m->done = q->n_done;
@@ -709,6 +997,10 @@ void rd_jq_metrics_get(rd_jq *q, rd_jq_metrics *m)
     memcpy(m->render_seconds_bucket, q->buckets, sizeof q->buckets);
     m->result_bytes = q->result_bytes;
     m->jobs_kept = q->kept;
+    m->memory_budget = q->opt.memory_budget;
+    m->memory_reserved = q->reserved;
+    long long ext = atomic_load(&q->external);
+    m->external_bytes = ext > 0 ? (size_t)ext : 0;
     pthread_mutex_unlock(&q->mu);
 }
 
@@ -735,10 +1027,8 @@ int rd_jq_drain(rd_jq *q, double timeout_ms)
 void rd_jq_cancel_all(rd_jq *q)
 {
     pthread_mutex_lock(&q->mu);
-    for (rd_jq_job *j = q->active_head; j; j = j->next_active) {
-        j->cancel = 1;
-        j->watch_fd = -1;
-    }
-    pthread_cond_broadcast(&q->work_cv);
+    for (rd_jq_job *j = q->active_head; j; j = j->next_active)
+        if (!j->cancel)
+            cancel_locked(q, j);
     pthread_mutex_unlock(&q->mu);
 }

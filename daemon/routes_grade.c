@@ -42,8 +42,11 @@ struct rd_grades {
     size_t next;
     uint64_t key;
     uint64_t counter;
+    rd_jq *jobs;                /* told of every byte the caches hold */
+    size_t bytes, cap;
 };
 
+/* The form as it arrives, on the HTTP thread. */
 struct rd_grade_req {
     char *image;
     size_t image_len;
@@ -51,10 +54,25 @@ struct rd_grade_req {
     size_t scene_len;
     char assignment[80];
     int too_big;
-    /* set once the scene is loaded */
+    const char *bad;            /* the form is malformed: why (answered once it has arrived) */
+};
+
+/* One grade on a render thread: prepared (scene, image, reference from the
+ * caches), rendered only when no reference is cached, then finished
+ * (compare, heat map, the kept PNGs, the verdict). */
+typedef struct {
+    char *image;
+    size_t image_len;
+    char *scene;
+    size_t scene_len;
+    char assignment[80];
+    rd_server *srv;
     rd_grade_output out;
     char refkey[17];
-};
+    unsigned status;            /* an error's HTTP status when not the scene code's */
+    const char *slug;
+    char *json;                 /* the verdict */
+} grade_task;
 
 static double now_ms(void)
 {
@@ -63,10 +81,12 @@ static double now_ms(void)
     return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
 }
 
-struct rd_grades *rd_grades_new(void)
+struct rd_grades *rd_grades_new(rd_jq *jobs, size_t cap)
 {
     struct rd_grades *g = calloc(1, sizeof *g);
     if (g) {
+        g->jobs = jobs;
+        g->cap = cap;
         pthread_mutex_init(&g->mu, NULL);
         if (getrandom(&g->key, sizeof g->key, 0) != (ssize_t)sizeof g->key)
             g->key = (uint64_t)now_ms() * 0x9e3779b97f4a7c15ULL;
@@ -87,6 +107,56 @@ void rd_grades_free(struct rd_grades *g)
     }
     pthread_mutex_destroy(&g->mu);
     free(g);
+}
+
+static size_t kept_bytes(const grade_entry *e) { return e->diff_len + e->reference_len + e->image_len; }
+
+static void drop_ref(struct rd_grades *g, ref_entry *e)
+{
+    if (!e->rgb)
+        return;
+    size_t n = (size_t)e->w * (size_t)e->h * 3;
+    g->bytes -= n;
+    rd_jq_external_bytes(g->jobs, -(long long)n);
+    free(e->rgb);
+    e->rgb = NULL;
+}
+
+static void drop_kept(struct rd_grades *g, grade_entry *e)
+{
+    size_t n = kept_bytes(e);
+    g->bytes -= n;
+    rd_jq_external_bytes(g->jobs, -(long long)n);
+    free(e->diff);
+    free(e->reference);
+    free(e->image);
+    memset(e, 0, sizeof *e);
+}
+
+/* The caches grew by delta bytes: past --grade-cache-bytes, the least
+ * recently used references go first, then the oldest kept grades. Under
+ * g->mu. */
+static void account(struct rd_grades *g, long long delta)
+{
+    g->bytes += (size_t)delta;
+    rd_jq_external_bytes(g->jobs, delta);
+    while (g->bytes > g->cap) {
+        ref_entry *lru = NULL;
+        for (int i = 0; i < REF_CACHE; i++)
+            if (g->refs[i].rgb && (!lru || g->refs[i].used < lru->used))
+                lru = &g->refs[i];
+        if (lru) {
+            drop_ref(g, lru);
+            continue;
+        }
+        grade_entry *old = NULL;
+        for (int i = 0; i < GRADES_KEPT; i++)
+            if (g->kept[i].id[0] && (!old || g->kept[i].t < old->t))
+                old = &g->kept[i];
+        if (!old)
+            break;
+        drop_kept(g, old);
+    }
 }
 
 /* A copy of the cached reference, or NULL. */
@@ -123,12 +193,13 @@ static void ref_store(struct rd_grades *g, const char *key, const uint8_t *rgb, 
         if (g->refs[i].used < g->refs[slot].used)
             slot = i;
     }
-    free(g->refs[slot].rgb);
+    drop_ref(g, &g->refs[slot]);
     snprintf(g->refs[slot].key, sizeof g->refs[slot].key, "%s", key);
     g->refs[slot].rgb = copy;
     g->refs[slot].w = w;
     g->refs[slot].h = h;
     g->refs[slot].used = now_ms();
+    account(g, (long long)n);
     pthread_mutex_unlock(&g->mu);
 }
 
@@ -163,10 +234,9 @@ static void keep(struct rd_grades *g, const rd_grade_output *o, char id[24])
     z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
     snprintf(e.id, sizeof e.id, "g%016llx", (unsigned long long)(z ^ (z >> 31)));
     grade_entry *slot = &g->kept[g->next++ % GRADES_KEPT];
-    free(slot->diff);
-    free(slot->reference);
-    free(slot->image);
+    drop_kept(g, slot);
     *slot = e;
+    account(g, (long long)kept_bytes(&e));
     pthread_mutex_unlock(&g->mu);
     memcpy(id, e.id, sizeof e.id);
 }
@@ -179,7 +249,6 @@ void rd_grade_req_free(rd_req *r)
     if (r->grade) {
         free(r->grade->image);
         free(r->grade->scene);
-        rd_grade_output_free(&r->grade->out);
         free(r->grade);
         r->grade = NULL;
     }
@@ -192,6 +261,14 @@ static enum MHD_Result on_field(void *cls, enum MHD_ValueKind kind, const char *
     (void)kind, (void)filename, (void)content_type, (void)encoding, (void)off;
     rd_req *r = cls;
     rd_grade_req *g = r->grade;
+    /* A part without a Content-Disposition name (or with an unquoted one)
+     * comes with no key at all. */
+    if (!key) {
+        g->bad = "a form part has no field name (Content-Disposition: form-data; name=\"...\")";
+        return MHD_NO;
+    }
+    if (size && !data)
+        return MHD_YES;
     char **buf = NULL;
     size_t *len = NULL;
     if (strcmp(key, "image") == 0) {
@@ -205,16 +282,16 @@ static enum MHD_Result on_field(void *cls, enum MHD_ValueKind kind, const char *
         if (have + size < sizeof g->assignment) {
             memcpy(g->assignment + have, data, size);
             g->assignment[have + size] = 0;
-        } else {
-            g->too_big = 1;
+            return MHD_YES;
         }
-        return MHD_YES;
+        g->bad = "the 'assignment' field is longer than an assignment name can be";
+        return MHD_NO;
     } else {
         return MHD_YES; /* other fields are ignored */
     }
     if (*len + size > r->srv->opt.max_body_bytes) {
         g->too_big = 1;
-        return MHD_YES;
+        return MHD_NO;
     }
     char *p = realloc(*buf, *len + size + 1);
     if (!p)
@@ -241,35 +318,32 @@ enum MHD_Result rd_route_grade_begin(rd_req *r)
     return MHD_YES;
 }
 
+/* libmicrohttpd 0.9.75 cannot answer in the middle of an upload, so a form
+ * found bad stops being parsed and the rest of it is read and dropped; the
+ * answer goes out once it has all arrived (one that runs far past the limit
+ * has its connection closed instead). */
 enum MHD_Result rd_route_grade_data(rd_req *r, const char *data, size_t size)
 {
-    if (MHD_post_process(r->post, data, size) != MHD_YES)
-        return rd_reply_error(r, 400, "parse_error", NULL, "the form data is malformed");
-    if (r->grade->too_big) {
-        char msg[160];
-        snprintf(msg, sizeof msg, "a form field is over the limit of %zu bytes (--max-body-bytes)",
-                 r->srv->opt.max_body_bytes);
-        return rd_reply_error(r, 413, "too_large", NULL, msg);
+    rd_grade_req *g = r->grade;
+    if (g->bad || g->too_big) {
+        r->discarded += size;
+        return r->discarded > 3 * r->srv->opt.max_body_bytes + (1u << 20) ? MHD_NO : MHD_YES;
     }
+    if (MHD_post_process(r->post, data, size) != MHD_YES && !g->bad && !g->too_big)
+        g->bad = "the form data is malformed";
     return MHD_YES;
 }
 
-static enum MHD_Result answer(rd_req *r)
+/* The kept images' addresses and the cache flag, added to the verdict. */
+static char *verdict_json(const rd_grade_output *o, const char *id)
 {
-    rd_grade_req *g = r->grade;
-    rd_grade_output *o = &g->out;
-    rd_grade_compare(o->reference, o->image, o->width, o->height, &o->thresholds, &o->result);
-    char id[24], url[80];
-    keep(r->srv->grades, o, id);
+    char url[80];
     snprintf(url, sizeof url, "/v1/grades/%s/diff.png", id);
     char *json = rd_grade_json(o, url);
-    if (!json)
-        return MHD_NO;
-    /* Add the id and the other images' addresses for the page. */
-    cJSON *root = cJSON_Parse(json);
+    cJSON *root = json ? cJSON_Parse(json) : NULL;
     free(json);
     if (!root)
-        return MHD_NO;
+        return NULL;
     cJSON_AddStringToObject(root, "id", id);
     snprintf(url, sizeof url, "/v1/grades/%s/reference.png", id);
     cJSON_AddStringToObject(root, "reference_url", url);
@@ -278,7 +352,161 @@ static enum MHD_Result answer(rd_req *r)
     cJSON_AddBoolToObject(root, "reference_cached", o->reference_cached);
     char *text = cJSON_PrintUnformatted(root);
     cJSON_Delete(root);
-    return rd_reply_json(r, 200, text);
+    return text;
+}
+
+static rd_error_code fail_as(grade_task *t, unsigned status, const char *slug, rd_error_code rc)
+{
+    t->status = status;
+    t->slug = slug;
+    return rc;
+}
+
+/* Width and height from a PNG's IHDR, which the signature check put at a
+ * fixed place, so a size mismatch is found before decoding anything. */
+static int png_size(const unsigned char *p, size_t len, unsigned *w, unsigned *h)
+{
+    if (len < 24 || memcmp(p + 12, "IHDR", 4) != 0)
+        return 0;
+    *w = (unsigned)p[16] << 24 | (unsigned)p[17] << 16 | (unsigned)p[18] << 8 | p[19];
+    *h = (unsigned)p[20] << 24 | (unsigned)p[21] << 16 | (unsigned)p[22] << 8 | p[23];
+    return 1;
+}
+
+/* The reference from memory or --cache-dir; NULL when neither has it. */
+static uint8_t *cached_reference(grade_task *t, int w, int h)
+{
+    rd_server *srv = t->srv;
+    uint8_t *ref = ref_lookup(srv->grades, t->refkey, w, h);
+    if (ref || !srv->opt.cache_dir)
+        return ref;
+    char path[1100];
+    char *data;
+    size_t len;
+    int cw, ch;
+    rd_error err;
+    snprintf(path, sizeof path, "%s/%s.png", srv->opt.cache_dir, t->refkey);
+    if (rd_read_file(path, 1u << 30, "(cache)", &data, &len, &err) != RD_OK)
+        return NULL;
+    if (rd_grade_load_png((unsigned char *)data, len, (size_t)w * (size_t)h, &ref, &cw, &ch, &err) || cw != w ||
+        ch != h) {
+        free(ref);
+        ref = NULL;
+    }
+    free(data);
+    return ref;
+}
+
+static rd_error_code load_scene(grade_task *t, rd_scene *s, rd_error *err)
+{
+    rd_server *srv = t->srv;
+    rd_grade_output *o = &t->out;
+    rd_error_code rc;
+    char *dir;
+    if (t->assignment[0]) {
+        rd_assignment a;
+        rc = rd_assignment_load(srv->opt.assignments_dir, t->assignment, &a, err);
+        if (rc)
+            return fail_as(t, rc == RD_ERR_IO ? 404 : 422, rc == RD_ERR_IO ? "not_found" : "bad_assignment", rc);
+        snprintf(o->assignment, sizeof o->assignment, "%s", a.name);
+        snprintf(o->title, sizeof o->title, "%s", a.title);
+        o->thresholds = a.thresholds;
+        rc = rd_scene_load_file(a.scene_path, &srv->opt.limits, s, err);
+        dir = rd_dirname(a.scene_path);
+    } else {
+        rc = rd_scene_parse(t->scene, t->scene_len, RD_FMT_AUTO, "<upload>", &srv->opt.limits, s, err);
+        dir = strdup(srv->opt.scenes_dir);
+    }
+    if (!rc)
+        rc = rd_scene_check_limits(s, &srv->opt.limits, "<upload>", err);
+    if (!rc) {
+        rd_asset_source src = rd_asset_folder(dir ? dir : ".");
+        rc = rd_scene_load_assets(s, &src, &srv->opt.limits, NULL, err);
+    }
+    free(dir);
+    return rc;
+}
+
+static rd_error_code load_image(grade_task *t, int w, int h, rd_error *err)
+{
+    rd_grade_output *o = &t->out;
+    const unsigned char *png = (const unsigned char *)t->image;
+    if (!rd_png_sniff(png, t->image_len))
+        return fail_as(t, 415, "unsupported_media_type",
+                       rd_error_set(err, RD_ERR_INVALID, 0, 0, "the image is not a PNG file"));
+    unsigned iw, ih;
+    if (png_size(png, t->image_len, &iw, &ih) && (iw != (unsigned)w || ih != (unsigned)h))
+        return fail_as(t, 422, "size_mismatch",
+                       rd_error_set(err, RD_ERR_INVALID, 0, 0, "the image is %ux%u; the %s renders %dx%d", iw, ih,
+                                    t->assignment[0] ? "assignment" : "scene", w, h));
+    int dw, dh;
+    rd_error_code rc = rd_grade_load_png(png, t->image_len, t->srv->opt.limits.max_pixels, &o->image, &dw, &dh, err);
+    if (rc)
+        return rc == RD_ERR_LIMIT ? fail_as(t, 413, "too_large", rc) : fail_as(t, 422, "bad_image", rc);
+    free(t->image);
+    t->image = NULL;
+    o->width = dw;
+    o->height = dh;
+    return RD_OK;
+}
+
+static rd_error_code prepare_grade(void *arg, rd_scene *s, int *render, rd_error *err)
+{
+    grade_task *t = arg;
+    rd_grade_output *o = &t->out;
+    o->thresholds = rd_grade_thresholds_default();
+    rd_error_code rc = load_scene(t, s, err);
+    if (!rc)
+        rc = load_image(t, s->render.width, s->render.height, err);
+    if (!rc && rd_reference_key(s, t->refkey, err))
+        rc = fail_as(t, 503, "unavailable", RD_ERR_NOMEM);
+    if (rc)
+        return rc;
+    o->reference = cached_reference(t, o->width, o->height);
+    o->reference_cached = o->reference != NULL;
+    *render = !o->reference;
+    return RD_OK;
+}
+
+static rd_error_code finish_grade(void *arg, const uint8_t *rgb, int w, int h, rd_error *err)
+{
+    grade_task *t = arg;
+    rd_server *srv = t->srv;
+    rd_grade_output *o = &t->out;
+    if (rgb) {
+        size_t n = (size_t)w * (size_t)h * 3;
+        if (!(o->reference = malloc(n)))
+            return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+        memcpy(o->reference, rgb, n);
+        ref_store(srv->grades, t->refkey, rgb, w, h);
+        if (srv->opt.cache_dir) {
+            size_t len;
+            unsigned char *png = encode(rgb, w, h, &len);
+            char path[1100];
+            rd_error ignore;
+            snprintf(path, sizeof path, "%s/%s.png", srv->opt.cache_dir, t->refkey);
+            if (png)
+                rd_write_file(path, png, len, &ignore);
+            free(png);
+        }
+    }
+    rd_grade_compare(o->reference, o->image, o->width, o->height, &o->thresholds, &o->result);
+    char id[24];
+    keep(srv->grades, o, id);
+    t->json = verdict_json(o, id);
+    return t->json ? RD_OK : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+}
+
+static void free_grade(void *arg)
+{
+    grade_task *t = arg;
+    if (!t)
+        return;
+    free(t->image);
+    free(t->scene);
+    free(t->json);
+    rd_grade_output_free(&t->out);
+    free(t);
 }
 
 enum MHD_Result rd_route_grade(rd_req *r)
@@ -287,97 +515,37 @@ enum MHD_Result rd_route_grade(rd_req *r)
     rd_grade_req *g = r->grade;
     if (!g)
         return rd_reply_error(r, 400, "parse_error", NULL, "no form");
+    if (g->too_big) {
+        char msg[160];
+        snprintf(msg, sizeof msg, "a form field is over the limit of %zu bytes (--max-body-bytes)",
+                 srv->opt.max_body_bytes);
+        return rd_reply_error(r, 413, "too_large", NULL, msg);
+    }
+    if (g->bad)
+        return rd_reply_error(r, 400, "parse_error", NULL, g->bad);
     if (atomic_load(&srv->draining))
         return rd_reply_error_hdr(r, 503, "draining", "the server is shutting down", "Retry-After", "5");
     if (!g->image || !g->image_len)
         return rd_reply_error(r, 400, "parse_error", NULL, "the form has no 'image' file");
     if (!g->assignment[0] == !g->scene)
         return rd_reply_error(r, 400, "parse_error", NULL, "give exactly one of 'assignment' or 'scene'");
-    rd_grade_output *o = &g->out;
-    memset(o, 0, sizeof *o);
-    o->thresholds = rd_grade_thresholds_default();
-    rd_scene s;
-    rd_scene_init(&s);
-    rd_error err = {0};
-    rd_error_code rc;
-    char *dir;
-    if (g->assignment[0]) {
-        rd_assignment a;
-        rc = rd_assignment_load(srv->opt.assignments_dir, g->assignment, &a, &err);
-        if (rc) {
-            rd_scene_free(&s);
-            return rd_reply_error(r, 404, "not_found", &err, NULL);
-        }
-        snprintf(o->assignment, sizeof o->assignment, "%s", a.name);
-        snprintf(o->title, sizeof o->title, "%s", a.title);
-        o->thresholds = a.thresholds;
-        rc = rd_scene_load_file(a.scene_path, &srv->opt.limits, &s, &err);
-        dir = rd_dirname(a.scene_path);
-    } else {
-        rc = rd_scene_parse(g->scene, g->scene_len, RD_FMT_AUTO, "<upload>", &srv->opt.limits, &s, &err);
-        dir = strdup(srv->opt.scenes_dir);
-    }
-    if (!rc)
-        rc = rd_scene_check_limits(&s, &srv->opt.limits, "<upload>", &err);
-    if (!rc) {
-        rd_asset_source src = rd_asset_folder(dir ? dir : ".");
-        rc = rd_scene_load_assets(&s, &src, &srv->opt.limits, NULL, &err);
-    }
-    free(dir);
-    if (rc) {
-        rd_scene_free(&s);
-        return rd_reply_error(r, rd_status_for(rc), rd_code_for(rc), &err, NULL);
-    }
-    if (!rd_png_sniff((unsigned char *)g->image, g->image_len)) {
-        rd_scene_free(&s);
-        return rd_reply_error(r, 415, "unsupported_media_type", NULL, "the image is not a PNG file");
-    }
-    int iw, ih;
-    rc = rd_grade_load_png((unsigned char *)g->image, g->image_len, srv->opt.limits.max_pixels, &o->image, &iw, &ih,
-                           &err);
-    if (rc) {
-        rd_scene_free(&s);
-        return rc == RD_ERR_LIMIT ? rd_reply_error(r, 413, "too_large", &err, NULL)
-                                  : rd_reply_error(r, 422, "bad_image", &err, NULL);
-    }
-    if (iw != s.render.width || ih != s.render.height) {
-        char msg[200];
-        snprintf(msg, sizeof msg, "the image is %dx%d; the %s renders %dx%d", iw, ih,
-                 g->assignment[0] ? "assignment" : "scene", s.render.width, s.render.height);
-        rd_scene_free(&s);
-        return rd_reply_error(r, 422, "size_mismatch", NULL, msg);
-    }
-    o->width = iw;
-    o->height = ih;
-    if (rd_reference_key(&s, g->refkey, &err)) {
-        rd_scene_free(&s);
-        return rd_reply_error(r, 503, "unavailable", &err, NULL);
-    }
-    o->reference = ref_lookup(srv->grades, g->refkey, iw, ih);
-    if (!o->reference && srv->opt.cache_dir) {
-        char path[1100];
-        char *data;
-        size_t len;
-        int cw, chh;
-        snprintf(path, sizeof path, "%s/%s.png", srv->opt.cache_dir, g->refkey);
-        if (rd_read_file(path, 1u << 30, "(cache)", &data, &len, &err) == RD_OK) {
-            if (rd_grade_load_png((unsigned char *)data, len, (size_t)1 << 28, &o->reference, &cw, &chh, &err) ||
-                cw != iw || chh != ih) {
-                free(o->reference);
-                o->reference = NULL;
-            }
-            free(data);
-        }
-    }
-    if (o->reference) {
-        o->reference_cached = 1;
-        rd_scene_free(&s);
-        return answer(r);
-    }
-    /* Render the reference as an ordinary job; answer when it is done. */
+    grade_task *t = calloc(1, sizeof *t);
+    if (!t)
+        return rd_reply_error(r, 503, "unavailable", NULL, "out of memory");
+    t->srv = srv;
+    t->image = g->image;
+    t->image_len = g->image_len;
+    t->scene = g->scene;
+    t->scene_len = g->scene_len;
+    memcpy(t->assignment, g->assignment, sizeof t->assignment);
+    g->image = g->scene = NULL;
+    rd_jq_task task = {prepare_grade, finish_grade, free_grade, t, t->image_len + t->scene_len};
+    rd_jq_submit_options so = {.watch_fd = rd_req_socket(r), .watch_http11 = r->http11, .done = rd_req_on_done,
+                               .user = r};
     rd_jq_job *job;
-    rc = rd_jq_submit(srv->jobs, &s, NULL, rd_req_socket(r), rd_req_on_done, r, &job, &err);
-    if (rc == RD_ERR_LIMIT)
+    rd_error err = {0};
+    rd_error_code rc = rd_jq_submit(srv->jobs, &task, &so, &job, &err);
+    if (rc == RD_ERR_BUSY)
         return rd_reply_error_hdr(r, 503, "queue_full", err.message, "Retry-After", "1");
     if (rc)
         return rd_reply_error(r, 503, "unavailable", &err, NULL);
@@ -389,33 +557,26 @@ enum MHD_Result rd_route_grade(rd_req *r)
 
 enum MHD_Result rd_route_grade_resumed(rd_req *r)
 {
-    rd_server *srv = r->srv;
-    rd_grade_req *g = r->grade;
     rd_jq_info info;
-    rd_jq_info_get(srv->jobs, r->job, &info);
-    if (info.status != RD_JOB_DONE)
-        return rd_reply_error(r, info.status == RD_JOB_FAILED ? 422 : 503,
-                              info.status == RD_JOB_FAILED ? "render_failed" : "cancelled",
-                              info.status == RD_JOB_FAILED ? &info.error : NULL, "the reference render was cancelled");
-    unsigned char *png;
-    size_t len;
-    rd_error err = {0};
-    if (rd_jq_png(srv->jobs, r->job, 0, &png, &len, &err))
-        return rd_reply_error(r, 503, "unavailable", &err, NULL);
-    rd_jq_release_png(srv->jobs, r->job);
-    int w, h;
-    rd_error_code rc = rd_grade_load_png(png, len, (size_t)1 << 28, &g->out.reference, &w, &h, &err);
-    if (!rc && srv->opt.cache_dir) {
-        char path[1100];
-        snprintf(path, sizeof path, "%s/%s.png", srv->opt.cache_dir, g->refkey);
-        rd_error ignore;
-        rd_write_file(path, png, len, &ignore);
+    rd_jq_info_get(r->srv->jobs, r->job, &info);
+    grade_task *t = rd_jq_task_arg(r->job);
+    if (info.status == RD_JOB_DONE && t->json) {
+        char *json = t->json;
+        t->json = NULL;
+        return rd_reply_json(r, 200, json);
     }
-    free(png);
-    if (rc)
-        return rd_reply_error(r, 503, "unavailable", &err, NULL);
-    ref_store(srv->grades, g->refkey, g->out.reference, w, h);
-    return answer(r);
+    if (info.status == RD_JOB_FAILED) {
+        rd_error_code c = info.error.code;
+        if (t->status)
+            return rd_reply_error(r, t->status, t->slug, &info.error, NULL);
+        if (c == RD_ERR_TIMEOUT)
+            return rd_reply_error(r, 422, "time_limit", &info.error, NULL);
+        return rd_reply_error(r, rd_status_for(c), rd_code_for(c), &info.error, NULL);
+    }
+    if (info.hung_up)
+        return MHD_NO;
+    return rd_reply_error_hdr(r, 503, "cancelled", "the grade was cancelled (the server is shutting down)",
+                              "Retry-After", "5");
 }
 
 enum MHD_Result rd_route_grade_files(rd_req *r, const char *rest)

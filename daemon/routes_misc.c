@@ -1,9 +1,11 @@
 #include <cJSON.h>
 #include <dirent.h>
+#include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "asset_source.h"
 #include "http_internal.h"
 #include "scene_load.h"
 
@@ -11,6 +13,14 @@ static int scene_file(const char *name)
 {
     size_t n = strlen(name);
     return (n > 4 && strcmp(name + n - 4, ".cfg") == 0) || (n > 5 && strcmp(name + n - 5, ".json") == 0);
+}
+
+/* Links that lead out of the folder are neither listed nor served. */
+static int inside(const char *dir, const char *name)
+{
+    char real[PATH_MAX];
+    rd_error err;
+    return rd_path_inside(dir, name, real, &err) == RD_OK;
 }
 
 static int cmp_str(const void *a, const void *b) { return strcmp(*(char *const *)a, *(char *const *)b); }
@@ -26,7 +36,7 @@ enum MHD_Result rd_route_scenes(rd_req *r, const char *name)
         size_t n = 0;
         struct dirent *e;
         while ((e = readdir(d)) && n < 512)
-            if (e->d_name[0] != '.' && scene_file(e->d_name))
+            if (e->d_name[0] != '.' && scene_file(e->d_name) && inside(dir, e->d_name))
                 names[n++] = strdup(e->d_name);
         closedir(d);
         qsort(names, n, sizeof names[0], cmp_str);
@@ -57,12 +67,11 @@ enum MHD_Result rd_route_scenes(rd_req *r, const char *name)
     if (strchr(name, '/') || name[0] == '.' || strlen(name) > 200)
         return rd_reply_error(r, 404, "not_found", NULL, "no bundled scene by that name");
     snprintf(file, sizeof file, "%s%s", name, scene_file(name) ? "" : ".cfg");
-    char path[600];
-    snprintf(path, sizeof path, "%s/%s", dir, file);
+    char path[PATH_MAX];
     char *text;
     size_t len;
     rd_error err = {0};
-    if (rd_read_file(path, r->srv->opt.limits.max_bytes, "--max-scene-bytes", &text, &len, &err))
+    if (rd_path_inside(dir, file, path, &err) || rd_read_file(path, r->srv->opt.limits.max_bytes, "--max-scene-bytes", &text, &len, &err))
         return rd_reply_error(r, 404, "not_found", NULL, "no bundled scene by that name");
     size_t fl = strlen(file);
     const char *type = fl > 5 && strcmp(file + fl - 5, ".json") == 0 ? "application/json" : "text/x-rayd-cfg";

@@ -8,31 +8,42 @@
 #include "scene_assets.h"
 #include "scene_load.h"
 
-/* Applies the query parameters of http-api.md over the scene's render
- * section. 0, or fills err (RD_ERR_SYNTAX) naming the parameter. */
-static int overrides(struct MHD_Connection *c, rd_scene *s, rd_error *err)
+/* The query's overrides of the scene's render section (http-api.md),
+ * checked on the HTTP thread and applied once the scene is parsed. */
+typedef struct {
+    int has[4], value[4];       /* width, height, samples, max_depth */
+    int has_gamma, has_seed;
+    double gamma;
+    unsigned long long seed;
+} overrides;
+
+static const struct {
+    const char *name;
+    long lo, hi;
+    size_t off;
+} int_params[] = {{"width", 1, 16384, offsetof(rd_render_settings, width)},
+                  {"height", 1, 16384, offsetof(rd_render_settings, height)},
+                  {"samples", 1, 65536, offsetof(rd_render_settings, samples)},
+                  {"max_depth", 0, 64, offsetof(rd_render_settings, max_depth)}};
+
+/* 0, or fills err (RD_ERR_SYNTAX) naming the parameter. */
+static int read_overrides(struct MHD_Connection *c, overrides *ov, rd_error *err)
 {
-    static const struct {
-        const char *name;
-        long lo, hi;
-        size_t off;
-    } ints[] = {{"width", 1, 16384, offsetof(rd_render_settings, width)},
-                {"height", 1, 16384, offsetof(rd_render_settings, height)},
-                {"samples", 1, 65536, offsetof(rd_render_settings, samples)},
-                {"max_depth", 0, 64, offsetof(rd_render_settings, max_depth)}};
-    for (size_t i = 0; i < sizeof ints / sizeof ints[0]; i++) {
-        const char *v = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, ints[i].name);
+    memset(ov, 0, sizeof *ov);
+    for (size_t i = 0; i < sizeof int_params / sizeof int_params[0]; i++) {
+        const char *v = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, int_params[i].name);
         if (!v)
             continue;
         char *end;
         errno = 0;
         long x = strtol(v, &end, 10);
-        if (!*v || *end || errno || x < ints[i].lo || x > ints[i].hi) {
+        if (!*v || *end || errno || x < int_params[i].lo || x > int_params[i].hi) {
             rd_error_set(err, RD_ERR_SYNTAX, 0, 0, "query parameter %s: expected an integer in %ld..%ld, got '%.40s'",
-                         ints[i].name, ints[i].lo, ints[i].hi, v);
+                         int_params[i].name, int_params[i].lo, int_params[i].hi, v);
             return 1;
         }
-        *(int *)((char *)&s->render + ints[i].off) = (int)x;
+        ov->has[i] = 1;
+        ov->value[i] = (int)x;
     }
     const char *v = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "gamma");
     if (v) {
@@ -42,7 +53,8 @@ static int overrides(struct MHD_Connection *c, rd_scene *s, rd_error *err)
             rd_error_set(err, RD_ERR_SYNTAX, 0, 0, "query parameter gamma: expected a number > 0, got '%.40s'", v);
             return 1;
         }
-        s->render.gamma = g;
+        ov->has_gamma = 1;
+        ov->gamma = g;
     }
     v = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "seed");
     if (v) {
@@ -53,9 +65,57 @@ static int overrides(struct MHD_Connection *c, rd_scene *s, rd_error *err)
             rd_error_set(err, RD_ERR_SYNTAX, 0, 0, "query parameter seed: expected a non-negative integer, got '%.40s'", v);
             return 1;
         }
-        s->render.seed = x;
+        ov->has_seed = 1;
+        ov->seed = x;
     }
     return 0;
+}
+
+static void apply_overrides(const overrides *ov, rd_scene *s)
+{
+    for (size_t i = 0; i < sizeof int_params / sizeof int_params[0]; i++)
+        if (ov->has[i])
+            *(int *)((char *)&s->render + int_params[i].off) = ov->value[i];
+    if (ov->has_gamma)
+        s->render.gamma = ov->gamma;
+    if (ov->has_seed)
+        s->render.seed = ov->seed;
+}
+
+/* An uploaded scene, parsed and given its assets on a render thread. */
+typedef struct {
+    char *body;
+    size_t len;
+    rd_scene_format fmt;
+    overrides ov;
+    const rd_server_options *opt;
+} render_task;
+
+static rd_error_code prepare_render(void *arg, rd_scene *s, int *render, rd_error *err)
+{
+    (void)render;
+    render_task *t = arg;
+    rd_error_code rc = rd_scene_parse(t->body, t->len, t->fmt, "<upload>", &t->opt->limits, s, err);
+    free(t->body);
+    t->body = NULL;
+    if (rc)
+        return rc;
+    apply_overrides(&t->ov, s);
+    rc = rd_scene_check_limits(s, &t->opt->limits, "<upload>", err);
+    if (rc)
+        return rc;
+    rd_asset_source src = rd_asset_folder(t->opt->scenes_dir);
+    rd_warnings w = {0, ""};
+    return rd_scene_load_assets(s, &src, &t->opt->limits, &w, err);
+}
+
+static void free_render(void *arg)
+{
+    render_task *t = arg;
+    if (t) {
+        free(t->body);
+        free(t);
+    }
 }
 
 /* time_budget_ms, target_error and adaptive from the query. */
@@ -135,54 +195,76 @@ enum MHD_Result rd_route_render(rd_req *r, int async)
     if (!r->body || r->len == 0)
         return rd_reply_error(r, 400, "parse_error", NULL, "the request has no scene in its body");
     const char *ct = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
-    rd_scene_format fmt = RD_FMT_AUTO;
-    if (ct && strncasecmp(ct, "application/json", 16) == 0)
-        fmt = RD_FMT_JSON;
-    else if (ct && (strncasecmp(ct, "text/plain", 10) == 0 || strncasecmp(ct, "text/x-rayd-cfg", 15) == 0))
-        fmt = RD_FMT_CFG;
-    rd_scene scene;
-    rd_scene_init(&scene);
     rd_error err = {0};
-    rd_progress_settings prog;
-    if (progress_params(r->conn, &prog, &err))
+    rd_jq_submit_options so = {.watch_fd = -1};
+    render_task *t = calloc(1, sizeof *t);
+    if (!t)
+        return rd_reply_error(r, 503, "unavailable", NULL, "out of memory");
+    t->fmt = RD_FMT_AUTO;
+    if (ct && strncasecmp(ct, "application/json", 16) == 0)
+        t->fmt = RD_FMT_JSON;
+    else if (ct && (strncasecmp(ct, "text/plain", 10) == 0 || strncasecmp(ct, "text/x-rayd-cfg", 15) == 0))
+        t->fmt = RD_FMT_CFG;
+    t->opt = &srv->opt;
+    if (progress_params(r->conn, &so.progress, &err) || read_overrides(r->conn, &t->ov, &err)) {
+        free(t);
         return rd_reply_error(r, 400, "parse_error", &err, NULL);
-    rd_error_code rc = rd_scene_parse(r->body, r->len, fmt, "<upload>", &srv->opt.limits, &scene, &err);
-    if (!rc && overrides(r->conn, &scene, &err))
-        rc = RD_ERR_SYNTAX;
-    if (!rc)
-        rc = rd_scene_check_limits(&scene, &srv->opt.limits, "<upload>", &err);
-    if (!rc) {
-        rd_asset_source src = rd_asset_folder(srv->opt.scenes_dir);
-        rd_warnings w = {0, ""};
-        rc = rd_scene_load_assets(&scene, &src, &srv->opt.limits, &w, &err);
     }
-    if (rc) {
-        rd_scene_free(&scene);
-        return rd_reply_error(r, rd_status_for(rc), rd_code_for(rc), &err, NULL);
-    }
-    free(r->body);
+    t->body = r->body;
+    t->len = r->len;
     r->body = NULL;
+    rd_jq_task task = {prepare_render, NULL, free_render, t, t->len};
+    /* Both wait on the connection: an asynchronous submission until its
+     * scene is read (so a bad one still gets its 4xx), a synchronous one
+     * until its image is ready. */
+    so.watch_fd = rd_req_socket(r);
+    so.watch_http11 = r->http11;
+    so.done = rd_req_on_done;
+    so.user = r;
+    so.notify_prepared = async;
     rd_jq_job *job;
-    rc = rd_jq_submit(srv->jobs, &scene, &prog, async ? -1 : rd_req_socket(r), async ? NULL : rd_req_on_done,
-                      async ? NULL : r, &job, &err);
-    if (rc == RD_ERR_LIMIT)
+    rd_error_code rc = rd_jq_submit(srv->jobs, &task, &so, &job, &err);
+    if (rc == RD_ERR_BUSY)
         return rd_reply_error_hdr(r, 503, "queue_full", err.message, "Retry-After", "1");
     if (rc)
         return rd_reply_error(r, 503, "unavailable", &err, NULL);
+    r->async = async;
     rd_jq_info info;
     rd_jq_info_get(srv->jobs, job, &info);
     snprintf(r->job_id, sizeof r->job_id, "%s", info.id);
-    if (async) {
-        char loc[64];
-        snprintf(loc, sizeof loc, "/v1/jobs/%s", info.id);
-        char *text = job_json(&info);
-        rd_jq_job_unref(job);
-        if (!text)
-            return MHD_NO;
-        const char *headers[] = {MHD_HTTP_HEADER_LOCATION, loc, NULL};
-        return rd_reply_with(r, 202, "application/json", text, strlen(text), 1, headers);
-    }
     return rd_req_wait(r, job) ? rd_route_render_resumed(r) : MHD_YES;
+}
+
+/* The answer for a job that failed or was cancelled. */
+static enum MHD_Result reply_ended(rd_req *r, const rd_jq_info *info)
+{
+    if (info->status == RD_JOB_FAILED) {
+        rd_error_code c = info->error.code;
+        if (c == RD_ERR_TIMEOUT)
+            return rd_reply_error(r, 422, "time_limit", &info->error, NULL);
+        return rd_reply_error(r, rd_status_for(c), rd_code_for(c), &info->error, NULL);
+    }
+    if (info->hung_up)
+        return MHD_NO; /* nobody to answer: close, and the log says so */
+    return rd_reply_error_hdr(r, 503, "cancelled", "the render was cancelled (the server is shutting down)",
+                              "Retry-After", "5");
+}
+
+/* The 202 of an asynchronous submission whose scene was read; the job
+ * goes on without this connection. */
+static enum MHD_Result reply_accepted(rd_req *r, const rd_jq_info *info)
+{
+    rd_server *srv = r->srv;
+    char loc[64];
+    snprintf(loc, sizeof loc, "/v1/jobs/%s", info->id);
+    char *text = job_json(info);
+    rd_jq_detach(srv->jobs, r->job);
+    rd_jq_job_unref(r->job);
+    r->job = NULL;
+    if (!text)
+        return MHD_NO;
+    const char *headers[] = {MHD_HTTP_HEADER_LOCATION, loc, NULL};
+    return rd_reply_with(r, 202, "application/json", text, strlen(text), 1, headers);
 }
 
 enum MHD_Result rd_route_render_resumed(rd_req *r)
@@ -190,32 +272,27 @@ enum MHD_Result rd_route_render_resumed(rd_req *r)
     rd_server *srv = r->srv;
     rd_jq_info info;
     rd_jq_info_get(srv->jobs, r->job, &info);
-    if (info.status == RD_JOB_DONE) {
-        unsigned char *png;
-        size_t len;
-        rd_error err = {0};
-        if (rd_jq_png(srv->jobs, r->job, 0, &png, &len, &err))
-            return rd_reply_error(r, 503, "unavailable", &err, NULL);
-        rd_jq_release_png(srv->jobs, r->job);
-        char ms[32], spp[32], est[32], passes[32];
-        snprintf(ms, sizeof ms, "%.3f", info.elapsed_ms);
-        snprintf(spp, sizeof spp, "%d", info.samples);
-        snprintf(est, sizeof est, "%.6f", info.error_estimate);
-        snprintf(passes, sizeof passes, "%d", info.passes);
-        const char *headers[] = {"X-Rayd-Render-Ms", ms, "X-Rayd-Samples", spp, "X-Rayd-Error-Estimate", est,
-                                 "X-Rayd-Stopped-By", rd_stop_reason_name(info.stopped_by), "X-Rayd-Passes", passes,
-                                 NULL};
-        return rd_reply_with(r, 200, "image/png", png, len, 1, headers);
-    }
-    if (info.status == RD_JOB_FAILED) {
-        unsigned st = info.error.code == RD_ERR_LIMIT ? 422 : rd_status_for(info.error.code);
-        return rd_reply_error(r, st, info.error.code == RD_ERR_LIMIT ? "time_limit" : rd_code_for(info.error.code),
-                              &info.error, NULL);
-    }
-    if (info.hung_up)
-        return MHD_NO; /* nobody to answer: close, and the log says so */
-    return rd_reply_error_hdr(r, 503, "cancelled", "the render was cancelled (the server is shutting down)",
-                              "Retry-After", "5");
+    if (info.status == RD_JOB_FAILED || info.status == RD_JOB_CANCELLED)
+        return reply_ended(r, &info);
+    if (r->async)
+        return reply_accepted(r, &info);
+    if (info.status != RD_JOB_DONE)
+        return rd_reply_error(r, 503, "unavailable", NULL, "the render ended without an image");
+    unsigned char *png;
+    size_t len;
+    rd_error err = {0};
+    if (rd_jq_png(srv->jobs, r->job, 0, &png, &len, &err))
+        return rd_reply_error(r, 503, "unavailable", &err, NULL);
+    rd_jq_release_png(srv->jobs, r->job);
+    char ms[32], spp[32], est[32], passes[32];
+    snprintf(ms, sizeof ms, "%.3f", info.elapsed_ms);
+    snprintf(spp, sizeof spp, "%d", info.samples);
+    snprintf(est, sizeof est, "%.6f", info.error_estimate);
+    snprintf(passes, sizeof passes, "%d", info.passes);
+    const char *headers[] = {"X-Rayd-Render-Ms", ms, "X-Rayd-Samples", spp, "X-Rayd-Error-Estimate", est,
+                             "X-Rayd-Stopped-By", rd_stop_reason_name(info.stopped_by), "X-Rayd-Passes", passes,
+                             NULL};
+    return rd_reply_with(r, 200, "image/png", png, len, 1, headers);
 }
 
 enum MHD_Result rd_route_job(rd_req *r, const char *id, const char *rest)

@@ -19,6 +19,10 @@ typedef struct {
     unsigned max_connections;
     unsigned max_per_ip;
     unsigned connection_timeout_s;
+    double header_timeout_ms;   /* from accept (or the previous answer) to a request's last header */
+    double body_timeout_ms;     /* from the last header to the body's last byte */
+    unsigned max_query_args;    /* more get 431 */
+    size_t grade_cache_bytes;   /* grading references and kept grade images */
     const char *scenes_dir;     /* bundled scenes and the folder uploaded scenes' files resolve in */
     const char *assignments_dir;/* graded assignments */
     const char *cache_dir;      /* grading references on disk; NULL: memory only */

@@ -690,6 +690,8 @@ static const char *code_name(rd_error_code c)
     case RD_ERR_IO: return "RD_ERR_IO";
     case RD_ERR_NOMEM: return "RD_ERR_NOMEM";
     case RD_ERR_CANCELLED: return "RD_ERR_CANCELLED";
+    case RD_ERR_TIMEOUT: return "RD_ERR_TIMEOUT";
+    case RD_ERR_BUSY: return "RD_ERR_BUSY";
     }
     return "?";
 }
