@@ -1,4 +1,7 @@
+#define _GNU_SOURCE /* POLLRDHUP */
 #include <arpa/inet.h>
+#include <errno.h>
+#include <poll.h>
 #include <cJSON.h>
 #include <netinet/in.h>
 #include <stdio.h>
@@ -147,9 +150,78 @@ static void *on_uri(void *cls, const char *uri, struct MHD_Connection *conn)
     return r;
 }
 
+/* Below the 5 s a stopping server waits for suspended clients. */
+enum { RAW_ANSWER_MS = 4000 };
+
+/* 1 when the client shut its sending side but still reads. */
+static int peer_half_closed(int fd)
+{
+    struct pollfd p = {fd, POLLIN | POLLRDHUP, 0};
+    if (fd < 0 || poll(&p, 1, 0) <= 0 || (p.revents & (POLLHUP | POLLERR | POLLNVAL)))
+        return 0;
+    char c;
+    return (p.revents & POLLRDHUP) || recv(fd, &c, 1, MSG_PEEK | MSG_DONTWAIT) == 0;
+}
+
+static int send_all(int fd, const void *data, size_t len, double deadline)
+{
+    const char *p = data;
+    while (len > 0 && now_ms() < deadline) {
+        ssize_t k = send(fd, p, len, MSG_NOSIGNAL | MSG_DONTWAIT);
+        if (k > 0) {
+            p += k;
+            len -= (size_t)k;
+        } else if (k < 0 && (errno == EAGAIN || errno == EINTR)) {
+            struct pollfd w = {fd, POLLOUT, 0};
+            poll(&w, 1, 100);
+        } else {
+            return 0;
+        }
+    }
+    return len == 0;
+}
+
+/* The answer to a client that half-closed while it waited. libmicrohttpd
+ * 0.9.75 drops a connection as soon as it reads an end of stream, whatever
+ * the request's state, so once resumed it would close this one before
+ * sending; the answer goes out on the socket instead (nothing else was
+ * sent on it) within RAW_ANSWER_MS, before the connection is resumed and
+ * closed. */
+static enum MHD_Result reply_raw(rd_req *r, int fd, unsigned status, const char *type, const void *body, size_t len,
+                                 const char *const *headers)
+{
+    char head[2048];
+    const char *reason = MHD_get_reason_phrase_for(status);
+    size_t n = (size_t)snprintf(head, sizeof head, "HTTP/1.1 %u %s\r\nConnection: close\r\nContent-Length: %zu\r\n",
+                                status, reason ? reason : "", len);
+    if (type)
+        n += (size_t)snprintf(head + n, sizeof head - n, "Content-Type: %s\r\n", type);
+    if (r->job_id[0])
+        n += (size_t)snprintf(head + n, sizeof head - n, "X-Rayd-Job: %s\r\n", r->job_id);
+    for (int i = 0; headers && headers[i] && headers[i + 1] && n < sizeof head; i += 2)
+        n += (size_t)snprintf(head + n, sizeof head - n, "%s: %s\r\n", headers[i], headers[i + 1]);
+    if (n + 2 >= sizeof head)
+        return MHD_NO;
+    memcpy(head + n, "\r\n", 2);
+    n += 2;
+    double deadline = now_ms() + RAW_ANSWER_MS;
+    if (send_all(fd, head, n, deadline) && send_all(fd, body, len, deadline)) {
+        r->status = status;
+        r->bytes = len;
+    }
+    r->answered = 1;
+    return MHD_NO;
+}
+
 enum MHD_Result rd_reply_with(rd_req *r, unsigned status, const char *type, void *body, size_t len, int must_free,
                               const char *const *headers)
 {
+    if (r->raw) {
+        enum MHD_Result ret = reply_raw(r, rd_req_socket(r), status, type, body, len, headers);
+        if (must_free)
+            free(body);
+        return ret;
+    }
     struct MHD_Response *resp =
         MHD_create_response_from_buffer(len, body, must_free ? MHD_RESPMEM_MUST_FREE : MHD_RESPMEM_PERSISTENT);
     if (!resp) {
@@ -219,14 +291,41 @@ enum MHD_Result rd_reply_json(rd_req *r, unsigned status, char *json_text)
     return rd_reply(r, status, "application/json", json_text, strlen(json_text), 1);
 }
 
+/* Answers a half-closed client on the socket, then resumes its connection
+ * for libmicrohttpd to close. Its own thread: a slow reader must hold
+ * neither a render thread nor an HTTP thread. */
+static void *raw_answer_main(void *arg)
+{
+    rd_req *r = arg;
+    if (r->kind == R_GRADE)
+        rd_route_grade_resumed(r);
+    else
+        rd_route_render_resumed(r);
+    pthread_mutex_lock(&r->mu);
+    MHD_resume_connection(r->conn);
+    pthread_mutex_unlock(&r->mu);
+    return NULL;
+}
+
 void rd_req_on_done(rd_jq_job *job, void *user)
 {
     (void)job;
     rd_req *r = user;
     pthread_mutex_lock(&r->mu);
     r->finished = 1;
-    if (r->suspended && !atomic_load(&r->srv->stopped))
-        MHD_resume_connection(r->conn);
+    if (r->suspended && !atomic_load(&r->srv->stopped)) {
+        pthread_t t;
+        pthread_attr_t attr;
+        r->raw = r->http11 && peer_half_closed(rd_req_socket(r));
+        if (r->raw && pthread_attr_init(&attr) == 0) {
+            pthread_attr_setdetachstate(&attr, PTHREAD_CREATE_DETACHED);
+            if (pthread_create(&t, &attr, raw_answer_main, r) != 0)
+                r->raw = 0;
+            pthread_attr_destroy(&attr);
+        }
+        if (!r->raw)
+            MHD_resume_connection(r->conn);
+    }
     pthread_mutex_unlock(&r->mu);
 }
 
@@ -391,7 +490,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
     rd_req *r = *con_cls;
     if (!r)
         return MHD_NO;
-    if (r->refused)
+    if (r->refused || r->raw)
         return MHD_NO;
     if (!r->started) {
         r->started = 1;

@@ -82,10 +82,10 @@ enum MHD_Result rd_route_metrics(rd_req *r)
 {
     rd_jq_metrics m;
     rd_jq_metrics_get(r->srv->jobs, &m);
-    char *buf = malloc(8192);
+    char *buf = malloc(16384);
     if (!buf)
         return MHD_NO;
-    size_t n = 0, cap = 8192;
+    size_t n = 0, cap = 16384;
 #define PUT(...) n += (size_t)snprintf(buf + n, cap - n, __VA_ARGS__)
     PUT("# HELP rayd_queue_depth Render jobs waiting for a render thread.\n# TYPE rayd_queue_depth gauge\n");
     PUT("rayd_queue_depth %zu\n", m.queued);
@@ -108,6 +108,23 @@ enum MHD_Result rd_route_metrics(rd_req *r)
     PUT("rayd_result_bytes %zu\n", m.result_bytes);
     PUT("# HELP rayd_jobs_kept Jobs whose status can still be read.\n# TYPE rayd_jobs_kept gauge\n");
     PUT("rayd_jobs_kept %zu\n", m.jobs_kept);
+    PUT("# HELP rayd_memory_budget_bytes The --memory-budget (0: none).\n# TYPE rayd_memory_budget_bytes gauge\n");
+    PUT("rayd_memory_budget_bytes %zu\n", m.memory_budget);
+    PUT("# HELP rayd_memory_reserved_bytes Estimated bytes held by queued and running jobs.\n"
+        "# TYPE rayd_memory_reserved_bytes gauge\n");
+    PUT("rayd_memory_reserved_bytes %zu\n", m.memory_reserved);
+    PUT("# HELP rayd_grade_cache_bytes Grading references and kept grade images.\n"
+        "# TYPE rayd_grade_cache_bytes gauge\n");
+    PUT("rayd_grade_cache_bytes %zu\n", m.external_bytes);
+    PUT("# HELP rayd_jobs_waiting_memory Prepared jobs waiting for the memory budget.\n"
+        "# TYPE rayd_jobs_waiting_memory gauge\n");
+    PUT("rayd_jobs_waiting_memory %zu\n", m.waiting_memory);
+    PUT("# HELP rayd_http_deadline_closed_total Connections closed by the header or body deadline.\n"
+        "# TYPE rayd_http_deadline_closed_total counter\n");
+    PUT("rayd_http_deadline_closed_total %llu\n", (unsigned long long)atomic_load(&r->srv->deadline_closed));
+    PUT("# HELP rayd_http_refused_total Requests answered 431 before parsing (--max-query-args).\n"
+        "# TYPE rayd_http_refused_total counter\n");
+    PUT("rayd_http_refused_total %llu\n", (unsigned long long)atomic_load(&r->srv->raw_refused));
     PUT("# HELP rayd_http_responses_total HTTP answers by status class.\n# TYPE rayd_http_responses_total counter\n");
     for (int c = 1; c <= 5; c++)
         PUT("rayd_http_responses_total{code=\"%dxx\"} %llu\n", c,
