@@ -36,7 +36,7 @@ TEST_OBJ   := $(patsubst %.c,$(BUILD)/%.o,$(TEST_SRC))
 # The CLI's objects without main(), so tests can drive subcommands.
 CLI_OBJ    := $(filter-out $(BUILD)/daemon/main.o,$(DAEMON_OBJ))
 
-.PHONY: all deps test check run bench clean scenes fuzz stability
+.PHONY: all deps test check run bench clean scenes fuzz stability tsan fault
 
 # Large inputs are generated, not kept in git.
 GENERATED := scenes/generated/knot.obj
@@ -89,13 +89,29 @@ check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/schema_test.py
 
 # gcc plain, then clang with AddressSanitizer and UndefinedBehaviorSanitizer,
-# then the web page in headless Chromium, then a short fuzzing smoke of both
-# scene parsers.
+# then the web page in headless Chromium, the fault test against the plain
+# daemon and under ThreadSanitizer, then a short fuzzing smoke of every
+# reader.
 test: deps
 	@$(MAKE) --no-print-directory check CC=gcc BUILD=build
 	@$(MAKE) --no-print-directory check CC=clang SAN=1 BUILD=build/clang-san
 	@RAYD=build/rayd sh tests/browser/run.sh
+	@$(MAKE) --no-print-directory fault
+	@$(MAKE) --no-print-directory tsan
 	@sh tests/fuzz/run.sh $(FUZZ_SMOKE_SECONDS)
+
+# Hostile clients against one daemon while a probe renders (tests/fault/).
+FAULT_SECONDS ?= 40
+fault: $(BUILD)/rayd
+	@RAYD=$(BUILD)/rayd FAULT_SECONDS=$(FAULT_SECONDS) /usr/bin/python3 tests/fault/fault_test.py
+
+# The daemon under ThreadSanitizer through the same fault run: any race
+# report makes it exit 66, which fails the run's SIGTERM check.
+TSAN_SECONDS ?= 30
+tsan: deps
+	@$(MAKE) --no-print-directory CC=clang SAN=1 SANFLAGS=-fsanitize=thread BUILD=build/clang-tsan build/clang-tsan/rayd
+	@TSAN_OPTIONS="exitcode=66 $(TSAN_OPTIONS)" RAYD=build/clang-tsan/rayd FAULT_SECONDS=$(TSAN_SECONDS) \
+	    /usr/bin/python3 tests/fault/fault_test.py
 
 FUZZ_SMOKE_SECONDS ?= 30
 FUZZ_SECONDS ?= 300
@@ -108,7 +124,7 @@ stability: deps
 	    tests/stability/report.c tests/stability/cases.c $(BUILD)/librayd.a $(PKG_LIBS) -o $(BUILD)/stability-report
 	@$(BUILD)/stability-report --threads 2
 
-# Coverage-guided fuzzing (libFuzzer) of the cfg and JSON readers.
+# Coverage-guided fuzzing (libFuzzer) of every reader (tests/fuzz/README.md).
 fuzz: deps
 	@sh tests/fuzz/run.sh $(FUZZ_SECONDS)
 

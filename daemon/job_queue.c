@@ -492,13 +492,20 @@ static void start_job(rd_jq *q, rd_jq_job *j)
     unsigned char *ts = NULL;
     if (!rc && !(ts = calloc((size_t)rd_job_tile_count(core), 1)))
         rc = rd_error_set(&err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    rd_render_stats plan = {0};
     if (!rc) {
         if (q->opt.job_timeout_ms > 0)
             rd_job_set_deadline(core, j->t_start + q->opt.job_timeout_ms);
         rd_job_set_cancel(core, &j->stop);
-        rd_job_plan_stats(core, &j->stats);
+        rd_job_plan_stats(core, &plan);
     }
     pthread_mutex_lock(&q->mu);
+    /* Status readers copy stats under the lock. */
+    j->stats.prepare_ms = plan.prepare_ms;
+    j->stats.bvh_build_ms = plan.bvh_build_ms;
+    j->stats.bvh_nodes = plan.bvh_nodes;
+    j->stats.world_bytes = plan.world_bytes;
+    j->stats.primitives = plan.primitives;
     if (rc) {
         rd_job_free(core);
         fail_locked(q, j, &err);
