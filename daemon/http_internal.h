@@ -100,6 +100,8 @@ const char *rd_code_for(rd_error_code c);
 enum MHD_Result rd_route_render(rd_req *r, int async);
 enum MHD_Result rd_route_render_resumed(rd_req *r);
 enum MHD_Result rd_route_job(rd_req *r, const char *id, const char *rest);
+/* GET /v1/jobs/{id}/image?partial=1 of a running job, once its snapshot is encoded. */
+enum MHD_Result rd_route_job_image_resumed(rd_req *r);
 enum MHD_Result rd_route_scenes(rd_req *r, const char *name);
 enum MHD_Result rd_route_metrics(rd_req *r);
 enum MHD_Result rd_route_page(rd_req *r);

@@ -291,16 +291,23 @@ enum MHD_Result rd_reply_json(rd_req *r, unsigned status, char *json_text)
     return rd_reply(r, status, "application/json", json_text, strlen(json_text), 1);
 }
 
+/* The answer of a request whose job has ended (or been prepared). */
+static enum MHD_Result resumed(rd_req *r)
+{
+    switch (r->kind) {
+    case R_GRADE: return rd_route_grade_resumed(r);
+    case R_JOB: return rd_route_job_image_resumed(r);
+    default: return rd_route_render_resumed(r);
+    }
+}
+
 /* Answers a half-closed client on the socket, then resumes its connection
  * for libmicrohttpd to close. Its own thread: a slow reader must hold
  * neither a render thread nor an HTTP thread. */
 static void *raw_answer_main(void *arg)
 {
     rd_req *r = arg;
-    if (r->kind == R_GRADE)
-        rd_route_grade_resumed(r);
-    else
-        rd_route_render_resumed(r);
+    resumed(r);
     pthread_mutex_lock(&r->mu);
     MHD_resume_connection(r->conn);
     pthread_mutex_unlock(&r->mu);
@@ -584,7 +591,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
         return rd_reply_error(r, 413, "too_large", NULL, msg);
     }
     if (r->job)
-        return r->kind == R_GRADE ? rd_route_grade_resumed(r) : rd_route_render_resumed(r);
+        return resumed(r);
     return dispatch(r, url);
 }
 

@@ -53,6 +53,8 @@ struct rd_jq_job {
     rd_jq_done_fn done;
     void *user;
     int notify_prepared;
+    int internal;
+    rd_jq_job *hold;
     double t_submit, t_start, t_end;
     rd_job_counts counts;
     rd_render_stats stats;
@@ -116,8 +118,12 @@ static void job_free(rd_jq_job *j)
 /* Under q->mu. */
 static void unref_locked(rd_jq_job *j)
 {
-    if (--j->refs == 0)
-        job_free(j);
+    if (--j->refs > 0)
+        return;
+    rd_jq_job *held = j->hold;
+    job_free(j);
+    if (held)
+        unref_locked(held);
 }
 
 void rd_jq_job_ref(rd_jq_job *j)
@@ -237,14 +243,9 @@ static void sweep(rd_jq *q)
     }
 }
 
-/* The job leaves the active list with its final status; the caller then
- * calls its done callback without the lock. Under q->mu. */
-static void finish_locked(rd_jq *q, rd_jq_job *j, rd_job_status st)
+/* The outcome counters of /metrics. Under q->mu. */
+static void count_outcome(rd_jq *q, const rd_jq_job *j, rd_job_status st)
 {
-    remove_active(q, j);
-    j->status = st;
-    j->ph = PH_ENDED;
-    j->t_end = now_ms();
     if (st == RD_JOB_DONE) {
         q->n_done++;
         double sec = (j->t_end - j->t_start) / 1e3;
@@ -258,8 +259,20 @@ static void finish_locked(rd_jq *q, rd_jq_job *j, rd_job_status st)
     } else {
         q->n_cancelled++;
     }
+    q->rays += j->counts.camera + j->counts.shadow + j->counts.secondary;
+}
+
+/* The job leaves the active list with its final status; the caller then
+ * calls its done callback without the lock. Under q->mu. */
+static void finish_locked(rd_jq *q, rd_jq_job *j, rd_job_status st)
+{
+    remove_active(q, j);
+    j->status = st;
+    j->ph = PH_ENDED;
+    j->t_end = now_ms();
+    if (!j->internal)
+        count_outcome(q, j, st);
     uint64_t rays = j->counts.camera + j->counts.shadow + j->counts.secondary;
-    q->rays += rays;
     j->stats.camera_rays = j->counts.camera;
     j->stats.shadow_rays = j->counts.shadow;
     j->stats.secondary_rays = j->counts.secondary;
@@ -776,6 +789,8 @@ rd_error_code rd_jq_submit(rd_jq *q, const rd_jq_task *task, const rd_jq_submit_
         j->done = so->done;
         j->user = so->user;
         j->notify_prepared = so->notify_prepared;
+        j->internal = so->internal;
+        j->hold = so->hold;
     } else {
         j->watch_fd = -1;
     }
@@ -784,17 +799,18 @@ rd_error_code rd_jq_submit(rd_jq *q, const rd_jq_task *task, const rd_jq_submit_
     pthread_mutex_lock(&q->mu);
     sweep(q);
     if (q->stopping || q->active_count >= q->opt.queue_length) {
+        if (j->hold)
+            unref_locked(j->hold);
         pthread_mutex_unlock(&q->mu);
         job_free(j);
         return rd_error_set(err, RD_ERR_BUSY, 0, 0, "the render queue is full (%zu jobs, --queue)",
                             q->opt.queue_length);
     }
     snprintf(j->id, sizeof j->id, "%016llx", (unsigned long long)mix(q->key ^ ++q->counter));
-    j->refs = 2; /* the registry's and the caller's */
+    j->refs = j->internal ? 1 : 2; /* the registry's and the caller's */
     j->status = RD_JOB_QUEUED;
     j->ph = PH_NEW;
     j->active = 1;
-    j->registered = 1;
     charge(q, j, task->input_bytes);
     if (q->active_tail)
         q->active_tail->next_active = j;
@@ -802,9 +818,12 @@ rd_error_code rd_jq_submit(rd_jq *q, const rd_jq_task *task, const rd_jq_submit_
         q->active_head = j;
     q->active_tail = j;
     q->active_count++;
-    j->next_all = q->all;
-    q->all = j;
-    q->kept++;
+    if (!j->internal) {
+        j->registered = 1;
+        j->next_all = q->all;
+        q->all = j;
+        q->kept++;
+    }
     pthread_cond_broadcast(&q->work_cv);
     pthread_mutex_unlock(&q->mu);
     *out = j;

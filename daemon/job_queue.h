@@ -58,7 +58,7 @@ typedef struct {
      * render); an error fails the job. NULL: the image is encoded as the
      * job's PNG. */
     rd_error_code (*finish)(void *arg, const uint8_t *rgb, int width, int height, rd_error *err);
-    void (*free)(void *arg);    /* releases arg when the job is freed */
+    void (*free)(void *arg);    /* releases arg when the job is freed, with the queue locked: it must not call the queue */
     void *arg;
     size_t input_bytes;         /* what arg holds until prepared: counted against the budget */
 } rd_jq_task;
@@ -75,6 +75,8 @@ typedef struct {
     rd_jq_done_fn done;         /* may be NULL */
     void *user;
     int notify_prepared;        /* call done once prepared (an asynchronous submission) */
+    int internal;               /* work for a request, not a job of its own: no id to find, not in the metrics */
+    rd_jq_job *hold;            /* a reference the job takes over and drops when it is freed; may be NULL */
 } rd_jq_submit_options;
 
 rd_jq *rd_jq_start(const rd_jq_options *opt, rd_error *err);

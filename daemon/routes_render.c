@@ -295,6 +295,72 @@ enum MHD_Result rd_route_render_resumed(rd_req *r)
     return rd_reply_with(r, 200, "image/png", png, len, 1, headers);
 }
 
+/* A running job's image so far, encoded on a render thread. */
+typedef struct {
+    rd_jq *q;
+    rd_jq_job *target;          /* held by the snapshot's job (rd_jq_submit_options.hold) */
+    unsigned char *png;
+    size_t len;
+} partial_task;
+
+static rd_error_code prepare_partial(void *arg, rd_scene *s, int *render, rd_error *err)
+{
+    (void)s;
+    partial_task *t = arg;
+    *render = 0;
+    return rd_jq_png(t->q, t->target, 1, &t->png, &t->len, err);
+}
+
+static void free_partial(void *arg)
+{
+    partial_task *t = arg;
+    if (t) {
+        free(t->png);
+        free(t);
+    }
+}
+
+/* Takes over the caller's reference to job. */
+static enum MHD_Result submit_partial(rd_req *r, rd_jq_job *job)
+{
+    rd_server *srv = r->srv;
+    partial_task *t = calloc(1, sizeof *t);
+    if (!t) {
+        rd_jq_job_unref(job);
+        return rd_reply_error(r, 503, "unavailable", NULL, "out of memory");
+    }
+    t->q = srv->jobs;
+    t->target = job;
+    rd_jq_task task = {prepare_partial, NULL, free_partial, t, 0};
+    rd_jq_submit_options so = {.watch_fd = rd_req_socket(r), .watch_http11 = r->http11, .done = rd_req_on_done,
+                               .user = r, .internal = 1, .hold = job};
+    rd_jq_job *snap;
+    rd_error err = {0};
+    rd_error_code rc = rd_jq_submit(srv->jobs, &task, &so, &snap, &err);
+    if (rc == RD_ERR_BUSY)
+        return rd_reply_error_hdr(r, 503, "queue_full", err.message, "Retry-After", "1");
+    if (rc)
+        return rd_reply_error(r, 503, "unavailable", &err, NULL);
+    return rd_req_wait(r, snap) ? rd_route_job_image_resumed(r) : MHD_YES;
+}
+
+enum MHD_Result rd_route_job_image_resumed(rd_req *r)
+{
+    rd_jq_info info;
+    rd_jq_info_get(r->srv->jobs, r->job, &info);
+    partial_task *t = rd_jq_task_arg(r->job);
+    if (info.status == RD_JOB_DONE && t->png) {
+        unsigned char *png = t->png;
+        t->png = NULL;
+        return rd_reply(r, 200, "image/png", png, t->len, 1);
+    }
+    if (info.status == RD_JOB_FAILED)
+        return rd_reply_error(r, 409, "not_ready", &info.error, NULL);
+    if (info.hung_up)
+        return MHD_NO;
+    return rd_reply_error_hdr(r, 503, "cancelled", "the server is shutting down", "Retry-After", "5");
+}
+
 enum MHD_Result rd_route_job(rd_req *r, const char *id, const char *rest)
 {
     rd_server *srv = r->srv;
@@ -315,6 +381,10 @@ enum MHD_Result rd_route_job(rd_req *r, const char *id, const char *rest)
     } else if (strcmp(rest, "/image") == 0) {
         const char *p = MHD_lookup_connection_value(r->conn, MHD_GET_ARGUMENT_KIND, "partial");
         int partial = p && strcmp(p, "0") != 0;
+        rd_jq_info now;
+        rd_jq_info_get(srv->jobs, job, &now);
+        if (partial && now.status == RD_JOB_RUNNING)
+            return submit_partial(r, job);
         unsigned char *png;
         size_t len;
         rd_error err = {0};
