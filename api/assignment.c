@@ -72,7 +72,7 @@ static rd_error_code parse_grade(const char *path, const char *text, rd_assignme
             a->thresholds.fail_fraction = x;
         else if (strcmp(k, "hard_fail") == 0 && x >= 0 && x <= 255 && x == (int)x)
             a->thresholds.hard_fail = (int)x;
-        else if (strcmp(k, "hard_fail_pixels") == 0 && x >= 0 && x == (int)x && x < 1e9)
+        else if (strcmp(k, "hard_fail_pixels") == 0 && x >= 0 && x < 1e9 && x == (int)x)
             a->thresholds.hard_fail_pixels = (int)x;
         else if (strcmp(k, "fail") == 0 || strcmp(k, "hard_fail") == 0)
             return rd_error_set(err, RD_ERR_SYNTAX, line, col, "%s:%d:%d: %s: expected an integer in 0..255", path, line,
