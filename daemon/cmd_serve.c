@@ -59,33 +59,9 @@ static int parse_size(const char *flag, const char *v, unsigned long long lo, un
 
 int rd_cmd_serve(int argc, char **argv)
 {
-    rd_server_options o;
-    memset(&o, 0, sizeof o);
+    rd_server_options o = rd_server_options_default();
     char host[64] = "127.0.0.1";
     o.listen_host = host;
-    o.port = 8080;
-    o.http_threads = 2;
-    long cores = sysconf(_SC_NPROCESSORS_ONLN);
-    o.jobs.workers = cores > 0 ? (int)cores : 1;
-    o.jobs.queue_length = 64;
-    o.jobs.job_timeout_ms = 120000;
-    o.jobs.result_memory = 256u << 20;
-    o.jobs.result_ttl_ms = 600e3;
-    o.jobs.png = rd_png_options_default();
-    o.limits = rd_scene_limits_default();
-    o.max_body_bytes = 16u << 20;
-    o.max_connections = 1024;
-    o.max_per_ip = 512;
-    o.connection_timeout_s = 30;
-    o.header_timeout_ms = 10000;
-    o.body_timeout_ms = 60000;
-    o.max_query_args = 64;
-    o.grade_cache_bytes = 256u << 20;
-    o.jobs.kept_max = 4096;
-    long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
-    o.jobs.memory_budget = pages > 0 && page > 0 ? (size_t)pages * (size_t)page / 2 : (size_t)4 << 30;
-    o.scenes_dir = "scenes";
-    o.assignments_dir = "scenes/assignments";
     double drain_ms = 10000;
     const char *port_file = NULL;
 

@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include "http_internal.h"
+#include "timed_wait.h"
 
 enum { R_NONE, R_RENDER, R_JOBS, R_JOB, R_SCENES, R_HEALTH, R_METRICS, R_PAGE, R_GRADE, R_ASSIGNMENTS, R_GRADES };
 
@@ -96,14 +97,7 @@ static void *reaper(void *arg)
                 c->deadline = 0;
                 atomic_fetch_add(&s->deadline_closed, 1);
             }
-        struct timespec ts;
-        clock_gettime(CLOCK_REALTIME, &ts);
-        ts.tv_nsec += 100 * 1000000L;
-        if (ts.tv_nsec >= 1000000000L) {
-            ts.tv_sec++;
-            ts.tv_nsec -= 1000000000L;
-        }
-        pthread_cond_timedwait(&s->conn_cv, &s->conn_mu, &ts);
+        rd_timed_wait(&s->conn_cv, &s->conn_mu, 100);
     }
     pthread_mutex_unlock(&s->conn_mu);
     return NULL;
@@ -659,6 +653,37 @@ static void on_completed(void *cls, struct MHD_Connection *conn, void **con_cls,
     rd_grade_req_free(r);
     free(r->body);
     free(r);
+}
+
+rd_server_options rd_server_options_default(void)
+{
+    rd_server_options o;
+    memset(&o, 0, sizeof o);
+    o.listen_host = "127.0.0.1";
+    o.port = 8080;
+    o.http_threads = 2;
+    long cores = sysconf(_SC_NPROCESSORS_ONLN);
+    o.jobs.workers = cores > 0 ? (int)cores : 1;
+    o.jobs.queue_length = 64;
+    o.jobs.job_timeout_ms = 120000;
+    o.jobs.result_memory = 256u << 20;
+    o.jobs.result_ttl_ms = 600e3;
+    o.jobs.kept_max = 4096;
+    long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    o.jobs.memory_budget = pages > 0 && page > 0 ? (size_t)pages * (size_t)page / 2 : (size_t)4 << 30;
+    o.jobs.png = rd_png_options_default();
+    o.limits = rd_scene_limits_default();
+    o.max_body_bytes = 16u << 20;
+    o.max_connections = 1024;
+    o.max_per_ip = 512;
+    o.connection_timeout_s = 30;
+    o.header_timeout_ms = 10000;
+    o.body_timeout_ms = 60000;
+    o.max_query_args = 64;
+    o.grade_cache_bytes = 256u << 20;
+    o.scenes_dir = "scenes";
+    o.assignments_dir = "scenes/assignments";
+    return o;
 }
 
 static void free_server(rd_server *s)

@@ -13,6 +13,7 @@
 #include <time.h>
 
 #include "job.h"
+#include "timed_wait.h"
 #include "trace.h"
 
 const double rd_jq_buckets[12] = {0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1, 2.5, 5, 10, 30};
@@ -380,14 +381,7 @@ static void *watchdog(void *arg)
                 cancel_locked(q, j);
             }
         }
-        struct timespec ts;
-        clock_gettime(CLOCK_REALTIME, &ts);
-        ts.tv_nsec += 20 * 1000000L;
-        if (ts.tv_nsec >= 1000000000L) {
-            ts.tv_sec++;
-            ts.tv_nsec -= 1000000000L;
-        }
-        pthread_cond_timedwait(&q->watch_cv, &q->mu, &ts);
+        rd_timed_wait(&q->watch_cv, &q->mu, 20);
     }
     pthread_mutex_unlock(&q->mu);
     return NULL;
@@ -1038,12 +1032,7 @@ int rd_jq_drain(rd_jq *q, double timeout_ms)
         double left = end - now_ms();
         if (left <= 0)
             break;
-        struct timespec ts;
-        clock_gettime(CLOCK_REALTIME, &ts);
-        long long ns = ts.tv_nsec + (long long)(left * 1e6);
-        ts.tv_sec += ns / 1000000000LL;
-        ts.tv_nsec = ns % 1000000000LL;
-        pthread_cond_timedwait(&q->idle_cv, &q->mu, &ts);
+        rd_timed_wait(&q->idle_cv, &q->mu, left);
     }
     int idle = q->active_count == 0;
     pthread_mutex_unlock(&q->mu);

@@ -31,6 +31,10 @@ typedef struct {
 
 typedef struct rd_server rd_server;
 
+/* The defaults of `rayd serve --help`: memory budget half the RAM, render
+ * threads one per core. */
+rd_server_options rd_server_options_default(void);
+
 rd_server *rd_server_start(const rd_server_options *opt, rd_error *err);
 
 /* The port it listens on (useful with port 0). */
