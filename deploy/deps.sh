@@ -2,7 +2,7 @@
 # Installs the Debian packages rayd needs; quiet and quick when all are present.
 # Usage: deploy/deps.sh [bench]   ("bench" adds what `make bench` compares against)
 set -eu
-pkgs="gcc clang make pkg-config libc6-dev libpng-dev zlib1g-dev libcjson-dev libmicrohttpd-dev libcriterion-dev libcurl4-openssl-dev curl python3 python3-jsonschema chromium"
+pkgs="gcc clang libclang-rt-dev make pkg-config libc6-dev libpng-dev zlib1g-dev libcjson-dev libmicrohttpd-dev libcriterion-dev libcurl4-openssl-dev curl python3 python3-jsonschema chromium"
 [ "${1:-}" = bench ] && pkgs="$pkgs povray wrk hey time git"
 missing=""
 for p in $pkgs; do
