@@ -113,7 +113,7 @@ tsan: deps
 	@TSAN_OPTIONS="exitcode=66 $(TSAN_OPTIONS)" RAYD=build/clang-tsan/rayd FAULT_SECONDS=$(TSAN_SECONDS) \
 	    /usr/bin/python3 tests/fault/fault_test.py
 
-FUZZ_SMOKE_SECONDS ?= 30
+FUZZ_SMOKE_SECONDS ?= 15
 FUZZ_SECONDS ?= 300
 
 # The numerical-stability report: every extreme case, its property, the

@@ -69,6 +69,26 @@ rd_error_code rd_png_decode(const unsigned char *data, size_t len, size_t max_pi
     /* Our own pixel limit decides (below); libpng's default of 1,000,000
      * per side would call a wide but small image damaged. */
     png_set_user_limits(png, 0x7fffffffu, 0x7fffffffu);
+    /* The bytes come from strangers (grade uploads), so what a file costs
+     * must follow from the pixel limit, never from what its chunks declare.
+     * libpng allocates the whole declared length of a tEXt, zTXt, iTXt or
+     * sPLT before reading it, and over its chunk memory limit it only warns
+     * (a benign error): 44 bytes declaring 2^31-1 bytes of text cost 2 GB.
+     * No ancillary chunk changes what is decoded here (no gamma, colour or
+     * background transform is asked for), so every chunk but IHDR, PLTE,
+     * tRNS, IDAT and IEND is skipped unread, 1 KB at a time; an unknown
+     * critical chunk is still an error. eXIf is named as well because
+     * libpng 1.6.31 read it but left it out of that list. */
+    static const png_byte also_skipped[] = {'e', 'X', 'I', 'f', 0};
+    png_set_keep_unknown_chunks(png, PNG_HANDLE_CHUNK_NEVER, NULL, -1);
+    png_set_keep_unknown_chunks(png, PNG_HANDLE_CHUNK_NEVER, also_skipped, 1);
+    /* Second lines of defence, should a chunk ever be read again: store no
+     * text or unknown chunk at all (libpng's counter stops at 1), and keep
+     * any chunk, or what it inflates to, to 64 KiB. PLTE and tRNS, the
+     * only ones still read, fit in 768 bytes; an ICC profile can exceed
+     * 64 KiB, so whoever adds colour management must raise this. */
+    png_set_chunk_cache_max(png, 1);
+    png_set_chunk_malloc_max(png, 64 * 1024);
     png_read_info(png, info);
     png_uint_32 w = png_get_image_width(png, info), h = png_get_image_height(png, info);
     int ctype = png_get_color_type(png, info), depth = png_get_bit_depth(png, info);

@@ -53,7 +53,6 @@ typedef struct {
     int started;            /* on_request has seen the request */
     int http11;             /* HTTP/1.1: may be sent an interim 102 while it waits */
     int async;              /* POST /v1/jobs: answered 202 once the scene is read */
-    int refused;            /* answered on the socket before parsing; close */
     int raw;                /* half-closed while waiting: answered on the socket; close */
     /* a synchronous render */
     pthread_mutex_t mu;

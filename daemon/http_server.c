@@ -103,45 +103,43 @@ static void *reaper(void *arg)
     return NULL;
 }
 
+/* on_uri's answer for a request it refused: no state of its own, since
+ * libmicrohttpd 0.9.75 does not report the end of a request whose headers
+ * never completed, and anything allocated here could leak. */
+static char refused_request;
+
 /* Called with the request line before libmicrohttpd splits the query.
  * Thousands of arguments exhaust its per-connection memory, after which it
  * can send nothing at all, so such a request is answered 431 here, on the
  * socket, and the sending side closed; libmicrohttpd then drops the
- * connection. The request state starts here too (on_request fills it). */
+ * connection. */
 static void *on_uri(void *cls, const char *uri, struct MHD_Connection *conn)
 {
     rd_server *s = cls;
-    rd_req *r = calloc(1, sizeof *r);
-    if (!r)
-        return NULL;
-    pthread_mutex_init(&r->mu, NULL);
-    r->srv = s;
-    r->conn = conn;
-    r->t0 = now_ms();
     const char *q = uri ? strchr(uri, '?') : NULL;
     unsigned args = q ? 1 : 0;
     for (const char *p = q; p && *p; p++)
         args += *p == '&';
-    if (args > s->opt.max_query_args) {
-        char body[200], head[400];
-        int bl = snprintf(body, sizeof body,
-                          "{\"error\":{\"code\":\"too_many_arguments\",\"message\":\"the query has %u arguments, "
-                          "over the limit of %u (--max-query-args)\"}}",
-                          args, s->opt.max_query_args);
-        int hl = snprintf(head, sizeof head,
-                          "HTTP/1.1 431 Request Header Fields Too Large\r\nContent-Type: application/json\r\n"
-                          "Content-Length: %d\r\nConnection: close\r\n\r\n",
-                          bl);
-        int fd = rd_req_socket(r);
-        if (fd >= 0 && send(fd, head, (size_t)hl, MSG_NOSIGNAL | MSG_DONTWAIT) == hl)
-            send(fd, body, (size_t)bl, MSG_NOSIGNAL | MSG_DONTWAIT);
-        if (fd >= 0)
-            shutdown(fd, SHUT_WR);
-        r->refused = 1;
-        r->status = 431;
-        atomic_fetch_add(&s->raw_refused, 1);
-    }
-    return r;
+    if (args <= s->opt.max_query_args)
+        return NULL;
+    char body[200], head[400];
+    int bl = snprintf(body, sizeof body,
+                      "{\"error\":{\"code\":\"too_many_arguments\",\"message\":\"the query has %u arguments, "
+                      "over the limit of %u (--max-query-args)\"}}",
+                      args, s->opt.max_query_args);
+    int hl = snprintf(head, sizeof head,
+                      "HTTP/1.1 431 Request Header Fields Too Large\r\nContent-Type: application/json\r\n"
+                      "Content-Length: %d\r\nConnection: close\r\n\r\n",
+                      bl);
+    const union MHD_ConnectionInfo *ci = MHD_get_connection_info(conn, MHD_CONNECTION_INFO_CONNECTION_FD);
+    int fd = ci ? ci->connect_fd : -1;
+    if (fd >= 0 && send(fd, head, (size_t)hl, MSG_NOSIGNAL | MSG_DONTWAIT) == hl)
+        send(fd, body, (size_t)bl, MSG_NOSIGNAL | MSG_DONTWAIT);
+    if (fd >= 0)
+        shutdown(fd, SHUT_WR);
+    atomic_fetch_add(&s->raw_refused, 1);
+    atomic_fetch_add(&s->http_count[4], 1);
+    return &refused_request;
 }
 
 /* Below the 5 s a stopping server waits for suspended clients. */
@@ -488,10 +486,20 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
                                   const char *version, const char *upload, size_t *upload_size, void **con_cls)
 {
     rd_server *srv = cls;
-    rd_req *r = *con_cls;
-    if (!r)
+    if (*con_cls == &refused_request)
         return MHD_NO;
-    if (r->refused || r->raw)
+    rd_req *r = *con_cls;
+    if (!r) {
+        r = calloc(1, sizeof *r);
+        if (!r)
+            return MHD_NO;
+        pthread_mutex_init(&r->mu, NULL);
+        r->srv = srv;
+        r->conn = conn;
+        r->t0 = now_ms();
+        *con_cls = r;
+    }
+    if (r->raw)
         return MHD_NO;
     if (!r->started) {
         r->started = 1;
@@ -629,9 +637,9 @@ static void on_completed(void *cls, struct MHD_Connection *conn, void **con_cls,
 {
     rd_server *srv = cls;
     rd_req *r = *con_cls;
-    if (!r)
-        return;
     *con_cls = NULL;
+    if (!r || r == (void *)&refused_request)
+        return;
     /* A kept-alive connection may idle for --connection-timeout, then has
      * the header deadline for its next request. */
     set_deadline(srv, conn, srv->opt.connection_timeout_s * 1e3 + srv->opt.header_timeout_ms);

@@ -1,17 +1,25 @@
 #!/bin/sh
-# Coverage-guided fuzzing of the scene readers with libFuzzer.
+# Coverage-guided fuzzing of every reader of untrusted bytes with libFuzzer.
 #
 #   sh tests/fuzz/run.sh SECONDS [target...]      (from the repository root)
 #
-# Targets: cfg (tests/fuzz/fuzz_cfg.c) and json (tests/fuzz/fuzz_json.c);
-# all of them when none is named. For each target, in turn (the machine has
-# two cores and each libFuzzer process uses one), it
-#   1. builds build/fuzz/fuzz_TARGET with clang, libFuzzer, ASan and UBSan,
+# Targets (tests/fuzz/fuzz_TARGET.c; all of them when none is named):
+#   cfg, json    the scene readers
+#   obj          the OBJ mesh reader, alone and through a scene's [mesh]
+#   png          the PNG decoder and the grade upload decoder
+#   grade_file   the .grade assignment file reader
+#   form         POST /v1/grade multipart forms, through the real daemon
+#   query        POST /v1/render query parameters, through the real daemon
+# SECONDS is per target. For each target, in turn (the machine has two
+# cores and each libFuzzer process uses one), it
+#   1. builds build/fuzz/fuzz_TARGET with clang, libFuzzer, ASan and UBSan
+#      (form and query also link the daemon's objects and libmicrohttpd),
 #   2. replays every file in tests/fuzz/regressions/TARGET/ once: these are
 #      inputs that once crashed, and any of them crashing again fails the run,
 #   3. fuzzes for SECONDS, starting from build/fuzz/corpus/TARGET/ (kept
-#      between runs, so coverage accumulates) seeded with scenes/*.TARGET and
-#      the regressions that pass, with the dictionary tests/fuzz/TARGET.dict.
+#      between runs, so coverage accumulates) seeded with
+#      tests/fuzz/seeds/TARGET/*, scenes/*.TARGET and the regressions that
+#      pass, with the dictionary tests/fuzz/TARGET.dict when there is one.
 # stdout gets one line per target, "fuzz TARGET: N execs, M crashes" (M
 # counts failing regressions and this run's crash, hang, leak or OOM; libFuzzer
 # stops at the first), and a last line "fuzz: P passed, F failed"; details
@@ -29,7 +37,7 @@
 set -u
 
 usage() {
-    echo "usage: sh tests/fuzz/run.sh SECONDS [cfg|json ...]" >&2
+    echo "usage: sh tests/fuzz/run.sh SECONDS [$(echo $ALL_TARGETS | sed 's/ /|/g') ...]" >&2
     exit 2
 }
 die() {
@@ -37,7 +45,9 @@ die() {
     exit 2
 }
 
-ALL_TARGETS="cfg json"
+ALL_TARGETS="cfg json obj png grade_file form query"
+# The targets that run the daemon in-process.
+HTTP_TARGETS="form query"
 
 [ $# -ge 1 ] || usage
 SECS=$1
@@ -61,7 +71,14 @@ fi
 
 CC=clang
 command -v "$CC" >/dev/null 2>&1 || die "clang not found (apt-get install clang libclang-rt-14-dev)"
+need_daemon=0
+for t in $TARGETS; do
+    case " $HTTP_TARGETS " in
+    *" $t "*) need_daemon=1 ;;
+    esac
+done
 PKGS="libpng libcjson zlib"
+[ "$need_daemon" -eq 0 ] || PKGS="$PKGS libmicrohttpd"
 # The library headers come with the project's other build dependencies;
 # deploy/deps.sh installs them as `make` would, and is quiet when they exist.
 if ! pkg-config --exists $PKGS 2>/dev/null; then
@@ -78,7 +95,7 @@ mkdir -p "$OBJ" "$LOGS" || die "cannot create $OUT"
 # stacks. The library is compiled with fuzzer-no-link: coverage
 # instrumentation without libFuzzer's main(), which only the targets link.
 # -fno-sanitize-recover=all turns UBSan reports into crashes libFuzzer saves.
-STD="-std=c11 -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L -Icore -Iapi -Wall -Wextra -Werror"
+STD="-std=c11 -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L -Icore -Iapi -Idaemon -Wall -Wextra -Werror"
 PKG_CFLAGS=$(pkg-config --cflags $PKGS)
 PKG_LIBS="$(pkg-config --libs $PKGS) -lm -lpthread"
 COMMON="$STD $PKG_CFLAGS -g -O1 -fno-omit-frame-pointer -fno-sanitize-recover=all"
@@ -131,16 +148,44 @@ for src in core/*.c api/*.c; do
         compile "$src" "$obj" $LIB_FLAGS
     fi
 done
+# The daemon without its main(), and the web page it serves (generated as
+# the Makefile does), only for the targets that start it.
+DAEMON_OBJS=""
+if [ "$need_daemon" -eq 1 ]; then
+    for src in daemon/*.c; do
+        [ "$src" = daemon/main.c ] && continue
+        obj=$OBJ/${src%.c}.o
+        DAEMON_OBJS="$DAEMON_OBJS $obj"
+        if stale "$obj" "$src" "daemon/*.h"; then
+            compile "$src" "$obj" $LIB_FLAGS
+        fi
+    done
+    page=$OBJ/gen/web_page.c
+    mkdir -p "$OBJ/gen"
+    if [ ! -f "$page" ] || [ -n "$(find daemon/web/index.html daemon/web/embed.py -newer "$page" 2>/dev/null)" ]; then
+        if ! /usr/bin/python3 daemon/web/embed.py daemon/web/index.html rd_web_index_html >"$page.tmp" ||
+            ! mv "$page.tmp" "$page"; then
+            die "could not generate $page"
+        fi
+        rm -f "$OBJ/gen/web_page.o"
+    fi
+    [ -f "$OBJ/gen/web_page.o" ] || compile "$page" "$OBJ/gen/web_page.o" $LIB_FLAGS
+    DAEMON_OBJS="$DAEMON_OBJS $OBJ/gen/web_page.o"
+fi
 for src in tests/fuzz/*.c; do
     obj=$OBJ/${src%.c}.o
-    if stale "$obj" "$src" "tests/fuzz/*.h"; then
+    if stale "$obj" "$src" "tests/fuzz/*.h daemon/*.h"; then
         compile "$src" "$obj" $TGT_FLAGS
     fi
 done
 reap
 [ "$build_failed" -eq 0 ] || die "build failed (see the compiler messages above)"
 for t in $TARGETS; do
-    "$CC" $TGT_FLAGS -o "$OUT/fuzz_$t" "$OBJ/tests/fuzz/fuzz_$t.o" "$OBJ/tests/fuzz/fuzz_check.o" \
+    extra=""
+    case " $HTTP_TARGETS " in
+    *" $t "*) extra="$OBJ/tests/fuzz/fuzz_http.o $DAEMON_OBJS" ;;
+    esac
+    "$CC" $TGT_FLAGS -o "$OUT/fuzz_$t" "$OBJ/tests/fuzz/fuzz_$t.o" "$OBJ/tests/fuzz/fuzz_check.o" $extra \
         $LIB_OBJS $PKG_LIBS || die "linking $OUT/fuzz_$t failed"
 done
 
@@ -151,7 +196,21 @@ export UBSAN_OPTIONS
 
 # The same limits for replaying and fuzzing: a regression that only hangs
 # must fail the same way it was found.
-LIMITS="-timeout=10 -rss_limit_mb=2048 -max_len=65536"
+limits() { # target
+    case $1 in
+    # Decoding is bounded by the pixel limit (1 Mpx in the harness, a few
+    # MB); one allocation above 256 MB is an allocation bomb, a crash.
+    png) echo "-timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=256 -max_len=65536" ;;
+    # The harness aborts after 8 s without an answer, before libFuzzer's
+    # own timeout. No per-input leak check: the daemon keeps memory between
+    # requests (caches, kept jobs) and its threads allocate while an input
+    # runs, so libFuzzer would turn the check off after the first input.
+    form) echo "-timeout=20 -rss_limit_mb=2048 -max_len=65536 -detect_leaks=0" ;;
+    # A query string of a few KB already holds hundreds of parameters.
+    query) echo "-timeout=20 -rss_limit_mb=2048 -max_len=4096 -detect_leaks=0" ;;
+    *) echo "-timeout=10 -rss_limit_mb=2048 -max_len=65536" ;;
+    esac
+}
 
 # Where in a log the crash is: the sanitizer's summary and the first frames
 # in this repository's code (clang records absolute source paths), which
@@ -169,6 +228,7 @@ for t in $TARGETS; do
     artifacts=$OUT/artifacts/$t
     regress=tests/fuzz/regressions/$t
     log=$LOGS/$t.log
+    LIMITS=$(limits "$t")
     mkdir -p "$corpus" "$artifacts"
     crashes=0
 
@@ -187,9 +247,10 @@ for t in $TARGETS; do
         fi
     done
 
-    # 2. Seeds: the example scenes are small, valid and cover every
-    # material, which is where most of the parser's paths start.
-    for f in scenes/*."$t"; do
+    # 2. Seeds: small valid inputs (and a few known-bad ones) that reach
+    # each reader's main paths; for the scene formats also the example
+    # scenes, which cover every material.
+    for f in tests/fuzz/seeds/"$t"/* scenes/*."$t"; do
         [ -f "$f" ] && cp "$f" "$corpus/seed-$(basename "$f")"
     done
 
