@@ -13,8 +13,7 @@
  * minimised input, short enough not to bury the sanitizer's own report. */
 #define SHOW_MAX 4000
 
-static void fail(const char *fmt, ...) __attribute__((format(printf, 1, 2), noreturn));
-static void fail(const char *fmt, ...)
+void rd_fuzz_fail(const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
@@ -44,16 +43,16 @@ void rd_fuzz_check_error(rd_error_code rc, const rd_error *err, const char *sour
 {
     size_t n = strlen(source);
     if (err->code != rc)
-        fail("parser returned code %d but the error holds code %d (message '%s')", (int)rc,
+        rd_fuzz_fail("parser returned code %d but the error holds code %d (message '%s')", (int)rc,
              (int)err->code, err->message);
     if (!err->message[0])
-        fail("parser returned code %d without a message", (int)rc);
+        rd_fuzz_fail("parser returned code %d without a message", (int)rc);
     /* The daemon sends the message as is: the spec wants every error to name
      * its input, and callers rely on the prefix to tell inputs apart. */
     if (strncmp(err->message, source, n) != 0 || err->message[n] != ':')
-        fail("error message does not start with '%s:': '%s'", source, err->message);
+        rd_fuzz_fail("error message does not start with '%s:': '%s'", source, err->message);
     if (err->line < 0 || err->column < 0)
-        fail("negative position %d:%d in '%s'", err->line, err->column, err->message);
+        rd_fuzz_fail("negative position %d:%d in '%s'", err->line, err->column, err->message);
 }
 
 /* ---- scene equality, field for field ---------------------------------- */
@@ -251,10 +250,10 @@ static void roundtrip(const format *f, const rd_scene *s)
     if (rc) {
         if (f->may_refuse && rc == RD_ERR_INVALID && has_unspellable(s))
             return;
-        fail("the %s writer refused a scene that parsed: %s", f->name, err.message);
+        rd_fuzz_fail("the %s writer refused a scene that parsed: %s", f->name, err.message);
     }
     if (!t1)
-        fail("the %s writer succeeded without text", f->name);
+        rd_fuzz_fail("the %s writer succeeded without text", f->name);
 
     /* Default limits here, not the fuzz input's 64 KiB: the written text may
      * legitimately be longer than the input (JSON spells out what cfg says
@@ -264,13 +263,13 @@ static void roundtrip(const format *f, const rd_scene *s)
     rd_fuzz_error_init(&err);
     rc = f->parse(t1, strlen(t1), "<written>", NULL, &s2, &err);
     if (rc)
-        fail("%s written from a valid scene does not parse again: %s\n--- written text ---\n%.*s",
+        rd_fuzz_fail("%s written from a valid scene does not parse again: %s\n--- written text ---\n%.*s",
              f->name, err.message, SHOW_MAX, t1);
 
     rd_fuzz_error_init(&err);
     rc = f->write(&s2, &t2, &err);
     if (rc || !t2)
-        fail("the %s writer refused a scene it wrote itself: %s\n--- written text ---\n%.*s", f->name,
+        rd_fuzz_fail("the %s writer refused a scene it wrote itself: %s\n--- written text ---\n%.*s", f->name,
              err.message, SHOW_MAX, t1);
 
     /* Both properties are computed before failing so one report says
@@ -279,7 +278,7 @@ static void roundtrip(const format *f, const rd_scene *s)
     diff d = {""};
     int same = same_scene(&d, s, &s2);
     if (!same_text || !same)
-        fail("%s round trip: text %s, scene %s%s\n--- first text ---\n%.*s\n--- second text ---\n%.*s",
+        rd_fuzz_fail("%s round trip: text %s, scene %s%s\n--- first text ---\n%.*s\n--- second text ---\n%.*s",
              f->name, same_text ? "identical" : "CHANGED", same ? "identical" : "CHANGED: ",
              same ? "" : d.text, SHOW_MAX, t1, SHOW_MAX, t2);
     free(t1);

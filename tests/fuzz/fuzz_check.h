@@ -22,6 +22,10 @@
 /* Limits for the first parse: the defaults with max_bytes above. */
 rd_scene_limits rd_fuzz_limits(void);
 
+/* One line "fuzz property failed: ..." on stderr, then abort(): what
+ * libFuzzer records as a crash. Every target's property checks use it. */
+void rd_fuzz_fail(const char *fmt, ...) __attribute__((format(printf, 1, 2), noreturn));
+
 /* An rd_error that shows whether the parser filled it in. */
 void rd_fuzz_error_init(rd_error *err);
 

@@ -24,24 +24,14 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "fuzz_check.h"
+
 #include "assignment.h"
 
 int LLVMFuzzerInitialize(int *argc, char ***argv);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
 static char dir[96], grade_path[128], cfg_path[128];
-
-static void fail(const char *fmt, ...) __attribute__((format(printf, 1, 2), noreturn));
-static void fail(const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    fputs("fuzz property failed: ", stderr);
-    vfprintf(stderr, fmt, ap);
-    fputc('\n', stderr);
-    va_end(ap);
-    abort();
-}
 
 static void cleanup(void)
 {
@@ -90,13 +80,13 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
             dir[0] = 0;
     }
     if (!dir[0])
-        fail("cannot create a temporary folder: %s", strerror(errno));
+        rd_fuzz_fail("cannot create a temporary folder: %s", strerror(errno));
     snprintf(grade_path, sizeof grade_path, "%s/a.grade", dir);
     snprintf(cfg_path, sizeof cfg_path, "%s/a.cfg", dir);
     /* Only its existence matters to rd_assignment_load. */
     int fd = open(cfg_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
     if (fd < 0)
-        fail("cannot create %s: %s", cfg_path, strerror(errno));
+        rd_fuzz_fail("cannot create %s: %s", cfg_path, strerror(errno));
     close(fd);
     atexit(cleanup);
     return 0;
@@ -106,14 +96,14 @@ static void write_input(const uint8_t *data, size_t size)
 {
     int fd = open(grade_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
     if (fd < 0)
-        fail("cannot write %s: %s", grade_path, strerror(errno));
+        rd_fuzz_fail("cannot write %s: %s", grade_path, strerror(errno));
     size_t done = 0;
     while (done < size) {
         ssize_t k = write(fd, data + done, size - done);
         if (k < 0 && errno == EINTR)
             continue;
         if (k <= 0)
-            fail("cannot write %s: %s", grade_path, strerror(errno));
+            rd_fuzz_fail("cannot write %s: %s", grade_path, strerror(errno));
         done += (size_t)k;
     }
     close(fd);
@@ -130,28 +120,28 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         /* What grading relies on, and the ranges assignment.h documents. */
         const rd_grade_thresholds *t = &a.thresholds;
         if (t->fail < 0 || t->fail > 255 || t->hard_fail < 0 || t->hard_fail > 255)
-            fail("fail %d, hard_fail %d: outside 0..255", t->fail, t->hard_fail);
+            rd_fuzz_fail("fail %d, hard_fail %d: outside 0..255", t->fail, t->hard_fail);
         if (!(t->fail_fraction >= 0 && t->fail_fraction <= 1))
-            fail("fail_fraction %g outside [0, 1]", t->fail_fraction);
+            rd_fuzz_fail("fail_fraction %g outside [0, 1]", t->fail_fraction);
         if (t->hard_fail_pixels < 0)
-            fail("hard_fail_pixels %d is negative", t->hard_fail_pixels);
+            rd_fuzz_fail("hard_fail_pixels %d is negative", t->hard_fail_pixels);
         if (memchr(a.title, 0, sizeof a.title) == NULL || memchr(a.name, 0, sizeof a.name) == NULL)
-            fail("title or name not terminated");
+            rd_fuzz_fail("title or name not terminated");
         if (strcmp(a.name, "a") != 0)
-            fail("name '%s', expected 'a'", a.name);
+            rd_fuzz_fail("name '%s', expected 'a'", a.name);
         return 0;
     }
     if (err.code != rc || !err.message[0])
-        fail("code %d with error code %d, message '%s'", (int)rc, (int)err.code, err.message);
+        rd_fuzz_fail("code %d with error code %d, message '%s'", (int)rc, (int)err.code, err.message);
     if (rc == RD_ERR_SYNTAX) {
         /* A syntax error names the file, its line and its column. */
         size_t n = strlen(grade_path);
         if (strncmp(err.message, grade_path, n) != 0 || err.message[n] != ':')
-            fail("message does not start with '%s:': '%s'", grade_path, err.message);
+            rd_fuzz_fail("message does not start with '%s:': '%s'", grade_path, err.message);
         if (err.line < 1 || err.column < 1)
-            fail("position %d:%d in '%s'", err.line, err.column, err.message);
+            rd_fuzz_fail("position %d:%d in '%s'", err.line, err.column, err.message);
     } else if (rc != RD_ERR_LIMIT && rc != RD_ERR_IO) {
-        fail("unexpected code %d: '%s'", (int)rc, err.message);
+        rd_fuzz_fail("unexpected code %d: '%s'", (int)rc, err.message);
     }
     return 0;
 }

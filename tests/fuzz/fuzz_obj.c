@@ -28,18 +28,6 @@
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
-static void fail(const char *fmt, ...) __attribute__((format(printf, 1, 2), noreturn));
-static void fail(const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    fputs("fuzz property failed: ", stderr);
-    vfprintf(stderr, fmt, ap);
-    fputc('\n', stderr);
-    va_end(ap);
-    abort();
-}
-
 static int finite3(rd_vec3 v) { return isfinite(v.x) && isfinite(v.y) && isfinite(v.z); }
 
 /* What rd_scene_load_assets and the renderer take for granted. Numbers
@@ -49,25 +37,25 @@ static int finite3(rd_vec3 v) { return isfinite(v.x) && isfinite(v.y) && isfinit
 static void check_mesh(const rd_mesh *m, size_t max_triangles, int finite)
 {
     if (m->nfaces > max_triangles)
-        fail("%zu triangles, over the limit of %zu", m->nfaces, max_triangles);
+        rd_fuzz_fail("%zu triangles, over the limit of %zu", m->nfaces, max_triangles);
     for (size_t i = 0; i < m->npositions && finite; i++)
         if (!finite3(m->positions[i]))
-            fail("vertex %zu is not finite", i);
+            rd_fuzz_fail("vertex %zu is not finite", i);
     for (size_t i = 0; i < m->nnormals && finite; i++)
         if (!finite3(m->normals[i]))
-            fail("normal %zu is not finite", i);
+            rd_fuzz_fail("normal %zu is not finite", i);
     for (size_t i = 0; i < m->nuvs && finite; i++)
         if (!isfinite(m->uvs[i][0]) || !isfinite(m->uvs[i][1]))
-            fail("texture coordinate %zu is not finite", i);
+            rd_fuzz_fail("texture coordinate %zu is not finite", i);
     for (size_t f = 0; f < m->nfaces; f++)
         for (int c = 0; c < 3; c++) {
             const rd_mesh_face *fc = &m->faces[f];
             if (fc->v[c] >= m->npositions)
-                fail("face %zu corner %d: vertex %u of %zu", f, c, (unsigned)fc->v[c], m->npositions);
+                rd_fuzz_fail("face %zu corner %d: vertex %u of %zu", f, c, (unsigned)fc->v[c], m->npositions);
             if (fc->n[c] < -1 || (fc->n[c] >= 0 && (size_t)fc->n[c] >= m->nnormals))
-                fail("face %zu corner %d: normal %d of %zu", f, c, (int)fc->n[c], m->nnormals);
+                rd_fuzz_fail("face %zu corner %d: normal %d of %zu", f, c, (int)fc->n[c], m->nnormals);
             if (fc->t[c] < -1 || (fc->t[c] >= 0 && (size_t)fc->t[c] >= m->nuvs))
-                fail("face %zu corner %d: texture coordinate %d of %zu", f, c, (int)fc->t[c], m->nuvs);
+                rd_fuzz_fail("face %zu corner %d: texture coordinate %d of %zu", f, c, (int)fc->t[c], m->nuvs);
         }
 }
 
@@ -114,17 +102,17 @@ static void through_the_loader(const uint8_t *data, size_t size)
     rd_scene_init(&s);
     rd_fuzz_error_init(&err);
     if (rd_cfg_parse(scene_text, sizeof scene_text - 1, "fuzz.cfg", &lim, &s, &err) != RD_OK)
-        fail("the fixed scene does not parse: %s", err.message);
+        rd_fuzz_fail("the fixed scene does not parse: %s", err.message);
     input in = {data, size};
     rd_asset_source src = {read_input, NULL, &in};
     rd_warnings w = {0, ""};
     rd_error_code rc = rd_scene_load_assets(&s, &src, &lim, &w, &err);
     if (rc == RD_OK) {
         if (s.mesh_count != 1)
-            fail("loaded %zu meshes, expected 1", s.mesh_count);
+            rd_fuzz_fail("loaded %zu meshes, expected 1", s.mesh_count);
         check_mesh(&s.meshes[0], MAX_TRIANGLES, 0);
     } else if (err.code != rc || !err.message[0]) {
-        fail("loader returned code %d with error code %d, message '%s'", (int)rc, (int)err.code, err.message);
+        rd_fuzz_fail("loader returned code %d with error code %d, message '%s'", (int)rc, (int)err.code, err.message);
     }
     rd_scene_free(&s);
 }
@@ -148,7 +136,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     else
         rd_fuzz_check_error(rc, &err, SOURCE);
     if (w.count < 0 || strlen(w.text) >= sizeof w.text)
-        fail("warnings out of shape: count %d", w.count);
+        rd_fuzz_fail("warnings out of shape: count %d", w.count);
     /* The header says free it also on error. */
     rd_mesh_free(&m);
     free(text);

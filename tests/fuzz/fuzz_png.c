@@ -29,6 +29,8 @@
 #include <string.h>
 #include <zlib.h>
 
+#include "fuzz_check.h"
+
 #include "grade.h"
 #include "png_read.h"
 
@@ -64,18 +66,6 @@ static const char *reason(const char *message)
     return r;
 }
 
-static void fail(const char *fmt, ...) __attribute__((format(printf, 1, 2), noreturn));
-static void fail(const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    fputs("fuzz property failed: ", stderr);
-    vfprintf(stderr, fmt, ap);
-    fputc('\n', stderr);
-    va_end(ap);
-    abort();
-}
-
 static uint32_t be32(const unsigned char *p)
 {
     return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
@@ -109,13 +99,13 @@ static int fix_crcs(unsigned char *p, size_t n)
 static void check_error(const char *who, rd_error_code rc, const rd_error *err)
 {
     if (rc != RD_ERR_SYNTAX && rc != RD_ERR_LIMIT && rc != RD_ERR_NOMEM)
-        fail("%s: unexpected code %d ('%s')", who, (int)rc, err->message);
+        rd_fuzz_fail("%s: unexpected code %d ('%s')", who, (int)rc, err->message);
     if (err->code != rc)
-        fail("%s: returned code %d, the error holds %d ('%s')", who, (int)rc, (int)err->code, err->message);
+        rd_fuzz_fail("%s: returned code %d, the error holds %d ('%s')", who, (int)rc, (int)err->code, err->message);
     if (!err->message[0])
-        fail("%s: code %d without a message", who, (int)rc);
+        rd_fuzz_fail("%s: code %d without a message", who, (int)rc);
     if (rc == RD_ERR_LIMIT && !strstr(err->message, FLAG))
-        fail("%s: a limit error must name its flag: '%s'", who, err->message);
+        rd_fuzz_fail("%s: a limit error must name its flag: '%s'", who, err->message);
 }
 
 static void decode(const unsigned char *bytes, size_t n)
@@ -127,14 +117,14 @@ static void decode(const unsigned char *bytes, size_t n)
     if (rc == RD_OK) {
         size_t px = (size_t)img.width * (size_t)img.height;
         if (img.width <= 0 || img.height <= 0 || px > MAX_PIXELS)
-            fail("decoded %dx%d with a limit of %zu pixels", img.width, img.height, MAX_PIXELS);
+            rd_fuzz_fail("decoded %dx%d with a limit of %zu pixels", img.width, img.height, MAX_PIXELS);
         if (!img.rgb)
-            fail("decoded %dx%d without pixels", img.width, img.height);
+            rd_fuzz_fail("decoded %dx%d without pixels", img.width, img.height);
         if (!((img.depth == 8 && img.maxval == 255) || (img.depth == 16 && img.maxval == 65535)))
-            fail("depth %d with maxval %u", img.depth, img.maxval);
+            rd_fuzz_fail("depth %d with maxval %u", img.depth, img.maxval);
         for (size_t i = 0; i < px * 3; i++)
             if (img.rgb[i] > img.maxval)
-                fail("sample %zu is %u, over maxval %u", i, img.rgb[i], img.maxval);
+                rd_fuzz_fail("sample %zu is %u, over maxval %u", i, img.rgb[i], img.maxval);
         outcome("decoded", (unsigned)img.depth | (unsigned)img.had_alpha << 5 | (unsigned)img.was_palette << 6 |
                                (unsigned)img.was_grey << 7,
                 img.width < 16 ? (unsigned)img.width : 16, img.height < 16 ? (unsigned)img.height : 16);
@@ -142,7 +132,7 @@ static void decode(const unsigned char *bytes, size_t n)
         check_error("rd_png_decode", rc, &err);
         outcome(rc == RD_ERR_LIMIT ? "limit" : reason(err.message), (unsigned)rc, 0, 0);
         if (img.rgb)
-            fail("rd_png_decode failed (%s) but left pixels", err.message);
+            rd_fuzz_fail("rd_png_decode failed (%s) but left pixels", err.message);
     }
 
     /* The grade decoder must agree, sample for sample after rounding to
@@ -153,20 +143,20 @@ static void decode(const unsigned char *bytes, size_t n)
     memset(&err8, 0, sizeof err8);
     rd_error_code rc8 = rd_grade_load_png(bytes, n, MAX_PIXELS, &rgb8, &w, &h, &err8);
     if (rc8 != rc)
-        fail("rd_grade_load_png returned %d ('%s'), rd_png_decode %d ('%s')", (int)rc8, err8.message, (int)rc,
+        rd_fuzz_fail("rd_grade_load_png returned %d ('%s'), rd_png_decode %d ('%s')", (int)rc8, err8.message, (int)rc,
              err.message);
     if (rc == RD_OK) {
         if (w != img.width || h != img.height || !rgb8)
-            fail("rd_grade_load_png: %dx%d, rd_png_decode %dx%d", w, h, img.width, img.height);
+            rd_fuzz_fail("rd_grade_load_png: %dx%d, rd_png_decode %dx%d", w, h, img.width, img.height);
         for (size_t i = 0; i < (size_t)w * (size_t)h * 3; i++) {
             unsigned want = img.maxval == 255 ? img.rgb[i] : (img.rgb[i] * 255u + 32767u) / 65535u;
             if (rgb8[i] != want)
-                fail("sample %zu: %u from rd_grade_load_png, %u from rd_png_decode", i, rgb8[i], want);
+                rd_fuzz_fail("sample %zu: %u from rd_grade_load_png, %u from rd_png_decode", i, rgb8[i], want);
         }
     } else {
         check_error("rd_grade_load_png", rc8, &err8);
         if (rgb8)
-            fail("rd_grade_load_png failed (%s) but left pixels", err8.message);
+            rd_fuzz_fail("rd_grade_load_png failed (%s) but left pixels", err8.message);
     }
     free(rgb8);
     free(img.rgb);
@@ -191,7 +181,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         if (save) {
             FILE *f = fopen(save, "wb");
             if (!f || fwrite(copy, 1, size, f) != size || fclose(f) != 0)
-                fail("cannot write %s", save);
+                rd_fuzz_fail("cannot write %s", save);
         }
         decode(copy, size);
     }
