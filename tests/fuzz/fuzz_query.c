@@ -10,8 +10,9 @@
  * included, so escapes and separators are the fuzzer's to choose; only the
  * bytes a request line cannot hold (controls, space, '#' and bytes from
  * 0x7f up) are percent-encoded. The server's own limits keep renders cheap
- * whatever the parameters ask: 64x64 pixels, 16 samples, one render thread
- * and a 4-second job timeout. */
+ * whatever the parameters ask (16x16 pixels, 4 samples, one render thread,
+ * a 4-second job timeout): what is fuzzed is reading the parameters, and
+ * a render of the largest allowed size costs less than the request. */
 #include <stddef.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -39,8 +40,8 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
     o.jobs.workers = 1;
     o.jobs.job_timeout_ms = 4000;
     o.jobs.result_memory = 16u << 20;
-    o.limits.max_pixels = 64 * 64;
-    o.limits.max_samples = 16;
+    o.limits.max_pixels = 16 * 16;
+    o.limits.max_samples = 4;
     o.limits.max_depth = 8;
     rd_fuzz_server_start(&o);
     return 0;
