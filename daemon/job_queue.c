@@ -638,13 +638,21 @@ static int admit(rd_jq *q, const rd_jq_job *j, size_t *held_back)
 /* What a free worker does next: a cancelled job to end, a new job to
  * prepare, a prepared one to start, or the next tile by fair share.
  * Under q->mu. */
-static rd_jq_job *pick(rd_jq *q)
+static rd_jq_job *pick(rd_jq *q, int preparer)
 {
     rd_jq_job *tile_job = NULL;
     size_t held_back = 0;
     for (rd_jq_job *j = q->active_head; j; j = j->next_active) {
         if (busy(j))
             continue;
+        if (preparer) {
+            /* Work that renders nothing: a new job's preparation, a cancelled
+             * job's end, a grade whose reference was cached. */
+            if ((j->ph == PH_NEW && !j->cancel) || (j->cancel && j->inflight == 0) ||
+                (j->ph == PH_WAITING && !j->render && !j->cancel))
+                return j;
+            continue;
+        }
         if (j->cancel) {
             if (j->inflight == 0)
                 return j;
@@ -663,12 +671,14 @@ static rd_jq_job *pick(rd_jq *q)
     return tile_job;
 }
 
-static void *worker(void *arg)
+/* A render thread, or with preparer set the one thread that only prepares
+ * and finishes jobs that render nothing, so that reading a new scene (and
+ * answering 400 or 202) never waits for a tile that may take seconds. */
+static void work(rd_jq *q, int preparer)
 {
-    rd_jq *q = arg;
     pthread_mutex_lock(&q->mu);
     while (!q->stopping) {
-        rd_jq_job *j = pick(q);
+        rd_jq_job *j = pick(q, preparer);
         if (!j) {
             pthread_cond_wait(&q->work_cv, &q->mu);
             continue;
@@ -687,6 +697,17 @@ static void *worker(void *arg)
         unref_locked(j);
     }
     pthread_mutex_unlock(&q->mu);
+}
+
+static void *worker(void *arg)
+{
+    work(arg, 0);
+    return NULL;
+}
+
+static void *preparer(void *arg)
+{
+    work(arg, 1);
     return NULL;
 }
 
@@ -708,18 +729,18 @@ rd_jq *rd_jq_start(const rd_jq_options *opt, rd_error *err)
     pthread_cond_init(&q->watch_cv, NULL);
     if (getrandom(&q->key, sizeof q->key, 0) != (ssize_t)sizeof q->key)
         q->key = (uint64_t)now_ms() * 0x2545f4914f6cdd1dULL;
-    q->threads = calloc((size_t)q->opt.workers, sizeof *q->threads);
+    q->threads = calloc((size_t)q->opt.workers + 1, sizeof *q->threads);
     if (!q->threads) {
         free(q);
         rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
         return NULL;
     }
-    for (int i = 0; i < q->opt.workers; i++) {
-        if (pthread_create(&q->threads[i], NULL, worker, q) != 0)
+    for (int i = 0; i <= q->opt.workers; i++) {
+        if (pthread_create(&q->threads[i], NULL, i < q->opt.workers ? worker : preparer, q) != 0)
             break;
         q->nthreads++;
     }
-    q->has_watchdog = q->nthreads > 0 && pthread_create(&q->watchdog, NULL, watchdog, q) == 0;
+    q->has_watchdog = q->nthreads == q->opt.workers + 1 && pthread_create(&q->watchdog, NULL, watchdog, q) == 0;
     if (!q->has_watchdog) {
         rd_jq_stop(q);
         rd_error_set(err, RD_ERR_NOMEM, 0, 0, "cannot start render threads");

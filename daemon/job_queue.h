@@ -1,11 +1,13 @@
 /* The daemon's render jobs: one bounded queue feeding one pool of render
  * threads. Everything slow about a job runs on those threads, never on the
  * caller's: preparing it (parsing, loading assets, decoding uploads),
- * rendering it in tiles, and finishing it (encoding, grading). A free worker
- * prepares the oldest new job first, then admits the oldest prepared job
+ * rendering it in tiles, and finishing it (encoding, grading). One thread
+ * only prepares new jobs (so a scene is read, and a bad one refused, even
+ * while every render thread is inside a long tile); a free render thread
+ * prepares the oldest new job too, then admits the oldest prepared job
  * whose memory fits the budget, then takes the next tile of the job that has
- * been given the fewest (fair share), so a small job never waits behind a
- * large one. Finished jobs keep their PNG for GET /v1/jobs/{id}/image until
+ * been given the fewest (fair share), so a small job waits at most for the
+ * tiles in progress. Finished jobs keep their PNG for GET /v1/jobs/{id}/image until
  * their TTL or the result memory limit evicts them.
  *
  * Stopping is bounded: cancel, DELETE, a client's hang-up and the job
