@@ -23,15 +23,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 int LLVMFuzzerInitialize(int *argc, char ***argv)
 {
     (void)argc, (void)argv;
-    /* rayd serve's defaults, from the repository root: scenes/ and
-     * scenes/assignments/. */
-    rd_server_options o = rd_server_options_default();
-    o.jobs.workers = 1;
-    o.jobs.job_timeout_ms = 4000;
-    o.jobs.result_memory = 16u << 20;
+    rd_server_options o = rd_fuzz_server_options();
     o.limits.max_pixels = 320 * 240;
-    o.limits.max_samples = 4;
-    o.limits.max_depth = 8;
     o.limits.max_objects = 2000;
     o.limits.max_texture_pixels = 256 * 256;
     o.max_body_bytes = 1u << 20;

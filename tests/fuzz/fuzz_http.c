@@ -55,6 +55,17 @@ static void print_answers(void)
             requests, answers[2], answers[3], answers[4], answers[5], closed);
 }
 
+rd_server_options rd_fuzz_server_options(void)
+{
+    rd_server_options o = rd_server_options_default();
+    o.jobs.workers = 1;
+    o.jobs.job_timeout_ms = 4000;
+    o.jobs.result_memory = 16u << 20;
+    o.limits.max_samples = 4;
+    o.limits.max_depth = 8;
+    return o;
+}
+
 void rd_fuzz_server_start(const rd_server_options *o)
 {
     if (server)

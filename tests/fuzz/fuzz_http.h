@@ -29,6 +29,11 @@
 
 /* Starts the server (once per process) on 127.0.0.1 and a free port,
  * whatever o says, and aborts when it cannot. */
+/* rayd serve's defaults (scenes/ and scenes/assignments/ from the
+ * repository root) made cheap for fuzzing: one render thread, a 4 s job
+ * timeout, 16 MiB of results, 4 samples, depth 8. */
+rd_server_options rd_fuzz_server_options(void);
+
 void rd_fuzz_server_start(const rd_server_options *o);
 
 /* One request on a new connection: method and target ("/v1/grade"), a

@@ -34,15 +34,8 @@ static const char scene[] = "[render]\nwidth = 8\nheight = 8\nbackground = 0.05 
 int LLVMFuzzerInitialize(int *argc, char ***argv)
 {
     (void)argc, (void)argv;
-    /* rayd serve's defaults, from the repository root: scenes/ and
-     * scenes/assignments/. */
-    rd_server_options o = rd_server_options_default();
-    o.jobs.workers = 1;
-    o.jobs.job_timeout_ms = 4000;
-    o.jobs.result_memory = 16u << 20;
+    rd_server_options o = rd_fuzz_server_options();
     o.limits.max_pixels = 16 * 16;
-    o.limits.max_samples = 4;
-    o.limits.max_depth = 8;
     rd_fuzz_server_start(&o);
     return 0;
 }
