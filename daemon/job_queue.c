@@ -5,6 +5,7 @@
 #include <poll.h>
 #include <pthread.h>
 #include <stdatomic.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -24,6 +25,20 @@ enum { TILE_PENDING, TILE_RENDERING, TILE_DONE };
  * -ING is owned by one worker outside the lock, and nobody else touches the
  * job's render state then. */
 typedef enum { PH_NEW, PH_PREPARING, PH_WAITING, PH_STARTING, PH_RUNNING, PH_FINISHING, PH_ENDED } phase;
+
+/* The registry keeps every list it sweeps in the order jobs entered it and
+ * finds jobs by id through a hash table, so that submitting, finishing and
+ * looking up cost the same with 4 kept jobs as with --max-jobs-kept. */
+typedef struct jq_list jq_list;
+typedef struct {
+    rd_jq_job *prev, *next;
+    jq_list *list; /* NULL when not in one */
+} jq_link;
+struct jq_list {
+    rd_jq_job *head, *tail;
+    size_t n;
+    size_t link_offset; /* of the jq_link inside rd_jq_job */
+};
 
 struct rd_jq_job {
     rd_jq *q;
@@ -69,7 +84,9 @@ struct rd_jq_job {
     int sync;                   /* a waiting client takes the PNG: limits do not evict it */
     int was_sync;
     int width, height;
-    rd_jq_job *next_active, *next_all;
+    uint64_t idnum;             /* the id's value: its hash-table key */
+    rd_jq_job *next_active, *next_hash;
+    jq_link in_all, in_kept, in_results;
 };
 
 struct rd_jq {
@@ -80,8 +97,12 @@ struct rd_jq {
     int nthreads, has_watchdog;
     int stopping;
     rd_jq_job *active_head, *active_tail;
-    rd_jq_job *all;
-    size_t active_count, running_count, kept, result_bytes, reserved;
+    jq_list all;          /* registered jobs, oldest first */
+    jq_list kept[2];      /* finished and evictable, by was_sync, oldest first */
+    jq_list results;      /* asynchronous results holding a PNG, oldest first */
+    rd_jq_job **by_id;    /* registered jobs by idnum, chained */
+    size_t nby_id;        /* a power of two */
+    size_t active_count, running_count, result_bytes, reserved;
     atomic_llong external;
     uint64_t counter, key;
     uint64_t n_done, n_failed, n_cancelled, rays, render_count;
@@ -175,73 +196,138 @@ static void remove_active(rd_jq *q, rd_jq_job *j)
     }
 }
 
-static void drop_registered(rd_jq *q, rd_jq_job **pp)
+static jq_link *link_of(const jq_list *l, rd_jq_job *j) { return (jq_link *)((char *)j + l->link_offset); }
+
+static void list_init(jq_list *l, size_t link_offset)
 {
-    rd_jq_job *j = *pp;
-    *pp = j->next_all;
-    j->registered = 0;
-    q->kept--;
+    memset(l, 0, sizeof *l);
+    l->link_offset = link_offset;
+}
+
+static void list_push(jq_list *l, rd_jq_job *j)
+{
+    jq_link *k = link_of(l, j);
+    if (k->list)
+        return;
+    k->list = l;
+    k->prev = l->tail;
+    k->next = NULL;
+    if (l->tail)
+        link_of(l, l->tail)->next = j;
+    else
+        l->head = j;
+    l->tail = j;
+    l->n++;
+}
+
+static void list_remove(jq_list *l, rd_jq_job *j)
+{
+    jq_link *k = link_of(l, j);
+    if (k->list != l)
+        return;
+    if (k->prev)
+        link_of(l, k->prev)->next = k->next;
+    else
+        l->head = k->next;
+    if (k->next)
+        link_of(l, k->next)->prev = k->prev;
+    else
+        l->tail = k->prev;
+    k->list = NULL;
+    l->n--;
+}
+
+static rd_jq_job **bucket(rd_jq *q, uint64_t idnum) { return &q->by_id[idnum & (q->nby_id - 1)]; }
+
+/* Doubles the table once it holds more jobs than buckets; when that
+ * allocation fails the chains just grow longer. Under q->mu. */
+static void grow_buckets(rd_jq *q)
+{
+    if (q->all.n <= q->nby_id)
+        return;
+    rd_jq_job **fresh = calloc(q->nby_id * 2, sizeof *fresh);
+    if (!fresh)
+        return;
+    rd_jq_job **old = q->by_id;
+    size_t nold = q->nby_id;
+    q->by_id = fresh;
+    q->nby_id = nold * 2;
+    for (size_t b = 0; b < nold; b++)
+        for (rd_jq_job *j = old[b], *next; j; j = next) {
+            next = j->next_hash;
+            rd_jq_job **head = bucket(q, j->idnum);
+            j->next_hash = *head;
+            *head = j;
+        }
+    free(old);
+}
+
+static void register_locked(rd_jq *q, rd_jq_job *j)
+{
+    j->registered = 1;
+    list_push(&q->all, j);
+    rd_jq_job **head = bucket(q, j->idnum);
+    j->next_hash = *head;
+    *head = j;
+    grow_buckets(q);
+}
+
+static void drop_result(rd_jq *q, rd_jq_job *j)
+{
+    list_remove(&q->results, j);
     if (j->png) {
         q->result_bytes -= j->png_len;
         free(j->png);
         j->png = NULL;
     }
+}
+
+static void drop_registered(rd_jq *q, rd_jq_job *j)
+{
+    rd_jq_job **pp = bucket(q, j->idnum);
+    while (*pp != j)
+        pp = &(*pp)->next_hash;
+    *pp = j->next_hash;
+    list_remove(&q->all, j);
+    list_remove(&q->kept[0], j);
+    list_remove(&q->kept[1], j);
+    j->registered = 0;
+    drop_result(q, j);
     unref_locked(j);
 }
 
 static int finished(const rd_jq_job *j) { return !j->active && j->t_end > 0; }
 
-/* Removes finished jobs of one kind (answered synchronous ones, or the
- * rest) past the newest `keep` of that kind. The list is newest first.
- * Under q->mu. */
-static void keep_newest(rd_jq *q, int sync_kind, size_t keep)
+/* A finished registered job becomes evictable once no waiting client
+ * still has to take its PNG; its result becomes evictable once it is no
+ * synchronous client's. Called when either may have changed. Under q->mu. */
+static void make_evictable(rd_jq *q, rd_jq_job *j)
 {
-    size_t seen = 0;
-    for (rd_jq_job **pp = &q->all; *pp;) {
-        rd_jq_job *j = *pp;
-        if (finished(j) && j->was_sync == sync_kind && !(j->sync && j->png) && ++seen > keep)
-            drop_registered(q, pp);
-        else
-            pp = &j->next_all;
-    }
+    if (!j->registered || !finished(j))
+        return;
+    if (!(j->sync && j->png))
+        list_push(&q->kept[j->was_sync ? 1 : 0], j);
+    if (j->png && !j->sync)
+        list_push(&q->results, j);
 }
 
 /* Drops finished jobs past their TTL, then the oldest past --max-jobs-kept
  * (answered synchronous renders before asynchronous results, which a
  * client may still come for), then the oldest results while over the
- * result memory. Under q->mu. */
+ * result memory. The lists are oldest first by the time a job became
+ * evictable, which is its end but for a synchronous client slow to take
+ * its PNG: such a job may hold back an older one's TTL by that delay.
+ * Under q->mu. */
 static void sweep(rd_jq *q)
 {
     double now = now_ms();
-    size_t n_sync = 0, n_async = 0;
-    for (rd_jq_job **pp = &q->all; *pp;) {
-        rd_jq_job *j = *pp;
-        if (finished(j) && !(j->sync && j->png) && now - j->t_end > q->opt.result_ttl_ms) {
-            drop_registered(q, pp);
-            continue;
-        }
-        if (finished(j))
-            *(j->was_sync ? &n_sync : &n_async) += 1;
-        pp = &j->next_all;
-    }
-    if (n_sync + n_async > q->opt.kept_max) {
-        size_t excess = n_sync + n_async - q->opt.kept_max;
-        size_t from_sync = excess < n_sync ? excess : n_sync;
-        keep_newest(q, 1, n_sync - from_sync);
-        if (excess > from_sync)
-            keep_newest(q, 0, n_async - (excess - from_sync));
-    }
-    while (q->result_bytes > q->opt.result_memory) {
-        rd_jq_job *oldest = NULL;
-        for (rd_jq_job *j = q->all; j; j = j->next_all)
-            if (j->png && !j->sync && (!oldest || j->t_end < oldest->t_end))
-                oldest = j;
-        if (!oldest)
-            break;
-        q->result_bytes -= oldest->png_len;
-        free(oldest->png);
-        oldest->png = NULL;
-    }
+    for (int k = 0; k < 2; k++)
+        while (q->kept[k].head && now - q->kept[k].head->t_end > q->opt.result_ttl_ms)
+            drop_registered(q, q->kept[k].head);
+    while (q->kept[0].n + q->kept[1].n > q->opt.kept_max)
+        drop_registered(q, q->kept[1].head ? q->kept[1].head : q->kept[0].head);
+    while (q->result_bytes > q->opt.result_memory && q->results.head)
+        drop_result(q, q->results.head);
 }
 
 /* The outcome counters of /metrics. Under q->mu. */
@@ -290,6 +376,7 @@ static void finish_locked(rd_jq *q, rd_jq_job *j, rd_job_status st)
     j->watch_fd = -1;
     if (j->png)
         q->result_bytes += j->png_len;
+    make_evictable(q, j);
     sweep(q);
     pthread_cond_broadcast(&q->idle_cv);
     pthread_cond_broadcast(&q->work_cv); /* memory came free */
@@ -723,6 +810,17 @@ rd_jq *rd_jq_start(const rd_jq_options *opt, rd_error *err)
         q->opt.workers = 1;
     if (q->opt.kept_max < 1)
         q->opt.kept_max = 1;
+    list_init(&q->all, offsetof(rd_jq_job, in_all));
+    list_init(&q->kept[0], offsetof(rd_jq_job, in_kept));
+    list_init(&q->kept[1], offsetof(rd_jq_job, in_kept));
+    list_init(&q->results, offsetof(rd_jq_job, in_results));
+    q->nby_id = 64;
+    q->by_id = calloc(q->nby_id, sizeof *q->by_id);
+    if (!q->by_id) {
+        free(q);
+        rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+        return NULL;
+    }
     pthread_mutex_init(&q->mu, NULL);
     pthread_cond_init(&q->work_cv, NULL);
     pthread_cond_init(&q->idle_cv, NULL);
@@ -770,12 +868,10 @@ void rd_jq_stop(rd_jq *q)
         finish_locked(q, j, RD_JOB_CANCELLED);
         notify_locked(q, j);
     }
-    while (q->all) {
-        rd_jq_job *j = q->all;
-        q->all = j->next_all;
-        unref_locked(j);
-    }
+    while (q->all.head)
+        drop_registered(q, q->all.head);
     pthread_mutex_unlock(&q->mu);
+    free(q->by_id);
     free(q->threads);
     pthread_mutex_destroy(&q->mu);
     pthread_cond_destroy(&q->work_cv);
@@ -821,7 +917,8 @@ rd_error_code rd_jq_submit(rd_jq *q, const rd_jq_task *task, const rd_jq_submit_
         return rd_error_set(err, RD_ERR_BUSY, 0, 0, "the render queue is full (%zu jobs, --queue)",
                             q->opt.queue_length);
     }
-    snprintf(j->id, sizeof j->id, "%016llx", (unsigned long long)mix(q->key ^ ++q->counter));
+    j->idnum = mix(q->key ^ ++q->counter);
+    snprintf(j->id, sizeof j->id, "%016llx", (unsigned long long)j->idnum);
     j->refs = j->internal ? 1 : 2; /* the registry's and the caller's */
     j->status = RD_JOB_QUEUED;
     j->ph = PH_NEW;
@@ -833,12 +930,8 @@ rd_error_code rd_jq_submit(rd_jq *q, const rd_jq_task *task, const rd_jq_submit_
         q->active_head = j;
     q->active_tail = j;
     q->active_count++;
-    if (!j->internal) {
-        j->registered = 1;
-        j->next_all = q->all;
-        q->all = j;
-        q->kept++;
-    }
+    if (!j->internal)
+        register_locked(q, j);
     pthread_cond_broadcast(&q->work_cv);
     pthread_mutex_unlock(&q->mu);
     *out = j;
@@ -885,7 +978,9 @@ rd_jq_job *rd_jq_find(rd_jq *q, const char *id)
     pthread_mutex_lock(&q->mu);
     sweep(q);
     rd_jq_job *found = NULL;
-    for (rd_jq_job *j = q->all; j; j = j->next_all)
+    char *end;
+    uint64_t idnum = strtoull(id, &end, 16);
+    for (rd_jq_job *j = *bucket(q, idnum); j && *end == 0; j = j->next_hash)
         if (strcmp(j->id, id) == 0) {
             found = j;
             j->refs++;
@@ -902,6 +997,7 @@ void rd_jq_detach(rd_jq *q, rd_jq_job *j)
     j->user = NULL;
     j->watch_fd = -1;
     j->sync = 0;
+    make_evictable(q, j);
     pthread_mutex_unlock(&q->mu);
 }
 
@@ -1002,12 +1098,9 @@ rd_error_code rd_jq_png(rd_jq *q, rd_jq_job *j, int partial, unsigned char **png
 void rd_jq_release_png(rd_jq *q, rd_jq_job *j)
 {
     pthread_mutex_lock(&q->mu);
-    if (j->png) {
-        q->result_bytes -= j->png_len;
-        free(j->png);
-        j->png = NULL;
-    }
+    drop_result(q, j);
     j->sync = 0;
+    make_evictable(q, j);
     pthread_mutex_unlock(&q->mu);
 }
 
@@ -1037,7 +1130,7 @@ void rd_jq_metrics_get(rd_jq *q, rd_jq_metrics *m)
     m->render_count = q->render_count;
     memcpy(m->render_seconds_bucket, q->buckets, sizeof q->buckets);
     m->result_bytes = q->result_bytes;
-    m->jobs_kept = q->kept;
+    m->jobs_kept = q->all.n;
     m->memory_budget = q->opt.memory_budget;
     m->memory_reserved = q->reserved;
     long long ext = atomic_load(&q->external);

@@ -4,6 +4,8 @@
  * orders of magnitude to spare. */
 #include <criterion/criterion.h>
 #include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
@@ -103,6 +105,80 @@ Test(job_queue, eviction_drops_the_oldest_finished)
     rd_jq_metrics m;
     rd_jq_metrics_get(q, &m);
     cr_assert_eq(m.jobs_kept, 3);
+    rd_jq_stop(q);
+}
+
+/* Past the id table's first 64 slots and its growth: the newest kept_max
+ * stay findable by id, the older ones and ids that are not ours are not. */
+Test(job_queue, many_jobs_keep_exactly_the_newest)
+{
+    enum { N = 300, KEEP = 100 };
+    rd_jq_options o = options();
+    o.kept_max = KEEP;
+    rd_error err;
+    rd_jq *q = rd_jq_start(&o, &err);
+    cr_assert_not_null(q);
+    static char ids[N][24];
+    for (int i = 0; i < N; i++) {
+        rd_jq_job *j = submit(q, small_scene, NULL, RD_OK);
+        wait_status(q, j, RD_JOB_DONE, 10000);
+        rd_jq_info in;
+        rd_jq_info_get(q, j, &in);
+        memcpy(ids[i], in.id, sizeof ids[i]);
+        rd_jq_job_unref(j);
+    }
+    for (int i = 0; i < N; i++) {
+        rd_jq_job *f = rd_jq_find(q, ids[i]);
+        cr_assert_eq(f != NULL, i >= N - KEEP, "job %d of %d: %s", i, N, f ? "kept" : "dropped");
+        if (f)
+            rd_jq_job_unref(f);
+    }
+    char other[40];
+    snprintf(other, sizeof other, "%sx", ids[N - 1]);
+    cr_assert_null(rd_jq_find(q, other), "an id with a character more was found");
+    cr_assert_null(rd_jq_find(q, ids[N - 1] + 1), "an id with a character less was found");
+    cr_assert_null(rd_jq_find(q, ""), "the empty id was found");
+    rd_jq_metrics m;
+    rd_jq_metrics_get(q, &m);
+    cr_assert_eq(m.jobs_kept, KEEP);
+    rd_jq_stop(q);
+}
+
+/* Over the result memory the oldest images go first, and their jobs stay
+ * readable with a status that says so. */
+Test(job_queue, result_memory_drops_the_oldest_images)
+{
+    rd_jq_options o = options();
+    rd_error err;
+    rd_jq *q = rd_jq_start(&o, &err);
+    cr_assert_not_null(q);
+    rd_jq_job *first = submit(q, small_scene, NULL, RD_OK);
+    wait_status(q, first, RD_JOB_DONE, 10000);
+    unsigned char *png;
+    size_t len;
+    cr_assert_eq(rd_jq_png(q, first, 0, &png, &len, &err), RD_OK, "%s", err.message);
+    free(png);
+    rd_jq_stop(q);
+
+    /* Room for two images of that size, not three. */
+    o.result_memory = len * 5 / 2;
+    q = rd_jq_start(&o, &err);
+    cr_assert_not_null(q);
+    rd_jq_job *jobs[5];
+    for (int i = 0; i < 5; i++) {
+        jobs[i] = submit(q, small_scene, NULL, RD_OK);
+        wait_status(q, jobs[i], RD_JOB_DONE, 10000);
+    }
+    for (int i = 0; i < 5; i++) {
+        rd_error_code rc = rd_jq_png(q, jobs[i], 0, &png, &len, &err);
+        cr_assert_eq(rc == RD_OK, i >= 3, "image %d of 5: %s", i, rc == RD_OK ? "kept" : err.message);
+        if (rc == RD_OK)
+            free(png);
+        else
+            cr_assert(strstr(err.message, "--result-memory"), "%s", err.message);
+        cr_assert_eq(status_of(q, jobs[i]), RD_JOB_DONE);
+        rd_jq_job_unref(jobs[i]);
+    }
     rd_jq_stop(q);
 }
 
