@@ -19,24 +19,47 @@ LDFLAGS  := $(SANFLAGS)
 endif
 # The renderer's identity for cached grading references: any change to
 # core/ makes new references.
-CORE_HASH := $(shell cat core/*.c core/*.h 2>/dev/null | sha1sum | cut -c1-12)
-CPPFLAGS := -Icore -Iapi -Idaemon -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L
+CORE_FILES := $(sort $(shell find core -name '*.[ch]'))
+CORE_HASH := $(shell cat $(CORE_FILES) 2>/dev/null | sha1sum | cut -c1-12)
+CPPFLAGS := -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L
 CFLAGS   := -std=c11 -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -g $(OPT) -MMD -MP
 PKG_CFLAGS = $(shell pkg-config --cflags $(PKGS))
 PKG_LIBS   = $(shell pkg-config --libs $(PKGS)) -lm -lpthread
 
-CORE_SRC   := $(wildcard core/*.c)
-API_SRC    := $(wildcard api/*.c)
-DAEMON_SRC := $(wildcard daemon/*.c)
-TEST_SRC   := $(wildcard tests/*.c tests/support/*.c) tests/stability/cases.c
+# What each folder may include (the README's map): its own headers, the
+# public core/include/rayd/ ones and those of the folders below it. A
+# folder's include path is exactly that, so an upward include does not
+# compile.
+INC_core_base     := -Icore/include
+INC_core_geometry := $(INC_core_base) -Icore/geometry
+INC_core_shading  := $(INC_core_geometry) -Icore/shading
+INC_core_render   := $(INC_core_shading) -Icore/render
+INC_api_util      := -Icore/include -Iapi/util
+INC_api_image     := $(INC_api_util) -Iapi/image
+INC_api_scene     := $(INC_api_util) -Iapi/scene
+INC_api_assets    := $(INC_api_scene) -Iapi/image -Iapi/assets
+INC_api_grading   := $(INC_api_assets) -Iapi/grading
+INC_daemon_jobs   := $(INC_api_grading) -Idaemon/jobs
+INC_daemon_http   := $(INC_daemon_jobs) -Idaemon/http
+INC_daemon_cli    := $(INC_daemon_http) -Idaemon/cli
+INC_daemon        := $(INC_daemon_cli)
+# Tests are white-box: every folder, and tests/ for support/ and oracles/.
+INC_ALL           := $(INC_core_render) $(filter-out -Icore/include,$(INC_daemon)) -Itests
+inc_for = $(if $(filter tests/% bench/%,$1),$(INC_ALL),$(INC_$(subst /,_,$(patsubst %/,%,$(dir $1)))))
+
+CORE_SRC   := $(sort $(wildcard core/*/*.c))
+API_SRC    := $(sort $(wildcard api/*/*.c))
+DAEMON_SRC := $(sort $(wildcard daemon/*.c daemon/*/*.c))
+TEST_SRC   := $(sort $(wildcard tests/unit/*/*.c tests/integration/*.c tests/calibration/*.c tests/oracles/*.c \
+                  tests/support/*.c tests/stability/test_stability.c)) tests/stability/cases.c
 
 LIB_OBJ    := $(patsubst %.c,$(BUILD)/%.o,$(CORE_SRC) $(API_SRC))
 DAEMON_OBJ := $(patsubst %.c,$(BUILD)/%.o,$(DAEMON_SRC)) $(BUILD)/gen/web_page.o
 TEST_OBJ   := $(patsubst %.c,$(BUILD)/%.o,$(TEST_SRC))
-# The CLI's objects without main(), so tests can drive subcommands.
-CLI_OBJ    := $(filter-out $(BUILD)/daemon/main.o,$(DAEMON_OBJ))
+# The job queue's objects: tests/unit/daemon drives it without HTTP.
+JOBS_OBJ   := $(patsubst %.c,$(BUILD)/%.o,$(wildcard daemon/jobs/*.c))
 
-.PHONY: all deps test check run bench clean scenes fuzz stability tsan fault
+.PHONY: all deps test check run bench clean scenes fuzz stability tsan fault print-includes
 
 # Large inputs are generated, not kept in git.
 GENERATED := scenes/generated/knot.obj
@@ -56,18 +79,18 @@ deps:
 $(BUILD)/%.o: %.c
 	@mkdir -p $(dir $@)
 	@echo "  CC  $<  ($(CC)$(if $(SAN), +sanitizers))"
-	@$(CC) $(CPPFLAGS) $(PKG_CFLAGS) $(CFLAGS) -c $< -o $@
+	@$(CC) $(CPPFLAGS) $(call inc_for,$<) $(PKG_CFLAGS) $(CFLAGS) -c $< -o $@
 
 # The web page is served from the binary: no files, no CDN.
-$(BUILD)/gen/web_page.c: daemon/web/index.html daemon/web/embed.py
+$(BUILD)/gen/web_page.c: daemon/http/web/index.html daemon/http/web/embed.py
 	@mkdir -p $(dir $@)
-	@/usr/bin/python3 daemon/web/embed.py $< rd_web_index_html > $@
+	@/usr/bin/python3 daemon/http/web/embed.py $< rd_web_index_html > $@
 
 $(BUILD)/gen/web_page.o: $(BUILD)/gen/web_page.c
 	@$(CC) $(CFLAGS) -c $< -o $@
 
-$(BUILD)/api/reference.o: CPPFLAGS += -DRD_CORE_HASH=\"$(CORE_HASH)\"
-$(BUILD)/api/reference.o: $(CORE_SRC) $(wildcard core/*.h)
+$(BUILD)/api/grading/reference.o: CPPFLAGS += -DRD_CORE_HASH=\"$(CORE_HASH)\"
+$(BUILD)/api/grading/reference.o: $(CORE_FILES)
 
 $(BUILD)/librayd.a: $(LIB_OBJ)
 	@rm -f $@
@@ -77,16 +100,16 @@ $(BUILD)/rayd: $(DAEMON_OBJ) $(BUILD)/librayd.a
 	@echo "  LD  $@"
 	@$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(BUILD)/librayd.a $(PKG_LIBS)
 
-$(BUILD)/unit-tests: $(TEST_OBJ) $(CLI_OBJ) $(BUILD)/librayd.a
+$(BUILD)/unit-tests: $(TEST_OBJ) $(JOBS_OBJ) $(BUILD)/librayd.a
 	@echo "  LD  $@"
-	@$(CC) $(LDFLAGS) -o $@ $(TEST_OBJ) $(CLI_OBJ) $(BUILD)/librayd.a $(PKG_LIBS) $(shell pkg-config --libs $(TESTPKG))
+	@$(CC) $(LDFLAGS) -o $@ $(TEST_OBJ) $(JOBS_OBJ) $(BUILD)/librayd.a $(PKG_LIBS) $(shell pkg-config --libs $(TESTPKG))
 
 # One build and run of the unit suite with the current CC/SAN/BUILD.
 check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
 	RAYD=$(BUILD)/rayd LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan.supp $(BUILD)/unit-tests --jobs 2
-	RAYD=$(BUILD)/rayd sh tests/cli_test.sh
-	RAYD=$(BUILD)/rayd sh tests/formats_test.sh
-	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/schema_test.py
+	RAYD=$(BUILD)/rayd sh tests/integration/cli_test.sh
+	RAYD=$(BUILD)/rayd sh tests/integration/formats_test.sh
+	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/schema_test.py
 
 # gcc plain, then clang with AddressSanitizer and UndefinedBehaviorSanitizer,
 # then the web page in headless Chromium, the fault test against the plain
@@ -120,7 +143,7 @@ FUZZ_SECONDS ?= 300
 # measured worst error, pass or fail, written to docs/stability.md.
 stability: deps
 	@$(MAKE) --no-print-directory $(BUILD)/librayd.a
-	@$(CC) $(CPPFLAGS) -Itests $(PKG_CFLAGS) -std=c11 -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -O2 \
+	@$(CC) $(CPPFLAGS) $(INC_ALL) $(PKG_CFLAGS) $(filter-out -O% -g -MMD -MP,$(CFLAGS)) -O2 \
 	    tests/stability/report.c tests/stability/cases.c $(BUILD)/librayd.a $(PKG_LIBS) -o $(BUILD)/stability-report
 	@$(BUILD)/stability-report --threads 2
 
@@ -135,6 +158,11 @@ run: all $(GENERATED)
 bench: all
 	@sh deploy/deps.sh bench
 	@sh bench/run.sh $(BUILD)/rayd
+
+# The include path of every folder at once, for builds outside this file
+# (tests/fuzz/run.sh).
+print-includes:
+	@echo $(INC_ALL)
 
 clean:
 	rm -rf build out scenes/generated

@@ -1,7 +1,7 @@
 /* bare_mhd.c: the HTTP ceiling of this machine, for bench/run.sh (BENCH_HTTP).
  *
  * A libmicrohttpd server started with the same flags as `rayd serve`
- * (daemon/http_server.c: internal polling thread, epoll, a thread pool of 2,
+ * (daemon/http/http_server.c: internal polling thread, epoll, a thread pool of 2,
  * suspend/resume allowed) that answers every request, whatever its method and
  * path, 200 with one fixed PNG read at start-up. A request body is read and
  * thrown away. No parsing, no queue, no rendering: what is left is the cost of
@@ -101,7 +101,7 @@ int main(int argc, char **argv)
     addr.sin_family = AF_INET;
     addr.sin_port = 0;
     addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    /* The flags of rayd's daemon/http_server.c. */
+    /* The flags of rayd's daemon/http/http_server.c. */
     unsigned flags = MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_EPOLL | MHD_ALLOW_SUSPEND_RESUME | MHD_USE_ERROR_LOG;
     struct MHD_Daemon *d = MHD_start_daemon(flags, 0, NULL, NULL, on_request, NULL, MHD_OPTION_SOCK_ADDR,
                                             (const struct sockaddr *)&addr, MHD_OPTION_THREAD_POOL_SIZE, threads,

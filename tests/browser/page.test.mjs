@@ -1,4 +1,4 @@
-// Browser test of the page rayd serves at GET / (daemon/web/index.html).
+// Browser test of the page rayd serves at GET / (daemon/http/web/index.html).
 //
 // Starts the real daemon (`$RAYD serve`, RAYD defaults to build/rayd) on a
 // free loopback port, renders the grading images with the CLI, and drives
@@ -561,7 +561,7 @@ test("(e) at phone width (375×740) the panels stack and nothing scrolls sideway
 });
 
 // ---- faults the page once had ---------------------------------------------
-// Each test below found a real fault of daemon/web/index.html; they now
+// Each test below found a real fault of daemon/http/web/index.html; they now
 // guard the fixes.
 
 test("(regression) before the first render the Image panel shows no empty image box", {

@@ -1,4 +1,4 @@
-/* libFuzzer target for the cfg reader (api/cfg_parse.c): scene text comes
+/* libFuzzer target for the cfg reader (api/scene/cfg_parse.c): scene text comes
  * from untrusted users through the CLI and the HTTP API, so any byte string
  * must give either a scene or an error, never a crash, hang or leak. A scene
  * that parses must also survive rd_scene_write_cfg/_json and back unchanged

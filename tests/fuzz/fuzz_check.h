@@ -10,8 +10,8 @@
 
 #include <stddef.h>
 
-#include "error.h"
-#include "scene.h"
+#include "rayd/error.h"
+#include "rayd/scene.h"
 #include "scene_limits.h"
 
 /* The first parse of fuzz input. -max_len in run.sh is 65536 too: a bigger

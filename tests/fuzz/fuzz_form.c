@@ -1,4 +1,4 @@
-/* libFuzzer target for POST /v1/grade (daemon/routes_grade.c): a student's
+/* libFuzzer target for POST /v1/grade (daemon/http/routes_grade.c): a student's
  * multipart form with an image and an assignment name or a scene, read by
  * libmicrohttpd's form parser and the daemon's field callback, then graded.
  * Each input is the body of one request with

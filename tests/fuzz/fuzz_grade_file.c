@@ -1,4 +1,4 @@
-/* libFuzzer target for the .grade reader (api/assignment.c): an
+/* libFuzzer target for the .grade reader (api/grading/assignment.c): an
  * assignment's thresholds and title, read whenever rayd grade or
  * POST /v1/grade names the assignment. Instructors write these files by
  * hand, so any bytes must give thresholds in range or an error with line

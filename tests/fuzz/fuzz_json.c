@@ -1,4 +1,4 @@
-/* libFuzzer target for the JSON reader (api/json_parse.c, on top of cJSON):
+/* libFuzzer target for the JSON reader (api/scene/json_parse.c, on top of cJSON):
  * scene text comes from untrusted users through the CLI and the HTTP API,
  * so any byte string must give either a scene or an error, never a crash,
  * hang or leak. A scene that parses must also survive

@@ -1,4 +1,4 @@
-/* libFuzzer target for the OBJ reader (api/obj_load.c). Meshes come with
+/* libFuzzer target for the OBJ reader (api/assets/obj_load.c). Meshes come with
  * uploaded scenes' folders and with the scenes folder of a daemon, so any
  * bytes must give a mesh or an error, never a crash, hang or leak.
  *

@@ -1,5 +1,5 @@
-/* libFuzzer target for the PNG reader (api/png_read.c) and the grade
- * upload decoder on top of it (rd_grade_load_png, api/grade.c). Students
+/* libFuzzer target for the PNG reader (api/image/png_read.c) and the grade
+ * upload decoder on top of it (rd_grade_load_png, api/grading/grade.c). Students
  * upload the PNGs that POST /v1/grade decodes, so any bytes must give an
  * image or an error, never a crash or a leak, and must cost what the pixel
  * limit allows, never what a chunk declares: run.sh runs this target with

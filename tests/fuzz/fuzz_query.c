@@ -1,5 +1,5 @@
 /* libFuzzer target for the query parameters of POST /v1/render
- * (daemon/routes_render.c): width, height, samples, max_depth, gamma, seed,
+ * (daemon/http/routes_render.c): width, height, samples, max_depth, gamma, seed,
  * time_budget_ms, target_error and adaptive, as libmicrohttpd splits and
  * unescapes them. Each input is the query string of one request
  * "/v1/render?INPUT" whose body is a fixed 8x8 scene, sent over TCP to the

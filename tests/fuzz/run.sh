@@ -65,7 +65,7 @@ for t in $TARGETS; do
 done
 
 # Paths below are relative to the repository root, as in the Makefile.
-if [ ! -f api/cfg_parse.h ] || [ ! -f tests/fuzz/fuzz_cfg.c ]; then
+if [ ! -f api/scene/cfg_parse.h ] || [ ! -f tests/fuzz/fuzz_cfg.c ]; then
     die "run me from the repository root: sh tests/fuzz/run.sh SECONDS"
 fi
 
@@ -86,7 +86,7 @@ if ! pkg-config --exists $PKGS 2>/dev/null; then
     pkg-config --exists $PKGS || die "pkg-config cannot find $PKGS"
 fi
 
-OUT=build/fuzz
+OUT=${FUZZ_OUT:-build/fuzz}
 OBJ=$OUT/obj
 LOGS=$OUT/logs
 mkdir -p "$OBJ" "$LOGS" || die "cannot create $OUT"
@@ -95,7 +95,10 @@ mkdir -p "$OBJ" "$LOGS" || die "cannot create $OUT"
 # stacks. The library is compiled with fuzzer-no-link: coverage
 # instrumentation without libFuzzer's main(), which only the targets link.
 # -fno-sanitize-recover=all turns UBSan reports into crashes libFuzzer saves.
-STD="-std=c11 -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L -Icore -Iapi -Idaemon -Wall -Wextra -Werror"
+# Every folder's include path at once, from the Makefile (the main build
+# checks the layering; this one only compiles).
+INCLUDES=$(make --no-print-directory -s print-includes) || die "make print-includes failed"
+STD="-std=c11 -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L $INCLUDES -Wall -Wextra -Werror"
 PKG_CFLAGS=$(pkg-config --cflags $PKGS)
 PKG_LIBS="$(pkg-config --libs $PKGS) -lm -lpthread"
 COMMON="$STD $PKG_CFLAGS -g -O1 -fno-omit-frame-pointer -fno-sanitize-recover=all"
@@ -110,8 +113,10 @@ printf '#include <stddef.h>\n#include <stdint.h>\nint LLVMFuzzerTestOneInput(con
     die "clang cannot link -fsanitize=fuzzer (is libclang-rt-14-dev installed?): $(head -n 3 "$probe.log")"
 
 # Objects are rebuilt when the flags change, their source changed, or any
-# header in core/ or api/ changed: coarser than real dependencies, but plain
-# sh and never stale.
+# header under core/ or api/ changed: coarser than real dependencies, but
+# plain sh and never stale.
+LIB_HEADERS=$(find core api -name '*.h')
+DAEMON_HEADERS=$(find daemon -name '*.h')
 stamp=$OBJ/flags
 if [ "$(cat "$stamp" 2>/dev/null)" != "$CC $LIB_FLAGS | $TGT_FLAGS" ]; then
     rm -rf "$OBJ"
@@ -119,7 +124,7 @@ if [ "$(cat "$stamp" 2>/dev/null)" != "$CC $LIB_FLAGS | $TGT_FLAGS" ]; then
     echo "$CC $LIB_FLAGS | $TGT_FLAGS" >"$stamp"
 fi
 stale() { # obj src [more headers...]
-    [ ! -f "$1" ] || [ -n "$(find "$2" core/*.h api/*.h ${3:-} -newer "$1" 2>/dev/null | head -n 1)" ]
+    [ ! -f "$1" ] || [ -n "$(find "$2" $LIB_HEADERS ${3:-} -newer "$1" 2>/dev/null | head -n 1)" ]
 }
 
 # Two compilers at a time: the machine has two cores.
@@ -141,7 +146,7 @@ compile() { # src obj flags...
 }
 
 LIB_OBJS=""
-for src in core/*.c api/*.c; do
+for src in $(find core api -name '*.c' | sort); do
     obj=$OBJ/${src%.c}.o
     LIB_OBJS="$LIB_OBJS $obj"
     if stale "$obj" "$src"; then
@@ -152,18 +157,18 @@ done
 # the Makefile does), only for the targets that start it.
 DAEMON_OBJS=""
 if [ "$need_daemon" -eq 1 ]; then
-    for src in daemon/*.c; do
+    for src in $(find daemon -name '*.c' | sort); do
         [ "$src" = daemon/main.c ] && continue
         obj=$OBJ/${src%.c}.o
         DAEMON_OBJS="$DAEMON_OBJS $obj"
-        if stale "$obj" "$src" "daemon/*.h"; then
+        if stale "$obj" "$src" "$DAEMON_HEADERS"; then
             compile "$src" "$obj" $LIB_FLAGS
         fi
     done
     page=$OBJ/gen/web_page.c
     mkdir -p "$OBJ/gen"
-    if [ ! -f "$page" ] || [ -n "$(find daemon/web/index.html daemon/web/embed.py -newer "$page" 2>/dev/null)" ]; then
-        if ! /usr/bin/python3 daemon/web/embed.py daemon/web/index.html rd_web_index_html >"$page.tmp" ||
+    if [ ! -f "$page" ] || [ -n "$(find daemon/http/web/index.html daemon/http/web/embed.py -newer "$page" 2>/dev/null)" ]; then
+        if ! /usr/bin/python3 daemon/http/web/embed.py daemon/http/web/index.html rd_web_index_html >"$page.tmp" ||
             ! mv "$page.tmp" "$page"; then
             die "could not generate $page"
         fi
@@ -174,7 +179,7 @@ if [ "$need_daemon" -eq 1 ]; then
 fi
 for src in tests/fuzz/*.c; do
     obj=$OBJ/${src%.c}.o
-    if stale "$obj" "$src" "tests/fuzz/*.h daemon/*.h"; then
+    if stale "$obj" "$src" "tests/fuzz/*.h $DAEMON_HEADERS"; then
         compile "$src" "$obj" $TGT_FLAGS
     fi
 done

@@ -31,11 +31,12 @@
 #include "fresnel.h"
 #include "light.h"
 #include "material.h"
-#include "render.h"
-#include "scene.h"
+#include "rayd/render.h"
+#include "rayd/scene.h"
 #include "scene_assets.h"
 #include "scene_limits.h"
 #include "scene_load.h"
+#include "file_io.h"
 
 const char *rd_stability_scene_dir = "scenes/extreme";
 int rd_stability_threads = 1;
@@ -2329,8 +2330,8 @@ const rd_case rd_cases[] = {
      "The same for 2^±60 to 2^±300, where squares of coordinates (spheres) and triple products (triangles) still stay "
      "within double range.",
      "differing bytes", 0, "as scale_pow2",
-     "Cause: a shadow ray's direction is the whole hit-to-light vector (core/trace.c:71), not a unit vector, and "
-     "rd_sphere_intersect forms a = d·d and disc = a·(r - |l|)·(r + |l|) (core/sphere.c:8, 13), which scale as "
+     "Cause: a shadow ray's direction is the whole hit-to-light vector (core/render/trace.c:71), not a unit vector, and "
+     "rd_sphere_intersect forms a = d·d and disc = a·(r - |l|)·(r + |l|) (core/geometry/sphere.c:8, 13), which scale as "
      "|d|²·r² = s⁴. At 2^-300 disc underflows to -0, which `!(disc >= 0)` lets through as a tangent hit, so rays that "
      "miss a sphere report one (false shadows); at 2^300 it overflows (shadows vanish). Camera rays are unit and keep "
      "working. Exact scale invariance therefore holds to about 2^±250 (measured: every k up to ±250 gives the same "
@@ -2404,7 +2405,7 @@ const rd_case rd_cases[] = {
      "Zero-area triangles are never hit and duplicated ones change nothing (same bytes without them, BVH and plain "
      "loop), and needles 1e-9 and 1e-12 wide render as in long double.",
      "differing bytes + mismatched pixels", 0, "exact: removal must not change a byte",
-     "Cause: rd_tri_intersect (core/triangle.c:37-44) decides inside/outside from the signs of U, V, W. When the ray "
+     "Cause: rd_tri_intersect (core/geometry/triangle.c:37-44) decides inside/outside from the signs of U, V, W. When the ray "
      "lies, up to rounding, in the plane of the triangle, the sheared 2D corners are collinear with the origin and "
      "U, V, W are pure rounding noise; the sign test (line 40) accepts U = W = 0, V > 0, and det = V != 0 passes "
      "line 43. The zero-area guard (line 60) only catches corners that are exactly collinear. So the sliver with "
@@ -2450,7 +2451,7 @@ const rd_case rd_cases[] = {
      "The Beckmann lobe of roughness 1e-5 down to 1e-8 (allowed: roughness is in (0, 1]) keeps its long-double shape "
      "to a relative 1e-6, as Phong's does at shininess 1e9.",
      "relative error", 1e-6, "as shininess_lobe",
-     "Cause: the Beckmann exponent is -(1 - nh²)/(nh²·m²) (core/material_cook_torrance.c:14), and 1 - nh² cancels "
+     "Cause: the Beckmann exponent is -(1 - nh²)/(nh²·m²) (core/shading/material_cook_torrance.c:14), and 1 - nh² cancels "
      "near the peak. Its absolute error of about ε becomes an exponent error of ε/m²: 2.2e-6 relative at roughness "
      "1e-5, 1.2e-4 at 1e-6, 2.3e-2 at 1e-7, and a factor e (1.72) at 1e-8. The format allows any roughness in (0, 1]. "
      "This is the cancellation that rd_pow_cos avoids for Phong. Fix (C): pass N and H to beckmann() and use "
@@ -2482,7 +2483,7 @@ const rd_case rd_cases[] = {
      "With unit vectors whose dot product rounds to 1 + 2^-52, every material, pow_cos, Fresnel and the spot factor "
      "give their value at cos = 1 (no NaN, nothing above it).",
      "relative error", 1e-15, "clamping to [0, 1]: a few ulps at most",
-     "Cause: rd_pow_cos takes log1p(-x) with x = |a - b|²/2 (core/pow_cos.c:13-16). That form is exact near the "
+     "Cause: rd_pow_cos takes log1p(-x) with x = |a - b|²/2 (core/shading/pow_cos.c:13-16). That form is exact near the "
      "peak (x -> 0), which is what it is for. Far from the peak, x -> 1 and 1 - x = cos is recovered with absolute "
      "error ε, i.e. relative ε/cos: 5e-9 at N·V = 1e-8 with n = 1. For a large n the error is n times that, on values "
      "that are already tiny. No image changes (the absolute error is about 5e-17), but the function is not accurate "
@@ -2493,7 +2494,7 @@ const rd_case rd_cases[] = {
      "A point light inside a closed sphere (at its centre, and 0.5, 1e-3, 1e-6 below its surface) lights nothing "
      "outside: the image equals the one without the light.",
      "lit pixels", 0, "exact: any lit pixel is light leaking through the shell",
-     "Cause: cos²θt = (1 - η²) + η²·cos²θi (core/fresnel.c:16) cancels to about 0 near the critical angle, with an "
+     "Cause: cos²θt = (1 - η²) + η²·cos²θi (core/shading/fresnel.c:16) cancels to about 0 near the critical angle, with an "
      "absolute rounding error of about ε. The square root turns that into sqrt(ε) = 1.5e-8 in cos θt, and "
      "∂F/∂cos θt of about 6-8 there gives |F - F_exact| up to 1.24e-7 for the double input. R + T = 1 holds to 5e-16 "
      "at the returned cos θt, and R = 1 exactly past the critical angle. So this is precision, not energy "
@@ -2504,7 +2505,7 @@ const rd_case rd_cases[] = {
      "A point light 1e-9 and 1e-10 below the inner surface of a closed sphere of radius 1 lights nothing outside.",
      "lit pixels", 0, "as light_inside_closed",
      "Cause: by design a shadow ray stops 2^-30 (9.3e-10) of its length short of a point light (SHADOW_END, "
-     "core/trace.c:13, 72), so that the surface holding a light (light_on_surface) does not shadow the points it "
+     "core/render/trace.c:13, 72), so that the surface holding a light (light_on_surface) does not shadow the points it "
      "faces. The same margin lets a light that is less than 2^-30·|segment| inside a closed object shine through "
      "the object's wall: at 1e-9 below the inner surface of a radius-1 sphere, 463 floor and ball pixels are lit "
      "(up to 120 levels), and at 1e-12, 791 pixels. The light sitting straight up, whose segments cross the shell "
@@ -2525,8 +2526,8 @@ const rd_case rd_cases[] = {
     {"light_far_extreme", "lights", "far_light.cfg",
      "The same for point lights 1e100 to 1e300 away (positions are any finite numbers).",
      "max level difference", 1, "as light_far_point",
-     "Cause: as in scale_pow2_wide. The shadow ray's direction is the hit-to-light vector (core/trace.c:71), and "
-     "rd_sphere_intersect squares it (a = d·d, core/sphere.c:8). Past |to_light| = 1.34e154, a is infinite, disc is "
+     "Cause: as in scale_pow2_wide. The shadow ray's direction is the hit-to-light vector (core/render/trace.c:71), and "
+     "rd_sphere_intersect squares it (a = d·d, core/geometry/sphere.c:8). Past |to_light| = 1.34e154, a is infinite, disc is "
      "±inf or NaN, and no sphere is ever hit, so spheres stop casting shadows. Measured: the same image as the "
      "directional light up to 9.4e152, and 34 pixels up to 152 levels too bright from 9.4e154 on. Planes and "
      "triangles are unaffected. Fix (A) of scale_pow2_wide (a power-of-two normalised shadow direction) fixes it: "
@@ -2539,10 +2540,10 @@ const rd_case rd_cases[] = {
      "Colours of ±1e308 and a mirror of ks 1e10 at depth 64 (all valid input) still give no NaN or infinite sample "
      "(shading.md: never, whatever the scene).",
      "non-finite samples", 0, "shading.md allows none",
-     "Cause: the radiance sums in rd_trace (core/trace.c:125 per light, :135 mirror, :151 glass) are unbounded. Two "
+     "Cause: the radiance sums in rd_trace (core/render/trace.c:125 per light, :135 mirror, :151 glass) are unbounded. Two "
      "lights of 1e308 sum to inf, Cook-Torrance's capped 1e200 times a colour of 1e308 is inf, a mirror of ks 1e10 "
      "after 64 bounces is inf, and a light of -1e308 then gives inf - inf = NaN. 1566 samples (every pixel of the "
-     "48x32 image and more) were non-finite. job.c's finite_or_zero (core/job.c:128) replaces them and counts them in "
+     "48x32 image and more) were non-finite. job.c's finite_or_zero (core/render/job.c:128) replaces them and counts them in "
      "stats.nonfinite, so the PNG is right, but shading.md promises no NaN or infinite value whatever the scene, and "
      "the scene format accepts these colours (any finite number). Fix (F): saturate each term and each sum to "
      "±1e300 in rd_trace (a clamp after the products at lines 125, 135 and 151 and after each addition). Display "
@@ -2581,7 +2582,7 @@ const rd_case rd_cases[] = {
      "the spec's exact formula makes the tree binary; pruning it would change graded images, so the bound is the "
      "tree itself and the time is bounded by the deadline checked inside deep recursion",
      "Cause: a specular_refraction hit that is not total internal reflection traces both the reflected and the "
-     "refracted ray (core/trace.c:141-150), so between several glass surfaces the ray tree is binary. Measured: 50.6 "
+     "refracted ray (core/render/trace.c:141-150), so between several glass surfaces the ray tree is binary. Measured: 50.6 "
      "secondary rays per camera ray at depth 8, 510 at depth 16 (x1.33 per level). At that rate depth 64, which the "
      "format allows (--max-depth defaults to 64), needs about 5e8 rays per camera ray: a small image of three glass "
      "planes keeps a daemon worker busy for days. Mirrors are linear (mirror_rays_linear). Fix (H), prototype: carry "

@@ -3,7 +3,7 @@
  * that renders, measures the worst error against that property and decides
  * pass or fail against a stated tolerance.
  *
- * Used by tests/test_stability.c (one Criterion test per case) and by
+ * Used by tests/stability/test_stability.c (one Criterion test per case) and by
  * tests/stability/report.c (`make stability`: writes docs/stability.md).
  * No main() and no Criterion here. Scene paths are relative to
  * rd_stability_scene_dir, "scenes/extreme" by default: run from the

@@ -1,6 +1,6 @@
 /* Driving a real `rayd serve` from a Criterion test: start it on a port it
  * picks, talk HTTP with libcurl, read its log, stop it by pid. See
- * tests/test_daemon.c for the conventions every daemon suite follows. */
+ * tests/integration/test_daemon.c for the conventions every daemon suite follows. */
 #ifndef RD_TEST_DAEMON_HARNESS_H
 #define RD_TEST_DAEMON_HARNESS_H
 

@@ -1,0 +1,34 @@
+/* Graded assignments: a folder (one per course) of NAME.cfg scenes, each
+ * with an optional NAME.grade file of thresholds and a title:
+ *
+ *     title = Phong: three spheres of rising shininess
+ *     fail = 3
+ *     fail_fraction = 0.001
+ *     hard_fail = 48
+ *     hard_fail_pixels = 16
+ *
+ * Keys left out keep the calibrated defaults (rd_grade_thresholds_default). */
+#ifndef RD_ASSIGNMENT_H
+#define RD_ASSIGNMENT_H
+
+#include <stddef.h>
+
+#include "rayd/error.h"
+#include "grade.h"
+
+typedef struct {
+    char name[64];
+    char title[160];
+    char scene_path[512];
+    rd_grade_thresholds thresholds;
+} rd_assignment;
+
+/* Loads assignment `name` (letters, digits, '_' and '-') from dir.
+ * RD_ERR_IO when there is no such assignment; RD_ERR_SYNTAX for a bad
+ * .grade file (with line and column). */
+rd_error_code rd_assignment_load(const char *dir, const char *name, rd_assignment *a, rd_error *err);
+
+/* Every assignment in dir, sorted by name; *list is malloc'ed. */
+rd_error_code rd_assignment_list(const char *dir, rd_assignment **list, size_t *n, rd_error *err);
+
+#endif

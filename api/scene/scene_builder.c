@@ -1,0 +1,681 @@
+#include "scene_builder.h"
+
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "scene_keys.h"
+#include "name_set.h"
+#include "suggest.h"
+#include "utf8.h"
+#include "value_parse.h"
+
+
+typedef struct {
+    size_t object;
+    int line, column;
+    char *path;
+} mat_ref;
+
+struct rd_builder {
+    rd_scene *s;
+    const char *source;
+    rd_scene_limits lim;
+    int seen[RD_SEC_COUNT];     /* render/camera: 1 + line of the first one */
+    rd_name_set names;  /* (kind, name) -> first line, for duplicates */
+    mat_ref *refs;
+    size_t nrefs, caprefs;
+};
+
+/* Bytes of at most 60 characters of s: names and keys quoted in messages. */
+static int cut(const char *s, size_t len) { return (int)rd_utf8_prefix(s, len, 60); }
+
+static void vformat(rd_error *err, rd_error_code code, const char *source, rd_loc loc,
+                    const char *fmt, va_list ap)
+{
+    char msg[400];
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    if (loc.path) {
+        /* The path already ends in the key's name: "objects[2].radius: radius: ..."
+         * says it twice. */
+        const char *last = strrchr(loc.path, '.');
+        last = last ? last + 1 : loc.path;
+        size_t n = strcspn(last, "[");
+        const char *shown = msg;
+        if (n > 0 && strncmp(msg, last, n) == 0 && msg[n] == ':' && msg[n + 1] == ' ')
+            shown = msg + n + 2;
+        rd_error_set(err, code, loc.line, loc.column, "%s: %s: %s", source, loc.path, shown);
+    }
+    else if (loc.line > 0)
+        rd_error_set(err, code, loc.line, loc.column, "%s:%d:%d: %s", source, loc.line,
+                     loc.column > 0 ? loc.column : 1, msg);
+    else
+        rd_error_set(err, code, 0, 0, "%s: %s", source, msg);
+}
+
+rd_error_code rd_loc_error(rd_error *err, rd_error_code code, const char *source, rd_loc loc,
+                           const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vformat(err, code, source, loc, fmt, ap);
+    va_end(ap);
+    return code;
+}
+
+rd_error_code rd_builder_error(const rd_builder *b, rd_error *err, rd_error_code code, rd_loc loc,
+                               const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vformat(err, code, b->source, loc, fmt, ap);
+    va_end(ap);
+    return code;
+}
+
+rd_builder *rd_builder_new(rd_scene *s, const char *source, const rd_scene_limits *lim)
+{
+    rd_builder *b = calloc(1, sizeof *b);
+    if (!b)
+        return NULL;
+    b->s = s;
+    b->source = source ? source : "<scene>";
+    b->lim = lim ? *lim : rd_scene_limits_default();
+    rd_name_set_init(&b->names);
+    return b;
+}
+
+void rd_builder_free(rd_builder *b)
+{
+    if (!b)
+        return;
+    rd_name_set_free(&b->names);
+    for (size_t i = 0; i < b->nrefs; i++)
+        free(b->refs[i].path);
+    free(b->refs);
+    free(b);
+}
+
+static char *dupn(const char *s, size_t n)
+{
+    char *p = malloc(n + 1);
+    if (p) {
+        memcpy(p, s, n);
+        p[n] = 0;
+    }
+    return p;
+}
+
+/* The place of token i of a value: its column in cfg, its array index in JSON. */
+static rd_loc token_loc(const rd_value *v, int i, char *buf, size_t size)
+{
+    rd_loc l = v->loc;
+    if (l.path) {
+        if (v->is_array) {
+            snprintf(buf, size, "%s[%d]", l.path, i);
+            l.path = buf;
+        }
+    } else if (i < v->n && v->tok[i].column > 0) {
+        l.column = v->tok[i].column;
+    }
+    return l;
+}
+
+static void range_text(const rd_key *k, char *buf, size_t size)
+{
+    int has_lo = !isinf(k->lo), has_hi = !isinf(k->hi);
+    if (has_lo && has_hi)
+        snprintf(buf, size, " in %c%g, %g%c", k->lo_open ? '(' : '[', k->lo, k->hi,
+                 k->hi_open ? ')' : ']');
+    else if (has_lo)
+        snprintf(buf, size, " %s %g", k->lo_open ? ">" : ">=", k->lo);
+    else if (has_hi)
+        snprintf(buf, size, " %s %g", k->hi_open ? "<" : "<=", k->hi);
+    else
+        buf[0] = 0;
+}
+
+static int in_range(const rd_key *k, double v)
+{
+    if (k->lo_open ? !(v > k->lo) : !(v >= k->lo))
+        return 0;
+    if (k->hi_open ? !(v < k->hi) : !(v <= k->hi))
+        return 0;
+    return 1;
+}
+
+/* Reads n numbers of a value into out, with the key's range. */
+static rd_error_code numbers(rd_builder *b, const rd_key *k, const rd_value *v, int n, double *out,
+                             rd_error *err)
+{
+    char pb[300], tb[176], rb[64];
+    if (v->total != n) {
+        if (n == 1)
+            return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected a number, got %d values",
+                                    k->name, v->total);
+        return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected %d numbers, got %d", k->name,
+                                n, v->total);
+    }
+    range_text(k, rb, sizeof rb);
+    for (int i = 0; i < n; i++) {
+        int r = rd_parse_real(&v->tok[i], &out[i]);
+        rd_loc l = token_loc(v, i, pb, sizeof pb);
+        if (r == 1)
+            return rd_builder_error(b, err, RD_ERR_SYNTAX, l, "%s: expected a number%s, got %s",
+                                    k->name, rb, rd_token_what(&v->tok[i], tb, sizeof tb));
+        if (r == 2)
+            return rd_builder_error(b, err, RD_ERR_SYNTAX, l, "%s: expected a finite number, got %s",
+                                    k->name, rd_token_what(&v->tok[i], tb, sizeof tb));
+        if (!in_range(k, out[i]))
+            return rd_builder_error(b, err, k->degenerate ? RD_ERR_INVALID : RD_ERR_SYNTAX, l,
+                                    "%s: expected a number%s, got %s", k->name, rb,
+                                    rd_token_what(&v->tok[i], tb, sizeof tb));
+    }
+    return RD_OK;
+}
+
+static rd_error_code one_token(rd_builder *b, const rd_key *k, const rd_value *v, const char *what,
+                               rd_error *err)
+{
+    if (v->total != 1)
+        return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected %s, got %d values",
+                                k->name, what, v->total);
+    return RD_OK;
+}
+
+static rd_error_code enum_value(rd_builder *b, const rd_key *k, const rd_value *v, int *out,
+                                rd_error *err)
+{
+    char tb[200], list[200] = "";
+    rd_error_code rc = one_token(b, k, v, "a word", err);
+    if (rc)
+        return rc;
+    const rd_token *t = &v->tok[0];
+    rd_suggestion sg;
+    rd_suggest_init(&sg);
+    for (int i = 0; k->words[i]; i++) {
+        if (strlen(k->words[i]) == t->len && memcmp(k->words[i], t->text, t->len) == 0) {
+            *out = i;
+            return RD_OK;
+        }
+        rd_suggest_offer(&sg, t->text, t->len, k->words[i]);
+        snprintf(list + strlen(list), sizeof list - strlen(list), "%s%s", i ? ", " : "", k->words[i]);
+    }
+    const char *best = rd_suggest_result(&sg, t->len);
+    return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected one of %s, got %s%s%s%s",
+                            k->name, list, rd_token_what(t, tb, sizeof tb),
+                            best ? "; did you mean '" : "", best ? best : "", best ? "'?" : "");
+}
+
+/* Stores entry e into the struct at base. */
+static rd_error_code apply(rd_builder *b, const rd_key *k, const rd_entry *e, void *base,
+                           rd_error *err)
+{
+    const rd_value *v = &e->value;
+    void *dst = (char *)base + k->offset;
+    char tb[200], pb[300];
+    double d[3];
+    rd_error_code rc;
+    int json = v->loc.path != NULL;
+    int vector = k->type == RD_KT_VEC2 || k->type == RD_KT_VEC3;
+    if (json && v->is_array && !vector && k->type != RD_KT_REAL_OR_VEC3) {
+        char what[80];
+        if (k->type == RD_KT_INT)
+            snprintf(what, sizeof what, "an integer in %lld..%lld", (long long)k->lo, (long long)k->hi);
+        else
+            snprintf(what, sizeof what, "%s",
+                     k->type == RD_KT_NAME     ? "a name (a string)"
+                     : k->type == RD_KT_STRING ? "a string"
+                     : k->type == RD_KT_ENUM   ? "a word (a string)"
+                     : k->type == RD_KT_SEED   ? "an integer"
+                                               : "a number");
+        return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected %s, got an array", k->name, what);
+    }
+    if (json && vector && !v->is_array)
+        return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected an array of %d numbers, got %s", k->name,
+                                k->type == RD_KT_VEC2 ? 2 : 3, rd_token_what(&v->tok[0], tb, sizeof tb));
+    if ((k->type == RD_KT_NAME || k->type == RD_KT_STRING || k->type == RD_KT_ENUM) && v->total == 1 &&
+        (v->tok[0].number || v->tok[0].other))
+        return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected %s, got %s", k->name,
+                                k->type == RD_KT_ENUM ? "a word (a string)" : "a name (a string)",
+                                rd_token_what(&v->tok[0], tb, sizeof tb));
+    switch (k->type) {
+    case RD_KT_INT: {
+        long long x;
+        if ((rc = one_token(b, k, v, "an integer", err)))
+            return rc;
+        if (rd_parse_int(&v->tok[0], (long long)k->lo, (long long)k->hi, &x))
+            return rd_builder_error(b, err, RD_ERR_SYNTAX, token_loc(v, 0, pb, sizeof pb),
+                                    "%s: expected an integer in %lld..%lld, got %s", k->name,
+                                    (long long)k->lo, (long long)k->hi,
+                                    rd_token_what(&v->tok[0], tb, sizeof tb));
+        *(int *)dst = (int)x;
+        return RD_OK;
+    }
+    case RD_KT_SEED: {
+        unsigned long long x;
+        if ((rc = one_token(b, k, v, "an integer", err)))
+            return rc;
+        /* A JSON number at or above 2^53 may already have lost digits. */
+        if (v->tok[0].number && strtod(v->tok[0].text, NULL) >= 9007199254740992.0)
+            return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc,
+                                    "%s: a JSON number of 2^53 or more may have lost digits; write the seed as a "
+                                    "string, e.g. \"18446744073709551615\"",
+                                    k->name);
+        if (rd_parse_u64(&v->tok[0], &x))
+            return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc,
+                                    "%s: expected an integer in 0..18446744073709551615, got %s%s", k->name,
+                                    rd_token_what(&v->tok[0], tb, sizeof tb),
+                                    v->tok[0].number ? " (JSON numbers above 2^53 lose digits: write a large seed "
+                                                       "as a string)"
+                                                     : "");
+        *(uint64_t *)dst = x;
+        return RD_OK;
+    }
+    case RD_KT_REAL:
+        if ((rc = numbers(b, k, v, 1, d, err)))
+            return rc;
+        *(double *)dst = d[0];
+        return RD_OK;
+    case RD_KT_VEC2:
+        if ((rc = numbers(b, k, v, 2, d, err)))
+            return rc;
+        ((double *)dst)[0] = d[0];
+        ((double *)dst)[1] = d[1];
+        return RD_OK;
+    case RD_KT_REAL_OR_VEC3:
+        if (v->total == 1 && !v->is_array) {
+            if ((rc = numbers(b, k, v, 1, d, err)))
+                return rc;
+            *(rd_vec3 *)dst = v3(d[0], d[0], d[0]);
+            return RD_OK;
+        }
+        /* fall through */
+    case RD_KT_VEC3:
+        if ((rc = numbers(b, k, v, 3, d, err)))
+            return rc;
+        *(rd_vec3 *)dst = v3(d[0], d[1], d[2]);
+        return RD_OK;
+    case RD_KT_ENUM: {
+        int x;
+        if ((rc = enum_value(b, k, v, &x, err)))
+            return rc;
+        *(int *)dst = x;
+        return RD_OK;
+    }
+    case RD_KT_NAME:
+    case RD_KT_STRING: {
+        if ((rc = one_token(b, k, v, k->type == RD_KT_NAME ? "a name" : "a string", err)))
+            return rc;
+        const rd_token *t = &v->tok[0];
+        if (t->len == 0)
+            return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: must not be empty", k->name);
+        if (t->len > b->lim.max_name)
+            return rd_builder_error(b, err, RD_ERR_LIMIT, v->loc,
+                                    "%s: longer than the limit of %zu bytes (%s)", k->name, b->lim.max_name,
+                                    rd_limit_flag(offsetof(rd_scene_limits, max_name)));
+        if (memchr(t->text, 0, t->len))
+            return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: contains a NUL byte", k->name);
+        char **slot = dst;
+        free(*slot);
+        *slot = dupn(t->text, t->len);
+        if (!*slot)
+            return rd_builder_error(b, err, RD_ERR_NOMEM, v->loc, "out of memory");
+        return RD_OK;
+    }
+    }
+    return RD_OK;
+}
+
+static rd_loc where_loc_none(void)
+{
+    rd_loc l = {0, 0, NULL};
+    return l;
+}
+
+/* "scene.cfg:7:11" or "scene.json: materials.wood.texture": a place to
+ * name in messages about a file the scene refers to. */
+static char *loc_text(const rd_builder *b, rd_loc l)
+{
+    char buf[600];
+    if (l.path)
+        snprintf(buf, sizeof buf, "%s: %s", b->source, l.path);
+    else
+        snprintf(buf, sizeof buf, "%s:%d:%d", b->source, l.line, l.column > 0 ? l.column : 1);
+    return dupn(buf, strlen(buf));
+}
+
+static const char *subtype_noun(rd_section_kind sec)
+{
+    return sec == RD_SEC_LIGHT ? "light" : "material";
+}
+
+static void section_label(char *buf, size_t size, rd_section_kind sec, const char *name, size_t nlen)
+{
+    if (name && nlen)
+        snprintf(buf, size, "[%s %.*s]", rd_section_kind_name(sec), cut(name, nlen), name);
+    else
+        snprintf(buf, size, "[%s]", rd_section_kind_name(sec));
+}
+
+static rd_error_code check_name(rd_builder *b, rd_section_kind sec, const char *name, size_t nlen,
+                                rd_loc where, rd_error *err)
+{
+    if (nlen > b->lim.max_name)
+        return rd_builder_error(b, err, RD_ERR_LIMIT, where,
+                                "%s name is longer than the limit of %zu bytes (%s)",
+                                rd_section_kind_name(sec), b->lim.max_name,
+                                rd_limit_flag(offsetof(rd_scene_limits, max_name)));
+    long first = rd_name_set_add(&b->names, (int)sec, name, nlen, where.line);
+    if (first == -2)
+        return rd_builder_error(b, err, RD_ERR_NOMEM, where, "out of memory");
+    if (first > 0)
+        return rd_builder_error(b, err, RD_ERR_SYNTAX, where, "duplicate %s name '%.*s' (first at line %ld)",
+                                rd_section_kind_name(sec), cut(name, nlen), name, first);
+    if (first == 0)
+        return rd_builder_error(b, err, RD_ERR_SYNTAX, where, "duplicate %s name '%.*s'", rd_section_kind_name(sec),
+                                cut(name, nlen), name);
+    return RD_OK;
+}
+
+static const rd_entry *find_entry(const rd_entry *e, size_t n, const char *key)
+{
+    size_t len = strlen(key);
+    for (size_t i = 0; i < n; i++)
+        if (e[i].key_len == len && memcmp(e[i].key, key, len) == 0)
+            return &e[i];
+    return NULL;
+}
+
+static rd_error_code unknown_key(rd_builder *b, rd_section_kind sec, const rd_entry *e,
+                                 const char *label, rd_error *err)
+{
+    size_t nk;
+    const rd_key *keys = rd_keys_all(&nk);
+    rd_suggestion sg;
+    rd_suggest_init(&sg);
+    for (size_t i = 0; i < nk; i++)
+        if (keys[i].section == sec)
+            rd_suggest_offer(&sg, e->key, e->key_len, keys[i].name);
+    const char *best = rd_suggest_result(&sg, e->key_len);
+    int shown = cut(e->key, e->key_len);
+    if (best)
+        return rd_builder_error(b, err, RD_ERR_SYNTAX, e->key_loc,
+                                "unknown key '%.*s' in %s; did you mean '%s'?", shown, e->key, label, best);
+    return rd_builder_error(b, err, RD_ERR_SYNTAX, e->key_loc, "unknown key '%.*s' in %s", shown,
+                            e->key, label);
+}
+
+static rd_loc loc_of(const rd_entry *e, rd_loc fallback)
+{
+    return e ? e->value.loc : fallback;
+}
+
+/* Checks that need the whole section: degenerate geometry and pairs of keys. */
+static rd_error_code check_section(rd_builder *b, rd_section_kind sec, void *base, const rd_entry *e,
+                                   size_t n, rd_loc where, rd_error *err)
+{
+    if (sec == RD_SEC_CAMERA) {
+        rd_camera *c = base;
+        rd_vec3 view = v3_sub(c->target, c->eye);
+        if (!v3_is_finite(view))
+            return rd_builder_error(b, err, RD_ERR_INVALID, loc_of(find_entry(e, n, "target"), where),
+                                    "camera: target - eye is too large to represent (move them closer)");
+        if (!(v3_max_abs(view) > 0))
+            return rd_builder_error(b, err, RD_ERR_INVALID, loc_of(find_entry(e, n, "target"), where),
+                                    "camera: target must differ from eye");
+        if (!(v3_max_abs(c->up) > 0))
+            return rd_builder_error(b, err, RD_ERR_INVALID, loc_of(find_entry(e, n, "up"), where),
+                                    "camera: up must not be the zero vector");
+        rd_vec3 side = v3_cross(v3_normalize(c->up), v3_normalize(view));
+        if (!(v3_len(side) > RD_MIN_UP_SINE))
+            return rd_builder_error(b, err, RD_ERR_INVALID, loc_of(find_entry(e, n, "up"), where),
+                                    "camera: up must not be parallel to target - eye");
+    } else if (sec == RD_SEC_PLANE) {
+        rd_object *o = base;
+        if (!(v3_max_abs(o->normal) > 0))
+            return rd_builder_error(b, err, RD_ERR_INVALID, loc_of(find_entry(e, n, "normal"), where),
+                                    "normal: must not be the zero vector");
+    } else if (sec == RD_SEC_LIGHT) {
+        rd_light *l = base;
+        if ((l->type == RD_LIGHT_DIRECTIONAL || l->type == RD_LIGHT_SPOT) &&
+            !(v3_max_abs(l->direction) > 0))
+            return rd_builder_error(b, err, RD_ERR_INVALID, loc_of(find_entry(e, n, "direction"), where),
+                                    "direction: must not be the zero vector");
+    } else if (sec == RD_SEC_TRIANGLE) {
+        rd_object *o = base;
+        static const char *const groups[2][3] = {{"n0", "n1", "n2"}, {"uv0", "uv1", "uv2"}};
+        for (int g = 0; g < 2; g++) {
+            int have = 0;
+            for (int i = 0; i < 3; i++)
+                have += find_entry(e, n, groups[g][i]) != NULL;
+            if (have != 0 && have != 3)
+                return rd_builder_error(b, err, RD_ERR_SYNTAX, where,
+                                        "[triangle] needs all of %s, %s, %s or none of them",
+                                        groups[g][0], groups[g][1], groups[g][2]);
+            if (g == 0)
+                o->has_normals = have == 3;
+            else
+                o->has_uv = have == 3;
+        }
+        if (o->has_normals)
+            for (int i = 0; i < 3; i++)
+                if (!(v3_max_abs(o->n[i]) > 0))
+                    return rd_builder_error(b, err, RD_ERR_INVALID,
+                                            loc_of(find_entry(e, n, groups[0][i]), where),
+                                            "%s: must not be the zero vector", groups[0][i]);
+    }
+    return RD_OK;
+}
+
+static rd_error_code add_ref(rd_builder *b, size_t object, rd_loc l, rd_error *err)
+{
+    if (b->nrefs == b->caprefs) {
+        size_t nc = b->caprefs ? b->caprefs * 2 : 64;
+        mat_ref *p = realloc(b->refs, nc * sizeof *p);
+        if (!p)
+            return rd_builder_error(b, err, RD_ERR_NOMEM, l, "out of memory");
+        b->refs = p;
+        b->caprefs = nc;
+    }
+    mat_ref *r = &b->refs[b->nrefs];
+    r->object = object;
+    r->line = l.line;
+    r->column = l.column;
+    r->path = l.path ? dupn(l.path, strlen(l.path)) : NULL;
+    if (l.path && !r->path)
+        return rd_builder_error(b, err, RD_ERR_NOMEM, l, "out of memory");
+    b->nrefs++;
+    return RD_OK;
+}
+
+rd_error_code rd_builder_section(rd_builder *b, const char *kind, size_t kind_len,
+                                 const char *name, size_t name_len, rd_loc where,
+                                 const rd_entry *entries, size_t n, rd_error *err)
+{
+    rd_scene *s = b->s;
+    char label[100];
+    int ki = rd_section_kind_find(kind, kind_len);
+    if (ki < 0) {
+        static const char *const kinds[] = {"render", "camera", "light", "material",
+                                            "sphere", "plane", "triangle", "mesh"};
+        rd_suggestion sg;
+        rd_suggest_init(&sg);
+        for (size_t i = 0; i < sizeof kinds / sizeof kinds[0]; i++)
+            rd_suggest_offer(&sg, kind, kind_len, kinds[i]);
+        const char *best = rd_suggest_result(&sg, kind_len);
+        int shown = cut(kind, kind_len);
+        return rd_builder_error(b, err, RD_ERR_SYNTAX, where, "unknown section kind '%.*s'%s%s%s", shown,
+                                kind, best ? "; did you mean '" : "", best ? best : "", best ? "'?" : "");
+    }
+    rd_section_kind sec = (rd_section_kind)ki;
+    section_label(label, sizeof label, sec, name, name_len);
+
+    if (sec == RD_SEC_RENDER || sec == RD_SEC_CAMERA) {
+        if (b->seen[sec]) {
+            if (b->seen[sec] > 1)
+                return rd_builder_error(b, err, RD_ERR_SYNTAX, where,
+                                        "duplicate [%s] section (first at line %d)",
+                                        rd_section_kind_name(sec), b->seen[sec] - 1);
+            return rd_builder_error(b, err, RD_ERR_SYNTAX, where, "duplicate [%s] section",
+                                    rd_section_kind_name(sec));
+        }
+        b->seen[sec] = 1 + where.line;
+        if (name && name_len)
+            return rd_builder_error(b, err, RD_ERR_SYNTAX, where, "[%s] takes no name",
+                                    rd_section_kind_name(sec));
+    }
+    if (sec == RD_SEC_MATERIAL && !(name && name_len))
+        return rd_builder_error(b, err, RD_ERR_SYNTAX, where, "[material] needs a name, as in [material red]");
+    if (name && name_len) {
+        rd_error_code rc = check_name(b, sec, name, name_len, where, err);
+        if (rc)
+            return rc;
+    }
+
+    for (size_t i = 0; i < n; i++)
+        if (entries[i].key_len > RD_MAX_KEY_BYTES)
+            return rd_builder_error(b, err, RD_ERR_SYNTAX, entries[i].key_loc, "a key longer than %d bytes",
+                                    RD_MAX_KEY_BYTES);
+    if (n > RD_MAX_SECTION_KEYS)
+        return rd_builder_error(b, err, RD_ERR_LIMIT, where, "%s has %zu keys; a section holds at most %d", label, n,
+                                RD_MAX_SECTION_KEYS);
+    /* Same key twice in one section. */
+    for (size_t i = 1; i < n; i++)
+        for (size_t j = 0; j < i; j++)
+            if (entries[i].key_len == entries[j].key_len &&
+                memcmp(entries[i].key, entries[j].key, entries[i].key_len) == 0) {
+                int shown = cut(entries[i].key, entries[i].key_len);
+                if (entries[j].key_loc.line > 0)
+                    return rd_builder_error(b, err, RD_ERR_SYNTAX, entries[i].key_loc,
+                                            "duplicate key '%.*s' in %s (first at line %d)", shown,
+                                            entries[i].key, label, entries[j].key_loc.line);
+                return rd_builder_error(b, err, RD_ERR_SYNTAX, entries[i].key_loc,
+                                        "duplicate key '%.*s' in %s", shown, entries[i].key, label);
+            }
+
+    void *base = NULL;
+    size_t object_index = 0;
+    switch (sec) {
+    case RD_SEC_RENDER: base = &s->render; break;
+    case RD_SEC_CAMERA: base = &s->camera; break;
+    case RD_SEC_LIGHT:
+        if (s->light_count >= b->lim.max_lights)
+            return rd_builder_error(b, err, RD_ERR_LIMIT, where, "too many lights (limit %zu, %s)",
+                                    b->lim.max_lights, rd_limit_flag(offsetof(rd_scene_limits, max_lights)));
+        base = rd_scene_add_light(s);
+        break;
+    case RD_SEC_MATERIAL:
+        if (s->material_count >= b->lim.max_materials)
+            return rd_builder_error(b, err, RD_ERR_LIMIT, where, "too many materials (limit %zu, %s)",
+                                    b->lim.max_materials, rd_limit_flag(offsetof(rd_scene_limits, max_materials)));
+        base = rd_scene_add_material(s);
+        break;
+    default:
+        if (s->object_count >= b->lim.max_objects)
+            return rd_builder_error(b, err, RD_ERR_LIMIT, where, "too many objects (limit %zu, %s)",
+                                    b->lim.max_objects, rd_limit_flag(offsetof(rd_scene_limits, max_objects)));
+        object_index = s->object_count;
+        base = rd_scene_add_object(s);
+        if (base) {
+            static const rd_object_type types[] = {[RD_SEC_SPHERE] = RD_OBJ_SPHERE,
+                                                   [RD_SEC_PLANE] = RD_OBJ_PLANE,
+                                                   [RD_SEC_TRIANGLE] = RD_OBJ_TRIANGLE,
+                                                   [RD_SEC_MESH] = RD_OBJ_MESH};
+            ((rd_object *)base)->type = types[sec];
+        }
+        break;
+    }
+    if (!base)
+        return rd_builder_error(b, err, RD_ERR_NOMEM, where, "out of memory");
+    if (sec != RD_SEC_RENDER && sec != RD_SEC_CAMERA && name && name_len) {
+        char **slot = sec == RD_SEC_LIGHT      ? &((rd_light *)base)->name
+                      : sec == RD_SEC_MATERIAL ? &((rd_material *)base)->name
+                                               : &((rd_object *)base)->name;
+        *slot = dupn(name, name_len);
+        if (!*slot)
+            return rd_builder_error(b, err, RD_ERR_NOMEM, where, "out of memory");
+    }
+
+    /* The type comes first: it decides the defaults and which keys apply. */
+    unsigned subtype_bit = 1;
+    const rd_entry *type_entry = NULL;
+    rd_error_code rc;
+    if (sec == RD_SEC_LIGHT || sec == RD_SEC_MATERIAL) {
+        type_entry = find_entry(entries, n, "type");
+        const rd_key *tk = rd_key_find(sec, "type", 4);
+        int t = 0;
+        if (type_entry) {
+            if ((rc = enum_value(b, tk, &type_entry->value, &t, err)))
+                return rc;
+        } else if (sec == RD_SEC_MATERIAL) {
+            return rd_builder_error(b, err, RD_ERR_INVALID, where, "%s is missing required key 'type'", label);
+        }
+        if (sec == RD_SEC_MATERIAL)
+            rd_material_defaults(base, (rd_material_type)t);
+        else
+            ((rd_light *)base)->type = (rd_light_type)t;
+        subtype_bit = 1u << t;
+    }
+
+    for (size_t i = 0; i < n; i++) {
+        const rd_entry *e = &entries[i];
+        if (e == type_entry)
+            continue;
+        const rd_key *k = rd_key_find(sec, e->key, e->key_len);
+        if (!k)
+            return unknown_key(b, sec, e, label, err);
+        if (!(k->applies & subtype_bit)) {
+            const char *tn = sec == RD_SEC_LIGHT ? rd_light_type_words[__builtin_ctz(subtype_bit)]
+                                                 : rd_material_type_words[__builtin_ctz(subtype_bit)];
+            return rd_builder_error(b, err, RD_ERR_SYNTAX, e->key_loc,
+                                    "key '%s' does not apply to a %s %s in %s", k->name, tn,
+                                    subtype_noun(sec), label);
+        }
+        if ((rc = apply(b, k, e, base, err)))
+            return rc;
+        if (strcmp(k->name, "file") == 0 || strcmp(k->name, "texture") == 0) {
+            char **at = sec == RD_SEC_MESH ? &((rd_object *)base)->where : &((rd_material *)base)->where;
+            free(*at);
+            *at = loc_text(b, e->value.loc);
+            if (!*at)
+                return rd_builder_error(b, err, RD_ERR_NOMEM, where_loc_none(), "out of memory");
+        }
+        if (k->type == RD_KT_NAME && strcmp(k->name, "material") == 0 &&
+            (rc = add_ref(b, object_index, e->value.loc, err)))
+            return rc;
+    }
+
+    size_t nk;
+    const rd_key *keys = rd_keys_all(&nk);
+    for (size_t i = 0; i < nk; i++)
+        if (keys[i].section == sec && (keys[i].required & subtype_bit) &&
+            !find_entry(entries, n, keys[i].name))
+            return rd_builder_error(b, err, RD_ERR_INVALID, where, "%s is missing required key '%s'",
+                                    label, keys[i].name);
+    return check_section(b, sec, base, entries, n, where, err);
+}
+
+rd_error_code rd_builder_finish(rd_builder *b, rd_error *err)
+{
+    rd_scene *s = b->s;
+    for (size_t i = 0; i < b->nrefs; i++) {
+        rd_object *o = &s->objects[b->refs[i].object];
+        int m = rd_scene_find_material(s, o->material_name);
+        rd_loc l = {b->refs[i].line, b->refs[i].column, b->refs[i].path};
+        if (m < 0) {
+            rd_suggestion sg;
+            rd_suggest_init(&sg);
+            for (size_t j = 0; j < s->material_count; j++)
+                rd_suggest_offer(&sg, o->material_name, strlen(o->material_name), s->materials[j].name);
+            const char *best = rd_suggest_result(&sg, strlen(o->material_name));
+            return rd_builder_error(b, err, RD_ERR_INVALID, l, "no material named '%.*s'%s%s%s",
+                                    cut(o->material_name, strlen(o->material_name)), o->material_name, best ? "; did you mean '" : "", best ? best : "",
+                                    best ? "'?" : "");
+        }
+        o->material = m;
+    }
+    return RD_OK;
+}

@@ -1,0 +1,102 @@
+#include "file_io.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+rd_error_code rd_read_file(const char *path, size_t max_bytes, const char *flag, char **out, size_t *len,
+                           rd_error *err)
+{
+    *out = NULL;
+    *len = 0;
+    /* Non-blocking, so that opening a FIFO or a device cannot hang the
+     * caller; the type is checked on the descriptor before any read. */
+    int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0)
+        return rd_error_set(err, RD_ERR_IO, 0, 0, "%s: cannot open: %s", path, strerror(errno));
+    struct stat st;
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+        close(fd);
+        return rd_error_set(err, RD_ERR_IO, 0, 0, "%s: not a regular file", path);
+    }
+    if ((unsigned long long)st.st_size > max_bytes) {
+        close(fd);
+        return rd_error_set(err, RD_ERR_LIMIT, 0, 0, "%s: %lld bytes, over the limit of %zu (%s)", path,
+                            (long long)st.st_size, max_bytes, flag);
+    }
+    size_t n = (size_t)st.st_size;
+    char *buf = malloc(n + 1);
+    if (!buf) {
+        close(fd);
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "%s: out of memory", path);
+    }
+    size_t got = 0;
+    while (got < n) {
+        ssize_t k = read(fd, buf + got, n - got);
+        if (k < 0 && errno == EINTR)
+            continue;
+        if (k <= 0)
+            break;
+        got += (size_t)k;
+    }
+    close(fd);
+    if (got != n) {
+        free(buf);
+        return rd_error_set(err, RD_ERR_IO, 0, 0, "%s: read error", path);
+    }
+    buf[n] = 0;
+    *out = buf;
+    *len = n;
+    return RD_OK;
+}
+
+rd_error_code rd_write_file(const char *path, const void *data, size_t len, rd_error *err)
+{
+    size_t plen = strlen(path);
+    char *tmp = malloc(plen + 16);
+    if (!tmp)
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    snprintf(tmp, plen + 16, "%s.tmp%ld", path, (long)getpid());
+    FILE *f = fopen(tmp, "wb");
+    if (!f) {
+        rd_error_code rc = rd_error_set(err, RD_ERR_IO, 0, 0, "%s: cannot write: %s", path, strerror(errno));
+        free(tmp);
+        return rc;
+    }
+    size_t put = fwrite(data, 1, len, f);
+    int bad = (put != len) | (fclose(f) != 0);
+    if (bad || rename(tmp, path) != 0) {
+        rd_error_code rc = rd_error_set(err, RD_ERR_IO, 0, 0, "%s: cannot write: %s", path, strerror(errno));
+        remove(tmp);
+        free(tmp);
+        return rc;
+    }
+    free(tmp);
+    return RD_OK;
+}
+
+char *rd_dirname(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    if (!slash)
+        return strdup(".");
+    if (slash == path)
+        return strdup("/");
+    size_t n = (size_t)(slash - path);
+    char *d = malloc(n + 1);
+    if (d) {
+        memcpy(d, path, n);
+        d[n] = 0;
+    }
+    return d;
+}
+
+int rd_ends_with(const char *s, const char *suffix)
+{
+    size_t a = strlen(s), b = strlen(suffix);
+    return a >= b && strcmp(s + a - b, suffix) == 0;
+}

@@ -1,0 +1,27 @@
+/* Whole files in and out, and path pieces: the only file access of api/
+ * (the readers themselves take bytes, never paths). */
+#ifndef RD_FILE_IO_H
+#define RD_FILE_IO_H
+
+#include <stddef.h>
+
+#include "rayd/error.h"
+
+/* Reads a whole regular file into a malloc'ed, NUL-terminated buffer of at
+ * most max_bytes (refused before reading; the message names flag); the
+ * caller frees *out. A FIFO or device is refused without blocking. On error
+ * *out is NULL. */
+rd_error_code rd_read_file(const char *path, size_t max_bytes, const char *flag, char **out, size_t *len,
+                           rd_error *err);
+
+/* Writes bytes to path, replacing it only once the whole file is written. */
+rd_error_code rd_write_file(const char *path, const void *data, size_t len, rd_error *err);
+
+/* The folder part of a path ("scenes" for "scenes/a.cfg", "." for "a.cfg"),
+ * malloc'ed; the caller frees it. NULL when out of memory. */
+char *rd_dirname(const char *path);
+
+/* Whether s ends with suffix. */
+int rd_ends_with(const char *s, const char *suffix);
+
+#endif

@@ -1,0 +1,40 @@
+/* Rays and the record of a ray's hit with a surface. */
+#ifndef RD_RAY_H
+#define RD_RAY_H
+
+#include <stddef.h>
+
+#include "rayd/vec3.h"
+
+typedef struct {
+    rd_vec3 o;  /* origin */
+    rd_vec3 d;  /* direction; not necessarily unit (shadow rays span 0..1) */
+} rd_ray;
+
+static inline rd_vec3 rd_ray_at(rd_ray r, double t) { return v3_add(r.o, v3_scale(r.d, t)); }
+
+/* The course's HitRecord. */
+typedef struct {
+    double t;
+    rd_vec3 p;          /* hit point */
+    rd_vec3 ng;         /* unit geometric normal, as the primitive defines it */
+    rd_vec3 n;          /* unit shading normal turned to face the ray (N·dir < 0) */
+    int front;          /* 1 when ng faces the ray */
+    double perr;        /* bound on the absolute error of each component of p */
+    double u, v;        /* texture coordinates */
+    int material;
+    int object;
+    /* which primitive, for attributes computed only when needed (uv) */
+    int prim_kind;
+    size_t prim;
+    double bary[3];
+} rd_hit;
+
+/* A ray origin on the hit's surface, pushed off it along the geometric
+ * normal to the side that `dir` leaves towards, far enough that the surface
+ * cannot be met again at t > 0 (after Pharr, Jakob & Humphreys, PBR 3rd ed.
+ * §3.9.5, and Wächter & Binder, Ray Tracing Gems ch. 6). The push is
+ * relative to the hit's error bound, so it scales with the scene. */
+rd_vec3 rd_offset_origin(const rd_hit *h, rd_vec3 dir);
+
+#endif

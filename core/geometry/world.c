@@ -1,0 +1,382 @@
+#include "world.h"
+
+#include "rayd/clock.h"
+
+#include <float.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "triangle.h"
+
+/* What the last closest-hit search found, before the hit is filled in. */
+enum { K_NONE, K_SPHERE, K_PLANE, K_TRI };
+
+void rd_world_free(rd_world *w)
+{
+    free(w->spheres);
+    free(w->sphere_mat);
+    free(w->sphere_obj);
+    free(w->planes);
+    free(w->plane_mat);
+    free(w->plane_obj);
+    free(w->tris);
+    rd_bvh_free(&w->bvh);
+    memset(w, 0, sizeof *w);
+}
+
+
+static rd_error_code nomem(rd_world *w, rd_error *err)
+{
+    rd_world_free(w);
+    return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory preparing the scene");
+}
+
+rd_error_code rd_world_build(rd_world *w, const rd_scene *s, rd_error *err)
+{
+    memset(w, 0, sizeof *w);
+    w->scene = s;
+    w->origin = s->camera.eye;
+    size_t ns = 0, np = 0, nt = 0;
+    for (size_t i = 0; i < s->object_count; i++) {
+        const rd_object *o = &s->objects[i];
+        if (o->material < 0 || (size_t)o->material >= s->material_count)
+            return rd_error_set(err, RD_ERR_INVALID, 0, 0, "object %zu has no material", i);
+        if (o->type == RD_OBJ_SPHERE)
+            ns++;
+        else if (o->type == RD_OBJ_PLANE)
+            np++;
+        else if (o->type == RD_OBJ_TRIANGLE)
+            nt++;
+        else if (o->mesh < 0 || (size_t)o->mesh >= s->mesh_count)
+            return rd_error_set(err, RD_ERR_INVALID, 0, 0, "object %zu: mesh '%s' was not loaded", i,
+                                o->file ? o->file : "?");
+        else
+            nt += s->meshes[o->mesh].nfaces;
+    }
+    w->spheres = malloc((ns + 1) * sizeof *w->spheres);
+    w->sphere_mat = malloc((ns + 1) * sizeof(int32_t));
+    w->sphere_obj = malloc((ns + 1) * sizeof(int32_t));
+    w->planes = malloc((np + 1) * sizeof *w->planes);
+    w->plane_mat = malloc((np + 1) * sizeof(int32_t));
+    w->plane_obj = malloc((np + 1) * sizeof(int32_t));
+    w->tris = malloc((nt + 1) * sizeof *w->tris);
+    if (!w->spheres || !w->sphere_mat || !w->sphere_obj || !w->planes || !w->plane_mat ||
+        !w->plane_obj || !w->tris)
+        return nomem(w, err);
+    for (size_t i = 0; i < s->object_count; i++) {
+        const rd_object *o = &s->objects[i];
+        if (o->type == RD_OBJ_SPHERE) {
+            size_t k = w->nspheres++;
+            w->spheres[k].c = rd_world_local(w, o->center);
+            w->spheres[k].r = o->radius;
+            w->sphere_mat[k] = o->material;
+            w->sphere_obj[k] = (int32_t)i;
+        } else if (o->type == RD_OBJ_PLANE) {
+            size_t k = w->nplanes++;
+            rd_plane_make(&w->planes[k], rd_world_local(w, o->point), o->normal);
+            w->plane_mat[k] = o->material;
+            w->plane_obj[k] = (int32_t)i;
+        } else if (o->type == RD_OBJ_TRIANGLE) {
+            rd_wtri *t = &w->tris[w->ntris++];
+            for (int c = 0; c < 3; c++)
+                t->v[c] = rd_world_local(w, o->v[c]);
+            t->material = o->material;
+            t->object = (int32_t)i;
+            t->mesh = -1;
+            t->face = 0;
+        } else {
+            const rd_mesh *m = &s->meshes[o->mesh];
+            for (size_t f = 0; f < m->nfaces; f++) {
+                rd_wtri *t = &w->tris[w->ntris++];
+                for (int c = 0; c < 3; c++)
+                    t->v[c] = rd_world_local(w, m->positions[m->faces[f].v[c]]);
+                t->material = o->material;
+                t->object = (int32_t)i;
+                t->mesh = o->mesh;
+                t->face = (uint32_t)f;
+            }
+        }
+    }
+    size_t nb = w->nspheres + w->ntris;
+    if (nb > RD_WORLD_BVH_MIN) {
+        double t0 = rd_now_ms();
+        rd_vec3 *lo = malloc(nb * sizeof *lo), *hi = malloc(nb * sizeof *hi);
+        if (!lo || !hi) {
+            free(lo);
+            free(hi);
+            return nomem(w, err);
+        }
+        for (size_t i = 0; i < w->nspheres; i++) {
+            rd_vec3 r = v3(w->spheres[i].r, w->spheres[i].r, w->spheres[i].r);
+            lo[i] = v3_sub(w->spheres[i].c, r);
+            hi[i] = v3_add(w->spheres[i].c, r);
+        }
+        for (size_t i = 0; i < w->ntris; i++) {
+            const rd_vec3 *v = w->tris[i].v;
+            lo[w->nspheres + i] = v3(fmin(v[0].x, fmin(v[1].x, v[2].x)), fmin(v[0].y, fmin(v[1].y, v[2].y)),
+                                     fmin(v[0].z, fmin(v[1].z, v[2].z)));
+            hi[w->nspheres + i] = v3(fmax(v[0].x, fmax(v[1].x, v[2].x)), fmax(v[0].y, fmax(v[1].y, v[2].y)),
+                                     fmax(v[0].z, fmax(v[1].z, v[2].z)));
+        }
+        rd_error_code rc = rd_bvh_build(&w->bvh, lo, hi, nb, err);
+        free(lo);
+        free(hi);
+        if (rc) {
+            rd_world_free(w);
+            return rc;
+        }
+        w->use_bvh = 1;
+        w->build_ms = rd_now_ms() - t0;
+    }
+    return RD_OK;
+}
+
+size_t rd_world_bytes(const rd_world *w)
+{
+    return w->nspheres * (sizeof *w->spheres + 2 * sizeof(int32_t)) +
+           w->nplanes * (sizeof *w->planes + 2 * sizeof(int32_t)) + w->ntris * sizeof *w->tris +
+           w->bvh.nnodes * sizeof *w->bvh.nodes + w->bvh.nprims * sizeof *w->bvh.prims;
+}
+
+typedef struct {
+    double t;
+    int kind;
+    size_t idx;
+    double bary[3];
+} best_hit;
+
+static void test_prim(const rd_world *w, uint32_t id, rd_ray r, best_hit *b)
+{
+    if (id < w->nspheres) {
+        double t = rd_sphere_intersect(&w->spheres[id], r, b->t);
+        if (t > 0) {
+            b->t = t;
+            b->kind = K_SPHERE;
+            b->idx = id;
+        }
+    } else {
+        size_t k = id - w->nspheres;
+        double bary[3];
+        double t = rd_tri_intersect(w->tris[k].v, r, b->t, bary);
+        if (t > 0) {
+            b->t = t;
+            b->kind = K_TRI;
+            b->idx = k;
+            memcpy(b->bary, bary, sizeof bary);
+        }
+    }
+}
+
+static int any_prim(const rd_world *w, uint32_t id, rd_ray r, double tmax)
+{
+    if (id < w->nspheres)
+        return rd_sphere_intersect(&w->spheres[id], r, tmax) > 0;
+    double bary[3];
+    return rd_tri_intersect(w->tris[id - w->nspheres].v, r, tmax, bary) > 0;
+}
+
+static void bvh_closest(const rd_world *w, rd_ray r, best_hit *b)
+{
+    const rd_bvh *bvh = &w->bvh;
+    rd_bvh_ray br = rd_bvh_ray_make(r);
+    uint32_t stack[128];
+    int sp = 0;
+    double tn;
+    if (!rd_bvh_box_hit(&bvh->nodes[0], &br, b->t, &tn))
+        return;
+    stack[sp++] = 0;
+    while (sp > 0) {
+        const rd_bvh_node *n = &bvh->nodes[stack[--sp]];
+        if (n->count) {
+            for (uint32_t i = 0; i < n->count; i++)
+                test_prim(w, bvh->prims[n->offset + i], r, b);
+            continue;
+        }
+        uint32_t l = (uint32_t)(n - bvh->nodes) + 1, rr = n->offset;
+        double tl, tr;
+        int hl = rd_bvh_box_hit(&bvh->nodes[l], &br, b->t, &tl);
+        int hr = rd_bvh_box_hit(&bvh->nodes[rr], &br, b->t, &tr);
+        /* Push the far child first so the near one is searched first and
+         * shrinks b->t for the other. */
+        if (hl && hr) {
+            if (tl <= tr) {
+                stack[sp++] = rr;
+                stack[sp++] = l;
+            } else {
+                stack[sp++] = l;
+                stack[sp++] = rr;
+            }
+        } else if (hl) {
+            stack[sp++] = l;
+        } else if (hr) {
+            stack[sp++] = rr;
+        }
+    }
+}
+
+static int bvh_any(const rd_world *w, rd_ray r, double tmax)
+{
+    const rd_bvh *bvh = &w->bvh;
+    rd_bvh_ray br = rd_bvh_ray_make(r);
+    uint32_t stack[128];
+    int sp = 0;
+    double tn;
+    if (!rd_bvh_box_hit(&bvh->nodes[0], &br, tmax, &tn))
+        return 0;
+    stack[sp++] = 0;
+    while (sp > 0) {
+        const rd_bvh_node *n = &bvh->nodes[stack[--sp]];
+        if (n->count) {
+            for (uint32_t i = 0; i < n->count; i++)
+                if (any_prim(w, bvh->prims[n->offset + i], r, tmax))
+                    return 1;
+            continue;
+        }
+        uint32_t l = (uint32_t)(n - bvh->nodes) + 1, rr = n->offset;
+        if (rd_bvh_box_hit(&bvh->nodes[rr], &br, tmax, &tn))
+            stack[sp++] = rr;
+        if (rd_bvh_box_hit(&bvh->nodes[l], &br, tmax, &tn))
+            stack[sp++] = l;
+    }
+    return 0;
+}
+
+static void fill_tri(const rd_world *w, const best_hit *b, rd_hit *h)
+{
+    const rd_wtri *t = &w->tris[b->idx];
+    const double *bc = b->bary;
+    h->p = v3_add(v3_add(v3_scale(t->v[0], bc[0]), v3_scale(t->v[1], bc[1])), v3_scale(t->v[2], bc[2]));
+    h->ng = v3_normalize(v3_cross(v3_sub(t->v[1], t->v[0]), v3_sub(t->v[2], t->v[0])));
+    h->perr = 8 * DBL_EPSILON * fmax(v3_max_abs(t->v[0]), fmax(v3_max_abs(t->v[1]), v3_max_abs(t->v[2])));
+    h->n = h->ng;
+    rd_vec3 n0, n1, n2;
+    int normals = 0;
+    if (t->mesh < 0) {
+        const rd_object *o = &w->scene->objects[t->object];
+        if (o->has_normals) {
+            /* Unit normals first, as for meshes: the same triangle shades
+             * the same whether written in the scene or loaded from OBJ. */
+            n0 = v3_normalize(o->n[0]);
+            n1 = v3_normalize(o->n[1]);
+            n2 = v3_normalize(o->n[2]);
+            normals = 1;
+        }
+    } else {
+        const rd_mesh *m = &w->scene->meshes[t->mesh];
+        const rd_mesh_face *f = &m->faces[t->face];
+        if (f->n[0] >= 0 && f->n[1] >= 0 && f->n[2] >= 0) {
+            n0 = v3_normalize(m->normals[f->n[0]]);
+            n1 = v3_normalize(m->normals[f->n[1]]);
+            n2 = v3_normalize(m->normals[f->n[2]]);
+            normals = 1;
+        }
+    }
+    if (normals) {
+        rd_vec3 n = v3_normalize(v3_add(v3_add(v3_scale(n0, bc[0]), v3_scale(n1, bc[1])), v3_scale(n2, bc[2])));
+        /* Normals that cancel fall back to the geometric one. */
+        if (v3_max_abs(n) > 0)
+            h->n = n;
+    }
+    h->material = t->material;
+    h->object = t->object;
+    h->prim_kind = K_TRI;
+    h->prim = b->idx;
+    memcpy(h->bary, bc, sizeof h->bary);
+}
+
+int rd_world_closest(const rd_world *w, rd_ray r, double tmax, rd_hit *h)
+{
+    best_hit b = {tmax, K_NONE, 0, {0, 0, 0}};
+    for (size_t i = 0; i < w->nplanes; i++) {
+        double t = rd_plane_intersect(&w->planes[i], r, b.t);
+        if (t > 0) {
+            b.t = t;
+            b.kind = K_PLANE;
+            b.idx = i;
+        }
+    }
+    if (w->use_bvh) {
+        bvh_closest(w, r, &b);
+    } else {
+        /* A few primitives: plain loops, no per-primitive dispatch. */
+        for (size_t i = 0; i < w->nspheres; i++) {
+            double t = rd_sphere_intersect(&w->spheres[i], r, b.t);
+            if (t > 0) {
+                b.t = t;
+                b.kind = K_SPHERE;
+                b.idx = i;
+            }
+        }
+        for (size_t i = 0; i < w->ntris; i++)
+            test_prim(w, (uint32_t)(w->nspheres + i), r, &b);
+    }
+    if (b.kind == K_NONE)
+        return 0;
+    h->t = b.t;
+    h->u = h->v = 0;
+    if (b.kind == K_SPHERE) {
+        rd_sphere_fill_hit(&w->spheres[b.idx], r, h);
+        h->n = h->ng;
+        h->material = w->sphere_mat[b.idx];
+        h->object = w->sphere_obj[b.idx];
+    } else if (b.kind == K_PLANE) {
+        rd_plane_fill_hit(&w->planes[b.idx], r, h);
+        h->n = h->ng;
+        h->material = w->plane_mat[b.idx];
+        h->object = w->plane_obj[b.idx];
+    } else {
+        fill_tri(w, &b, h);
+    }
+    h->prim_kind = b.kind;
+    h->prim = b.idx;
+    h->front = v3_dot(h->ng, r.d) < 0;
+    if (v3_dot(h->n, r.d) > 0)
+        h->n = v3_neg(h->n);
+    return 1;
+}
+
+void rd_world_hit_uv(const rd_world *w, rd_hit *h)
+{
+    if (h->prim_kind == K_SPHERE) {
+        rd_sphere_uv(&w->spheres[h->prim], h);
+    } else if (h->prim_kind == K_PLANE) {
+        rd_plane_uv(&w->planes[h->prim], h);
+    } else if (h->prim_kind == K_TRI) {
+        const rd_wtri *t = &w->tris[h->prim];
+        const double *b = h->bary;
+        double uv[3][2] = {{0, 0}, {1, 0}, {0, 1}};
+        if (t->mesh < 0) {
+            const rd_object *o = &w->scene->objects[t->object];
+            if (o->has_uv)
+                memcpy(uv, o->uv, sizeof uv);
+        } else {
+            const rd_mesh *m = &w->scene->meshes[t->mesh];
+            const rd_mesh_face *f = &m->faces[t->face];
+            if (f->t[0] >= 0 && f->t[1] >= 0 && f->t[2] >= 0)
+                for (int c = 0; c < 3; c++) {
+                    uv[c][0] = m->uvs[f->t[c]][0];
+                    uv[c][1] = m->uvs[f->t[c]][1];
+                }
+        }
+        h->u = b[0] * uv[0][0] + b[1] * uv[1][0] + b[2] * uv[2][0];
+        h->v = b[0] * uv[0][1] + b[1] * uv[1][1] + b[2] * uv[2][1];
+    }
+}
+
+int rd_world_any(const rd_world *w, rd_ray r, double tmax)
+{
+    for (size_t i = 0; i < w->nplanes; i++)
+        if (rd_plane_intersect(&w->planes[i], r, tmax) > 0)
+            return 1;
+    if (w->use_bvh)
+        return bvh_any(w, r, tmax);
+    for (size_t i = 0; i < w->nspheres; i++)
+        if (rd_sphere_intersect(&w->spheres[i], r, tmax) > 0)
+            return 1;
+    double bary[3];
+    for (size_t i = 0; i < w->ntris; i++)
+        if (rd_tri_intersect(w->tris[i].v, r, tmax, bary) > 0)
+            return 1;
+    return 0;
+}

@@ -1,0 +1,70 @@
+/* The scene's surfaces prepared for tracing: moved into camera-relative
+ * coordinates (the eye at the origin, so a far-off scene keeps its
+ * precision near the viewer), bounded ones (spheres, triangles) in a BVH
+ * once there are more than a few, planes tested on their own.
+ *
+ * Ownership: rd_world_build allocates; rd_world_free releases. The scene
+ * must outlive the world (triangles refer back to its meshes). */
+#ifndef RD_WORLD_H
+#define RD_WORLD_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "bvh.h"
+#include "rayd/error.h"
+#include "plane.h"
+#include "rayd/scene.h"
+#include "sphere.h"
+
+/* Below this many bounded primitives a plain loop beats the BVH. */
+#define RD_WORLD_BVH_MIN 8
+
+/* A triangle as the tracer needs it: its corners, and where its shading
+ * attributes live (an explicit [triangle] object, or a mesh face). */
+typedef struct {
+    rd_vec3 v[3];
+    int32_t material;
+    int32_t object;     /* the scene object it came from */
+    int32_t mesh;       /* -1 for a [triangle]; else index into scene->meshes */
+    uint32_t face;      /* the mesh face */
+} rd_wtri;
+
+typedef struct {
+    const rd_scene *scene;
+    rd_sphere *spheres;
+    int32_t *sphere_mat, *sphere_obj;
+    size_t nspheres;
+    rd_plane *planes;
+    int32_t *plane_mat, *plane_obj;
+    size_t nplanes;
+    rd_wtri *tris;
+    size_t ntris;
+    rd_bvh bvh;         /* over spheres (ids < nspheres) then triangles */
+    int use_bvh;
+    rd_vec3 origin;     /* world position of the camera-relative origin */
+    double build_ms;    /* time spent building the BVH */
+} rd_world;
+
+/* Fails (RD_ERR_INVALID) on unresolved materials or meshes the loader has
+ * not filled in. */
+rd_error_code rd_world_build(rd_world *w, const rd_scene *s, rd_error *err);
+void rd_world_free(rd_world *w);
+
+/* Bytes the world holds (surfaces, BVH nodes and indices). */
+size_t rd_world_bytes(const rd_world *w);
+
+/* A world position in the world's coordinates. */
+static inline rd_vec3 rd_world_local(const rd_world *w, rd_vec3 p) { return v3_sub(p, w->origin); }
+
+/* Closest hit with t in (0, tmax); fills h except u and v (see
+ * rd_world_hit_uv), with h->n facing the ray. Returns 1 on a hit. */
+int rd_world_closest(const rd_world *w, rd_ray r, double tmax, rd_hit *h);
+
+/* Texture coordinates of a hit, computed only for materials that use them. */
+void rd_world_hit_uv(const rd_world *w, rd_hit *h);
+
+/* 1 when anything lies on the ray at t in (0, tmax); stops at the first. */
+int rd_world_any(const rd_world *w, rd_ray r, double tmax);
+
+#endif

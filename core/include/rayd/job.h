@@ -1,0 +1,101 @@
+/* A render cut into tiles and passes, for callers that schedule the work
+ * themselves (rd_render's threads, the daemon's shared pool).
+ *
+ * Each pixel keeps a running mean of its samples' colour and, for the error
+ * estimate, a Welford mean and sum of squared deviations of their display
+ * values. A pass adds a number of samples to every pixel of a tile; the
+ * samples of pass p depend only on (seed, pixel, p), so the result does not
+ * depend on which thread renders which tile or in what order.
+ *
+ * Ownership: rd_job_create allocates; rd_job_free releases. The scene must
+ * outlive the job. Distinct tiles of one pass may be rendered concurrently;
+ * a tile's passes must run in order. */
+#ifndef RD_JOB_H
+#define RD_JOB_H
+
+#include <stdatomic.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "rayd/error.h"
+#include "rayd/image.h"
+#include "rayd/scene.h"
+#include "rayd/stats.h"
+
+typedef struct rd_job rd_job;
+
+typedef struct {
+    uint64_t camera, shadow, secondary, nonfinite;
+} rd_job_counts;
+
+typedef struct {
+    int tile;           /* edge in pixels; < 1 means 16 */
+    int progressive;    /* every pass jitters, even a first pass of one sample */
+    int adaptive;       /* passes after the first give more samples to noisier pixels */
+} rd_job_options;
+
+/* The most memory a job of this scene holds, in bytes: the scene itself,
+ * its world and BVH (with what building them needs), the per-pixel state
+ * the options call for, and an 8-bit copy of the image. Computed from the
+ * layouts before anything is allocated, for admission against a budget;
+ * the scene's meshes must be loaded. */
+size_t rd_job_estimate_bytes(const rd_scene *s, const rd_job_options *opt);
+
+rd_error_code rd_job_create(const rd_scene *s, const rd_job_options *opt, rd_job **out, rd_error *err);
+void rd_job_free(rd_job *j);
+
+int rd_job_tile_count(const rd_job *j);
+int rd_job_width(const rd_job *j);
+int rd_job_height(const rd_job *j);
+const rd_scene *rd_job_scene(const rd_job *j);
+
+/* Starts pass `pass` of `samples` samples per pixel (on average, when
+ * adaptive). Call it once, between passes, with no tile being rendered:
+ * it reads every pixel. */
+void rd_job_begin_pass(rd_job *j, int pass, int samples);
+
+/* Adds the current pass's samples to every pixel of tile t; returns 1, or
+ * 0 when the deadline passed before it finished. With one pass of
+ * one sample and not progressive, the sample goes through the pixel centre;
+ * otherwise a pixel's samples in a pass are correlated multi-jittered.
+ * Adaptive passes after the first give pixel i about
+ * samples·(1/2 + 1/2·w_i/mean(w)) samples, w_i = s_i²/n_i² (the drop in its
+ * variance one more sample buys), at most 64·samples. */
+int rd_job_render_tile(rd_job *j, int t, rd_job_counts *counts);
+
+/* Stops rendering once the monotonic clock passes deadline_ms (see
+ * rd_now_ms; 0 = never), or once *cancel becomes non-zero (NULL = never;
+ * the flag must outlive the job). Both are looked at about once a
+ * millisecond of tracing, inside the sample, light and recursion loops
+ * (trace.h), so a stop takes effect within a few milliseconds whatever the
+ * scene. rd_job_render_tile then returns 0 and the tile is incomplete. */
+void rd_job_set_deadline(rd_job *j, double deadline_ms);
+void rd_job_set_cancel(rd_job *j, const atomic_int *cancel);
+
+/* Mean samples per pixel so far. */
+double rd_job_mean_samples(const rd_job *j);
+
+
+/* The mean colours as an image (out->rgb malloc'ed; free with
+ * rd_image_free). Pixels with no sample yet are black. */
+rd_error_code rd_job_image(const rd_job *j, rd_image *out, rd_error *err);
+
+/* Moves the mean colours out as the image (no copy); the job keeps
+ * answering everything but rd_job_image and rd_job_rgb8 afterwards. */
+void rd_job_take_image(rd_job *j, rd_image *out);
+
+/* 8-bit RGB of the image so far, without a linear copy: width·height·3 bytes. */
+void rd_job_rgb8(const rd_job *j, uint8_t *out);
+
+/* Writes tile t's pixels into out, a whole width·height·3 RGB8 image. */
+void rd_job_tile_rgb8(const rd_job *j, int t, uint8_t *out);
+
+/* Root-mean-square standard error of the pixel means (see render.h), over
+ * every pixel, summed in pixel order. Pixels with fewer than 2 samples
+ * contribute 0. */
+double rd_job_error_estimate(const rd_job *j);
+
+/* Time the plan took to build, BVH figures, memory: for statistics. */
+void rd_job_plan_stats(const rd_job *j, rd_render_stats *st);
+
+#endif

@@ -1,0 +1,37 @@
+/* Rendering a scene into an image, with statistics. The core's entry point.
+ *
+ * Ownership: rd_render allocates out->rgb; the caller frees it with
+ * rd_image_free. The scene is only read, and may be shared by renders. */
+#ifndef RD_RENDER_H
+#define RD_RENDER_H
+
+#include <stdatomic.h>
+#include <stdint.h>
+
+#include "rayd/error.h"
+#include "rayd/image.h"
+#include "rayd/progress.h"
+#include "rayd/scene.h"
+#include "rayd/stats.h"
+
+typedef struct {
+    int threads;                /* worker threads; < 1 means 1 */
+    int tile;                   /* tile edge in pixels; < 1 means 16 */
+    const atomic_int *cancel;   /* optional: non-zero stops the render within milliseconds */
+    /* Optional; called by a worker after each tile, possibly concurrently. */
+    void (*progress)(void *user, int tiles_done, int tiles_total);
+    void *user;
+    /* Progressive rendering (progress.h): either makes the render run
+     * passes until the scene's samples, the budget or the target error,
+     * whichever comes first. */
+    double time_budget_ms;      /* <= 0: none */
+    double target_error;        /* <= 0: none */
+    int adaptive;               /* later passes spend samples where the error is */
+} rd_render_options;
+
+/* Renders s as its render section says. On RD_ERR_CANCELLED the image is
+ * freed. Any error leaves *out empty. */
+rd_error_code rd_render(const rd_scene *s, const rd_render_options *opt, rd_image *out,
+                        rd_render_stats *stats, rd_error *err);
+
+#endif

@@ -1,0 +1,234 @@
+#include "trace.h"
+
+#include <float.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <time.h>
+#include <string.h>
+
+#include "rayd/clock.h"
+#include "fresnel.h"
+#include "material.h"
+#include "texture.h"
+
+/* Colour sums saturate here, far above white and far below overflow, so
+ * that lights of any finite colour never add up to infinity. */
+#define RD_MAX_RADIANCE 1e300
+
+static rd_rgb saturate(rd_rgb c)
+{
+    double v[3] = {c.x, c.y, c.z};
+    for (int i = 0; i < 3; i++)
+        v[i] = v[i] > RD_MAX_RADIANCE ? RD_MAX_RADIANCE : (v[i] < -RD_MAX_RADIANCE ? -RD_MAX_RADIANCE : v[i]);
+    return v3(v[0], v[1], v[2]);
+}
+
+rd_error_code rd_plan_build(rd_plan *p, const rd_scene *s, rd_error *err)
+{
+    memset(p, 0, sizeof *p);
+    p->scene = s;
+    for (size_t j = 0; j < s->object_count; j++) {
+        int mi = s->objects[j].material;
+        if (mi < 0 || (size_t)mi >= s->material_count)
+            return rd_error_set(err, RD_ERR_INVALID, 0, 0, "object %zu has no material", j);
+        const rd_material *m = &s->materials[mi];
+        if (m->type == RD_MAT_TEXTURED_PHONG &&
+            (m->texture_index < 0 || (size_t)m->texture_index >= s->texture_count))
+            return rd_error_set(err, RD_ERR_INVALID, 0, 0, "material '%s': its texture was not loaded",
+                                m->name ? m->name : "?");
+    }
+    rd_error_code rc = rd_world_build(&p->world, s, err);
+    if (rc)
+        return rc;
+    p->lights = calloc(s->light_count + 1, sizeof *p->lights);
+    if (!p->lights) {
+        rd_world_free(&p->world);
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory preparing the lights");
+    }
+    for (size_t i = 0; i < s->light_count; i++) {
+        rd_light_prep lp;
+        rd_light_prepare(&lp, &s->lights[i], p->world.origin);
+        /* A light that gives nothing costs nothing. */
+        if (lp.color.x == 0 && lp.color.y == 0 && lp.color.z == 0)
+            continue;
+        p->lights[p->nlights++] = lp;
+        if (lp.type == RD_LIGHT_AREA)
+            p->stochastic = 1;
+    }
+    for (size_t i = 0; i < s->object_count; i++)
+        if (rd_material_is_recursive(&s->materials[s->objects[i].material]))
+            p->recursive = 1;
+    return RD_OK;
+}
+
+void rd_plan_free(rd_plan *p)
+{
+    rd_world_free(&p->world);
+    free(p->lights);
+    memset(p, 0, sizeof *p);
+}
+
+/* Not inlined: it would grow every recursion level's stack frame. */
+__attribute__((noinline)) static int shadowed(const rd_plan *p, const rd_hit *h, const rd_light_sample *ls,
+                                              rd_ray_counts *counts)
+{
+    rd_ray sr;
+    sr.o = rd_offset_origin(h, ls->to_light);
+    counts->shadow++;
+    if (ls->infinite) {
+        sr.d = ls->to_light;
+        return rd_world_any(&p->world, sr, INFINITY);
+    }
+    /* Aim from the pushed-off origin, so the ray still ends at the light. */
+    rd_vec3 d = v3_add(ls->to_light, v3_sub(h->p, sr.o));
+    double span = v3_max_abs(d);
+    if (!(span > 0) || !isfinite(span))
+        return 0;
+    /* Stop just short of the light: by the rounding error of the two end
+     * points, so a light on a surface is not hidden by it while one a hair
+     * inside a closed object still is. Relative, so it scales. */
+    double end = 1.0 - 64 * DBL_EPSILON * (v3_max_abs(h->p) + v3_max_abs(v3_add(h->p, ls->to_light))) / span;
+    if (!(end > 0))
+        return 0;
+    /* A direction of length about 1 (an exact power-of-two rescaling, with
+     * tmax scaled back) keeps the sphere test's squares in range for
+     * lights and scenes at any scale. The exponent comes from the bits:
+     * ilogb and ldexp are library calls on every shadow ray. */
+    uint64_t bits;
+    memcpy(&bits, &span, sizeof bits);
+    int e = (int)((bits >> 52) & 0x7ff) - 1023;
+    if (e < -1000 || e > 1000) {
+        e = ilogb(span);
+        sr.d = v3(ldexp(d.x, -e), ldexp(d.y, -e), ldexp(d.z, -e));
+        return rd_world_any(&p->world, sr, ldexp(end, e));
+    }
+    double down, up;
+    uint64_t b1 = (uint64_t)(1023 - e) << 52, b2 = (uint64_t)(1023 + e) << 52;
+    memcpy(&down, &b1, sizeof down);
+    memcpy(&up, &b2, sizeof up);
+    sr.d = v3_scale(d, down);
+    return rd_world_any(&p->world, sr, end * up);
+}
+
+void rd_counts_init(rd_ray_counts *c, double deadline_ms, const atomic_int *cancel)
+{
+    memset(c, 0, sizeof *c);
+    c->deadline_ms = deadline_ms;
+    c->cancel = cancel;
+    c->check_every = 256;
+    /* Nothing to look at: the countdown never reaches zero. */
+    c->until_check = deadline_ms > 0 || cancel ? c->check_every : INT64_MAX;
+    c->last_check_ms = c->until_check == INT64_MAX ? 0 : rd_now_ms();
+}
+
+int rd_counts_check(rd_ray_counts *c)
+{
+    if (c->stopped) {
+        c->until_check = 1;
+        return 1;
+    }
+    if (!(c->deadline_ms > 0) && !c->cancel) {
+        c->until_check = INT64_MAX;
+        return 0;
+    }
+    double now = rd_now_ms();
+    if ((c->cancel && atomic_load_explicit(c->cancel, memory_order_relaxed)) ||
+        (c->deadline_ms > 0 && now > c->deadline_ms)) {
+        c->stopped = 1;
+        c->until_check = 1;
+        return 1;
+    }
+    double dt = now - c->last_check_ms;
+    if (dt > 2 && c->check_every > 1)
+        c->check_every /= 2;
+    else if (dt < 0.5 && c->check_every < (1 << 20))
+        c->check_every *= 2;
+    c->last_check_ms = now;
+    c->until_check = c->check_every;
+    return 0;
+}
+
+static rd_rgb trace_secondary(const rd_plan *p, const rd_hit *h, rd_vec3 dir, int depth,
+                              rd_rng *rng, rd_ray_counts *counts)
+{
+    if (rd_counts_tick(counts))
+        return v3(0, 0, 0);
+    rd_ray r;
+    r.o = rd_offset_origin(h, dir);
+    r.d = dir;
+    counts->secondary++;
+    return rd_trace(p, r, depth + 1, rng, counts);
+}
+
+static int is_black(rd_rgb c) { return c.x == 0 && c.y == 0 && c.z == 0; }
+
+rd_rgb rd_trace(const rd_plan *p, rd_ray r, int depth, rd_rng *rng, rd_ray_counts *counts)
+{
+    const rd_scene *s = p->scene;
+    rd_hit h;
+    if (!rd_world_closest(&p->world, r, INFINITY, &h))
+        return s->render.background;
+    const rd_material *m = &s->materials[h.material];
+    if (m->type == RD_MAT_PSEUDO_NORMAL_COLOR)
+        return v3((h.n.x + 1) * 0.5, (h.n.y + 1) * 0.5, (h.n.z + 1) * 0.5);
+
+    rd_material textured;
+    if (m->type == RD_MAT_TEXTURED_PHONG) {
+        /* Only textured materials pay for texture coordinates and lookups. */
+        rd_world_hit_uv(&p->world, &h);
+        textured = *m;
+        textured.kd = rd_texture_sample(&s->textures[m->texture_index], h.u * m->uv_scale,
+                                        h.v * m->uv_scale);
+        m = &textured;
+    }
+    rd_vec3 V = v3_neg(r.d);
+    rd_rgb color = v3(0, 0, 0);
+    if (!rd_material_is_recursive(m)) {
+        for (size_t i = 0; i < p->nlights; i++) {
+            const rd_light_prep *lp = &p->lights[i];
+            for (int k = 0; k < lp->samples; k++) {
+                if (rd_counts_tick(counts))
+                    return color;
+                double ux = 0.5, uy = 0.5;
+                if (lp->type == RD_LIGHT_AREA) {
+                    ux = rd_rng_next(rng);
+                    uy = rd_rng_next(rng);
+                }
+                rd_light_sample ls;
+                if (!rd_light_sample_at(lp, h.p, k, ux, uy, &ls))
+                    continue;
+                /* A light behind the surface contributes 0: no shadow ray. */
+                if (!(-v3_dot(h.n, ls.L) > 0))
+                    continue;
+                if (shadowed(p, &h, &ls, counts))
+                    continue;
+                color = saturate(v3_add(color, v3_mul(ls.color, rd_calc_reflected_light(m, &h, ls.L, V))));
+            }
+        }
+    }
+    color = saturate(v3_add(color, m->ambient));
+
+    if (depth >= s->render.max_depth || is_black(m->ks))
+        return color;
+    if (m->type == RD_MAT_PERFECT_SPECULAR) {
+        rd_vec3 d = v3_normalize(v3_reflect(r.d, h.n));
+        color = saturate(v3_add(color, v3_mul(m->ks, trace_secondary(p, &h, d, depth, rng, counts))));
+    } else if (m->type == RD_MAT_SPECULAR_REFRACTION) {
+        double n1 = h.front ? 1.0 : m->ior, n2 = h.front ? m->ior : 1.0;
+        double cosi = -v3_dot(r.d, h.n), cost;
+        double F = rd_fresnel_dielectric(cosi, n1, n2, &cost);
+        rd_rgb sum = v3(0, 0, 0);
+        if (F > 0) {
+            rd_vec3 d = v3_normalize(v3_reflect(r.d, h.n));
+            sum = v3_scale(trace_secondary(p, &h, d, depth, rng, counts), F);
+        }
+        if (F < 1) {
+            double eta = n1 / n2;
+            rd_vec3 t = v3_add(v3_scale(r.d, eta), v3_scale(h.n, eta * rd_clamp01(cosi) - cost));
+            t = v3_normalize(t);
+            sum = v3_add(sum, v3_scale(trace_secondary(p, &h, t, depth, rng, counts), 1 - F));
+        }
+        color = saturate(v3_add(color, v3_mul(m->ks, saturate(sum))));
+    }
+    return color;
+}

@@ -1,0 +1,107 @@
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli.h"
+#include "png_write.h"
+#include "scene_load.h"
+#include "scene_schema.h"
+#include "scene_write.h"
+#include "file_io.h"
+
+static const char convert_help[] =
+    "usage: rayd convert IN OUT [--to cfg|json]\n"
+    "\n"
+    "Reads the scene IN (.cfg or .json; other names are sniffed) and writes the\n"
+    "same scene to OUT in the other format, or the one OUT's extension names.\n"
+    "OUT '-' writes to standard output (give --to). Comments are not kept; every\n"
+    "key that differs from its default is written, so converting the result\n"
+    "again gives the same text.\n"
+    "\n"
+    "Exit status: 0 written; 1 usage error; 2 scene error; 3 I/O error.\n";
+
+int rd_cmd_convert(int argc, char **argv)
+{
+    const char *in = NULL, *out = NULL, *to = NULL;
+    for (int i = 1; i < argc; i++) {
+        if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
+            fputs(convert_help, stdout);
+            return RD_EXIT_OK;
+        } else if (strcmp(argv[i], "--to") == 0 && i + 1 < argc) {
+            to = argv[++i];
+        } else if (argv[i][0] == '-' && argv[i][1] != 0) {
+            fprintf(stderr, "rayd convert: unknown option '%s'\n(try 'rayd convert --help')\n", argv[i]);
+            return RD_EXIT_USAGE;
+        } else if (!in) {
+            in = argv[i];
+        } else if (!out) {
+            out = argv[i];
+        } else {
+            fprintf(stderr, "rayd convert: expected IN and OUT only\n");
+            return RD_EXIT_USAGE;
+        }
+    }
+    if (!in || !out) {
+        fprintf(stderr, "rayd convert: expected IN and OUT\n(try 'rayd convert --help')\n");
+        return RD_EXIT_USAGE;
+    }
+    int json;
+    if (to)
+        json = strcmp(to, "json") == 0 ? 1 : (strcmp(to, "cfg") == 0 ? 0 : -1);
+    else if (rd_ends_with(out, ".json"))
+        json = 1;
+    else if (rd_ends_with(out, ".cfg"))
+        json = 0;
+    else
+        json = -2;
+    if (json == -1) {
+        fprintf(stderr, "rayd convert: --to takes cfg or json, not '%s'\n", to);
+        return RD_EXIT_USAGE;
+    }
+    if (json == -2) {
+        fprintf(stderr, "rayd convert: cannot tell the format of '%s': name it .cfg or .json, or give --to\n", out);
+        return RD_EXIT_USAGE;
+    }
+    rd_scene s;
+    rd_scene_init(&s);
+    rd_error err = {0};
+    rd_error_code rc = rd_scene_load_file(in, NULL, &s, &err);
+    char *text = NULL;
+    if (!rc)
+        rc = json ? rd_scene_write_json(&s, &text, &err) : rd_scene_write_cfg(&s, &text, &err);
+    rd_scene_free(&s);
+    if (rc) {
+        fprintf(stderr, "%s\n", err.message);
+        return rc == RD_ERR_IO ? RD_EXIT_IO : RD_EXIT_SCENE;
+    }
+    if (strcmp(out, "-") == 0) {
+        fputs(text, stdout);
+        rc = fflush(stdout) == 0 ? RD_OK : rd_error_set(&err, RD_ERR_IO, 0, 0, "cannot write to stdout");
+    } else {
+        rc = rd_write_file(out, text, strlen(text), &err);
+    }
+    free(text);
+    if (rc) {
+        fprintf(stderr, "rayd convert: %s\n", err.message);
+        return RD_EXIT_IO;
+    }
+    return RD_EXIT_OK;
+}
+
+int rd_cmd_schema(int argc, char **argv)
+{
+    if (argc > 1 && (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0)) {
+        fputs("usage: rayd schema\n\nPrints the JSON Schema of JSON scenes (docs/scene.schema.json),\n"
+              "generated from the same key table as the parsers.\n", stdout);
+        return RD_EXIT_OK;
+    }
+    char *text;
+    rd_error err = {0};
+    if (rd_scene_schema(&text, &err)) {
+        fprintf(stderr, "rayd schema: %s\n", err.message);
+        return RD_EXIT_IO;
+    }
+    fputs(text, stdout);
+    free(text);
+    return fflush(stdout) == 0 ? RD_EXIT_OK : RD_EXIT_IO;
+}

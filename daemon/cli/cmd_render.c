@@ -1,0 +1,236 @@
+#include <getopt.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "cli.h"
+#include "png_write.h"
+#include "rayd/render.h"
+#include "scene_assets.h"
+#include "scene_load.h"
+#include "file_io.h"
+
+static const char render_help[] =
+    "usage: rayd render SCENE -o OUT.png [options]\n"
+    "\n"
+    "Renders SCENE (.cfg or .json; other names are sniffed) into an 8-bit RGB PNG\n"
+    "and prints one line of statistics on stderr.\n"
+    "\n"
+    "  -o, --output FILE   where to write the PNG (required)\n"
+    "      --width N       image width in pixels, 1..16384 (overrides [render])\n"
+    "      --height N      image height in pixels, 1..16384\n"
+    "      --samples N     samples per pixel, 1..65536; 1 is the pixel centre\n"
+    "      --seed N        sampling seed; same seed gives the same image\n"
+    "      --threads N     worker threads, 1..1024 (default: the number of cores);\n"
+    "                      the image does not depend on it\n"
+    "      --png-level N   zlib level 0..9 for the PNG (default 1)\n"
+    "      --time-budget-ms T  render in passes and stop before T ms are spent\n"
+    "      --target-error E    render in passes until the error estimate is <= E\n"
+    "                      (either makes --samples the cap, not the count)\n"
+    "      --adaptive      later passes spend samples where the estimated error is\n"
+    "      --max-...  N    a size limit; 'rayd limits' lists them with defaults\n"
+    "  -h, --help          this text\n"
+    "\n"
+    "Exit status: 0 written; 1 usage error; 2 scene error (message on stderr,\n"
+    "no image written); 3 file could not be read or written.\n"
+    "\n"
+    "Statistics line (stderr):\n"
+    "  render: WxH samples=N threads=N time_ms=T camera_rays=N shadow_rays=N\n"
+    "  secondary_rays=N rays_per_s=R error_estimate=E nonfinite=N prepare_ms=T\n"
+    "  bvh_build_ms=T bvh_nodes=N primitives=N world_bytes=B\n"
+    "  stopped_by=samples|time_budget|target_error passes=N curve=MS:SPP:ERR,...\n"
+    "error_estimate is the estimated RMS error of the image against a converged\n"
+    "render, in [0,1] units (1 = 255 levels); 0 with one sample per pixel. curve\n"
+    "has one point per pass: elapsed ms, samples per pixel, error estimate.\n";
+
+int rd_cli_int(const char *s, long lo, long hi, long *out)
+{
+    if (!s || !*s)
+        return 1;
+    char *end;
+    long v = strtol(s, &end, 10);
+    if (*end || v < lo || v > hi)
+        return 1;
+    *out = v;
+    return 0;
+}
+
+static int usage_error(const char *fmt, const char *arg)
+{
+    fprintf(stderr, "rayd render: ");
+    fprintf(stderr, fmt, arg);
+    fprintf(stderr, "\n(try 'rayd render --help')\n");
+    return RD_EXIT_USAGE;
+}
+
+static int exit_for(rd_error_code c)
+{
+    return c == RD_ERR_IO ? RD_EXIT_IO : RD_EXIT_SCENE;
+}
+
+int rd_cmd_render(int argc, char **argv)
+{
+    enum { O_WIDTH = 256, O_HEIGHT, O_SAMPLES, O_SEED, O_THREADS, O_PNG_LEVEL, O_BUDGET, O_TARGET, O_ADAPTIVE };
+    static const struct option opts[] = {
+        {"output", required_argument, NULL, 'o'}, {"width", required_argument, NULL, O_WIDTH},
+        {"height", required_argument, NULL, O_HEIGHT}, {"samples", required_argument, NULL, O_SAMPLES},
+        {"seed", required_argument, NULL, O_SEED}, {"threads", required_argument, NULL, O_THREADS},
+        {"png-level", required_argument, NULL, O_PNG_LEVEL}, {"help", no_argument, NULL, 'h'},
+        {"time-budget-ms", required_argument, NULL, O_BUDGET}, {"target-error", required_argument, NULL, O_TARGET},
+        {"adaptive", no_argument, NULL, O_ADAPTIVE},
+        {NULL, 0, NULL, 0}};
+    const char *output = NULL;
+    long width = 0, height = 0, samples = 0, threads = sysconf(_SC_NPROCESSORS_ONLN), level = -1;
+    const char *seed = NULL;
+    double budget = 0, target = 0;
+    int adaptive = 0;
+    if (threads < 1)
+        threads = 1;
+    rd_scene_limits lim = rd_scene_limits_default();
+    int lrc = rd_cli_take_limits(&argc, argv, &lim, "rayd render");
+    if (lrc)
+        return lrc;
+    optind = 1;
+    opterr = 0;
+    int c;
+    while ((c = getopt_long(argc, argv, ":o:h", opts, NULL)) != -1) {
+        switch (c) {
+        case 'o': output = optarg; break;
+        case 'h': fputs(render_help, stdout); return RD_EXIT_OK;
+        case O_WIDTH:
+            if (rd_cli_int(optarg, 1, 16384, &width))
+                return usage_error("--width: expected an integer in 1..16384, got '%s'", optarg);
+            break;
+        case O_HEIGHT:
+            if (rd_cli_int(optarg, 1, 16384, &height))
+                return usage_error("--height: expected an integer in 1..16384, got '%s'", optarg);
+            break;
+        case O_SAMPLES:
+            if (rd_cli_int(optarg, 1, 65536, &samples))
+                return usage_error("--samples: expected an integer in 1..65536, got '%s'", optarg);
+            break;
+        case O_SEED: seed = optarg; break;
+        case O_THREADS:
+            if (rd_cli_int(optarg, 1, 1024, &threads))
+                return usage_error("--threads: expected an integer in 1..1024, got '%s'", optarg);
+            break;
+        case O_PNG_LEVEL:
+            if (rd_cli_int(optarg, 0, 9, &level))
+                return usage_error("--png-level: expected an integer in 0..9, got '%s'", optarg);
+            break;
+        case O_BUDGET:
+        case O_TARGET: {
+            char *end;
+            double v = strtod(optarg, &end);
+            if (!*optarg || *end || !(v > 0) || !(v < 1e15))
+                return usage_error(c == O_BUDGET ? "--time-budget-ms: expected a number > 0, got '%s'"
+                                                 : "--target-error: expected a number > 0, got '%s'",
+                                   optarg);
+            if (c == O_BUDGET)
+                budget = v;
+            else
+                target = v;
+            break;
+        }
+        case O_ADAPTIVE: adaptive = 1; break;
+        case ':': return usage_error("%s needs a value", argv[optind - 1]);
+        default: return usage_error("unknown option '%s'", argv[optind - 1]);
+        }
+    }
+    if (optind != argc - 1)
+        return usage_error("%s", optind >= argc ? "expected one SCENE file" : "expected exactly one SCENE file");
+    if (!output)
+        return usage_error("%s", "missing -o OUT.png");
+    unsigned long long seed_value = 0;
+    if (seed) {
+        char *end;
+        seed_value = strtoull(seed, &end, 10);
+        if (*end || !*seed || seed[0] == '-')
+            return usage_error("--seed: expected a non-negative integer, got '%s'", seed);
+    }
+
+    rd_scene scene;
+    rd_scene_init(&scene);
+    rd_error err = {0};
+    rd_error_code rc = rd_scene_load_file(argv[optind], &lim, &scene, &err);
+    if (!rc) {
+        char *dir = rd_dirname(argv[optind]);
+        rd_asset_source src = rd_asset_folder(dir ? dir : ".");
+        rd_warnings warnings = {0, ""};
+        rc = rd_scene_load_assets(&scene, &src, &lim, &warnings, &err);
+        free(dir);
+        if (warnings.count)
+            fprintf(stderr, "%s%s", warnings.text,
+                    warnings.count > 5 ? "(more warnings not shown)\n" : "");
+    }
+    if (rc) {
+        fprintf(stderr, "%s\n", err.message);
+        rd_scene_free(&scene);
+        return exit_for(rc);
+    }
+    if (width)
+        scene.render.width = (int)width;
+    if (height)
+        scene.render.height = (int)height;
+    if (samples)
+        scene.render.samples = (int)samples;
+    if (seed)
+        scene.render.seed = seed_value;
+    rc = rd_scene_check_limits(&scene, &lim, argv[optind], &err);
+    if (rc) {
+        fprintf(stderr, "%s\n", err.message);
+        rd_scene_free(&scene);
+        return exit_for(rc);
+    }
+
+    rd_render_options ro = {0};
+    ro.threads = (int)threads;
+    ro.time_budget_ms = budget;
+    ro.target_error = target;
+    ro.adaptive = adaptive;
+    rd_image img;
+    rd_render_stats st;
+    rc = rd_render(&scene, &ro, &img, &st, &err);
+    if (rc) {
+        fprintf(stderr, "%s: %s\n", argv[optind], err.message);
+        rd_scene_free(&scene);
+        return exit_for(rc);
+    }
+    size_t n = (size_t)img.width * (size_t)img.height * 3;
+    uint8_t *rgb = malloc(n);
+    unsigned char *png = NULL;
+    size_t png_len = 0;
+    rd_png_options po = rd_png_options_default();
+    if (level >= 0)
+        po.level = (int)level;
+    if (!rgb) {
+        rc = rd_error_set(&err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    } else {
+        rd_image_to_rgb8(&img, scene.render.gamma, rgb);
+        rc = rd_png_encode(rgb, img.width, img.height, &po, &png, &png_len, &err);
+        if (!rc)
+            rc = rd_write_file(output, png, png_len, &err);
+    }
+    fprintf(stderr,
+            "render: %dx%d samples=%d threads=%d time_ms=%.3f camera_rays=%llu shadow_rays=%llu "
+            "secondary_rays=%llu rays_per_s=%.4g error_estimate=%.6f nonfinite=%llu prepare_ms=%.3f "
+            "bvh_build_ms=%.3f bvh_nodes=%zu primitives=%zu world_bytes=%zu stopped_by=%s passes=%d curve=",
+            img.width, img.height, st.samples, st.threads, st.wall_ms,
+            (unsigned long long)st.camera_rays, (unsigned long long)st.shadow_rays,
+            (unsigned long long)st.secondary_rays, st.rays_per_second, st.error_estimate,
+            (unsigned long long)st.nonfinite, st.prepare_ms, st.bvh_build_ms, st.bvh_nodes, st.primitives,
+            st.world_bytes, rd_stop_reason_name(st.stopped_by), st.passes);
+    for (int i = 0; i < st.curve_len; i++)
+        fprintf(stderr, "%s%.3f:%g:%.6f", i ? "," : "", st.curve[i].ms, st.curve[i].samples, st.curve[i].error);
+    fputc('\n', stderr);
+    free(png);
+    free(rgb);
+    rd_image_free(&img);
+    rd_scene_free(&scene);
+    if (rc) {
+        fprintf(stderr, "rayd render: %s\n", err.message);
+        return RD_EXIT_IO;
+    }
+    return RD_EXIT_OK;
+}

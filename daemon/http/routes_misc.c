@@ -1,0 +1,140 @@
+#include <cJSON.h>
+#include <dirent.h>
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "asset_source.h"
+#include "http_internal.h"
+#include "scene_load.h"
+#include "file_io.h"
+
+static int scene_file(const char *name)
+{
+    size_t n = strlen(name);
+    return (n > 4 && strcmp(name + n - 4, ".cfg") == 0) || (n > 5 && strcmp(name + n - 5, ".json") == 0);
+}
+
+/* Links that lead out of the folder are neither listed nor served. */
+static int inside(const char *dir, const char *name)
+{
+    char real[PATH_MAX];
+    rd_error err;
+    return rd_path_inside(dir, name, real, &err) == RD_OK;
+}
+
+static int cmp_str(const void *a, const void *b) { return strcmp(*(char *const *)a, *(char *const *)b); }
+
+enum MHD_Result rd_route_scenes(rd_req *r, const char *name)
+{
+    const char *dir = r->srv->opt.scenes_dir;
+    if (!name || !*name) {
+        DIR *d = opendir(dir);
+        if (!d)
+            return rd_reply_json(r, 200, strdup("{\"scenes\":[]}"));
+        char *names[512];
+        size_t n = 0;
+        struct dirent *e;
+        while ((e = readdir(d)) && n < 512)
+            if (e->d_name[0] != '.' && scene_file(e->d_name) && inside(dir, e->d_name))
+                names[n++] = strdup(e->d_name);
+        closedir(d);
+        qsort(names, n, sizeof names[0], cmp_str);
+        cJSON *root = cJSON_CreateObject(), *arr = cJSON_AddArrayToObject(root, "scenes");
+        for (size_t i = 0; i < n; i++) {
+            if (!names[i])
+                continue;
+            cJSON *o = cJSON_CreateObject();
+            size_t len = strlen(names[i]);
+            int json = len > 5 && strcmp(names[i] + len - 5, ".json") == 0;
+            char base[256];
+            snprintf(base, sizeof base, "%.*s", (int)(len - (json ? 5 : 4)), names[i]);
+            cJSON_AddStringToObject(o, "name", names[i]);
+            cJSON_AddStringToObject(o, "scene", base);
+            cJSON_AddStringToObject(o, "format", json ? "json" : "cfg");
+            char url[300];
+            snprintf(url, sizeof url, "/v1/scenes/%s", names[i]);
+            cJSON_AddStringToObject(o, "url", url);
+            cJSON_AddItemToArray(arr, o);
+            free(names[i]);
+        }
+        char *t = cJSON_PrintUnformatted(root);
+        cJSON_Delete(root);
+        return rd_reply_json(r, 200, t);
+    }
+    /* A bare name ("phong") means its cfg; only plain file names are served. */
+    char file[300];
+    if (strchr(name, '/') || name[0] == '.' || strlen(name) > 200)
+        return rd_reply_error(r, 404, "not_found", NULL, "no bundled scene by that name");
+    snprintf(file, sizeof file, "%s%s", name, scene_file(name) ? "" : ".cfg");
+    char path[PATH_MAX];
+    char *text;
+    size_t len;
+    rd_error err = {0};
+    if (rd_path_inside(dir, file, path, &err) || rd_read_file(path, r->srv->opt.limits.max_bytes, "--max-scene-bytes", &text, &len, &err))
+        return rd_reply_error(r, 404, "not_found", NULL, "no bundled scene by that name");
+    size_t fl = strlen(file);
+    const char *type = fl > 5 && strcmp(file + fl - 5, ".json") == 0 ? "application/json" : "text/x-rayd-cfg";
+    return rd_reply(r, 200, type, text, len, 1);
+}
+
+enum MHD_Result rd_route_metrics(rd_req *r)
+{
+    rd_jq_metrics m;
+    rd_jq_metrics_get(r->srv->jobs, &m);
+    char *buf = malloc(16384);
+    if (!buf)
+        return MHD_NO;
+    size_t n = 0, cap = 16384;
+#define PUT(...) n += (size_t)snprintf(buf + n, cap - n, __VA_ARGS__)
+    PUT("# HELP rayd_queue_depth Render jobs waiting for a render thread.\n# TYPE rayd_queue_depth gauge\n");
+    PUT("rayd_queue_depth %zu\n", m.queued);
+    PUT("# HELP rayd_jobs_running Render jobs being rendered.\n# TYPE rayd_jobs_running gauge\n");
+    PUT("rayd_jobs_running %zu\n", m.running);
+    PUT("# HELP rayd_jobs_total Render jobs ended, by outcome.\n# TYPE rayd_jobs_total counter\n");
+    PUT("rayd_jobs_total{outcome=\"done\"} %llu\n", (unsigned long long)m.done);
+    PUT("rayd_jobs_total{outcome=\"failed\"} %llu\n", (unsigned long long)m.failed);
+    PUT("rayd_jobs_total{outcome=\"cancelled\"} %llu\n", (unsigned long long)m.cancelled);
+    PUT("# HELP rayd_render_seconds Time from a job's start to its image.\n# TYPE rayd_render_seconds histogram\n");
+    for (int b = 0; b < 12; b++)
+        PUT("rayd_render_seconds_bucket{le=\"%g\"} %llu\n", rd_jq_buckets[b],
+            (unsigned long long)m.render_seconds_bucket[b]);
+    PUT("rayd_render_seconds_bucket{le=\"+Inf\"} %llu\n", (unsigned long long)m.render_count);
+    PUT("rayd_render_seconds_sum %.6f\nrayd_render_seconds_count %llu\n", m.render_seconds_sum,
+        (unsigned long long)m.render_count);
+    PUT("# HELP rayd_rays_traced_total Camera, shadow and secondary rays traced.\n# TYPE rayd_rays_traced_total counter\n");
+    PUT("rayd_rays_traced_total %llu\n", (unsigned long long)m.rays);
+    PUT("# HELP rayd_result_bytes PNG bytes kept for finished jobs.\n# TYPE rayd_result_bytes gauge\n");
+    PUT("rayd_result_bytes %zu\n", m.result_bytes);
+    PUT("# HELP rayd_jobs_kept Jobs whose status can still be read.\n# TYPE rayd_jobs_kept gauge\n");
+    PUT("rayd_jobs_kept %zu\n", m.jobs_kept);
+    PUT("# HELP rayd_memory_budget_bytes The --memory-budget (0: none).\n# TYPE rayd_memory_budget_bytes gauge\n");
+    PUT("rayd_memory_budget_bytes %zu\n", m.memory_budget);
+    PUT("# HELP rayd_memory_reserved_bytes Estimated bytes held by queued and running jobs.\n"
+        "# TYPE rayd_memory_reserved_bytes gauge\n");
+    PUT("rayd_memory_reserved_bytes %zu\n", m.memory_reserved);
+    PUT("# HELP rayd_grade_cache_bytes Grading references and kept grade images.\n"
+        "# TYPE rayd_grade_cache_bytes gauge\n");
+    PUT("rayd_grade_cache_bytes %zu\n", m.external_bytes);
+    PUT("# HELP rayd_jobs_waiting_memory Prepared jobs waiting for the memory budget.\n"
+        "# TYPE rayd_jobs_waiting_memory gauge\n");
+    PUT("rayd_jobs_waiting_memory %zu\n", m.waiting_memory);
+    PUT("# HELP rayd_http_deadline_closed_total Connections closed by the header or body deadline.\n"
+        "# TYPE rayd_http_deadline_closed_total counter\n");
+    PUT("rayd_http_deadline_closed_total %llu\n", (unsigned long long)atomic_load(&r->srv->deadline_closed));
+    PUT("# HELP rayd_http_refused_total Requests answered 431 before parsing (--max-query-args).\n"
+        "# TYPE rayd_http_refused_total counter\n");
+    PUT("rayd_http_refused_total %llu\n", (unsigned long long)atomic_load(&r->srv->raw_refused));
+    PUT("# HELP rayd_http_responses_total HTTP answers by status class.\n# TYPE rayd_http_responses_total counter\n");
+    for (int c = 1; c <= 5; c++)
+        PUT("rayd_http_responses_total{code=\"%dxx\"} %llu\n", c,
+            (unsigned long long)atomic_load(&r->srv->http_count[c]));
+#undef PUT
+    return rd_reply(r, 200, "text/plain; version=0.0.4", buf, n, 1);
+}
+
+enum MHD_Result rd_route_page(rd_req *r)
+{
+    return rd_reply(r, 200, "text/html; charset=utf-8", (void *)rd_web_index_html, strlen(rd_web_index_html), 0);
+}

@@ -1,0 +1,1163 @@
+#define _GNU_SOURCE /* POLLRDHUP */
+#include "job_queue.h"
+
+#include <math.h>
+#include <poll.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/random.h>
+#include <sys/socket.h>
+#include <time.h>
+
+#include "rayd/job.h"
+#include "timed_wait.h"
+#include "rayd/clock.h"
+
+const double rd_jq_buckets[12] = {0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1, 2.5, 5, 10, 30};
+
+enum { TILE_PENDING, TILE_RENDERING, TILE_DONE };
+
+/* Where a job is. Clients see "queued" until it runs; a phase ending in
+ * -ING is owned by one worker outside the lock, and nobody else touches the
+ * job's render state then. */
+typedef enum { PH_NEW, PH_PREPARING, PH_WAITING, PH_STARTING, PH_RUNNING, PH_FINISHING, PH_ENDED } phase;
+
+/* The registry keeps every list it sweeps in the order jobs entered it and
+ * finds jobs by id through a hash table, so that submitting, finishing and
+ * looking up cost the same with 4 kept jobs as with --max-jobs-kept. */
+typedef struct jq_list jq_list;
+typedef struct {
+    rd_jq_job *prev, *next;
+    jq_list *list; /* NULL when not in one */
+} jq_link;
+struct jq_list {
+    rd_jq_job *head, *tail;
+    size_t n;
+    size_t link_offset; /* of the jq_link inside rd_jq_job */
+};
+
+struct rd_jq_job {
+    rd_jq *q;
+    int refs;
+    char id[24];
+    rd_job_status status;
+    phase ph;
+    rd_jq_task task;
+    rd_scene scene;
+    int render;                 /* prepare left the render in */
+    rd_job *core;
+    int tiles_total, next_tile, tiles_done, inflight;
+    uint64_t tiles_given;       /* over all passes: the fair-share key */
+    unsigned char *tile_state;
+    int samples;
+    rd_progress_settings progress;
+    int pass, spp;
+    double pass_t0, last_pass_ms;
+    int last_pass_spp;
+    rd_stop_reason stopped_by;
+    rd_curve_point curve[RD_CURVE_MAX];
+    int curve_len;
+    int cancel;                 /* asked to stop */
+    int timed_out;
+    int hung_up;                /* cancelled because its client went away */
+    atomic_int stop;            /* cancel as the tracer sees it */
+    int watch_fd, watch_http11, probe_sent;
+    rd_jq_done_fn done;
+    void *user;
+    int notify_prepared;
+    int internal;
+    rd_jq_job *hold;
+    double t_submit, t_start, t_end;
+    rd_job_counts counts;
+    rd_render_stats stats;
+    double error_estimate;
+    unsigned char *png;
+    size_t png_len;
+    rd_error error;
+    size_t charged;             /* bytes of the budget it holds */
+    size_t footprint;           /* what it will hold once admitted */
+    int active, registered;
+    int sync;                   /* a waiting client takes the PNG: limits do not evict it */
+    int was_sync;
+    int width, height;
+    uint64_t idnum;             /* the id's value: its hash-table key */
+    rd_jq_job *next_active, *next_hash;
+    jq_link in_all, in_kept, in_results;
+};
+
+struct rd_jq {
+    pthread_mutex_t mu;
+    pthread_cond_t work_cv, idle_cv, watch_cv;
+    rd_jq_options opt;
+    pthread_t *threads, watchdog;
+    int nthreads, has_watchdog;
+    int stopping;
+    rd_jq_job *active_head, *active_tail;
+    jq_list all;          /* registered jobs, oldest first */
+    jq_list kept[2];      /* finished and evictable, by was_sync, oldest first */
+    jq_list results;      /* asynchronous results holding a PNG, oldest first */
+    rd_jq_job **by_id;    /* registered jobs by idnum, chained */
+    size_t nby_id;        /* a power of two */
+    size_t active_count, running_count, result_bytes, reserved;
+    atomic_llong external;
+    uint64_t counter, key;
+    uint64_t n_done, n_failed, n_cancelled, rays, render_count;
+    double render_sum;
+    uint64_t buckets[12];
+};
+
+const char *rd_job_status_name(rd_job_status s)
+{
+    static const char *const names[] = {"queued", "running", "done", "failed", "cancelled"};
+    return (unsigned)s < 5 ? names[s] : "?";
+}
+
+static double now_ms(void) { return rd_now_ms(); }
+
+static uint64_t mix(uint64_t z)
+{
+    z += 0x9e3779b97f4a7c15ULL;
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    return z ^ (z >> 31);
+}
+
+static void job_free(rd_jq_job *j)
+{
+    rd_job_free(j->core);
+    rd_scene_free(&j->scene);
+    free(j->tile_state);
+    free(j->png);
+    if (j->task.free)
+        j->task.free(j->task.arg);
+    free(j);
+}
+
+/* Under q->mu. */
+static void unref_locked(rd_jq_job *j)
+{
+    if (--j->refs > 0)
+        return;
+    rd_jq_job *held = j->hold;
+    job_free(j);
+    if (held)
+        unref_locked(held);
+}
+
+void rd_jq_job_ref(rd_jq_job *j)
+{
+    pthread_mutex_lock(&j->q->mu);
+    j->refs++;
+    pthread_mutex_unlock(&j->q->mu);
+}
+
+void rd_jq_job_unref(rd_jq_job *j)
+{
+    rd_jq *q = j->q;
+    pthread_mutex_lock(&q->mu);
+    unref_locked(j);
+    pthread_mutex_unlock(&q->mu);
+}
+
+void *rd_jq_task_arg(rd_jq_job *j) { return j->task.arg; }
+
+/* The budget a job holds becomes n bytes. Under q->mu. */
+static void charge(rd_jq *q, rd_jq_job *j, size_t n)
+{
+    q->reserved = q->reserved - j->charged + n;
+    j->charged = n;
+}
+
+static size_t used_bytes(rd_jq *q)
+{
+    long long ext = atomic_load(&q->external);
+    return q->reserved + q->result_bytes + (ext > 0 ? (size_t)ext : 0);
+}
+
+static void remove_active(rd_jq *q, rd_jq_job *j)
+{
+    rd_jq_job **pp = &q->active_head, *prev = NULL;
+    while (*pp && *pp != j) {
+        prev = *pp;
+        pp = &(*pp)->next_active;
+    }
+    if (*pp) {
+        *pp = j->next_active;
+        if (q->active_tail == j)
+            q->active_tail = prev;
+        j->active = 0;
+        q->active_count--;
+        if (j->status == RD_JOB_RUNNING)
+            q->running_count--;
+    }
+}
+
+static jq_link *link_of(const jq_list *l, rd_jq_job *j) { return (jq_link *)((char *)j + l->link_offset); }
+
+static void list_init(jq_list *l, size_t link_offset)
+{
+    memset(l, 0, sizeof *l);
+    l->link_offset = link_offset;
+}
+
+static void list_push(jq_list *l, rd_jq_job *j)
+{
+    jq_link *k = link_of(l, j);
+    if (k->list)
+        return;
+    k->list = l;
+    k->prev = l->tail;
+    k->next = NULL;
+    if (l->tail)
+        link_of(l, l->tail)->next = j;
+    else
+        l->head = j;
+    l->tail = j;
+    l->n++;
+}
+
+static void list_remove(jq_list *l, rd_jq_job *j)
+{
+    jq_link *k = link_of(l, j);
+    if (k->list != l)
+        return;
+    if (k->prev)
+        link_of(l, k->prev)->next = k->next;
+    else
+        l->head = k->next;
+    if (k->next)
+        link_of(l, k->next)->prev = k->prev;
+    else
+        l->tail = k->prev;
+    k->list = NULL;
+    l->n--;
+}
+
+static rd_jq_job **bucket(rd_jq *q, uint64_t idnum) { return &q->by_id[idnum & (q->nby_id - 1)]; }
+
+/* Doubles the table once it holds more jobs than buckets; when that
+ * allocation fails the chains just grow longer. Under q->mu. */
+static void grow_buckets(rd_jq *q)
+{
+    if (q->all.n <= q->nby_id)
+        return;
+    rd_jq_job **fresh = calloc(q->nby_id * 2, sizeof *fresh);
+    if (!fresh)
+        return;
+    rd_jq_job **old = q->by_id;
+    size_t nold = q->nby_id;
+    q->by_id = fresh;
+    q->nby_id = nold * 2;
+    for (size_t b = 0; b < nold; b++)
+        for (rd_jq_job *j = old[b], *next; j; j = next) {
+            next = j->next_hash;
+            rd_jq_job **head = bucket(q, j->idnum);
+            j->next_hash = *head;
+            *head = j;
+        }
+    free(old);
+}
+
+static void register_locked(rd_jq *q, rd_jq_job *j)
+{
+    j->registered = 1;
+    list_push(&q->all, j);
+    rd_jq_job **head = bucket(q, j->idnum);
+    j->next_hash = *head;
+    *head = j;
+    grow_buckets(q);
+}
+
+static void drop_result(rd_jq *q, rd_jq_job *j)
+{
+    list_remove(&q->results, j);
+    if (j->png) {
+        q->result_bytes -= j->png_len;
+        free(j->png);
+        j->png = NULL;
+    }
+}
+
+static void drop_registered(rd_jq *q, rd_jq_job *j)
+{
+    rd_jq_job **pp = bucket(q, j->idnum);
+    while (*pp != j)
+        pp = &(*pp)->next_hash;
+    *pp = j->next_hash;
+    list_remove(&q->all, j);
+    list_remove(&q->kept[0], j);
+    list_remove(&q->kept[1], j);
+    j->registered = 0;
+    drop_result(q, j);
+    unref_locked(j);
+}
+
+static int finished(const rd_jq_job *j) { return !j->active && j->t_end > 0; }
+
+/* A finished registered job becomes evictable once no waiting client
+ * still has to take its PNG; its result becomes evictable once it is no
+ * synchronous client's. Called when either may have changed. Under q->mu. */
+static void make_evictable(rd_jq *q, rd_jq_job *j)
+{
+    if (!j->registered || !finished(j))
+        return;
+    if (!(j->sync && j->png))
+        list_push(&q->kept[j->was_sync ? 1 : 0], j);
+    if (j->png && !j->sync)
+        list_push(&q->results, j);
+}
+
+/* Drops finished jobs past their TTL, then the oldest past --max-jobs-kept
+ * (answered synchronous renders before asynchronous results, which a
+ * client may still come for), then the oldest results while over the
+ * result memory. The lists are oldest first by the time a job became
+ * evictable, which is its end but for a synchronous client slow to take
+ * its PNG: such a job may hold back an older one's TTL by that delay.
+ * Under q->mu. */
+static void sweep(rd_jq *q)
+{
+    double now = now_ms();
+    for (int k = 0; k < 2; k++)
+        while (q->kept[k].head && now - q->kept[k].head->t_end > q->opt.result_ttl_ms)
+            drop_registered(q, q->kept[k].head);
+    while (q->kept[0].n + q->kept[1].n > q->opt.kept_max)
+        drop_registered(q, q->kept[1].head ? q->kept[1].head : q->kept[0].head);
+    while (q->result_bytes > q->opt.result_memory && q->results.head)
+        drop_result(q, q->results.head);
+}
+
+/* The outcome counters of /metrics. Under q->mu. */
+static void count_outcome(rd_jq *q, const rd_jq_job *j, rd_job_status st)
+{
+    if (st == RD_JOB_DONE) {
+        q->n_done++;
+        double sec = (j->t_end - j->t_start) / 1e3;
+        q->render_sum += sec;
+        q->render_count++;
+        for (int b = 0; b < 12; b++)
+            if (sec <= rd_jq_buckets[b])
+                q->buckets[b]++;
+    } else if (st == RD_JOB_FAILED) {
+        q->n_failed++;
+    } else {
+        q->n_cancelled++;
+    }
+    q->rays += j->counts.camera + j->counts.shadow + j->counts.secondary;
+}
+
+/* The job leaves the active list with its final status; the caller then
+ * calls its done callback without the lock. Under q->mu. */
+static void finish_locked(rd_jq *q, rd_jq_job *j, rd_job_status st)
+{
+    remove_active(q, j);
+    j->status = st;
+    j->ph = PH_ENDED;
+    j->t_end = now_ms();
+    if (!j->internal)
+        count_outcome(q, j, st);
+    uint64_t rays = j->counts.camera + j->counts.shadow + j->counts.secondary;
+    j->stats.camera_rays = j->counts.camera;
+    j->stats.shadow_rays = j->counts.shadow;
+    j->stats.secondary_rays = j->counts.secondary;
+    j->stats.nonfinite = j->counts.nonfinite;
+    j->stats.samples = j->samples;
+    j->stats.wall_ms = j->t_start > 0 ? j->t_end - j->t_start : 0;
+    j->stats.rays_per_second = j->stats.wall_ms > 0 ? rays / (j->stats.wall_ms / 1e3) : 0;
+    j->stats.error_estimate = j->error_estimate;
+    /* Only the status and the PNG outlive the render. */
+    rd_job_free(j->core);
+    j->core = NULL;
+    rd_scene_free(&j->scene);
+    charge(q, j, 0);
+    j->watch_fd = -1;
+    if (j->png)
+        q->result_bytes += j->png_len;
+    make_evictable(q, j);
+    sweep(q);
+    pthread_cond_broadcast(&q->idle_cv);
+    pthread_cond_broadcast(&q->work_cv); /* memory came free */
+}
+
+static void fail_locked(rd_jq *q, rd_jq_job *j, const rd_error *err)
+{
+    j->error = *err;
+    finish_locked(q, j, RD_JOB_FAILED);
+}
+
+/* Called without the lock; the callback is read under it, since a request
+ * that ends may detach it at any time. */
+static void call_done(rd_jq_job *j)
+{
+    pthread_mutex_lock(&j->q->mu);
+    rd_jq_done_fn fn = j->done;
+    void *user = j->user;
+    j->done = NULL;
+    pthread_mutex_unlock(&j->q->mu);
+    if (fn)
+        fn(j, user);
+}
+
+/* Runs the done callback of a job that just ended or was prepared, with
+ * the lock released and the job kept alive meanwhile. Under q->mu. */
+static void notify_locked(rd_jq *q, rd_jq_job *j)
+{
+    j->refs++;
+    pthread_mutex_unlock(&q->mu);
+    call_done(j);
+    pthread_mutex_lock(&q->mu);
+    unref_locked(j);
+}
+
+/* 1 when the client is gone. An end of stream alone may be a half-close: a
+ * client that sent its request and shut its sending side still reads the
+ * answer. An HTTP/1.1 client in that state is sent one interim "102
+ * Processing" (which clients skip); a peer that has really closed answers
+ * it with a reset, seen at a later look. */
+static int client_gone(rd_jq_job *j)
+{
+    int fd = j->watch_fd;
+    struct pollfd p = {fd, POLLIN | POLLRDHUP, 0};
+    if (poll(&p, 1, 0) <= 0)
+        return 0;
+    if (p.revents & (POLLHUP | POLLERR | POLLNVAL))
+        return 1;
+    char c;
+    int eof = (p.revents & POLLRDHUP) || recv(fd, &c, 1, MSG_PEEK | MSG_DONTWAIT) == 0;
+    if (!eof)
+        return 0;
+    if (!j->watch_http11)
+        return 1;
+    if (!j->probe_sent) {
+        static const char processing[] = "HTTP/1.1 102 Processing\r\n\r\n";
+        j->probe_sent = 1;
+        if (send(fd, processing, sizeof processing - 1, MSG_NOSIGNAL | MSG_DONTWAIT) < 0)
+            return 1;
+    }
+    return 0;
+}
+
+static void cancel_locked(rd_jq *q, rd_jq_job *j)
+{
+    j->cancel = 1;
+    j->watch_fd = -1;
+    atomic_store(&j->stop, 1);
+    pthread_cond_broadcast(&q->work_cv);
+}
+
+/* Every 20 ms: time limits and hung-up clients of jobs whose render
+ * threads are all busy tracing. */
+static void *watchdog(void *arg)
+{
+    rd_jq *q = arg;
+    pthread_mutex_lock(&q->mu);
+    while (!q->stopping) {
+        double now = now_ms();
+        for (rd_jq_job *j = q->active_head; j; j = j->next_active) {
+            if (j->cancel)
+                continue;
+            int started = j->ph == PH_STARTING || j->ph == PH_RUNNING;
+            if (started && q->opt.job_timeout_ms > 0 && now - j->t_start > q->opt.job_timeout_ms) {
+                j->timed_out = 1;
+                cancel_locked(q, j);
+            } else if (j->watch_fd >= 0 && client_gone(j)) {
+                j->hung_up = 1;
+                cancel_locked(q, j);
+            }
+        }
+        rd_timed_wait(&q->watch_cv, &q->mu, 20);
+    }
+    pthread_mutex_unlock(&q->mu);
+    return NULL;
+}
+
+/* A cancelled job nobody is working on ends here. Under q->mu. */
+static void end_cancelled(rd_jq *q, rd_jq_job *j)
+{
+    if (j->timed_out) {
+        rd_error e;
+        rd_error_set(&e, RD_ERR_TIMEOUT, 0, 0, "the render took longer than the limit of %.0f ms (--job-timeout-ms)",
+                     q->opt.job_timeout_ms);
+        fail_locked(q, j, &e);
+    } else {
+        finish_locked(q, j, RD_JOB_CANCELLED);
+    }
+    notify_locked(q, j);
+}
+
+static rd_job_options core_options(const rd_jq_job *j)
+{
+    rd_job_options jo = {16, rd_progress_is_progressive(&j->progress), j->progress.adaptive};
+    return jo;
+}
+
+/* Runs the task's preparation outside the lock. Under q->mu (released and
+ * taken again). */
+static void prepare_job(rd_jq *q, rd_jq_job *j)
+{
+    j->ph = PH_PREPARING;
+    pthread_mutex_unlock(&q->mu);
+    rd_error err = {0};
+    int render = 1;
+    rd_error_code rc = j->task.prepare ? j->task.prepare(j->task.arg, &j->scene, &render, &err) : RD_OK;
+    size_t need = 0;
+    if (!rc && render) {
+        j->samples = j->scene.render.samples < 1 ? 1 : j->scene.render.samples;
+        j->progress.max_samples = j->samples;
+        rd_job_options jo = core_options(j);
+        need = rd_job_estimate_bytes(&j->scene, &jo);
+        if (q->opt.memory_budget && need > q->opt.memory_budget)
+            rc = rd_error_set(&err, RD_ERR_LIMIT, 0, 0,
+                              "the render needs about %zu MiB, over the limit of %zu MiB (--memory-budget)",
+                              need >> 20, q->opt.memory_budget >> 20);
+    }
+    size_t held = rc ? 0 : rd_scene_bytes(&j->scene);
+    pthread_mutex_lock(&q->mu);
+    j->render = render;
+    j->width = j->scene.render.width;
+    j->height = j->scene.render.height;
+    if (rc) {
+        fail_locked(q, j, &err);
+    } else if (j->cancel) {
+        end_cancelled(q, j);
+        return;
+    } else {
+        charge(q, j, held);
+        j->footprint = need;
+        j->ph = PH_WAITING;
+        pthread_cond_broadcast(&q->work_cv);
+    }
+    if (j->notify_prepared || rc)
+        notify_locked(q, j);
+}
+
+/* Called once a job's last tile or its preparation is done: the task's
+ * finish or the PNG, outside the lock. Under q->mu (released and taken
+ * again). */
+static void finish_job(rd_jq *q, rd_jq_job *j)
+{
+    j->ph = PH_FINISHING;
+    if (j->t_start == 0)
+        j->t_start = now_ms();
+    pthread_mutex_unlock(&q->mu);
+    rd_error err = {0};
+    rd_error_code rc = RD_OK;
+    unsigned char *png = NULL;
+    size_t len = 0;
+    uint8_t *rgb = NULL;
+    int w = j->core ? rd_job_width(j->core) : 0, h = j->core ? rd_job_height(j->core) : 0;
+    if (j->core && !(rgb = malloc((size_t)w * (size_t)h * 3)))
+        rc = rd_error_set(&err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    if (rgb)
+        rd_job_rgb8(j->core, rgb);
+    if (!rc && j->task.finish)
+        rc = j->task.finish(j->task.arg, rgb, w, h, &err);
+    else if (!rc && rgb)
+        rc = rd_png_encode(rgb, w, h, &q->opt.png, &png, &len, &err);
+    free(rgb);
+    double mean = j->core ? rd_job_mean_samples(j->core) : 0;
+    pthread_mutex_lock(&q->mu);
+    j->samples = (int)floor(mean + 0.5);
+    if (rc) {
+        fail_locked(q, j, &err);
+    } else {
+        j->png = png;
+        j->png_len = len;
+        finish_locked(q, j, RD_JOB_DONE);
+    }
+    notify_locked(q, j);
+}
+
+/* Admitted: allocate the render's state outside the lock. Under q->mu
+ * (released and taken again). */
+static void start_job(rd_jq *q, rd_jq_job *j)
+{
+    j->ph = PH_STARTING;
+    j->t_start = now_ms();
+    charge(q, j, j->footprint);
+    pthread_mutex_unlock(&q->mu);
+    rd_job *core = NULL;
+    rd_error err = {0};
+    rd_job_options jo = core_options(j);
+    rd_error_code rc = rd_job_create(&j->scene, &jo, &core, &err);
+    unsigned char *ts = NULL;
+    if (!rc && !(ts = calloc((size_t)rd_job_tile_count(core), 1)))
+        rc = rd_error_set(&err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    rd_render_stats plan = {0};
+    if (!rc) {
+        if (q->opt.job_timeout_ms > 0)
+            rd_job_set_deadline(core, j->t_start + q->opt.job_timeout_ms);
+        rd_job_set_cancel(core, &j->stop);
+        rd_job_plan_stats(core, &plan);
+    }
+    pthread_mutex_lock(&q->mu);
+    /* Status readers copy stats under the lock. */
+    j->stats.prepare_ms = plan.prepare_ms;
+    j->stats.bvh_build_ms = plan.bvh_build_ms;
+    j->stats.bvh_nodes = plan.bvh_nodes;
+    j->stats.world_bytes = plan.world_bytes;
+    j->stats.primitives = plan.primitives;
+    if (rc) {
+        rd_job_free(core);
+        fail_locked(q, j, &err);
+        notify_locked(q, j);
+        return;
+    }
+    j->core = core;
+    j->tile_state = ts;
+    j->tiles_total = rd_job_tile_count(core);
+    rd_stop_reason why;
+    j->pass = 0;
+    j->spp = 0;
+    j->last_pass_spp = rd_progress_next(&j->progress, 0, 0, 0, 0, 0, 0, &why);
+    j->pass_t0 = now_ms();
+    rd_job_begin_pass(core, 0, j->last_pass_spp);
+    j->status = RD_JOB_RUNNING;
+    j->ph = PH_RUNNING;
+    q->running_count++;
+    pthread_cond_broadcast(&q->work_cv);
+}
+
+/* The last tile of a pass is done: estimate the error, add a curve point,
+ * and start the next pass or finish. Under q->mu, with the job in
+ * PH_FINISHING so no other worker touches it while the lock is released
+ * for the estimate. */
+static void end_of_pass(rd_jq *q, rd_jq_job *j)
+{
+    j->ph = PH_FINISHING;
+    pthread_mutex_unlock(&q->mu);
+    double est = rd_job_error_estimate(j->core);
+    double mean = j->progress.adaptive ? rd_job_mean_samples(j->core) : 0;
+    double now = now_ms();
+    pthread_mutex_lock(&q->mu);
+    j->spp += j->last_pass_spp;
+    j->last_pass_ms = now - j->pass_t0;
+    j->error_estimate = est;
+    if (j->curve_len < RD_CURVE_MAX) {
+        rd_curve_point *cp = &j->curve[j->curve_len++];
+        cp->ms = now - j->t_start;
+        cp->samples = j->progress.adaptive ? mean : j->spp;
+        cp->error = est;
+    }
+    rd_stop_reason why;
+    int next = rd_progress_next(&j->progress, j->pass + 1, j->spp, j->last_pass_ms, j->last_pass_spp,
+                                now - j->t_start, est, &why);
+    if (next == 0) {
+        j->stopped_by = why;
+        finish_job(q, j);
+        return;
+    }
+    if (j->cancel) {
+        j->ph = PH_RUNNING; /* reaped by the next worker to look */
+        return;
+    }
+    /* Nothing renders this job now, so the pass may read every pixel. */
+    rd_job_begin_pass(j->core, j->pass + 1, next);
+    j->pass++;
+    j->last_pass_spp = next;
+    j->pass_t0 = now_ms();
+    j->next_tile = 0;
+    j->tiles_done = 0;
+    memset(j->tile_state, TILE_DONE, (size_t)j->tiles_total);
+    j->ph = PH_RUNNING;
+    pthread_cond_broadcast(&q->work_cv);
+}
+
+static void render_tile(rd_jq *q, rd_jq_job *j)
+{
+    int tile = j->next_tile++;
+    j->tiles_given++;
+    j->tile_state[tile] = TILE_RENDERING;
+    j->inflight++;
+    pthread_mutex_unlock(&q->mu);
+    rd_job_counts c = {0, 0, 0, 0};
+    int complete = rd_job_render_tile(j->core, tile, &c);
+    pthread_mutex_lock(&q->mu);
+    if (!complete && !j->cancel) {
+        /* Stopped by the core's own deadline before the watchdog saw it. */
+        j->timed_out = 1;
+        cancel_locked(q, j);
+    }
+    j->tile_state[tile] = TILE_DONE;
+    j->counts.camera += c.camera;
+    j->counts.shadow += c.shadow;
+    j->counts.secondary += c.secondary;
+    j->counts.nonfinite += c.nonfinite;
+    j->tiles_done++;
+    j->inflight--;
+    if (j->tiles_done == j->tiles_total && !j->cancel)
+        end_of_pass(q, j);
+    else if (j->cancel && j->inflight == 0)
+        pthread_cond_broadcast(&q->work_cv); /* someone ends it */
+}
+
+static int busy(const rd_jq_job *j)
+{
+    return j->ph == PH_PREPARING || j->ph == PH_STARTING || j->ph == PH_FINISHING;
+}
+
+/* May this prepared job start now? The oldest waiting job that does not fit
+ * holds its place: younger ones start only if they fit beside it, so a
+ * stream of small jobs cannot starve a large one. When nothing runs, the
+ * oldest starts anyway (results and caches make room as they age).
+ * Under q->mu. */
+static int admit(rd_jq *q, const rd_jq_job *j, size_t *held_back)
+{
+    if (!q->opt.memory_budget)
+        return 1;
+    size_t used = used_bytes(q) - j->charged;
+    if (used + *held_back + j->footprint <= q->opt.memory_budget)
+        return 1;
+    if (*held_back == 0 && q->running_count == 0) {
+        int starting = 0;
+        for (const rd_jq_job *o = q->active_head; o; o = o->next_active)
+            starting |= o->ph == PH_STARTING;
+        if (!starting)
+            return 1;
+    }
+    *held_back += j->footprint;
+    return 0;
+}
+
+/* What a free worker does next: a cancelled job to end, a new job to
+ * prepare, a prepared one to start, or the next tile by fair share.
+ * Under q->mu. */
+static rd_jq_job *pick(rd_jq *q, int preparer)
+{
+    rd_jq_job *tile_job = NULL;
+    size_t held_back = 0;
+    for (rd_jq_job *j = q->active_head; j; j = j->next_active) {
+        if (busy(j))
+            continue;
+        if (preparer) {
+            /* Work that renders nothing: a new job's preparation, a cancelled
+             * job's end, a grade whose reference was cached. */
+            if ((j->ph == PH_NEW && !j->cancel) || (j->cancel && j->inflight == 0) ||
+                (j->ph == PH_WAITING && !j->render && !j->cancel))
+                return j;
+            continue;
+        }
+        if (j->cancel) {
+            if (j->inflight == 0)
+                return j;
+            continue;
+        }
+        if (j->ph == PH_NEW)
+            return j;
+        if (j->ph == PH_WAITING && admit(q, j, &held_back))
+            return j;
+        /* Fair share: the next tile goes to the job that has been given
+         * the fewest so far, the oldest on a tie. */
+        if (j->ph == PH_RUNNING && j->next_tile < j->tiles_total &&
+            (!tile_job || j->tiles_given < tile_job->tiles_given))
+            tile_job = j;
+    }
+    return tile_job;
+}
+
+/* A render thread, or with preparer set the one thread that only prepares
+ * and finishes jobs that render nothing, so that reading a new scene (and
+ * answering 400 or 202) never waits for a tile that may take seconds. */
+static void work(rd_jq *q, int preparer)
+{
+    pthread_mutex_lock(&q->mu);
+    while (!q->stopping) {
+        rd_jq_job *j = pick(q, preparer);
+        if (!j) {
+            pthread_cond_wait(&q->work_cv, &q->mu);
+            continue;
+        }
+        j->refs++;
+        if (j->cancel)
+            end_cancelled(q, j);
+        else if (j->ph == PH_NEW)
+            prepare_job(q, j);
+        else if (j->ph == PH_WAITING && !j->render)
+            finish_job(q, j);
+        else if (j->ph == PH_WAITING)
+            start_job(q, j);
+        else
+            render_tile(q, j);
+        unref_locked(j);
+    }
+    pthread_mutex_unlock(&q->mu);
+}
+
+static void *worker(void *arg)
+{
+    work(arg, 0);
+    return NULL;
+}
+
+static void *preparer(void *arg)
+{
+    work(arg, 1);
+    return NULL;
+}
+
+rd_jq *rd_jq_start(const rd_jq_options *opt, rd_error *err)
+{
+    rd_jq *q = calloc(1, sizeof *q);
+    if (!q) {
+        rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+        return NULL;
+    }
+    q->opt = *opt;
+    if (q->opt.workers < 1)
+        q->opt.workers = 1;
+    if (q->opt.kept_max < 1)
+        q->opt.kept_max = 1;
+    list_init(&q->all, offsetof(rd_jq_job, in_all));
+    list_init(&q->kept[0], offsetof(rd_jq_job, in_kept));
+    list_init(&q->kept[1], offsetof(rd_jq_job, in_kept));
+    list_init(&q->results, offsetof(rd_jq_job, in_results));
+    q->nby_id = 64;
+    q->by_id = calloc(q->nby_id, sizeof *q->by_id);
+    if (!q->by_id) {
+        free(q);
+        rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+        return NULL;
+    }
+    pthread_mutex_init(&q->mu, NULL);
+    pthread_cond_init(&q->work_cv, NULL);
+    pthread_cond_init(&q->idle_cv, NULL);
+    pthread_cond_init(&q->watch_cv, NULL);
+    if (getrandom(&q->key, sizeof q->key, 0) != (ssize_t)sizeof q->key)
+        q->key = (uint64_t)now_ms() * 0x2545f4914f6cdd1dULL;
+    q->threads = calloc((size_t)q->opt.workers + 1, sizeof *q->threads);
+    if (!q->threads) {
+        free(q);
+        rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+        return NULL;
+    }
+    for (int i = 0; i <= q->opt.workers; i++) {
+        if (pthread_create(&q->threads[i], NULL, i < q->opt.workers ? worker : preparer, q) != 0)
+            break;
+        q->nthreads++;
+    }
+    q->has_watchdog = q->nthreads == q->opt.workers + 1 && pthread_create(&q->watchdog, NULL, watchdog, q) == 0;
+    if (!q->has_watchdog) {
+        rd_jq_stop(q);
+        rd_error_set(err, RD_ERR_NOMEM, 0, 0, "cannot start render threads");
+        return NULL;
+    }
+    return q;
+}
+
+void rd_jq_stop(rd_jq *q)
+{
+    if (!q)
+        return;
+    rd_jq_cancel_all(q);
+    pthread_mutex_lock(&q->mu);
+    q->stopping = 1;
+    pthread_cond_broadcast(&q->work_cv);
+    pthread_cond_broadcast(&q->watch_cv);
+    pthread_mutex_unlock(&q->mu);
+    for (int i = 0; i < q->nthreads; i++)
+        pthread_join(q->threads[i], NULL);
+    if (q->has_watchdog)
+        pthread_join(q->watchdog, NULL);
+    /* Jobs still active were cancelled but never reached by a worker. */
+    pthread_mutex_lock(&q->mu);
+    while (q->active_head) {
+        rd_jq_job *j = q->active_head;
+        finish_locked(q, j, RD_JOB_CANCELLED);
+        notify_locked(q, j);
+    }
+    while (q->all.head)
+        drop_registered(q, q->all.head);
+    pthread_mutex_unlock(&q->mu);
+    free(q->by_id);
+    free(q->threads);
+    pthread_mutex_destroy(&q->mu);
+    pthread_cond_destroy(&q->work_cv);
+    pthread_cond_destroy(&q->idle_cv);
+    pthread_cond_destroy(&q->watch_cv);
+    free(q);
+}
+
+rd_error_code rd_jq_submit(rd_jq *q, const rd_jq_task *task, const rd_jq_submit_options *so, rd_jq_job **out,
+                           rd_error *err)
+{
+    *out = NULL;
+    rd_jq_job *j = calloc(1, sizeof *j);
+    if (!j) {
+        if (task->free)
+            task->free(task->arg);
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    }
+    j->q = q;
+    j->task = *task;
+    rd_scene_init(&j->scene);
+    if (so) {
+        j->progress = so->progress;
+        j->watch_fd = so->watch_fd;
+        j->watch_http11 = so->watch_http11;
+        j->done = so->done;
+        j->user = so->user;
+        j->notify_prepared = so->notify_prepared;
+        j->internal = so->internal;
+        j->hold = so->hold;
+    } else {
+        j->watch_fd = -1;
+    }
+    j->sync = j->was_sync = j->done != NULL && !j->notify_prepared;
+    j->t_submit = now_ms();
+    pthread_mutex_lock(&q->mu);
+    sweep(q);
+    if (q->stopping || q->active_count >= q->opt.queue_length) {
+        if (j->hold)
+            unref_locked(j->hold);
+        pthread_mutex_unlock(&q->mu);
+        job_free(j);
+        return rd_error_set(err, RD_ERR_BUSY, 0, 0, "the render queue is full (%zu jobs, --queue)",
+                            q->opt.queue_length);
+    }
+    j->idnum = mix(q->key ^ ++q->counter);
+    snprintf(j->id, sizeof j->id, "%016llx", (unsigned long long)j->idnum);
+    j->refs = j->internal ? 1 : 2; /* the registry's and the caller's */
+    j->status = RD_JOB_QUEUED;
+    j->ph = PH_NEW;
+    j->active = 1;
+    charge(q, j, task->input_bytes);
+    if (q->active_tail)
+        q->active_tail->next_active = j;
+    else
+        q->active_head = j;
+    q->active_tail = j;
+    q->active_count++;
+    if (!j->internal)
+        register_locked(q, j);
+    pthread_cond_broadcast(&q->work_cv);
+    pthread_mutex_unlock(&q->mu);
+    *out = j;
+    return RD_OK;
+}
+
+/* A scene given at submission: preparation only hands it over. */
+static rd_error_code take_scene(void *arg, rd_scene *scene, int *render, rd_error *err)
+{
+    (void)render, (void)err;
+    rd_scene *given = arg;
+    rd_scene_free(scene);
+    *scene = *given;
+    rd_scene_init(given);
+    return RD_OK;
+}
+
+static void free_scene(void *arg)
+{
+    rd_scene *s = arg;
+    if (s) {
+        rd_scene_free(s);
+        free(s);
+    }
+}
+
+rd_error_code rd_jq_submit_scene(rd_jq *q, rd_scene *scene, const rd_jq_submit_options *so, rd_jq_job **out,
+                                 rd_error *err)
+{
+    rd_scene *copy = malloc(sizeof *copy);
+    if (!copy) {
+        rd_scene_free(scene);
+        *out = NULL;
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    }
+    *copy = *scene;
+    rd_scene_init(scene);
+    rd_jq_task t = {take_scene, NULL, free_scene, copy, rd_scene_bytes(copy)};
+    return rd_jq_submit(q, &t, so, out, err);
+}
+
+rd_jq_job *rd_jq_find(rd_jq *q, const char *id)
+{
+    pthread_mutex_lock(&q->mu);
+    sweep(q);
+    rd_jq_job *found = NULL;
+    char *end;
+    uint64_t idnum = strtoull(id, &end, 16);
+    for (rd_jq_job *j = *bucket(q, idnum); j && *end == 0; j = j->next_hash)
+        if (strcmp(j->id, id) == 0) {
+            found = j;
+            j->refs++;
+            break;
+        }
+    pthread_mutex_unlock(&q->mu);
+    return found;
+}
+
+void rd_jq_detach(rd_jq *q, rd_jq_job *j)
+{
+    pthread_mutex_lock(&q->mu);
+    j->done = NULL;
+    j->user = NULL;
+    j->watch_fd = -1;
+    j->sync = 0;
+    make_evictable(q, j);
+    pthread_mutex_unlock(&q->mu);
+}
+
+int rd_jq_cancel(rd_jq *q, rd_jq_job *j)
+{
+    pthread_mutex_lock(&q->mu);
+    int live = j->active;
+    if (live && !j->cancel)
+        cancel_locked(q, j);
+    pthread_mutex_unlock(&q->mu);
+    return live;
+}
+
+static double progress_of(const rd_jq_job *j)
+{
+    if (j->status == RD_JOB_DONE)
+        return 1.0;
+    double p = j->tiles_total > 0 ? (double)j->tiles_done / j->tiles_total : 0;
+    if (j->status == RD_JOB_RUNNING && rd_progress_is_progressive(&j->progress)) {
+        /* Samples toward the cap, or time toward the budget. */
+        double by_spp = (j->spp + (double)j->last_pass_spp * j->tiles_done / (j->tiles_total ? j->tiles_total : 1)) /
+                        j->progress.max_samples;
+        double by_time = j->progress.time_budget_ms > 0 ? (now_ms() - j->t_start) / j->progress.time_budget_ms : 0;
+        p = by_spp > by_time ? by_spp : by_time;
+        if (p > 0.99)
+            p = 0.99;
+    }
+    return p;
+}
+
+void rd_jq_info_get(rd_jq *q, rd_jq_job *j, rd_jq_info *out)
+{
+    pthread_mutex_lock(&q->mu);
+    memset(out, 0, sizeof *out);
+    snprintf(out->id, sizeof out->id, "%s", j->id);
+    out->status = j->status;
+    out->progress = progress_of(j);
+    double now = now_ms();
+    out->elapsed_ms = j->t_start > 0 ? (j->t_end > 0 ? j->t_end : now) - j->t_start : 0;
+    out->queued_ms = (j->t_start > 0 ? j->t_start : now) - j->t_submit;
+    out->samples = j->status == RD_JOB_DONE ? j->samples : j->spp;
+    out->stopped_by = j->stopped_by;
+    out->passes = j->pass + (j->status == RD_JOB_DONE ? 1 : 0);
+    out->curve_len = j->curve_len;
+    memcpy(out->curve, j->curve, sizeof j->curve);
+    out->error_estimate = j->error_estimate;
+    out->stats = j->stats;
+    if (j->active) {
+        out->stats.camera_rays = j->counts.camera;
+        out->stats.shadow_rays = j->counts.shadow;
+        out->stats.secondary_rays = j->counts.secondary;
+    }
+    out->error = j->error;
+    out->width = j->width;
+    out->height = j->height;
+    out->hung_up = j->hung_up;
+    out->prepared = j->ph >= PH_WAITING;
+    pthread_mutex_unlock(&q->mu);
+}
+
+rd_error_code rd_jq_png(rd_jq *q, rd_jq_job *j, int partial, unsigned char **png, size_t *len, rd_error *err)
+{
+    *png = NULL;
+    *len = 0;
+    pthread_mutex_lock(&q->mu);
+    if (j->png) {
+        unsigned char *copy = malloc(j->png_len);
+        if (copy) {
+            memcpy(copy, j->png, j->png_len);
+            *png = copy;
+            *len = j->png_len;
+        }
+        pthread_mutex_unlock(&q->mu);
+        return copy ? RD_OK : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    }
+    if (!partial || j->ph != PH_RUNNING || !j->core) {
+        rd_job_status st = j->status;
+        pthread_mutex_unlock(&q->mu);
+        if (st == RD_JOB_DONE)
+            return rd_error_set(err, RD_ERR_INVALID, 0, 0, "the image has expired (--result-memory)");
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "job is %s: no image yet", rd_job_status_name(st));
+    }
+    /* Tiles marked done were written before the lock that marked them. */
+    int w = rd_job_width(j->core), h = rd_job_height(j->core);
+    uint8_t *rgb = calloc((size_t)w * (size_t)h * 3, 1);
+    if (rgb)
+        for (int t = 0; t < j->tiles_total; t++)
+            if (j->tile_state[t] == TILE_DONE)
+                rd_job_tile_rgb8(j->core, t, rgb);
+    pthread_mutex_unlock(&q->mu);
+    if (!rgb)
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    rd_error_code rc = rd_png_encode(rgb, w, h, &q->opt.png, png, len, err);
+    free(rgb);
+    return rc;
+}
+
+void rd_jq_release_png(rd_jq *q, rd_jq_job *j)
+{
+    pthread_mutex_lock(&q->mu);
+    drop_result(q, j);
+    j->sync = 0;
+    make_evictable(q, j);
+    pthread_mutex_unlock(&q->mu);
+}
+
+void rd_jq_external_bytes(rd_jq *q, long long delta)
+{
+    atomic_fetch_add(&q->external, delta);
+    if (delta < 0) {
+        pthread_mutex_lock(&q->mu);
+        pthread_cond_broadcast(&q->work_cv);
+        pthread_mutex_unlock(&q->mu);
+    }
+}
+
+void rd_jq_metrics_get(rd_jq *q, rd_jq_metrics *m)
+{
+    pthread_mutex_lock(&q->mu);
+    memset(m, 0, sizeof *m);
+    for (rd_jq_job *j = q->active_head; j; j = j->next_active)
+        m->waiting_memory += j->ph == PH_WAITING;
+    m->queued = q->active_count - q->running_count;
+    m->running = q->running_count;
+    m->done = q->n_done;
+    m->failed = q->n_failed;
+    m->cancelled = q->n_cancelled;
+    m->rays = q->rays;
+    m->render_seconds_sum = q->render_sum;
+    m->render_count = q->render_count;
+    memcpy(m->render_seconds_bucket, q->buckets, sizeof q->buckets);
+    m->result_bytes = q->result_bytes;
+    m->jobs_kept = q->all.n;
+    m->memory_budget = q->opt.memory_budget;
+    m->memory_reserved = q->reserved;
+    long long ext = atomic_load(&q->external);
+    m->external_bytes = ext > 0 ? (size_t)ext : 0;
+    pthread_mutex_unlock(&q->mu);
+}
+
+int rd_jq_drain(rd_jq *q, double timeout_ms)
+{
+    double end = now_ms() + timeout_ms;
+    pthread_mutex_lock(&q->mu);
+    while (q->active_count > 0) {
+        double left = end - now_ms();
+        if (left <= 0)
+            break;
+        rd_timed_wait(&q->idle_cv, &q->mu, left);
+    }
+    int idle = q->active_count == 0;
+    pthread_mutex_unlock(&q->mu);
+    return idle;
+}
+
+void rd_jq_cancel_all(rd_jq *q)
+{
+    pthread_mutex_lock(&q->mu);
+    for (rd_jq_job *j = q->active_head; j; j = j->next_active)
+        if (!j->cancel)
+            cancel_locked(q, j);
+    pthread_mutex_unlock(&q->mu);
+}

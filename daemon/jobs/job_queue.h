@@ -1,0 +1,176 @@
+/* The daemon's render jobs: one bounded queue feeding one pool of render
+ * threads. Everything slow about a job runs on those threads, never on the
+ * caller's: preparing it (parsing, loading assets, decoding uploads),
+ * rendering it in tiles, and finishing it (encoding, grading). One thread
+ * only prepares new jobs (so a scene is read, and a bad one refused, even
+ * while every render thread is inside a long tile); a free render thread
+ * prepares the oldest new job too, then admits the oldest prepared job
+ * whose memory fits the budget, then takes the next tile of the job that has
+ * been given the fewest (fair share), so a small job waits at most for the
+ * tiles in progress. Finished jobs keep their PNG for GET /v1/jobs/{id}/image until
+ * their TTL or the result memory limit evicts them.
+ *
+ * Stopping is bounded: cancel, DELETE, a client's hang-up and the job
+ * timeout set a flag the tracer looks at about once a millisecond (trace.h);
+ * a watchdog thread notices timeouts and hang-ups while every render thread
+ * is busy.
+ *
+ * Thread safety: every function may be called from any thread.
+ * Ownership: the queue owns its jobs and their tasks' arguments; callers
+ * hold references (rd_jq_job_ref / rd_jq_job_unref) to keep a job alive
+ * while they use it. */
+#ifndef RD_JOB_QUEUE_H
+#define RD_JOB_QUEUE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "rayd/error.h"
+#include "png_write.h"
+#include "rayd/progress.h"
+#include "rayd/render.h"
+#include "rayd/scene.h"
+
+typedef enum { RD_JOB_QUEUED, RD_JOB_RUNNING, RD_JOB_DONE, RD_JOB_FAILED, RD_JOB_CANCELLED } rd_job_status;
+
+const char *rd_job_status_name(rd_job_status s);
+
+typedef struct {
+    int workers;                /* render threads */
+    size_t queue_length;        /* jobs queued or running at most */
+    double job_timeout_ms;      /* per job, from when it starts rendering */
+    size_t result_memory;       /* bytes of finished PNGs kept */
+    double result_ttl_ms;       /* how long a finished job stays */
+    size_t kept_max;            /* finished jobs whose status stays readable */
+    size_t memory_budget;       /* bytes of running jobs, results and caches; 0 = no limit */
+    rd_png_options png;
+} rd_jq_options;
+
+typedef struct rd_jq rd_jq;
+typedef struct rd_jq_job rd_jq_job;
+
+/* What a job does, run on a render thread. Every member but prepare may be
+ * NULL. */
+typedef struct {
+    /* Fills *scene (empty on entry). *render starts at 1; setting it to 0
+     * skips rendering and goes straight to finish (with no image). An error
+     * fails the job with it. */
+    rd_error_code (*prepare)(void *arg, rd_scene *scene, int *render, rd_error *err);
+    /* The rendered image as 8-bit RGB (NULL when prepare skipped the
+     * render); an error fails the job. NULL: the image is encoded as the
+     * job's PNG. */
+    rd_error_code (*finish)(void *arg, const uint8_t *rgb, int width, int height, rd_error *err);
+    void (*free)(void *arg);    /* releases arg when the job is freed, with the queue locked: it must not call the queue */
+    void *arg;
+    size_t input_bytes;         /* what arg holds until prepared: counted against the budget */
+} rd_jq_task;
+
+/* Called by a render thread when a job ends (done, failed or cancelled),
+ * or, with notify_prepared, as soon as it is prepared or has failed to
+ * be; at most once either way. */
+typedef void (*rd_jq_done_fn)(rd_jq_job *job, void *user);
+
+typedef struct {
+    rd_progress_settings progress;  /* max_samples is set from the scene */
+    int watch_fd;               /* a client socket: the job is cancelled once the peer hangs up; -1 */
+    int watch_http11;           /* that client speaks HTTP/1.1 and may be sent an interim 102 */
+    rd_jq_done_fn done;         /* may be NULL */
+    void *user;
+    int notify_prepared;        /* call done once prepared (an asynchronous submission) */
+    int internal;               /* work for a request, not a job of its own: no id to find, not in the metrics */
+    rd_jq_job *hold;            /* a reference the job takes over and drops when it is freed; may be NULL */
+} rd_jq_submit_options;
+
+rd_jq *rd_jq_start(const rd_jq_options *opt, rd_error *err);
+
+/* Stops taking tiles, cancels every job not finished, joins the threads
+ * and frees everything. */
+void rd_jq_stop(rd_jq *q);
+
+/* Enqueues a job; the queue takes over task->arg whatever the outcome
+ * (freed with task->free). RD_ERR_BUSY when the queue is full. The
+ * returned job carries one reference for the caller. */
+rd_error_code rd_jq_submit(rd_jq *q, const rd_jq_task *task, const rd_jq_submit_options *so, rd_jq_job **out,
+                           rd_error *err);
+
+/* The same for a scene already in memory, which the queue takes over (the
+ * caller's struct is left empty); the job encodes a PNG. */
+rd_error_code rd_jq_submit_scene(rd_jq *q, rd_scene *scene, const rd_jq_submit_options *so, rd_jq_job **out,
+                                 rd_error *err);
+
+/* A job's task argument (for its submitter to read the results of finish
+ * once the job has ended). */
+void *rd_jq_task_arg(rd_jq_job *j);
+
+/* Finds a job by id and returns it with a new reference, or NULL. */
+rd_jq_job *rd_jq_find(rd_jq *q, const char *id);
+
+void rd_jq_job_ref(rd_jq_job *j);
+void rd_jq_job_unref(rd_jq_job *j);
+
+/* Forgets a job's done callback and watched socket: its client is gone. */
+void rd_jq_detach(rd_jq *q, rd_jq_job *j);
+
+/* Asks a job to stop; it does within milliseconds. Returns 0 if it had
+ * already ended. */
+int rd_jq_cancel(rd_jq *q, rd_jq_job *j);
+
+/* A consistent copy of what a client may ask about a job. */
+typedef struct {
+    char id[24];
+    rd_job_status status;
+    double progress;            /* 0..1, tiles done over tiles */
+    double elapsed_ms;          /* since it started (0 while queued) */
+    double queued_ms;           /* waiting before it started */
+    int samples;
+    double error_estimate;
+    rd_render_stats stats;
+    rd_error error;             /* when failed */
+    int width, height;          /* 0 until prepared */
+    rd_stop_reason stopped_by;
+    int hung_up;                /* cancelled because its client went away */
+    int prepared;               /* prepared (or failed or ended) */
+    int passes;
+    rd_curve_point curve[RD_CURVE_MAX];
+    int curve_len;
+} rd_jq_info;
+
+void rd_jq_info_get(rd_jq *q, rd_jq_job *j, rd_jq_info *out);
+
+/* The finished PNG (malloc'ed copy, caller frees), or with partial != 0
+ * the image so far while it runs. RD_ERR_INVALID when there is none. */
+rd_error_code rd_jq_png(rd_jq *q, rd_jq_job *j, int partial, unsigned char **png, size_t *len,
+                        rd_error *err);
+
+/* Drops a finished job's PNG (a synchronous answer has been sent). */
+void rd_jq_release_png(rd_jq *q, rd_jq_job *j);
+
+/* Memory held outside the queue (grading caches) that counts against the
+ * budget: delta bytes more (or fewer). */
+void rd_jq_external_bytes(rd_jq *q, long long delta);
+
+typedef struct {
+    size_t queued, running, waiting_memory;
+    uint64_t done, failed, cancelled;
+    uint64_t rays;
+    double render_seconds_sum;
+    uint64_t render_seconds_bucket[12]; /* cumulative, upper bounds in rd_jq_buckets */
+    uint64_t render_count;
+    size_t result_bytes;
+    size_t jobs_kept;
+    size_t memory_budget, memory_reserved, external_bytes;
+} rd_jq_metrics;
+
+extern const double rd_jq_buckets[12];
+
+void rd_jq_metrics_get(rd_jq *q, rd_jq_metrics *m);
+
+/* Waits until no job is queued or running, or timeout_ms passes; returns 1
+ * when idle. */
+int rd_jq_drain(rd_jq *q, double timeout_ms);
+
+/* Cancels every job that has not finished (queued ones get status
+ * cancelled). */
+void rd_jq_cancel_all(rd_jq *q);
+
+#endif

@@ -1,0 +1,84 @@
+#!/bin/sh
+# End-to-end checks of the rayd command line: exit codes, messages, files.
+# Usage: RAYD=build/rayd sh tests/integration/cli_test.sh   (from the repository root)
+set -u
+RAYD=${RAYD:-build/rayd}
+T=$(mktemp -d)
+trap 'rm -rf "$T"' EXIT
+pass=0
+fail=0
+ok() { pass=$((pass + 1)); }
+bad() { fail=$((fail + 1)); echo "FAIL: $*"; }
+
+# expect_exit CODE DESCRIPTION -- command...
+expect_exit() {
+    want=$1; what=$2; shift 3
+    "$@" >"$T/out" 2>"$T/err"
+    got=$?
+    if [ "$got" -eq "$want" ]; then ok; else bad "$what: exit $got, wanted $want; stderr: $(head -c 300 "$T/err")"; fi
+}
+
+# PNG signature, then IHDR width, height, bit depth 8 and colour type 2 (RGB).
+png_is() {
+    f=$1; w=$2; h=$3
+    sig=$(od -An -tx1 -N8 "$f" | tr -d ' \n')
+    ihdr=$(od -An -tx1 -j16 -N10 "$f" | tr -d ' \n')
+    want=$(printf '%08x%08x0802' "$w" "$h")
+    [ "$sig" = "89504e470d0a1a0a" ] && [ "$ihdr" = "$want" ]
+}
+
+expect_exit 0 "rayd --help" -- "$RAYD" --help
+grep -q "render SCENE" "$T/out" && ok || bad "rayd --help does not list render"
+expect_exit 0 "rayd render --help" -- "$RAYD" render --help
+for opt in --width --height --samples --threads --seed -o; do
+    grep -q -- "$opt" "$T/out" && ok || bad "render --help does not explain $opt"
+done
+expect_exit 1 "no command" -- "$RAYD"
+expect_exit 1 "unknown command" -- "$RAYD" paint
+expect_exit 1 "render without -o" -- "$RAYD" render scenes/phong.cfg
+expect_exit 1 "render without scene" -- "$RAYD" render -o "$T/x.png"
+expect_exit 1 "render --width 0" -- "$RAYD" render scenes/phong.cfg -o "$T/x.png" --width 0
+expect_exit 1 "render --samples x" -- "$RAYD" render scenes/phong.cfg -o "$T/x.png" --samples x
+expect_exit 1 "unknown option" -- "$RAYD" render scenes/phong.cfg -o "$T/x.png" --colour red
+[ ! -e "$T/x.png" ] && ok || bad "a usage error wrote an image"
+
+# A scene error: exit 2, the located message, and no image.
+printf '[render]\nwidth = 64O\n' >"$T/bad.cfg"
+expect_exit 2 "scene error" -- "$RAYD" render "$T/bad.cfg" -o "$T/bad.png"
+grep -q "bad.cfg:2:9: width: expected an integer in 1..16384, got '64O'" "$T/err" && ok ||
+    bad "scene error message: $(cat "$T/err")"
+[ ! -e "$T/bad.png" ] && ok || bad "a scene error wrote an image"
+printf '[sphere]\ncenter = 0 0 0\nradius = 1\nmaterial = flor\n' >"$T/inv.cfg"
+expect_exit 2 "unknown material" -- "$RAYD" render "$T/inv.cfg" -o "$T/inv.png"
+
+# I/O errors: exit 3.
+expect_exit 3 "missing scene file" -- "$RAYD" render "$T/nope.cfg" -o "$T/n.png"
+expect_exit 3 "unwritable output" -- "$RAYD" render scenes/diffuse.cfg -o "$T/no/such/dir/x.png" --width 8 --height 8
+
+# Every bundled scene renders, as an RGB PNG of its size, with no NaN.
+for f in scenes/*.cfg; do
+    n=$(basename "$f" .cfg)
+    expect_exit 0 "render $f" -- "$RAYD" render "$f" -o "$T/$n.png" --width 96 --height 72
+    png_is "$T/$n.png" 96 72 && ok || bad "$n.png is not a 96x72 8-bit RGB PNG"
+    grep -q "nonfinite=0" "$T/err" && ok || bad "$f: non-finite samples: $(cat "$T/err")"
+done
+
+# The statistics line has every field.
+"$RAYD" render scenes/phong.cfg -o "$T/s.png" --width 32 --height 24 --samples 4 2>"$T/err"
+grep -Eq '^render: 32x24 samples=4 threads=[0-9]+ time_ms=[0-9.]+ camera_rays=3072 shadow_rays=[0-9]+ secondary_rays=0 rays_per_s=[0-9.e+]+ error_estimate=[0-9.]+ nonfinite=0 prepare_ms=[0-9.]+ bvh_build_ms=[0-9.]+ bvh_nodes=[0-9]+ primitives=4 world_bytes=[0-9]+ stopped_by=samples passes=1 curve=[0-9.]+:4:[0-9.]+$' "$T/err" &&
+    ok || bad "statistics line: $(cat "$T/err")"
+
+# Same bytes whatever the thread count.
+"$RAYD" render scenes/perfect_specular.cfg -o "$T/t1.png" --width 80 --height 60 --samples 4 --threads 1 2>/dev/null
+"$RAYD" render scenes/perfect_specular.cfg -o "$T/t2.png" --width 80 --height 60 --samples 4 --threads 2 2>/dev/null
+cmp -s "$T/t1.png" "$T/t2.png" && ok || bad "1 and 2 threads give different images"
+
+# A different seed changes a multi-sample image; the same seed does not.
+"$RAYD" render scenes/phong.cfg -o "$T/a.png" --width 40 --height 30 --samples 4 --seed 1 2>/dev/null
+"$RAYD" render scenes/phong.cfg -o "$T/b.png" --width 40 --height 30 --samples 4 --seed 2 2>/dev/null
+"$RAYD" render scenes/phong.cfg -o "$T/c.png" --width 40 --height 30 --samples 4 --seed 1 2>/dev/null
+cmp -s "$T/a.png" "$T/b.png" && bad "seed does not change the image" || ok
+cmp -s "$T/a.png" "$T/c.png" && ok || bad "same seed gives a different image"
+
+echo "cli: $pass passed, $fail failed"
+[ "$fail" -eq 0 ]

@@ -1,0 +1,589 @@
+/* The error estimate (render.h: rd_render_stats.error_estimate; job.c: two
+ * independent half-sets of samples per pixel) against errors we can know.
+ *
+ * (a) A synthetic scene whose every sample is a Bernoulli variable with a
+ *     probability set by geometry, so the variance of every pixel is known
+ *     by hand (see bernoulli_scene), and the estimate's mean and its spread
+ *     over the pixels can be computed exactly.
+ * (b) Real scenes: the estimate at 4..32 samples against the true error,
+ *     the RMSE of the display values against a 1024-sample reference with
+ *     the reference's own estimated error taken out in quadrature (the
+ *     definition of daemon/cli/cmd_converge.c).
+ * (c) The true error falls with the sample count at a log-log slope between
+ *     -1.1 and -0.45.
+ * (d) One sample per pixel gives an estimate of exactly 0.
+ * (e) The converged image does not depend on the sample count (an unbiased
+ *     pixel estimate: otherwise no variance estimate can predict the error
+ *     against a converged render).
+ *
+ * Every test runs from the repository root. Images are small (the machine
+ * is shared); the tolerances are derived below, never tuned to pass. */
+#include <criterion/criterion.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "asset_source.h"
+#include "rayd/render.h"
+#include "rayd/scene.h"
+#include "scene_assets.h"
+#include "scene_limits.h"
+#include "scene_load.h"
+#include "file_io.h"
+
+/* ---- helpers -------------------------------------------------------------------- */
+
+static void load_cfg(const char *path, rd_scene *s)
+{
+    rd_scene_init(s);
+    rd_error err = {0};
+    rd_scene_limits lim = rd_scene_limits_default();
+    rd_error_code rc = rd_scene_load_file(path, &lim, s, &err);
+    cr_assert_eq(rc, RD_OK, "%s: %s", path, err.message);
+    char *dir = rd_dirname(path);
+    cr_assert(dir);
+    rd_asset_source src = rd_asset_folder(dir);
+    rc = rd_scene_load_assets(s, &src, &lim, NULL, &err);
+    free(dir);
+    cr_assert_eq(rc, RD_OK, "%s: %s", path, err.message);
+}
+
+static void render_ok(const rd_scene *s, const rd_render_options *o, rd_image *img, rd_render_stats *st)
+{
+    rd_error err = {0};
+    rd_error_code rc = rd_render(s, o, img, st, &err);
+    cr_assert_eq(rc, RD_OK, "rd_render: %s", err.message);
+    cr_assert_eq(st->nonfinite, 0);
+    cr_assert(isfinite(st->error_estimate) && st->error_estimate >= 0, "estimate %g", st->error_estimate);
+}
+
+/* Display values of an image (malloc'ed). */
+static double *display_values(const rd_image *img, double gamma)
+{
+    size_t n = (size_t)img->width * (size_t)img->height * 3;
+    double *d = malloc(n * sizeof *d);
+    cr_assert(d);
+    for (size_t i = 0; i < n; i++)
+        d[i] = rd_display(img->rgb[i], gamma);
+    return d;
+}
+
+/* RMSE of an image's display values against reference display values. */
+static double rmse_display(const rd_image *img, const double *ref, double gamma)
+{
+    size_t n = (size_t)img->width * (size_t)img->height * 3;
+    double sum = 0;
+    for (size_t i = 0; i < n; i++) {
+        double d = rd_display(img->rgb[i], gamma) - ref[i];
+        sum += d * d;
+    }
+    return sqrt(sum / (double)n);
+}
+
+/* cmd_converge.c's true error: the RMSE with the reference's own error
+ * taken out in quadrature. */
+static double true_error(const rd_image *img, const double *ref, double ref_estimate, double gamma)
+{
+    double r = rmse_display(img, ref, gamma);
+    double t = r * r - ref_estimate * ref_estimate;
+    return t > 0 ? sqrt(t) : 0;
+}
+
+/* Least-squares slope of log y against log x. */
+static double loglog_slope(const double *x, const double *y, int n)
+{
+    double sx = 0, sy = 0, sxx = 0, sxy = 0;
+    for (int i = 0; i < n; i++) {
+        double a = log(x[i]), b = log(y[i]);
+        sx += a;
+        sy += b;
+        sxx += a * a;
+        sxy += a * b;
+    }
+    return (n * sxy - sx * sy) / (n * sxx - sx * sx);
+}
+
+/* P(S = k) for S ~ Binomial(n, p). */
+static double binom_pmf(int n, int k, double p)
+{
+    double lc = lgamma(n + 1.0) - lgamma(k + 1.0) - lgamma(n - k + 1.0);
+    if (p == 0)
+        return k == 0;
+    if (p == 1)
+        return k == n;
+    return exp(lc + k * log(p) + (n - k) * log1p(-p));
+}
+
+/* ---- (a) a synthetic scene with a known per-sample variance --------------------------
+ *
+ * The camera looks straight down at a diffuse floor (y = 0). The only light
+ * is an "area" light of one point per sample (samples = 1) on a segment of
+ * length 16 at height 1e4, crossing the vertical plane x = 50 (an infinite
+ * blocker, outside the view): every floor point sees the part of the segment
+ * with x < 50 and not the rest, whatever its position (a plane splits space
+ * into two convex halves: a shadow ray crosses it exactly when the light
+ * point lies on the other side). The segment is placed so that a fraction p
+ * of it lies before the plane. A sample's light point is uniform on the
+ * segment (rd_light_sample_at: corner + u·edge1, u from the sample's own
+ * generator), so each sample of each pixel is, per channel,
+ *
+ *     value = ambient + X · kd · cos θ,   X ~ Bernoulli(p), independent,
+ *
+ * with cos θ = 1 - 1.25e-5 everywhere to within 1e-6 (the light is 1e4 up
+ * and at most 60 across). Nothing else varies inside a pixel: the floor is
+ * uniform, so the camera jitter changes nothing. With gamma 1 and no value
+ * above 1, display = linear value, and the per-sample variance is
+ * (kd·cos θ)² p(1-p) per channel: that is the variance we know by hand. */
+
+#define BW 64
+#define BH 64
+
+static double bernoulli_cos(double p)
+{
+    /* cos θ toward the middle of the visible part of the segment, seen from
+     * the floor's origin (the image spans |x|,|z| < 1.4: changes < 1e-6). */
+    double x = 50 - 8 * p, y = 1e4;
+    return y / sqrt(x * x + y * y);
+}
+
+static void bernoulli_scene(rd_scene *s, double p, rd_rgb kd, rd_rgb ambient, double gamma, int samples,
+                            uint64_t seed)
+{
+    rd_scene_init(s);
+    s->render.width = BW;
+    s->render.height = BH;
+    s->render.samples = samples;
+    s->render.gamma = gamma;
+    s->render.seed = seed;
+    s->render.background = v3(0, 0, 0);
+    s->camera.eye = v3(0, 5, 0);
+    s->camera.target = v3(0, 0, 0);
+    s->camera.up = v3(0, 0, -1);
+    s->camera.fov_deg = 30;
+
+    rd_material *m = rd_scene_add_material(s);
+    cr_assert(m);
+    rd_material_defaults(m, RD_MAT_DIFFUSE);
+    m->kd = kd;
+    m->ambient = ambient;
+    m = rd_scene_add_material(s);
+    cr_assert(m);
+    rd_material_defaults(m, RD_MAT_DIFFUSE);
+
+    rd_object *o = rd_scene_add_object(s);
+    cr_assert(o);
+    o->type = RD_OBJ_PLANE;
+    o->point = v3(0, 0, 0);
+    o->normal = v3(0, 1, 0);
+    o->material = 0;
+    o = rd_scene_add_object(s);
+    cr_assert(o);
+    o->type = RD_OBJ_PLANE; /* the blocker: x = 50 */
+    o->point = v3(50, 0, 0);
+    o->normal = v3(1, 0, 0);
+    o->material = 1;
+
+    rd_light *l = rd_scene_add_light(s);
+    cr_assert(l);
+    l->type = RD_LIGHT_AREA;
+    l->corner = v3(50 - 16 * p, 1e4, 0); /* u < p: x < 50, visible */
+    l->edge1 = v3(16, 0, 0);
+    l->edge2 = v3(0, 0, 0);
+    l->samples = 1;
+    l->color = v3(1, 1, 1);
+}
+
+/* The exact mean and variance, over one pixel, of that pixel's term in the
+ * squared estimate, k·D² with D = (mean of half A) - (mean of half B) of
+ * Bernoulli(p) values, a and b samples, k = ab/(a+b)² (job.c). The
+ * channel factor (kd cos θ)² is left out. */
+static void half_term_moments(int a, int b, double p, double *mean, double *var)
+{
+    double k = (double)a * b / ((double)(a + b) * (a + b));
+    double m1 = 0, m2 = 0;
+    for (int i = 0; i <= a; i++)
+        for (int j = 0; j <= b; j++) {
+            double pr = binom_pmf(a, i, p) * binom_pmf(b, j, p);
+            double d = (double)i / a - (double)j / b;
+            double t = k * d * d;
+            m1 += pr * t;
+            m2 += pr * t * t;
+        }
+    *mean = m1;
+    *var = m2 - m1 * m1;
+}
+
+/* The same for the image's own squared error (S/n - p)², S ~ Binomial(n, p). */
+static void mean_sq_error_moments(int n, double p, double *mean, double *var)
+{
+    double m1 = 0, m2 = 0;
+    for (int i = 0; i <= n; i++) {
+        double pr = binom_pmf(n, i, p);
+        double d = (double)i / n - p;
+        m1 += pr * d * d;
+        m2 += pr * d * d * d * d;
+    }
+    *mean = m1;
+    *var = m2 - m1 * m1;
+}
+
+/* Renders the Bernoulli scene and checks, with a tolerance of 5 standard
+ * deviations of the quantity itself (computed exactly above: the pixels are
+ * independent, so a mean over P = 4096 pixels has the per-pixel variance
+ * over P; a false failure has probability < 1e-6 per check):
+ *   estimate² against E[estimate²] = K p(1-p)/n;
+ *   true²  (the image's MSE against the known converged image) against
+ *          E[true²] = K p(1-p)/n as well;
+ * where K is the mean over channels of (kd cos θ)². */
+static void check_bernoulli(double p, int n, int progressive)
+{
+    rd_rgb kd = v3(0.8, 0.5, 0.25), amb = v3(0.1, 0.1, 0.1);
+    rd_scene s;
+    bernoulli_scene(&s, p, kd, amb, 1.0, n, 1000 + (uint64_t)n + 77 * (uint64_t)progressive);
+    rd_render_options o = {0};
+    o.threads = 2;
+    if (progressive)
+        o.target_error = 1e-12; /* passes 2, 2, 4, ... up to n */
+    rd_image img;
+    rd_render_stats st;
+    render_ok(&s, &o, &img, &st);
+    cr_assert_eq(st.mean_samples, (double)n);
+
+    double c = bernoulli_cos(p);
+    double K = (kd.x * kd.x + kd.y * kd.y + kd.z * kd.z) / 3 * c * c;
+    /* Halves: progressive passes are even, a fixed pass gives half A
+     * ceil(n/2) samples (job.c alternates by the running count). */
+    int a = (n + 1) / 2, b = n / 2;
+    double P = (double)BW * BH;
+    double hm, hv, em, ev;
+    half_term_moments(a, b, p, &hm, &hv);
+    mean_sq_error_moments(n, p, &em, &ev);
+    cr_assert(fabs(hm - p * (1 - p) / n) < 1e-12 * hm + 1e-15, "derivation: %g vs %g", hm, p * (1 - p) / n);
+
+    double est2 = st.error_estimate * st.error_estimate;
+    double want2 = K * hm, sd2 = K * sqrt(hv / P);
+
+    double sum = 0;
+    double mu[3] = {amb.x + p * kd.x * c, amb.y + p * kd.y * c, amb.z + p * kd.z * c};
+    for (size_t i = 0; i < (size_t)BW * BH; i++)
+        for (int ch = 0; ch < 3; ch++) {
+            double d = img.rgb[3 * i + ch] - mu[ch];
+            sum += d * d;
+        }
+    double true2 = sum / (3 * P);
+    double twant2 = K * em, tsd2 = K * sqrt(ev / P);
+
+    printf("bernoulli p=%.3f n=%3d %s: estimate %.6f expected %.6f (%+.2f sd) | true %.6f expected %.6f (%+.2f sd)\n",
+           p, n, progressive ? "progressive" : "fixed      ", st.error_estimate, sqrt(want2), (est2 - want2) / sd2,
+           sqrt(true2), sqrt(twant2), (true2 - twant2) / tsd2);
+    cr_assert(fabs(est2 - want2) <= 5 * sd2, "p=%g n=%d %s: estimate %.6f, expected %.6f ± %.6f (5 sd on the square)",
+              p, n, progressive ? "progressive" : "fixed", st.error_estimate, sqrt(want2),
+              sqrt(want2 + 5 * sd2) - sqrt(want2));
+    cr_assert(fabs(true2 - twant2) <= 5 * tsd2,
+              "p=%g n=%d: the image's RMSE against the known converged image is %.6f, expected %.6f: the pixel "
+              "means are not unbiased means of independent samples",
+              p, n, sqrt(true2), sqrt(twant2));
+    rd_image_free(&img);
+    rd_scene_free(&s);
+}
+
+Test(estimate, bernoulli_fixed_matches_known_variance)
+{
+    int ns[] = {2, 4, 8, 16, 32};
+    for (size_t i = 0; i < sizeof ns / sizeof ns[0]; i++)
+        check_bernoulli(0.5, ns[i], 0);
+    check_bernoulli(0.25, 8, 0);
+    check_bernoulli(0.25, 7, 0); /* unequal halves: 4 and 3 */
+}
+
+Test(estimate, bernoulli_progressive_matches_known_variance)
+{
+    int ns[] = {2, 4, 8, 16, 32};
+    for (size_t i = 0; i < sizeof ns / sizeof ns[0]; i++)
+        check_bernoulli(0.5, ns[i], 1);
+    check_bernoulli(0.25, 16, 1);
+}
+
+/* The same scene with gamma 2.2, no ambient and kd 1: a sample's value is
+ * 0 or c = cos θ, the converged display value is g(p·c) with
+ * g(x) = x^(1/2.2), and the image's display value is g(S·c/n), S ~
+ * Binomial(n, p). The expected squared true error is therefore the exact
+ * sum over S of P(S)·(g(Sc/n) - g(pc))². render.h promises that the
+ * estimate, "in output units (after clamp and gamma)", predicts the RMSE of
+ * the image against a converged one; (b) below allows a factor 1.5 either
+ * way, and so does this test.
+ *
+ * FINDING (this test fails): job.c estimates the variance of the mean of the
+ * samples' display values, g applied to each sample, E[est²] =
+ * g(c)² p(1-p)/n, while the image is g of the mean of the linear values.
+ * For p = 3/4 the estimate is 1.8 times the true error at 16 samples, for
+ * p = 1/8 half of it, and the ratio does not tend to 1 as n grows (it tends
+ * to g(c)/(c·g'(pc)), the delta method). Taking g of the two linear
+ * half-means, instead of means of g, would fix it. */
+Test(estimate, bernoulli_gamma_predicts_image_rmse)
+{
+    double ps[] = {0.75, 0.5, 0.25, 0.125};
+    int n = 16;
+    int bad = 0;
+    char msg[1024] = "";
+    for (size_t t = 0; t < sizeof ps / sizeof ps[0]; t++) {
+        double p = ps[t];
+        rd_scene s;
+        bernoulli_scene(&s, p, v3(1, 1, 1), v3(0, 0, 0), 2.2, n, 500 + t);
+        rd_render_options o = {0};
+        o.threads = 2;
+        rd_image img;
+        rd_render_stats st;
+        render_ok(&s, &o, &img, &st);
+        double c = bernoulli_cos(p), g = 1 / 2.2;
+        double conv = pow(p * c, g);
+        double sum = 0;
+        for (size_t i = 0; i < (size_t)BW * BH * 3; i++) {
+            double d = rd_display(img.rgb[i], 2.2) - conv;
+            sum += d * d;
+        }
+        double measured = sqrt(sum / (BW * BH * 3.0));
+        double exact = 0;
+        for (int k = 0; k <= n; k++) {
+            double d = pow(k * c / n, g) - conv;
+            exact += binom_pmf(n, k, p) * d * d;
+        }
+        exact = sqrt(exact);
+        double est_expected = pow(c, g) * sqrt(p * (1 - p) / n);
+        double ratio = st.error_estimate / measured;
+        printf("gamma 2.2, p=%.3f n=%d: estimate %.5f (expected from job.c's formula %.5f), true %.5f (exact %.5f), "
+               "estimate/true %.3f\n",
+               p, n, st.error_estimate, est_expected, measured, exact, ratio);
+        /* My derivation of the true error must hold (64·64 pixels: the
+         * measured RMSE is within a few % of its expectation). */
+        cr_assert(fabs(measured / exact - 1) < 0.1, "p=%g: true error %.5f, derived %.5f", p, measured, exact);
+        if (!(ratio >= 1 / 1.5 && ratio <= 1.5)) {
+            bad++;
+            size_t len = strlen(msg);
+            snprintf(msg + len, sizeof msg - len, " p=%g: estimate %.5f, true %.5f (ratio %.2f);", p,
+                     st.error_estimate, measured, ratio);
+        }
+        rd_image_free(&img);
+        rd_scene_free(&s);
+    }
+    cr_expect_eq(bad, 0, "gamma 2.2: the estimate does not predict the image's RMSE within a factor 1.5:%s", msg);
+}
+
+/* ---- (b), (c): real scenes against a 1024-sample reference ------------------------------
+ *
+ * Each scene at 64x48. The reference uses another seed than the renders it
+ * judges, a precaution: with the same seed (as `rayd converge` does) a
+ * render and its reference share the area-light jitter of sample k; the
+ * true errors measured both ways differ by under 1% on these scenes.
+ *
+ * The 1024-sample reference has half-sets of 512, a count rd_cmj samples
+ * unevenly (see (e)): its bias puts a floor of about 0.002 under the true
+ * errors here, which is why the 32-sample ratios sit near 0.85 rather than
+ * 1. The 4..32-sample renders themselves use even counts (halves of 2, 4,
+ * 8, 16). */
+
+#define SW 64
+#define SH 48
+
+static void check_scene(rd_scene *s, const char *name)
+{
+    s->render.width = SW;
+    s->render.height = SH;
+    rd_render_options o = {0};
+    o.threads = 2;
+    uint64_t seed = s->render.seed;
+
+    rd_image ref;
+    rd_render_stats rst;
+    s->render.samples = 1024;
+    s->render.seed = seed + 0x5eed;
+    render_ok(s, &o, &ref, &rst);
+    double *refd = display_values(&ref, s->render.gamma);
+    rd_image_free(&ref);
+    s->render.seed = seed;
+
+    int ns[] = {4, 8, 16, 32};
+    double x[4], tr[4], es[4];
+    printf("%s %dx%d, reference 1024 samples (own estimate %.6f, %.0f ms)\n", name, SW, SH, rst.error_estimate,
+           rst.wall_ms);
+    printf("  samples   estimate       true  est/true\n");
+    for (int i = 0; i < 4; i++) {
+        s->render.samples = ns[i];
+        rd_image img;
+        rd_render_stats st;
+        render_ok(s, &o, &img, &st);
+        x[i] = ns[i];
+        es[i] = st.error_estimate;
+        tr[i] = true_error(&img, refd, rst.error_estimate, s->render.gamma);
+        printf("  %7d %10.6f %10.6f %9.3f\n", ns[i], es[i], tr[i], es[i] / tr[i]);
+        rd_image_free(&img);
+    }
+    double slope = loglog_slope(x, tr, 4);
+    printf("  slope of log(true) against log(samples): %.3f (estimate: %.3f)\n", slope, loglog_slope(x, es, 4));
+    /* The reference must be much better than the renders it judges. */
+    cr_assert(rst.error_estimate < tr[3] / 3, "%s: reference estimate %g, true error at 32 samples %g", name,
+              rst.error_estimate, tr[3]);
+    for (int i = 0; i < 4; i++)
+        cr_expect(tr[i] > 0 && es[i] / tr[i] >= 1 / 1.5 && es[i] / tr[i] <= 1.5,
+                  "%s at %d samples: estimate %.6f, true error %.6f (ratio %.3f, allowed [0.667, 1.5])", name, ns[i],
+                  es[i], tr[i], es[i] / tr[i]);
+    cr_expect(slope >= -1.1 && slope <= -0.45, "%s: true error slope %.3f, expected in [-1.1, -0.45]", name, slope);
+    free(refd);
+}
+
+Test(estimate, area_light_cfg, .timeout = 120)
+{
+    rd_scene s;
+    load_cfg("scenes/area_light.cfg", &s);
+    check_scene(&s, "scenes/area_light.cfg");
+    rd_scene_free(&s);
+}
+
+Test(estimate, phong_cfg_antialiased, .timeout = 120)
+{
+    /* Point lights only: the noise is the anti-aliasing of the edges. */
+    rd_scene s;
+    load_cfg("scenes/phong.cfg", &s);
+    check_scene(&s, "scenes/phong.cfg (anti-aliased)");
+    rd_scene_free(&s);
+}
+
+/* cook_torrance.cfg with its key light made a 2x2 area light: glossy
+ * highlights of an area light (the fill light stays a point). */
+static void glossy_area_scene(rd_scene *s)
+{
+    load_cfg("scenes/cook_torrance.cfg", s);
+    cr_assert(s->light_count >= 1 && s->lights[0].type == RD_LIGHT_POINT);
+    rd_light *l = &s->lights[0];
+    l->type = RD_LIGHT_AREA;
+    l->corner = v3(4, 10, 6);
+    l->edge1 = v3(4, 0, 0);
+    l->edge2 = v3(0, 0, 4);
+    l->samples = 2;
+}
+
+Test(estimate, glossy_cook_torrance_area_light, .timeout = 120)
+{
+    rd_scene s;
+    glossy_area_scene(&s);
+    check_scene(&s, "cook_torrance.cfg with an area key light");
+    rd_scene_free(&s);
+}
+
+/* ---- (d) one sample: exactly 0 ------------------------------------------------------------ */
+
+Test(estimate, one_sample_is_exactly_zero)
+{
+    const char *paths[] = {"scenes/area_light.cfg", "scenes/phong.cfg"};
+    for (int progressive = 0; progressive < 2; progressive++) {
+        for (size_t i = 0; i < 3; i++) {
+            rd_scene s;
+            if (i < 2)
+                load_cfg(paths[i], &s);
+            else
+                glossy_area_scene(&s);
+            s.render.width = SW;
+            s.render.height = SH;
+            s.render.samples = 1;
+            rd_render_options o = {0};
+            o.threads = 2;
+            /* A progressive render capped at one sample runs one jittered
+             * pass of one sample: still nothing to measure a variance with. */
+            if (progressive)
+                o.target_error = 1e-12;
+            rd_image img;
+            rd_render_stats st;
+            render_ok(&s, &o, &img, &st);
+            cr_assert_eq(st.mean_samples, 1.0);
+            cr_assert_eq(st.error_estimate, 0.0, "%s (%s): estimate %.17g with one sample", i < 2 ? paths[i] : "glossy",
+                         progressive ? "progressive" : "fixed", st.error_estimate);
+            cr_assert_eq(st.curve_len, 1);
+            cr_assert_eq(st.curve[0].error, 0.0);
+            rd_image_free(&img);
+            rd_scene_free(&s);
+        }
+    }
+    rd_scene s;
+    bernoulli_scene(&s, 0.5, v3(0.8, 0.8, 0.8), v3(0, 0, 0), 1.0, 1, 3);
+    rd_image img;
+    rd_render_stats st;
+    render_ok(&s, NULL, &img, &st);
+    cr_assert_eq(st.error_estimate, 0.0);
+    rd_image_free(&img);
+    rd_scene_free(&s);
+}
+
+/* ---- (e) the converged image does not depend on the sample count --------------------------
+ *
+ * A 1024x1 image of a white half-plane (ambient 1, no light, so exactly 1)
+ * whose edge is the horizontal line through the centre of every pixel, on a
+ * black background: a pixel's value is the fraction of its samples in its
+ * top half. For uniformly distributed samples its expectation is 1/2 exactly,
+ * whatever the count; its standard deviation is at most that of random
+ * samples, 0.5/√n, so the mean over 1024 independent pixels is within
+ * 5·0.5/√(1024 n) of 1/2 (< 1e-6 false failures).
+ *
+ * FINDING (this test fails): rd_cmj (core/render/sampler.c) with a count n that is
+ * not m·k (m = ⌊√n⌋, k = ⌈n/m⌉) leaves its last row of strata, the bottom
+ * band [(k-1)/k, 1) of the pixel, with fewer points than the others: the
+ * point set is not uniform, and the pixel mean is biased toward the top.
+ * job.c draws each half-set with its own count, so a fixed render of 2h
+ * samples is biased whenever h is not m·k: 10 samples (h = 5, 2x3 with one
+ * empty cell: 3/5 on top, bias 0.1), 20 (h = 10), 64 (h = 32: 5x7 with 3
+ * empty: 17.5/32 on top, bias 0.047), 256 (h = 128), 1024 (h = 512). The
+ * error estimate cannot see a bias, so scenes rendered with such counts
+ * (or against such references) have a true error well above the estimate:
+ * `rayd converge scenes/phong.cfg --width 64 --height 48` shows est/true
+ * 0.54 at 64 samples, and 0.39 with --reference-samples 1296. */
+Test(estimate, converged_image_does_not_depend_on_sample_count)
+{
+    int ns[] = {2, 4, 6, 8, 10, 12, 16, 20, 32, 64, 128, 256};
+    int bad = 0;
+    char msg[1024] = "";
+    for (size_t t = 0; t < sizeof ns / sizeof ns[0]; t++) {
+        int n = ns[t];
+        rd_scene s;
+        rd_scene_init(&s);
+        s.render.width = 1024;
+        s.render.height = 1;
+        s.render.samples = n;
+        s.render.seed = 42 + (uint64_t)n;
+        s.camera.eye = v3(0, 0, 5);
+        s.camera.target = v3(0, 0, 0);
+        s.camera.up = v3(0, 1, 0);
+        s.camera.fov_deg = 0.05; /* the row spans |x| < 2.8 at z = 0 */
+        rd_material *m = rd_scene_add_material(&s);
+        cr_assert(m);
+        rd_material_defaults(m, RD_MAT_DIFFUSE);
+        m->kd = v3(0, 0, 0);
+        m->ambient = v3(1, 1, 1);
+        rd_object *o = rd_scene_add_object(&s);
+        cr_assert(o);
+        o->type = RD_OBJ_TRIANGLE; /* edge on y = 0, the half-plane y > 0 */
+        o->v[0] = v3(-100, 0, 0);
+        o->v[1] = v3(100, 0, 0);
+        o->v[2] = v3(0, 100, 0);
+        o->material = 0;
+        rd_render_options opt = {0};
+        opt.threads = 2;
+        rd_image img;
+        rd_render_stats st;
+        render_ok(&s, &opt, &img, &st);
+        double mean = 0;
+        for (int x = 0; x < 1024; x++)
+            mean += img.rgb[3 * x];
+        mean /= 1024;
+        double tol = 5 * 0.5 / sqrt(1024.0 * n);
+        printf("half-plane edge, %3d samples: mean coverage %.5f (want 0.5 ± %.5f)\n", n, mean, tol);
+        if (fabs(mean - 0.5) > tol) {
+            bad++;
+            size_t len = strlen(msg);
+            snprintf(msg + len, sizeof msg - len, " %d samples: %.4f;", n, mean);
+        }
+        rd_image_free(&img);
+        rd_scene_free(&s);
+    }
+    cr_expect_eq(bad, 0, "pixel means are biased (coverage of a half-covered pixel, expected 0.5):%s", msg);
+}

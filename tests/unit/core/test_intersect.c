@@ -1,0 +1,678 @@
+/* Unit tests for ray-primitive intersection (core/geometry/sphere.h, plane.h,
+ * triangle.h), their fill_hit (and uv) functions, and rd_offset_origin
+ * (ray.h).
+ *
+ * Exact t values come from geometry chosen so that the arithmetic is exact
+ * (integers, halves, Pythagorean triples). The randomized tests use their
+ * own fixed-seed generator, so they are reproducible and do not depend on
+ * the core's sampler. */
+#include <criterion/criterion.h>
+#include <float.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "plane.h"
+#include "ray.h"
+#include "sphere.h"
+#include "triangle.h"
+
+#define assert_near(a, b, tol) \
+    cr_assert(fabs((double)(a) - (double)(b)) <= (tol), "%s = %.17g, expected %.17g (tol %g)", #a, (double)(a), (double)(b), (double)(tol))
+
+#define assert_vec_near(v, ex, ey, ez, tol) \
+    do {                                     \
+        rd_vec3 v_ = (v);                    \
+        assert_near(v_.x, ex, tol);          \
+        assert_near(v_.y, ey, tol);          \
+        assert_near(v_.z, ez, tol);          \
+    } while (0)
+
+/* ---- a small deterministic generator for the randomized tests ---------- */
+
+typedef struct { uint64_t s; } trng;
+
+static double trng_next(trng *g) /* uniform in [0, 1) */
+{
+    uint64_t z = (g->s += 0x9e3779b97f4a7c15ULL);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    z ^= z >> 31;
+    return (double)(z >> 11) * 0x1.0p-53;
+}
+
+static double trng_range(trng *g, double lo, double hi) { return lo + (hi - lo) * trng_next(g); }
+
+static rd_vec3 trng_unit(trng *g)
+{
+    for (;;) {
+        rd_vec3 v = v3(trng_range(g, -1, 1), trng_range(g, -1, 1), trng_range(g, -1, 1));
+        double l2 = v3_dot(v, v);
+        if (l2 > 1e-4 && l2 <= 1)
+            return v3_normalize(v);
+    }
+}
+
+static rd_vec3 trng_box(trng *g, double half)
+{
+    return v3(trng_range(g, -half, half), trng_range(g, -half, half), trng_range(g, -half, half));
+}
+
+/* A unit direction d with d·n = sign·c (c in (0, 1]), otherwise random. */
+static rd_vec3 dir_with_cos(trng *g, rd_vec3 n, double c)
+{
+    rd_vec3 t;
+    do {
+        rd_vec3 r = trng_unit(g);
+        t = v3_sub(r, v3_scale(n, v3_dot(r, n)));
+    } while (v3_len(t) < 1e-3);
+    t = v3_normalize(t);
+    return v3_normalize(v3_add(v3_scale(n, c), v3_scale(t, sqrt(fmax(0, 1 - c * c)))));
+}
+
+/* A random direction on the side of n: mostly uniform, one in four grazing
+ * with cos down to 1e-16 (the hard case for self-intersection). */
+static rd_vec3 outward_dir(trng *g, rd_vec3 n)
+{
+    if (trng_next(g) < 0.25)
+        return dir_with_cos(g, n, pow(10, trng_range(g, -16, -1)));
+    rd_vec3 d = trng_unit(g);
+    double dn = v3_dot(d, n);
+    if (dn == 0)
+        return n;
+    return dn > 0 ? d : v3_neg(d);
+}
+
+static rd_ray ray_of(rd_vec3 o, rd_vec3 d)
+{
+    rd_ray r;
+    r.o = o;
+    r.d = d;
+    return r;
+}
+
+/* ======================================================================= */
+/* Sphere                                                                  */
+/* ======================================================================= */
+
+Test(sphere, head_on_exact_t)
+{
+    /* Unit sphere at (0,0,-5), ray from the origin along -z: enters at z=-4. */
+    rd_sphere s = {v3(0, 0, -5), 1};
+    cr_assert_eq(rd_sphere_intersect(&s, ray_of(v3(0, 0, 0), v3(0, 0, -1)), INFINITY), 4.0);
+    /* A non-unit direction scales t: |d| = 2 gives t = 2. */
+    cr_assert_eq(rd_sphere_intersect(&s, ray_of(v3(0, 0, 0), v3(0, 0, -2)), INFINITY), 2.0);
+    /* Off axis at x = 0.6: z = -5 + sqrt(1 - 0.36) = -4.2, t = 4.2 (rounding of 0.6, 0.8 only). */
+    assert_near(rd_sphere_intersect(&s, ray_of(v3(0.6, 0, 0), v3(0, 0, -1)), INFINITY), 4.2, 8 * DBL_EPSILON * 4.2);
+    /* Radius 3 at (4, 0, 0) seen along +x from the origin: t = 1. */
+    rd_sphere s3 = {v3(4, 0, 0), 3};
+    cr_assert_eq(rd_sphere_intersect(&s3, ray_of(v3(0, 0, 0), v3(1, 0, 0)), INFINITY), 1.0);
+}
+
+Test(sphere, fill_hit_values)
+{
+    rd_sphere s = {v3(0, 0, -5), 1};
+    rd_ray r = ray_of(v3(0.6, 0, 0), v3(0, 0, -1));
+    rd_hit h = {0};
+    h.t = rd_sphere_intersect(&s, r, INFINITY);
+    rd_sphere_fill_hit(&s, r, &h);
+    rd_sphere_uv(&s, &h);
+    /* Hit (0.6, 0, -4.2), outward normal (0.6, 0, 0.8). */
+    assert_vec_near(h.p, 0.6, 0, -4.2, 1e-14);
+    assert_vec_near(h.ng, 0.6, 0, 0.8, 1e-14);
+    cr_assert(h.perr > 0 && h.perr < 1e-13, "perr = %g: should be a few ulps of |c| + r = 6", h.perr);
+    /* u = 0.5 + atan2(n.z, n.x)/(2π), v = acos(n.y)/π (shading.md). */
+    assert_near(h.u, 0.5 + atan2(0.8, 0.6) / (2 * M_PI), 1e-14);
+    assert_near(h.v, 0.5, 1e-14);
+    /* Head-on: n = (0,0,1): u = 0.5 + (π/2)/(2π) = 0.75, v = acos(0)/π = 0.5. */
+    r = ray_of(v3(0, 0, 0), v3(0, 0, -1));
+    h.t = rd_sphere_intersect(&s, r, INFINITY);
+    rd_sphere_fill_hit(&s, r, &h);
+    rd_sphere_uv(&s, &h);
+    assert_vec_near(h.p, 0, 0, -4, 0);
+    assert_vec_near(h.ng, 0, 0, 1, 0);
+    assert_near(h.u, 0.75, 1e-15);
+    assert_near(h.v, 0.5, 1e-15);
+    /* Top pole from above: n = (0,1,0), v = acos(1)/π = 0. */
+    r = ray_of(v3(0, 5, -5), v3(0, -1, 0));
+    h.t = rd_sphere_intersect(&s, r, INFINITY);
+    cr_assert_eq(h.t, 4.0);
+    rd_sphere_fill_hit(&s, r, &h);
+    rd_sphere_uv(&s, &h);
+    assert_vec_near(h.ng, 0, 1, 0, 0);
+    assert_near(h.v, 0, 0);
+}
+
+Test(sphere, tangent_ray_counts_as_hit)
+{
+    /* The line x = 1 touches the unit sphere at (1, 0, -5): one hit at t = 5. */
+    rd_sphere s = {v3(0, 0, -5), 1};
+    cr_assert_eq(rd_sphere_intersect(&s, ray_of(v3(1, 0, 0), v3(0, 0, -1)), INFINITY), 5.0);
+    cr_assert_eq(rd_sphere_intersect(&s, ray_of(v3(0, -1, 0), v3(0, 0, -1)), INFINITY), 5.0);
+    /* Radius 0.5 (exact), tangent along -x at y = 0.5. */
+    rd_sphere h = {v3(-3, 0, 0), 0.5};
+    cr_assert_eq(rd_sphere_intersect(&h, ray_of(v3(0, 0.5, 0), v3(-1, 0, 0)), INFINITY), 3.0);
+    /* One ulp further out misses, one ulp in hits. */
+    cr_assert_eq(rd_sphere_intersect(&s, ray_of(v3(nextafter(1, 2), 0, 0), v3(0, 0, -1)), INFINITY), 0.0);
+    cr_assert(rd_sphere_intersect(&s, ray_of(v3(nextafter(1, 0), 0, 0), v3(0, 0, -1)), INFINITY) > 0);
+}
+
+Test(sphere, ray_inside_returns_exit)
+{
+    /* From the centre of a radius-2 sphere: exit at t = 2 in any direction. */
+    rd_sphere s = {v3(0, 0, 0), 2};
+    cr_assert_eq(rd_sphere_intersect(&s, ray_of(v3(0, 0, 0), v3(0, 1, 0)), INFINITY), 2.0);
+    cr_assert_eq(rd_sphere_intersect(&s, ray_of(v3(0, 0, 0), v3(0, 0, -1)), INFINITY), 2.0);
+    /* Off centre at x = 1: exit forward at x = 2 (t = 1), backward at x = -2 (t = 3). */
+    cr_assert_eq(rd_sphere_intersect(&s, ray_of(v3(1, 0, 0), v3(1, 0, 0)), INFINITY), 1.0);
+    cr_assert_eq(rd_sphere_intersect(&s, ray_of(v3(1, 0, 0), v3(-1, 0, 0)), INFINITY), 3.0);
+    /* Sideways from (1,0,0) along y: exit at y = sqrt(4 - 1) = sqrt(3). */
+    assert_near(rd_sphere_intersect(&s, ray_of(v3(1, 0, 0), v3(0, 1, 0)), INFINITY), sqrt(3.0), 4 * DBL_EPSILON);
+}
+
+Test(sphere, behind_ray_misses)
+{
+    rd_sphere s = {v3(0, 0, 5), 1};
+    cr_assert_eq(rd_sphere_intersect(&s, ray_of(v3(0, 0, 0), v3(0, 0, -1)), INFINITY), 0.0);
+    /* Both roots negative even though the line crosses the sphere. */
+    rd_sphere s2 = {v3(-3, 0, 0), 2};
+    cr_assert_eq(rd_sphere_intersect(&s2, ray_of(v3(0, 0, 0), v3(1, 0, 0)), INFINITY), 0.0);
+    /* Plain miss beside the sphere. */
+    cr_assert_eq(rd_sphere_intersect(&s, ray_of(v3(0, 0, 0), v3(1, 0, 0)), INFINITY), 0.0);
+}
+
+Test(sphere, tmax_is_respected)
+{
+    rd_sphere s = {v3(0, 0, -5), 1};
+    rd_ray r = ray_of(v3(0, 0, 0), v3(0, 0, -1));
+    /* t must lie in the open interval (0, tmax). */
+    cr_assert_eq(rd_sphere_intersect(&s, r, 4.0), 0.0);
+    cr_assert_eq(rd_sphere_intersect(&s, r, 3.0), 0.0);
+    cr_assert_eq(rd_sphere_intersect(&s, r, nextafter(4.0, 5)), 4.0);
+    /* tmax between entry (4) and exit (6) keeps the entry. */
+    cr_assert_eq(rd_sphere_intersect(&s, r, 5.0), 4.0);
+    /* From inside, the exit at 2 is cut off by tmax = 1.5. */
+    rd_sphere b = {v3(0, 0, 0), 2};
+    cr_assert_eq(rd_sphere_intersect(&b, ray_of(v3(0, 0, 0), v3(1, 0, 0)), 1.5), 0.0);
+}
+
+Test(sphere, tiny_sphere_far_away)
+{
+    /* r = 1e-6 at distance 1e6: b² and a·c are both ~1e12 and differ by
+     * 1e-12, far below their rounding (~1e-4), so the textbook
+     * discriminant cannot see this sphere. ulp(1e6) = 1.16e-10. */
+    const double D = 1e6, R = 1e-6;
+    rd_sphere s = {v3(0, 0, -D), R};
+    double t = rd_sphere_intersect(&s, ray_of(v3(0, 0, 0), v3(0, 0, -1)), INFINITY);
+    assert_near(t, D - R, 2.4e-10);
+    /* Aimed at a point 0.5 r off-centre: passes at distance 0.5e-6 from c,
+     * t = D - sqrt(r² - (0.5 r)²) = D - 0.8660254e-6. */
+    rd_vec3 d = v3_normalize(v3(0.5 * R, 0, -D));
+    t = rd_sphere_intersect(&s, ray_of(v3(0, 0, 0), d), INFINITY);
+    assert_near(t, D - sqrt(0.75) * R, 1e-9);
+    /* 0.99 r off: t = D - sqrt(1 - 0.9801) r = D - 0.14107e-6. */
+    d = v3_normalize(v3(0.99 * R, 0, -D));
+    t = rd_sphere_intersect(&s, ray_of(v3(0, 0, 0), d), INFINITY);
+    assert_near(t, D - sqrt(1 - 0.9801) * R, 1e-9);
+    /* 1.01 r off: misses. */
+    d = v3_normalize(v3(1.01 * R, 0, -D));
+    cr_assert_eq(rd_sphere_intersect(&s, ray_of(v3(0, 0, 0), d), INFINITY), 0.0);
+    /* The hit point lies on the sphere, to the precision of its position. */
+    rd_hit h = {0};
+    rd_ray r = ray_of(v3(0, 0, 0), v3(0, 0, -1));
+    h.t = rd_sphere_intersect(&s, r, INFINITY);
+    rd_sphere_fill_hit(&s, r, &h);
+    assert_vec_near(h.ng, 0, 0, 1, 0);
+    assert_near(h.p.z, -D + R, 1.2e-10);
+}
+
+/* ======================================================================= */
+/* Plane                                                                   */
+/* ======================================================================= */
+
+static rd_plane plane_of(rd_vec3 q, rd_vec3 n)
+{
+    rd_plane p;
+    rd_plane_make(&p, q, n);
+    return p;
+}
+
+Test(plane, make_basis)
+{
+    rd_plane p = plane_of(v3(1, 2, 3), v3(0, 0, 7));
+    assert_vec_near(p.n, 0, 0, 1, 0);
+    /* tu, tv, n orthonormal. */
+    assert_near(v3_len(p.tu), 1, 4 * DBL_EPSILON);
+    assert_near(v3_len(p.tv), 1, 4 * DBL_EPSILON);
+    assert_near(v3_dot(p.tu, p.n), 0, 4 * DBL_EPSILON);
+    assert_near(v3_dot(p.tv, p.n), 0, 4 * DBL_EPSILON);
+    assert_near(v3_dot(p.tu, p.tv), 0, 4 * DBL_EPSILON);
+}
+
+Test(plane, head_on_and_oblique)
+{
+    /* y = -1, normal +y. Straight down from the origin: t = 1. */
+    rd_plane p = plane_of(v3(0, -1, 0), v3(0, 1, 0));
+    cr_assert_eq(rd_plane_intersect(&p, ray_of(v3(0, 0, 0), v3(0, -1, 0)), INFINITY), 1.0);
+    /* 45° down: t = sqrt(2) for a unit direction. */
+    rd_vec3 d = v3_normalize(v3(1, -1, 0));
+    assert_near(rd_plane_intersect(&p, ray_of(v3(0, 0, 0), d), INFINITY), sqrt(2.0), 4 * DBL_EPSILON);
+    /* Tilted plane x + y + z = 3 (through (1,1,1)), ray along +x from the origin: t = 3. */
+    rd_plane q = plane_of(v3(1, 1, 1), v3(1, 1, 1));
+    assert_near(rd_plane_intersect(&q, ray_of(v3(0, 0, 0), v3(1, 0, 0)), INFINITY), 3.0, 8 * DBL_EPSILON);
+}
+
+Test(plane, two_sided)
+{
+    /* Same plane hit from below (against the normal's side) at t = 2. */
+    rd_plane p = plane_of(v3(0, -1, 0), v3(0, 1, 0));
+    cr_assert_eq(rd_plane_intersect(&p, ray_of(v3(0, -3, 0), v3(0, 1, 0)), INFINITY), 2.0);
+    /* Flipping the normal changes nothing. */
+    rd_plane f = plane_of(v3(0, -1, 0), v3(0, -1, 0));
+    cr_assert_eq(rd_plane_intersect(&f, ray_of(v3(0, 0, 0), v3(0, -1, 0)), INFINITY), 1.0);
+    cr_assert_eq(rd_plane_intersect(&f, ray_of(v3(0, -3, 0), v3(0, 1, 0)), INFINITY), 2.0);
+}
+
+Test(plane, parallel_ray_misses)
+{
+    rd_plane p = plane_of(v3(0, -1, 0), v3(0, 1, 0));
+    cr_assert_eq(rd_plane_intersect(&p, ray_of(v3(0, 0, 0), v3(1, 0, 0)), INFINITY), 0.0);
+    cr_assert_eq(rd_plane_intersect(&p, ray_of(v3(0, 0, 0), v3(0.6, 0, 0.8)), INFINITY), 0.0);
+    /* A ray lying in the plane misses too (no division by zero, no NaN). */
+    cr_assert_eq(rd_plane_intersect(&p, ray_of(v3(0, -1, 0), v3(0, 0, 1)), INFINITY), 0.0);
+    /* Oblique plane, exactly parallel direction: n = (1,1,1)/√3 has equal
+     * components, so (1,-1,0)·n and (1,1,-2)·n are exactly 0. */
+    rd_plane q = plane_of(v3(1, 1, 1), v3(1, 1, 1));
+    cr_assert_eq(rd_plane_intersect(&q, ray_of(v3(0, 0, 0), v3(1, -1, 0)), INFINITY), 0.0);
+    cr_assert_eq(rd_plane_intersect(&q, ray_of(v3(0, 0, 0), v3(1, 1, -2)), INFINITY), 0.0);
+}
+
+Test(plane, behind_and_tmax)
+{
+    rd_plane p = plane_of(v3(0, -1, 0), v3(0, 1, 0));
+    /* Moving away from the plane. */
+    cr_assert_eq(rd_plane_intersect(&p, ray_of(v3(0, 0, 0), v3(0, 1, 0)), INFINITY), 0.0);
+    /* t = 1 is not inside (0, 1), nor (0, 0.5). */
+    rd_ray r = ray_of(v3(0, 0, 0), v3(0, -1, 0));
+    cr_assert_eq(rd_plane_intersect(&p, r, 1.0), 0.0);
+    cr_assert_eq(rd_plane_intersect(&p, r, 0.5), 0.0);
+    cr_assert_eq(rd_plane_intersect(&p, r, nextafter(1.0, 2)), 1.0);
+}
+
+Test(plane, fill_hit_values)
+{
+    rd_plane p = plane_of(v3(2, -1, 3), v3(0, 1, 0));
+    rd_ray r = ray_of(v3(5, 4, -1), v3(0, -1, 0));
+    rd_hit h = {0};
+    h.t = rd_plane_intersect(&p, r, INFINITY);
+    cr_assert_eq(h.t, 5.0);
+    rd_plane_fill_hit(&p, r, &h);
+    assert_vec_near(h.p, 5, -1, -1, 0);
+    /* ng is the plane's own normal (not turned toward the ray). */
+    assert_vec_near(h.ng, 0, 1, 0, 0);
+    cr_assert(h.perr > 0 && h.perr < 1e-13);
+    /* u, v: the offset (3, 0, -4) of the hit from the plane's point, along tu and tv. */
+    rd_plane_uv(&p, &h);
+    rd_vec3 rel = v3(3, 0, -4);
+    assert_near(h.u, v3_dot(rel, p.tu), 1e-14);
+    assert_near(h.v, v3_dot(rel, p.tv), 1e-14);
+    assert_near(h.u * h.u + h.v * h.v, 25, 1e-13); /* |rel|² */
+    /* From below the normal is still +y. */
+    r = ray_of(v3(5, -6, -1), v3(0, 1, 0));
+    h.t = rd_plane_intersect(&p, r, INFINITY);
+    rd_plane_fill_hit(&p, r, &h);
+    assert_vec_near(h.ng, 0, 1, 0, 0);
+}
+
+/* ======================================================================= */
+/* Triangle                                                                */
+/* ======================================================================= */
+
+static rd_triangle tri_of(rd_vec3 a, rd_vec3 b, rd_vec3 c)
+{
+    rd_triangle t;
+    memset(&t, 0, sizeof t);
+    t.v0 = a;
+    t.v1 = b;
+    t.v2 = c;
+    return t;
+}
+
+Test(triangle, head_on_exact_t_and_barycentrics)
+{
+    /* v0 = (0,0,-2), v1 = (1,0,-2), v2 = (0,1,-2). The point (0.25, 0.5) is
+     * 0.25·v0 + 0.25·v1 + 0.5·v2 (b1 = x, b2 = y, b0 = 1 - x - y). */
+    rd_triangle t = tri_of(v3(0, 0, -2), v3(1, 0, -2), v3(0, 1, -2));
+    double b[3] = {-1, -1, -1};
+    double th = rd_triangle_intersect(&t, ray_of(v3(0.25, 0.5, 0), v3(0, 0, -1)), INFINITY, b);
+    cr_assert_eq(th, 2.0);
+    assert_near(b[0], 0.25, 1e-15);
+    assert_near(b[1], 0.25, 1e-15);
+    assert_near(b[2], 0.5, 1e-15);
+    /* An oblique ray to the centroid from (1,1,0): t = |(1,1,0) - (1/3,1/3,-2)|. */
+    rd_vec3 cen = v3(1.0 / 3, 1.0 / 3, -2);
+    rd_vec3 o = v3(1, 1, 0);
+    rd_vec3 d = v3_normalize(v3_sub(cen, o));
+    th = rd_triangle_intersect(&t, ray_of(o, d), INFINITY, b);
+    assert_near(th, v3_len(v3_sub(cen, o)), 1e-14);
+    assert_near(b[0], 1.0 / 3, 1e-14);
+    assert_near(b[1], 1.0 / 3, 1e-14);
+    assert_near(b[2], 1.0 / 3, 1e-14);
+}
+
+Test(triangle, both_sides_outside_behind_tmax)
+{
+    rd_triangle t = tri_of(v3(0, 0, -2), v3(1, 0, -2), v3(0, 1, -2));
+    double b[3];
+    /* From behind (the other face): same point, t = 3. */
+    cr_assert_eq(rd_triangle_intersect(&t, ray_of(v3(0.25, 0.5, -5), v3(0, 0, 1)), INFINITY, b), 3.0);
+    /* x + y = 1.2 > 1: outside. */
+    cr_assert_eq(rd_triangle_intersect(&t, ray_of(v3(0.6, 0.6, 0), v3(0, 0, -1)), INFINITY, b), 0.0);
+    cr_assert_eq(rd_triangle_intersect(&t, ray_of(v3(-0.1, 0.5, 0), v3(0, 0, -1)), INFINITY, b), 0.0);
+    /* Behind the origin. */
+    cr_assert_eq(rd_triangle_intersect(&t, ray_of(v3(0.25, 0.5, 0), v3(0, 0, 1)), INFINITY, b), 0.0);
+    /* tmax: open interval. */
+    cr_assert_eq(rd_triangle_intersect(&t, ray_of(v3(0.25, 0.5, 0), v3(0, 0, -1)), 2.0, b), 0.0);
+    cr_assert_eq(rd_triangle_intersect(&t, ray_of(v3(0.25, 0.5, 0), v3(0, 0, -1)), 2.5, b), 2.0);
+    /* Parallel to the triangle's plane. */
+    cr_assert_eq(rd_triangle_intersect(&t, ray_of(v3(-1, 0.2, -2), v3(1, 0, 0)), INFINITY, b), 0.0);
+}
+
+Test(triangle, fill_hit_values)
+{
+    rd_triangle t = tri_of(v3(0, 0, -2), v3(1, 0, -2), v3(0, 1, -2));
+    double b[3];
+    rd_hit h = {0};
+    h.t = rd_triangle_intersect(&t, ray_of(v3(0.25, 0.5, 0), v3(0, 0, -1)), INFINITY, b);
+    rd_triangle_fill_hit(&t, b, &h);
+    assert_vec_near(h.p, 0.25, 0.5, -2, 1e-15);
+    /* ng = normalize((v1-v0)×(v2-v0)) = x×y = +z. */
+    assert_vec_near(h.ng, 0, 0, 1, 0);
+    assert_vec_near(h.n, 0, 0, 1, 0);
+    /* Without uv the coordinates are (b1, b2). */
+    assert_near(h.u, 0.25, 1e-15);
+    assert_near(h.v, 0.5, 1e-15);
+    cr_assert(h.perr > 0 && h.perr < 1e-14);
+
+    /* With uv and shading normals: both interpolated with (0.25, 0.25, 0.5). */
+    t.has_uv = 1;
+    t.uv[0][0] = 0, t.uv[0][1] = 0;
+    t.uv[1][0] = 4, t.uv[1][1] = 0;
+    t.uv[2][0] = 0, t.uv[2][1] = 2;
+    t.has_normals = 1;
+    t.n0 = v3(0, 0, 1);
+    t.n1 = v3(1, 0, 0);
+    t.n2 = v3(0, 1, 0);
+    rd_triangle_fill_hit(&t, b, &h);
+    assert_near(h.u, 0.25 * 4, 1e-15);
+    assert_near(h.v, 0.5 * 2, 1e-15);
+    /* 0.25·z + 0.25·x + 0.5·y = (0.25, 0.5, 0.25), normalised by sqrt(0.375). */
+    double l = sqrt(0.375);
+    assert_vec_near(h.n, 0.25 / l, 0.5 / l, 0.25 / l, 1e-15);
+    assert_vec_near(h.ng, 0, 0, 1, 0);
+}
+
+Test(triangle, watertight_shared_edge)
+{
+    /* Random parallelograms split along a diagonal v0-v2 into
+     * T1 = (v0, v1, v2) and T2 = (v2, v3, v0). Rays from random origins on
+     * either side aimed at points of the shared edge must hit at least one
+     * triangle: the edge test of Woop et al. evaluates the same expression
+     * (up to sign) for both triangles, so no ray slips between them. */
+    trng g = {12345};
+    int misses = 0, n = 0;
+    char first[300] = "";
+    for (int quad = 0; quad < 200; quad++) {
+        rd_vec3 v0 = trng_box(&g, 10), v1 = trng_box(&g, 10), v2 = trng_box(&g, 10);
+        rd_vec3 v3p = v3_add(v0, v3_sub(v2, v1));
+        if (v3_len(v3_cross(v3_sub(v1, v0), v3_sub(v2, v0))) < 1) /* skip slivers */
+            continue;
+        /* Vary the vertex order of both triangles (the shared edge is walked
+         * in opposite directions or the same one). */
+        rd_triangle t1 = quad % 2 ? tri_of(v0, v1, v2) : tri_of(v1, v2, v0);
+        rd_triangle t2 = quad % 3 ? tri_of(v2, v3p, v0) : tri_of(v0, v2, v3p);
+        for (int k = 0; k < 500; k++) {
+            double s = trng_range(&g, 0.001, 0.999);
+            rd_vec3 target = v3_add(v0, v3_scale(v3_sub(v2, v0), s));
+            rd_vec3 o = v3_add(target, v3_scale(trng_unit(&g), trng_range(&g, 0.5, 50)));
+            rd_vec3 d = v3_sub(target, o);
+            if (k % 2)
+                d = v3_normalize(d);
+            double b[3];
+            double ta = rd_triangle_intersect(&t1, ray_of(o, d), INFINITY, b);
+            double tb = rd_triangle_intersect(&t2, ray_of(o, d), INFINITY, b);
+            n++;
+            if (!(ta > 0) && !(tb > 0)) {
+                if (!misses)
+                    snprintf(first, sizeof first, "o=(%.17g,%.17g,%.17g) d=(%.17g,%.17g,%.17g)", o.x, o.y, o.z, d.x,
+                             d.y, d.z);
+                misses++;
+            }
+        }
+    }
+    cr_assert(n > 50000, "too few rays generated (%d)", n);
+    cr_assert_eq(misses, 0, "%d of %d rays through a shared edge missed both triangles, e.g. %s", misses, n, first);
+}
+
+Test(triangle, watertight_shared_vertex)
+{
+    /* A fan of 7 triangles around an interior vertex C: every ray aimed at C
+     * must hit at least one of them. */
+    trng g = {777};
+    int misses = 0, n = 0;
+    for (int fan = 0; fan < 100; fan++) {
+        rd_vec3 c = trng_box(&g, 5);
+        rd_vec3 nrm = trng_unit(&g);
+        rd_vec3 a = v3_normalize(v3_cross(nrm, trng_unit(&g)));
+        rd_vec3 bb = v3_cross(nrm, a);
+        rd_triangle tr[7];
+        rd_vec3 ring[7];
+        for (int i = 0; i < 7; i++) {
+            double ang = 2 * M_PI * (i + 0.3 * trng_next(&g)) / 7;
+            double rad = trng_range(&g, 0.5, 3);
+            /* A bit off-plane: a gently curved fan. */
+            ring[i] = v3_add(c, v3_add(v3_add(v3_scale(a, rad * cos(ang)), v3_scale(bb, rad * sin(ang))),
+                                       v3_scale(nrm, trng_range(&g, -0.05, 0.05))));
+        }
+        for (int i = 0; i < 7; i++)
+            tr[i] = tri_of(c, ring[i], ring[(i + 1) % 7]);
+        for (int k = 0; k < 200; k++) {
+            rd_vec3 dir0 = trng_unit(&g);
+            if (fabs(v3_dot(dir0, nrm)) < 0.2) /* stay off the fan's own plane */
+                continue;
+            rd_vec3 o = v3_add(c, v3_scale(dir0, trng_range(&g, 1, 30)));
+            rd_vec3 d = v3_normalize(v3_sub(c, o));
+            int hit = 0;
+            double b[3];
+            for (int i = 0; i < 7; i++)
+                hit |= rd_triangle_intersect(&tr[i], ray_of(o, d), INFINITY, b) > 0;
+            n++;
+            misses += !hit;
+        }
+    }
+    cr_assert(n > 10000);
+    cr_assert_eq(misses, 0, "%d of %d rays aimed at a shared vertex missed every triangle", misses, n);
+}
+
+Test(triangle, zero_area_never_hits)
+{
+    /* Exactly degenerate triangles (exact integer coordinates):
+     *  - three collinear points, v2 - v0 = 3·(v1 - v0);
+     *  - two equal vertices; all three equal.
+     * Rays from random origins aimed at points of the segment: the header
+     * promises such triangles never hit. After the shear into the ray's
+     * frame the three points are collinear only up to rounding, so a test
+     * that rejects only det == 0 lets some of these rays through. */
+    rd_triangle deg[4] = {
+        tri_of(v3(1, 1, 1), v3(2, 3, 4), v3(4, 7, 10)),
+        tri_of(v3(4, 7, 10), v3(1, 1, 1), v3(2, 3, 4)),
+        tri_of(v3(1, 1, 1), v3(2, 3, 4), v3(2, 3, 4)),
+        tri_of(v3(2, 3, 4), v3(2, 3, 4), v3(2, 3, 4)),
+    };
+    trng g = {99};
+    for (int i = 0; i < 4; i++) {
+        int hits = 0;
+        char first[300] = "";
+        rd_vec3 a = deg[i].v0, e = v3_sub(deg[i].v2, deg[i].v0);
+        if (i == 2)
+            e = v3_sub(deg[i].v1, deg[i].v0);
+        for (int k = 0; k < 20000; k++) {
+            rd_vec3 target = v3_add(a, v3_scale(e, trng_next(&g)));
+            rd_vec3 o = trng_box(&g, 20);
+            rd_vec3 d = v3_normalize(v3_sub(target, o));
+            double b[3];
+            double t = rd_triangle_intersect(&deg[i], ray_of(o, d), INFINITY, b);
+            if (t != 0) {
+                if (!hits)
+                    snprintf(first, sizeof first,
+                             "o=(%.17g,%.17g,%.17g) d=(%.17g,%.17g,%.17g) t=%g b=(%g,%g,%g)", o.x, o.y, o.z, d.x,
+                             d.y, d.z, t, b[0], b[1], b[2]);
+                hits++;
+            }
+        }
+        cr_expect_eq(hits, 0, "degenerate triangle %d (v0=(%g,%g,%g) v1=(%g,%g,%g) v2=(%g,%g,%g)) was hit by %d of 20000 rays, e.g. %s",
+                     i, deg[i].v0.x, deg[i].v0.y, deg[i].v0.z, deg[i].v1.x, deg[i].v1.y, deg[i].v1.z, deg[i].v2.x,
+                     deg[i].v2.y, deg[i].v2.z, hits, first);
+    }
+}
+
+/* ======================================================================= */
+/* rd_offset_origin: no self-intersection at any scale                     */
+/* ======================================================================= */
+
+/* Random spheres at `scale` (centres up to 50·scale away, radii from
+ * 0.01·scale to 10·scale), hit from outside by rays from random origins.
+ * From each hit: a ray leaving on the outward side (random, one in four
+ * grazing, plus the mirror direction) must never meet the sphere again;
+ * a ray continued inward must meet it only at the far side, at the chord
+ * length 2r·cos. */
+static void sphere_offset_at_scale(double scale, uint64_t seed)
+{
+    trng g = {seed};
+    int rehits = 0, bad_chords = 0, tested = 0;
+    char first[400] = "";
+    for (int i = 0; i < 4000; i++) {
+        rd_sphere s = {v3_scale(trng_box(&g, 50), scale), scale * exp(trng_range(&g, log(0.01), log(10)))};
+        rd_vec3 nstar = trng_unit(&g);
+        rd_vec3 pstar = v3_add(s.c, v3_scale(nstar, s.r));
+        rd_vec3 o = v3_add(pstar, v3_scale(dir_with_cos(&g, nstar, trng_range(&g, 0.05, 1)),
+                                           scale * trng_range(&g, 0.1, 200)));
+        rd_ray r = ray_of(o, v3_normalize(v3_sub(pstar, o)));
+        rd_hit h;
+        memset(&h, 0, sizeof h);
+        h.t = rd_sphere_intersect(&s, r, INFINITY);
+        if (!(h.t > 0))
+            continue;
+        rd_sphere_fill_hit(&s, r, &h);
+        tested++;
+        for (int k = 0; k < 4; k++) {
+            rd_vec3 d2 = k == 0 ? v3_normalize(v3_reflect(r.d, h.ng)) : outward_dir(&g, h.ng);
+            if (!(v3_dot(d2, h.ng) > 0))
+                continue;
+            rd_ray r2 = ray_of(rd_offset_origin(&h, d2), d2);
+            double t2 = rd_sphere_intersect(&s, r2, INFINITY);
+            if (t2 != 0) {
+                if (!rehits)
+                    snprintf(first, sizeof first,
+                             "scale %g: c=(%.17g,%.17g,%.17g) r=%.17g p=(%.17g,%.17g,%.17g) d=(%.17g,%.17g,%.17g) "
+                             "t2=%g",
+                             scale, s.c.x, s.c.y, s.c.z, s.r, h.p.x, h.p.y, h.p.z, d2.x, d2.y, d2.z, t2);
+                rehits++;
+            }
+        }
+        /* Continued into the sphere (refraction-like), not too grazing. */
+        double c = trng_range(&g, 0.01, 1);
+        rd_vec3 d3 = dir_with_cos(&g, v3_neg(h.ng), c);
+        rd_ray r3 = ray_of(rd_offset_origin(&h, d3), d3);
+        double t3 = rd_sphere_intersect(&s, r3, INFINITY);
+        double chord = 2 * s.r * -v3_dot(d3, h.ng);
+        if (!(fabs(t3 - chord) <= 1e-6 * chord)) {
+            if (!bad_chords && !rehits)
+                snprintf(first, sizeof first, "scale %g: inward ray hit at t=%.17g, chord %.17g", scale, t3, chord);
+            bad_chords++;
+        }
+    }
+    cr_assert(tested > 3500, "scale %g: only %d hits generated", scale, tested);
+    cr_assert_eq(rehits + bad_chords, 0, "scale %g: %d outward self-hits, %d wrong inward hits of %d; first: %s",
+                 scale, rehits, bad_chords, tested, first);
+}
+
+Test(offset, sphere_scale_1e_minus9) { sphere_offset_at_scale(1e-9, 1); }
+Test(offset, sphere_scale_1) { sphere_offset_at_scale(1, 2); }
+Test(offset, sphere_scale_1e9) { sphere_offset_at_scale(1e9, 3); }
+
+/* Random planes (point up to 50·scale away, random normal), hit at random
+ * points up to 100·scale from their point by rays from either side. A ray
+ * leaving the hit in any direction (reflected or continued through; one in
+ * four grazing) must never meet the plane again. */
+static void plane_offset_at_scale(double scale, uint64_t seed)
+{
+    trng g = {seed};
+    int rehits = 0, tested = 0;
+    char first[400] = "";
+    for (int i = 0; i < 4000; i++) {
+        rd_plane pl = plane_of(v3_scale(trng_box(&g, 50), scale), trng_unit(&g));
+        rd_vec3 pstar = v3_add(pl.q, v3_add(v3_scale(pl.tu, scale * trng_range(&g, -100, 100)),
+                                            v3_scale(pl.tv, scale * trng_range(&g, -100, 100))));
+        rd_vec3 side = trng_next(&g) < 0.5 ? pl.n : v3_neg(pl.n);
+        rd_vec3 o = v3_add(pstar, v3_scale(dir_with_cos(&g, side, trng_range(&g, 0.05, 1)),
+                                           scale * trng_range(&g, 0.1, 200)));
+        rd_ray r = ray_of(o, v3_normalize(v3_sub(pstar, o)));
+        rd_hit h;
+        memset(&h, 0, sizeof h);
+        h.t = rd_plane_intersect(&pl, r, INFINITY);
+        if (!(h.t > 0))
+            continue;
+        rd_plane_fill_hit(&pl, r, &h);
+        tested++;
+        for (int k = 0; k < 6; k++) {
+            rd_vec3 d2;
+            if (k == 0)
+                d2 = v3_normalize(v3_reflect(r.d, h.ng)); /* mirror */
+            else if (k == 1)
+                d2 = r.d; /* straight through */
+            else
+                d2 = outward_dir(&g, trng_next(&g) < 0.5 ? h.ng : v3_neg(h.ng));
+            rd_ray r2 = ray_of(rd_offset_origin(&h, d2), d2);
+            double t2 = rd_plane_intersect(&pl, r2, INFINITY);
+            if (t2 != 0) {
+                if (!rehits)
+                    snprintf(first, sizeof first,
+                             "scale %g: q=(%.17g,%.17g,%.17g) n=(%.17g,%.17g,%.17g) p=(%.17g,%.17g,%.17g) "
+                             "d=(%.17g,%.17g,%.17g) t2=%g",
+                             scale, pl.q.x, pl.q.y, pl.q.z, pl.n.x, pl.n.y, pl.n.z, h.p.x, h.p.y, h.p.z, d2.x, d2.y,
+                             d2.z, t2);
+                rehits++;
+            }
+        }
+    }
+    cr_assert(tested > 3500, "scale %g: only %d hits generated", scale, tested);
+    cr_assert_eq(rehits, 0, "scale %g: %d self-hits from %d plane hits; first: %s", scale, rehits, tested, first);
+}
+
+Test(offset, plane_scale_1e_minus9) { plane_offset_at_scale(1e-9, 11); }
+Test(offset, plane_scale_1) { plane_offset_at_scale(1, 12); }
+Test(offset, plane_scale_1e9) { plane_offset_at_scale(1e9, 13); }
+
+Test(offset, pushes_to_the_side_of_dir)
+{
+    /* Hit on the plane y = 0 at the origin of the plane's frame: the origin
+     * moves up for an upward ray and down for a downward one, by a distance
+     * that scales with the error bound. */
+    rd_hit h;
+    memset(&h, 0, sizeof h);
+    h.p = v3(3, 0, 4);
+    h.ng = v3(0, 1, 0);
+    h.perr = 1e-12;
+    rd_vec3 up = rd_offset_origin(&h, v3(0.6, 0.8, 0));
+    rd_vec3 dn = rd_offset_origin(&h, v3(0.6, -0.8, 0));
+    cr_assert(up.y > 0 && dn.y < 0, "up.y = %g, down.y = %g", up.y, dn.y);
+    cr_assert(up.y >= h.perr && up.y < 100 * h.perr, "push %g for perr %g", up.y, h.perr);
+    cr_assert_eq(up.x, 3.0);
+    cr_assert_eq(up.z, 4.0);
+    /* Doubling the error bound (a scene twice as far) doubles the push. */
+    h.perr = 2e-12;
+    rd_vec3 up2 = rd_offset_origin(&h, v3(0.6, 0.8, 0));
+    assert_near(up2.y, 2 * up.y, 1e-3 * up.y);
+}

@@ -1,0 +1,361 @@
+/* The job queue (daemon/jobs/job_queue.h) without HTTP: eviction, the memory
+ * budget, bounded cancellation, internal work. Properties only; nothing
+ * here depends on how fast the machine is, only bounds that hold with
+ * orders of magnitude to spare. */
+#include <criterion/criterion.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "rayd/clock.h"
+#include "rayd/job.h"
+#include "job_queue.h"
+#include "scene_load.h"
+
+static const char small_scene[] = "[render]\nwidth = 8\nheight = 8\n"
+                                  "[light]\ntype = point\nposition = 0 5 5\ncolor = 1 1 1\n"
+                                  "[material m]\ntype = diffuse\nkd = 0.5 0.5 0.5\n"
+                                  "[sphere]\ncenter = 0 0 0\nradius = 1\nmaterial = m\n";
+
+/* One pixel takes minutes: 65536 samples under a 64x64-sample area light. */
+static const char runaway_scene[] = "[render]\nwidth = 4\nheight = 1\nsamples = 65536\n"
+                                    "[camera]\neye = 0 2 6\ntarget = 0 0.5 0\n"
+                                    "[light]\ntype = area\ncorner = -1 6 -1\nedge1 = 2 0 0\nedge2 = 0 0 2\n"
+                                    "samples = 64\ncolor = 1 1 1\n"
+                                    "[material m]\ntype = diffuse\nkd = 0.7 0.7 0.7\n"
+                                    "[sphere]\ncenter = 0 0.8 0\nradius = 0.8\nmaterial = m\n"
+                                    "[plane]\npoint = 0 0 0\nnormal = 0 1 0\nmaterial = m\n";
+
+static rd_jq_options options(void)
+{
+    rd_jq_options o;
+    memset(&o, 0, sizeof o);
+    o.workers = 2;
+    o.queue_length = 64;
+    o.result_memory = 64u << 20;
+    o.result_ttl_ms = 600e3;
+    o.kept_max = 4096;
+    o.png = rd_png_options_default();
+    return o;
+}
+
+static rd_jq_job *submit(rd_jq *q, const char *text, const char *query_w, rd_error_code want)
+{
+    rd_scene s;
+    rd_scene_init(&s);
+    rd_error err = {0};
+    cr_assert_eq(rd_scene_parse(text, strlen(text), RD_FMT_CFG, "<t>", NULL, &s, &err), RD_OK, "%s", err.message);
+    if (query_w) {
+        s.render.width = atoi(query_w);
+        s.render.height = s.render.width;
+    }
+    rd_jq_job *j = NULL;
+    rd_jq_submit_options so = {.watch_fd = -1};
+    cr_assert_eq(rd_jq_submit_scene(q, &s, &so, &j, &err), want, "%s", err.message);
+    return j;
+}
+
+static rd_job_status status_of(rd_jq *q, rd_jq_job *j)
+{
+    rd_jq_info in;
+    rd_jq_info_get(q, j, &in);
+    return in.status;
+}
+
+/* Polls until the job reaches st or timeout_ms passes; the time it took. */
+static double wait_status(rd_jq *q, rd_jq_job *j, rd_job_status st, double timeout_ms)
+{
+    double t0 = rd_now_ms();
+    while (status_of(q, j) != st && rd_now_ms() - t0 < timeout_ms) {
+        struct timespec ts = {0, 1000000};
+        nanosleep(&ts, NULL);
+    }
+    cr_assert_eq(status_of(q, j), st, "status %s, not %s, after %.0f ms", rd_job_status_name(status_of(q, j)),
+                 rd_job_status_name(st), timeout_ms);
+    return rd_now_ms() - t0;
+}
+
+Test(job_queue, eviction_drops_the_oldest_finished)
+{
+    rd_jq_options o = options();
+    o.kept_max = 3;
+    rd_error err;
+    rd_jq *q = rd_jq_start(&o, &err);
+    cr_assert_not_null(q);
+    char ids[6][24];
+    for (int i = 0; i < 6; i++) {
+        rd_jq_job *j = submit(q, small_scene, NULL, RD_OK);
+        wait_status(q, j, RD_JOB_DONE, 10000);
+        rd_jq_info in;
+        rd_jq_info_get(q, j, &in);
+        memcpy(ids[i], in.id, sizeof ids[i]);
+        rd_jq_job_unref(j);
+    }
+    for (int i = 0; i < 6; i++) {
+        rd_jq_job *f = rd_jq_find(q, ids[i]);
+        if (i < 3)
+            cr_assert_null(f, "job %d of 6 kept past --max-jobs-kept 3", i);
+        else
+            cr_assert_not_null(f, "job %d of 6, among the newest 3, was dropped", i);
+        if (f)
+            rd_jq_job_unref(f);
+    }
+    rd_jq_metrics m;
+    rd_jq_metrics_get(q, &m);
+    cr_assert_eq(m.jobs_kept, 3);
+    rd_jq_stop(q);
+}
+
+/* Past the id table's first 64 slots and its growth: the newest kept_max
+ * stay findable by id, the older ones and ids that are not ours are not. */
+Test(job_queue, many_jobs_keep_exactly_the_newest)
+{
+    enum { N = 300, KEEP = 100 };
+    rd_jq_options o = options();
+    o.kept_max = KEEP;
+    rd_error err;
+    rd_jq *q = rd_jq_start(&o, &err);
+    cr_assert_not_null(q);
+    static char ids[N][24];
+    for (int i = 0; i < N; i++) {
+        rd_jq_job *j = submit(q, small_scene, NULL, RD_OK);
+        wait_status(q, j, RD_JOB_DONE, 10000);
+        rd_jq_info in;
+        rd_jq_info_get(q, j, &in);
+        memcpy(ids[i], in.id, sizeof ids[i]);
+        rd_jq_job_unref(j);
+    }
+    for (int i = 0; i < N; i++) {
+        rd_jq_job *f = rd_jq_find(q, ids[i]);
+        cr_assert_eq(f != NULL, i >= N - KEEP, "job %d of %d: %s", i, N, f ? "kept" : "dropped");
+        if (f)
+            rd_jq_job_unref(f);
+    }
+    char other[40];
+    snprintf(other, sizeof other, "%sx", ids[N - 1]);
+    cr_assert_null(rd_jq_find(q, other), "an id with a character more was found");
+    cr_assert_null(rd_jq_find(q, ids[N - 1] + 1), "an id with a character less was found");
+    cr_assert_null(rd_jq_find(q, ""), "the empty id was found");
+    rd_jq_metrics m;
+    rd_jq_metrics_get(q, &m);
+    cr_assert_eq(m.jobs_kept, KEEP);
+    rd_jq_stop(q);
+}
+
+/* Over the result memory the oldest images go first, and their jobs stay
+ * readable with a status that says so. */
+Test(job_queue, result_memory_drops_the_oldest_images)
+{
+    rd_jq_options o = options();
+    rd_error err;
+    rd_jq *q = rd_jq_start(&o, &err);
+    cr_assert_not_null(q);
+    rd_jq_job *first = submit(q, small_scene, NULL, RD_OK);
+    wait_status(q, first, RD_JOB_DONE, 10000);
+    unsigned char *png;
+    size_t len;
+    cr_assert_eq(rd_jq_png(q, first, 0, &png, &len, &err), RD_OK, "%s", err.message);
+    free(png);
+    rd_jq_stop(q);
+
+    /* Room for two images of that size, not three. */
+    o.result_memory = len * 5 / 2;
+    q = rd_jq_start(&o, &err);
+    cr_assert_not_null(q);
+    rd_jq_job *jobs[5];
+    for (int i = 0; i < 5; i++) {
+        jobs[i] = submit(q, small_scene, NULL, RD_OK);
+        wait_status(q, jobs[i], RD_JOB_DONE, 10000);
+    }
+    for (int i = 0; i < 5; i++) {
+        rd_error_code rc = rd_jq_png(q, jobs[i], 0, &png, &len, &err);
+        cr_assert_eq(rc == RD_OK, i >= 3, "image %d of 5: %s", i, rc == RD_OK ? "kept" : err.message);
+        if (rc == RD_OK)
+            free(png);
+        else
+            cr_assert(strstr(err.message, "--result-memory"), "%s", err.message);
+        cr_assert_eq(status_of(q, jobs[i]), RD_JOB_DONE);
+        rd_jq_job_unref(jobs[i]);
+    }
+    rd_jq_stop(q);
+}
+
+Test(job_queue, job_over_the_budget_fails_naming_the_flag)
+{
+    rd_jq_options o = options();
+    o.memory_budget = 1u << 20;
+    rd_error err;
+    rd_jq *q = rd_jq_start(&o, &err);
+    rd_jq_job *j = submit(q, small_scene, "1024", RD_OK);
+    wait_status(q, j, RD_JOB_FAILED, 10000);
+    rd_jq_info in;
+    rd_jq_info_get(q, j, &in);
+    cr_assert_eq(in.error.code, RD_ERR_LIMIT);
+    cr_assert(strstr(in.error.message, "--memory-budget"), "%s", in.error.message);
+    rd_jq_job_unref(j);
+    rd_jq_stop(q);
+}
+
+Test(job_queue, second_job_waits_for_memory)
+{
+    rd_jq_options o = options();
+    rd_error err;
+    rd_scene s;
+    rd_scene_init(&s);
+    cr_assert_eq(rd_scene_parse(runaway_scene, strlen(runaway_scene), RD_FMT_CFG, "<t>", NULL, &s, &err), RD_OK);
+    s.render.width = s.render.height = 512;
+    rd_job_options jo = {16, 0, 0};
+    size_t need = rd_job_estimate_bytes(&s, &jo);
+    rd_scene_free(&s);
+    /* Room for one and a half. */
+    o.memory_budget = need + need / 2;
+    rd_jq *q = rd_jq_start(&o, &err);
+    rd_jq_job *a = submit(q, runaway_scene, "512", RD_OK);
+    rd_jq_job *b = submit(q, runaway_scene, "512", RD_OK);
+    wait_status(q, a, RD_JOB_RUNNING, 10000);
+    rd_jq_metrics m;
+    for (int i = 0; i < 2000; i++) {
+        rd_jq_metrics_get(q, &m);
+        if (m.waiting_memory == 1)
+            break;
+        struct timespec ts = {0, 1000000};
+        nanosleep(&ts, NULL);
+    }
+    cr_assert_eq(m.waiting_memory, 1, "the second job did not wait for memory");
+    cr_assert_eq(m.running, 1);
+    cr_assert_eq(status_of(q, b), RD_JOB_QUEUED);
+    cr_assert_leq(m.memory_reserved, o.memory_budget);
+    rd_jq_cancel(q, a);
+    wait_status(q, b, RD_JOB_RUNNING, 10000);
+    rd_jq_cancel(q, b);
+    wait_status(q, b, RD_JOB_CANCELLED, 10000);
+    rd_jq_job_unref(a);
+    rd_jq_job_unref(b);
+    rd_jq_stop(q);
+}
+
+/* Both threads inside one pixel each: cancel still ends them at once. */
+Test(job_queue, cancel_stops_a_runaway_render_inside_a_pixel)
+{
+    rd_jq_options o = options();
+    rd_error err;
+    rd_jq *q = rd_jq_start(&o, &err);
+    rd_jq_job *a = submit(q, runaway_scene, NULL, RD_OK);
+    rd_jq_job *b = submit(q, runaway_scene, NULL, RD_OK);
+    wait_status(q, a, RD_JOB_RUNNING, 10000);
+    wait_status(q, b, RD_JOB_RUNNING, 10000);
+    struct timespec settle = {0, 50 * 1000000L};
+    nanosleep(&settle, NULL);
+    cr_assert_eq(rd_jq_cancel(q, a), 1);
+    double ms = wait_status(q, a, RD_JOB_CANCELLED, 5000);
+    cr_log_info("cancelled within %.1f ms", ms);
+    cr_assert_eq(status_of(q, b), RD_JOB_RUNNING, "cancelling one job stopped the other");
+    rd_jq_job_unref(a);
+    rd_jq_job_unref(b);
+    /* Stopping the queue cancels b and joins both threads. */
+    double t0 = rd_now_ms();
+    rd_jq_stop(q);
+    cr_assert_lt(rd_now_ms() - t0, 5000, "rd_jq_stop waited for a runaway render");
+}
+
+Test(job_queue, timeout_fails_with_its_own_code)
+{
+    rd_jq_options o = options();
+    o.job_timeout_ms = 200;
+    rd_error err;
+    rd_jq *q = rd_jq_start(&o, &err);
+    rd_jq_job *j = submit(q, runaway_scene, NULL, RD_OK);
+    wait_status(q, j, RD_JOB_FAILED, 10000);
+    rd_jq_info in;
+    rd_jq_info_get(q, j, &in);
+    cr_assert_eq(in.error.code, RD_ERR_TIMEOUT);
+    cr_assert_geq(in.elapsed_ms, 200);
+    cr_assert(strstr(in.error.message, "--job-timeout-ms"), "%s", in.error.message);
+    rd_jq_job_unref(j);
+    rd_jq_stop(q);
+}
+
+Test(job_queue, full_queue_is_busy)
+{
+    rd_jq_options o = options();
+    o.queue_length = 2;
+    o.workers = 1;
+    rd_error err;
+    rd_jq *q = rd_jq_start(&o, &err);
+    rd_jq_job *a = submit(q, runaway_scene, NULL, RD_OK);
+    rd_jq_job *b = submit(q, runaway_scene, NULL, RD_OK);
+    submit(q, small_scene, NULL, RD_ERR_BUSY);
+    rd_jq_cancel(q, a);
+    rd_jq_cancel(q, b);
+    rd_jq_job_unref(a);
+    rd_jq_job_unref(b);
+    rd_jq_stop(q);
+}
+
+static rd_error_code no_render(void *arg, rd_scene *s, int *render, rd_error *err)
+{
+    (void)s, (void)err;
+    atomic_int *ran = arg;
+    atomic_store(ran, 1);
+    *render = 0;
+    return RD_OK;
+}
+
+Test(job_queue, internal_work_is_neither_listed_nor_counted)
+{
+    rd_jq_options o = options();
+    rd_error err;
+    rd_jq *q = rd_jq_start(&o, &err);
+    static atomic_int ran;
+    rd_jq_task t = {no_render, NULL, NULL, &ran, 0};
+    rd_jq_submit_options so = {.watch_fd = -1, .internal = 1};
+    rd_jq_job *j;
+    cr_assert_eq(rd_jq_submit(q, &t, &so, &j, &err), RD_OK);
+    wait_status(q, j, RD_JOB_DONE, 10000);
+    cr_assert(atomic_load(&ran));
+    rd_jq_info in;
+    rd_jq_info_get(q, j, &in);
+    rd_jq_job *f = rd_jq_find(q, in.id);
+    cr_assert_null(f, "internal work can be found by id");
+    rd_jq_metrics m;
+    rd_jq_metrics_get(q, &m);
+    cr_assert_eq(m.done, 0);
+    cr_assert_eq(m.jobs_kept, 0);
+    rd_jq_job_unref(j);
+    rd_jq_stop(q);
+}
+
+static rd_error_code bad_scene(void *arg, rd_scene *s, int *render, rd_error *err)
+{
+    (void)arg, (void)s, (void)render;
+    return rd_error_set(err, RD_ERR_SYNTAX, 1, 1, "<t>:1:1: not a scene");
+}
+
+/* Reading a scene never waits for a tile: both render threads are inside
+ * one pixel each, and a bad scene still fails at once. */
+Test(job_queue, preparing_does_not_wait_for_busy_render_threads)
+{
+    rd_jq_options o = options();
+    rd_error err;
+    rd_jq *q = rd_jq_start(&o, &err);
+    rd_jq_job *a = submit(q, runaway_scene, NULL, RD_OK);
+    rd_jq_job *b = submit(q, runaway_scene, NULL, RD_OK);
+    wait_status(q, a, RD_JOB_RUNNING, 10000);
+    wait_status(q, b, RD_JOB_RUNNING, 10000);
+    rd_jq_task t = {bad_scene, NULL, NULL, NULL, 0};
+    rd_jq_submit_options so = {.watch_fd = -1};
+    rd_jq_job *c;
+    cr_assert_eq(rd_jq_submit(q, &t, &so, &c, &err), RD_OK);
+    double ms = wait_status(q, c, RD_JOB_FAILED, 5000);
+    cr_log_info("a bad scene failed %.1f ms after submission, render threads busy", ms);
+    rd_jq_info in;
+    rd_jq_info_get(q, c, &in);
+    cr_assert_eq(in.error.code, RD_ERR_SYNTAX);
+    cr_assert_eq(status_of(q, a), RD_JOB_RUNNING);
+    rd_jq_job_unref(a);
+    rd_jq_job_unref(b);
+    rd_jq_job_unref(c);
+    rd_jq_stop(q);
+}
