@@ -39,8 +39,9 @@ INC_api_image     := $(INC_api_util) -Iapi/image
 INC_api_scene     := $(INC_api_util) -Iapi/scene
 INC_api_assets    := $(INC_api_scene) -Iapi/image -Iapi/assets
 INC_api_grading   := $(INC_api_assets) -Iapi/grading
+INC_daemon_errors := $(INC_api_grading) -Idaemon/errors
 INC_daemon_jobs   := $(INC_api_grading) -Idaemon/jobs
-INC_daemon_http   := $(INC_daemon_jobs) -Idaemon/http
+INC_daemon_http   := $(INC_daemon_jobs) -Idaemon/errors -Idaemon/http
 INC_daemon_cli    := $(INC_daemon_http) -Idaemon/cli
 INC_daemon        := $(INC_daemon_cli)
 # Tests are white-box: every folder, and tests/ for support/ and oracles/.

@@ -7,14 +7,7 @@
 
 #include "rayd/error.h"
 #include "rayd/scene.h"
-
-/* Things a scene author should hear about that do not stop the render. */
-typedef struct {
-    int count;
-    char text[1024];    /* the first few, one per line */
-} rd_warnings;
-
-void rd_warn(rd_warnings *w, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+#include "warnings.h"
 
 /* Parses OBJ text into *out (the caller frees it with rd_mesh_free, also on
  * error). Errors read "SOURCE:LINE:COL: ..."; at most max_triangles

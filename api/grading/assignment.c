@@ -96,7 +96,7 @@ rd_error_code rd_assignment_load(const char *dir, const char *name, rd_assignmen
 {
     memset(a, 0, sizeof *a);
     if (!name_ok(name))
-        return rd_error_set(err, RD_ERR_IO, 0, 0, "no assignment named '%.60s'", name);
+        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "no assignment named '%.60s'", name);
     snprintf(a->name, sizeof a->name, "%s", name);
     snprintf(a->title, sizeof a->title, "%s", name);
     a->thresholds = rd_grade_thresholds_default();
@@ -105,9 +105,9 @@ rd_error_code rd_assignment_load(const char *dir, const char *name, rd_assignmen
     char file[80], real[PATH_MAX];
     snprintf(file, sizeof file, "%s.cfg", name);
     if (rd_path_inside(dir, file, real, err) != RD_OK || access(real, R_OK) != 0)
-        return rd_error_set(err, RD_ERR_IO, 0, 0, "no assignment named '%s'", name);
+        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "no assignment named '%s'", name);
     if ((size_t)snprintf(a->scene_path, sizeof a->scene_path, "%s/%s", dir, file) >= sizeof a->scene_path)
-        return rd_error_set(err, RD_ERR_IO, 0, 0, "assignment path too long");
+        return rd_error_set(err, RD_ERR_IO, 0, 0, "%s: the assignments folder's path is too long", dir);
     char gpath[PATH_MAX];
     snprintf(file, sizeof file, "%s.grade", name);
     snprintf(gpath, sizeof gpath, "%s/%s", dir, file);

@@ -24,8 +24,9 @@ typedef struct {
 } rd_assignment;
 
 /* Loads assignment `name` (letters, digits, '_' and '-') from dir.
- * RD_ERR_IO when there is no such assignment; RD_ERR_SYNTAX for a bad
- * .grade file (with line and column). */
+ * RD_ERR_NOT_FOUND when there is no such assignment (the name is not one,
+ * or its .cfg is missing or links out of dir); RD_ERR_SYNTAX for a bad
+ * .grade file (with line and column); RD_ERR_IO when it cannot be read. */
 rd_error_code rd_assignment_load(const char *dir, const char *name, rd_assignment *a, rd_error *err);
 
 /* Every assignment in dir, sorted by name; *list is malloc'ed. */

@@ -1,6 +1,7 @@
 #include "reference.h"
 
 #include <errno.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -8,8 +9,6 @@
 
 #include "grade.h"
 #include "png_write.h"
-#include "rayd/render.h"
-#include "scene_load.h"
 #include "scene_write.h"
 #include "file_io.h"
 
@@ -70,63 +69,198 @@ static void mkdirs(const char *dir)
     mkdir(buf, 0755);
 }
 
-rd_error_code rd_reference_get(const rd_scene *s, const char *cache_dir, int threads, uint8_t **rgb, int *w, int *h,
-                               int *from_cache, rd_error *err)
+enum { REF_SLOTS = 32 };
+
+typedef struct {
+    char key[17];
+    uint8_t *rgb;       /* NULL: a free slot */
+    int w, h;
+    uint64_t used;      /* the cache's use counter at the last get or put */
+} ref_slot;
+
+struct rd_ref_cache {
+    pthread_mutex_t mu;
+    ref_slot slots[REF_SLOTS];
+    uint64_t uses;
+    size_t bytes, max_bytes;
+    const char *dir;
+    void (*on_bytes)(void *user, long long delta);
+    void *user;
+};
+
+static size_t rgb_bytes(int w, int h) { return (size_t)w * (size_t)h * 3; }
+
+rd_ref_cache *rd_ref_cache_new(size_t max_bytes, const char *dir, void (*on_bytes)(void *, long long), void *user)
 {
-    *rgb = NULL;
-    *from_cache = 0;
-    char key[17], path[1100];
-    rd_error_code rc = rd_reference_key(s, key, err);
-    if (rc)
-        return rc;
-    if (cache_dir) {
-        snprintf(path, sizeof path, "%s/%s.png", cache_dir, key);
-        char *data;
-        size_t len;
-        rd_error ignore;
-        if (rd_read_file(path, 1u << 30, "(cache)", &data, &len, &ignore) == RD_OK) {
-            int cw, ch;
-            rc = rd_grade_load_png((unsigned char *)data, len, (size_t)1 << 28, rgb, &cw, &ch, &ignore);
-            free(data);
-            if (rc == RD_OK && cw == s->render.width && ch == s->render.height) {
-                *w = cw;
-                *h = ch;
-                *from_cache = 1;
-                return RD_OK;
-            }
-            free(*rgb);
-            *rgb = NULL;
+    rd_ref_cache *c = calloc(1, sizeof *c);
+    if (!c)
+        return NULL;
+    pthread_mutex_init(&c->mu, NULL);
+    c->max_bytes = max_bytes;
+    c->dir = dir;
+    c->on_bytes = on_bytes;
+    c->user = user;
+    return c;
+}
+
+static void count(rd_ref_cache *c, long long delta)
+{
+    c->bytes += (size_t)delta;
+    if (c->on_bytes)
+        c->on_bytes(c->user, delta);
+}
+
+static void drop(rd_ref_cache *c, ref_slot *e)
+{
+    if (!e->rgb)
+        return;
+    count(c, -(long long)rgb_bytes(e->w, e->h));
+    free(e->rgb);
+    e->rgb = NULL;
+}
+
+void rd_ref_cache_free(rd_ref_cache *c)
+{
+    if (!c)
+        return;
+    for (int i = 0; i < REF_SLOTS; i++)
+        drop(c, &c->slots[i]);
+    pthread_mutex_destroy(&c->mu);
+    free(c);
+}
+
+/* Drops the least recently used until the memory fits. Under c->mu. */
+static void trim(rd_ref_cache *c)
+{
+    while (c->bytes > c->max_bytes) {
+        ref_slot *lru = NULL;
+        for (int i = 0; i < REF_SLOTS; i++)
+            if (c->slots[i].rgb && (!lru || c->slots[i].used < lru->used))
+                lru = &c->slots[i];
+        if (!lru)
+            return;
+        drop(c, lru);
+    }
+}
+
+/* Takes rgb over (the caller's copy) into memory. Under c->mu. */
+static void keep(rd_ref_cache *c, const char *key, uint8_t *rgb, int w, int h)
+{
+    if (rgb_bytes(w, h) > c->max_bytes) {
+        free(rgb);
+        return;
+    }
+    ref_slot *slot = &c->slots[0];
+    for (int i = 0; i < REF_SLOTS; i++) {
+        if (c->slots[i].rgb && strcmp(c->slots[i].key, key) == 0) {
+            slot = &c->slots[i];
+            break;
+        }
+        if (!c->slots[i].rgb || (slot->rgb && c->slots[i].used < slot->used))
+            slot = &c->slots[i];
+    }
+    drop(c, slot);
+    snprintf(slot->key, sizeof slot->key, "%s", key);
+    slot->rgb = rgb;
+    slot->w = w;
+    slot->h = h;
+    slot->used = ++c->uses;
+    count(c, (long long)rgb_bytes(w, h));
+    trim(c);
+}
+
+static uint8_t *copy_of(const uint8_t *rgb, size_t n)
+{
+    uint8_t *p = malloc(n);
+    if (p)
+        memcpy(p, rgb, n);
+    return p;
+}
+
+/* dir/KEY.png decoded, if it is a w x h PNG. */
+static uint8_t *read_disk(const rd_ref_cache *c, const char *key, int w, int h)
+{
+    char path[1100];
+    if (!c->dir || (size_t)snprintf(path, sizeof path, "%s/%s.png", c->dir, key) >= sizeof path)
+        return NULL;
+    /* A PNG of w x h RGB pixels stored without compression, with its
+     * filter bytes and chunks, is below this. */
+    size_t most = rgb_bytes(w, h) + (size_t)h + 65536;
+    char *data;
+    size_t len;
+    rd_error ignore;
+    if (rd_read_file(path, most, "(the reference cache)", &data, &len, &ignore) != RD_OK)
+        return NULL;
+    uint8_t *rgb = NULL;
+    int cw, ch;
+    if (rd_grade_load_png((unsigned char *)data, len, (size_t)w * (size_t)h, &rgb, &cw, &ch, &ignore) != RD_OK ||
+        cw != w || ch != h) {
+        free(rgb);
+        rgb = NULL;
+    }
+    free(data);
+    return rgb;
+}
+
+uint8_t *rd_ref_cache_get(rd_ref_cache *c, const char *key, int w, int h)
+{
+    uint8_t *out = NULL;
+    pthread_mutex_lock(&c->mu);
+    for (int i = 0; i < REF_SLOTS; i++) {
+        ref_slot *e = &c->slots[i];
+        if (e->rgb && strcmp(e->key, key) == 0 && e->w == w && e->h == h) {
+            out = copy_of(e->rgb, rgb_bytes(w, h));
+            e->used = ++c->uses;
+            break;
         }
     }
-    rd_render_options ro = {0};
-    ro.threads = threads;
-    rd_image img;
-    rd_render_stats st;
-    rc = rd_render(s, &ro, &img, &st, err);
-    if (rc)
-        return rc;
-    size_t n = (size_t)img.width * (size_t)img.height * 3;
-    uint8_t *out = malloc(n);
-    if (!out) {
-        rd_image_free(&img);
-        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    pthread_mutex_unlock(&c->mu);
+    if (out)
+        return out;
+    out = read_disk(c, key, w, h);
+    if (out) {
+        uint8_t *kept = copy_of(out, rgb_bytes(w, h));
+        pthread_mutex_lock(&c->mu);
+        if (kept)
+            keep(c, key, kept, w, h);
+        pthread_mutex_unlock(&c->mu);
     }
-    rd_image_to_rgb8(&img, s->render.gamma, out);
-    *w = img.width;
-    *h = img.height;
-    rd_image_free(&img);
-    if (cache_dir) {
-        /* A failure to cache only costs a render next time. */
-        unsigned char *png;
-        size_t len;
-        rd_error ignore;
-        rd_png_options po = {6, RD_PNG_FILTER_ALL};
-        mkdirs(cache_dir);
-        if (rd_png_encode(out, *w, *h, &po, &png, &len, &ignore) == RD_OK) {
-            rd_write_file(path, png, len, &ignore);
-            free(png);
-        }
+    return out;
+}
+
+void rd_ref_cache_put(rd_ref_cache *c, const char *key, const uint8_t *rgb, int w, int h)
+{
+    uint8_t *kept = copy_of(rgb, rgb_bytes(w, h));
+    pthread_mutex_lock(&c->mu);
+    if (kept)
+        keep(c, key, kept, w, h);
+    pthread_mutex_unlock(&c->mu);
+    char path[1100];
+    if (!c->dir || (size_t)snprintf(path, sizeof path, "%s/%s.png", c->dir, key) >= sizeof path)
+        return;
+    unsigned char *png;
+    size_t len;
+    rd_error ignore;
+    rd_png_options po = {6, RD_PNG_FILTER_ALL};
+    mkdirs(c->dir);
+    if (rd_png_encode(rgb, w, h, &po, &png, &len, &ignore) == RD_OK) {
+        rd_write_file(path, png, len, &ignore);
+        free(png);
     }
-    *rgb = out;
-    return RD_OK;
+}
+
+void rd_ref_cache_set_max_bytes(rd_ref_cache *c, size_t max_bytes)
+{
+    pthread_mutex_lock(&c->mu);
+    c->max_bytes = max_bytes;
+    trim(c);
+    pthread_mutex_unlock(&c->mu);
+}
+
+size_t rd_ref_cache_bytes(rd_ref_cache *c)
+{
+    pthread_mutex_lock(&c->mu);
+    size_t n = c->bytes;
+    pthread_mutex_unlock(&c->mu);
+    return n;
 }

@@ -123,29 +123,6 @@ static rd_loc token_loc(const rd_value *v, int i, char *buf, size_t size)
     return l;
 }
 
-static void range_text(const rd_key *k, char *buf, size_t size)
-{
-    int has_lo = !isinf(k->lo), has_hi = !isinf(k->hi);
-    if (has_lo && has_hi)
-        snprintf(buf, size, " in %c%g, %g%c", k->lo_open ? '(' : '[', k->lo, k->hi,
-                 k->hi_open ? ')' : ']');
-    else if (has_lo)
-        snprintf(buf, size, " %s %g", k->lo_open ? ">" : ">=", k->lo);
-    else if (has_hi)
-        snprintf(buf, size, " %s %g", k->hi_open ? "<" : "<=", k->hi);
-    else
-        buf[0] = 0;
-}
-
-static int in_range(const rd_key *k, double v)
-{
-    if (k->lo_open ? !(v > k->lo) : !(v >= k->lo))
-        return 0;
-    if (k->hi_open ? !(v < k->hi) : !(v <= k->hi))
-        return 0;
-    return 1;
-}
-
 /* Reads n numbers of a value into out, with the key's range. */
 static rd_error_code numbers(rd_builder *b, const rd_key *k, const rd_value *v, int n, double *out,
                              rd_error *err)
@@ -158,7 +135,7 @@ static rd_error_code numbers(rd_builder *b, const rd_key *k, const rd_value *v, 
         return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected %d numbers, got %d", k->name,
                                 n, v->total);
     }
-    range_text(k, rb, sizeof rb);
+    rd_key_range_text(k, rb, sizeof rb);
     for (int i = 0; i < n; i++) {
         int r = rd_parse_real(&v->tok[i], &out[i]);
         rd_loc l = token_loc(v, i, pb, sizeof pb);
@@ -168,7 +145,7 @@ static rd_error_code numbers(rd_builder *b, const rd_key *k, const rd_value *v, 
         if (r == 2)
             return rd_builder_error(b, err, RD_ERR_SYNTAX, l, "%s: expected a finite number, got %s",
                                     k->name, rd_token_what(&v->tok[i], tb, sizeof tb));
-        if (!in_range(k, out[i]))
+        if (!rd_key_in_range(k, out[i]))
             return rd_builder_error(b, err, k->degenerate ? RD_ERR_INVALID : RD_ERR_SYNTAX, l,
                                     "%s: expected a number%s, got %s", k->name, rb,
                                     rd_token_what(&v->tok[i], tb, sizeof tb));

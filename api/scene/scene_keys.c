@@ -2,6 +2,7 @@
 
 #include <math.h>
 #include <stddef.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "rayd/scene.h"
@@ -121,4 +122,27 @@ const rd_key *rd_keys_all(size_t *count)
 {
     *count = sizeof keys / sizeof keys[0];
     return keys;
+}
+
+void rd_key_range_text(const rd_key *k, char *buf, size_t size)
+{
+    int has_lo = !isinf(k->lo), has_hi = !isinf(k->hi);
+    if (has_lo && has_hi)
+        snprintf(buf, size, " in %c%g, %g%c", k->lo_open ? '(' : '[', k->lo, k->hi,
+                 k->hi_open ? ')' : ']');
+    else if (has_lo)
+        snprintf(buf, size, " %s %g", k->lo_open ? ">" : ">=", k->lo);
+    else if (has_hi)
+        snprintf(buf, size, " %s %g", k->hi_open ? "<" : "<=", k->hi);
+    else
+        buf[0] = 0;
+}
+
+int rd_key_in_range(const rd_key *k, double v)
+{
+    if (k->lo_open ? !(v > k->lo) : !(v >= k->lo))
+        return 0;
+    if (k->hi_open ? !(v < k->hi) : !(v <= k->hi))
+        return 0;
+    return 1;
 }

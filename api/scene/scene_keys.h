@@ -48,6 +48,13 @@ const rd_key *rd_key_find(rd_section_kind sec, const char *name, size_t len);
 /* Every key, for iteration (did-you-mean, required checks, writers). */
 const rd_key *rd_keys_all(size_t *count);
 
+/* Whether v lies in k's range (bounds open or closed as k says). */
+int rd_key_in_range(const rd_key *k, double v);
+
+/* k's range as messages write it after "expected a number": " in [0, 1]",
+ * " > 0", or "" when unbounded. */
+void rd_key_range_text(const rd_key *k, char *buf, size_t size);
+
 /* The words of the light and material type enums, NULL-terminated. */
 extern const char *const rd_light_type_words[];
 extern const char *const rd_material_type_words[];

@@ -17,3 +17,13 @@ rd_error_code rd_error_set(rd_error *err, rd_error_code code, int line, int colu
     }
     return code;
 }
+
+const char *rd_error_name(rd_error_code code)
+{
+    static const char *const names[] = {
+#define RD_ERROR_NAME(c, name, meaning) name,
+        RD_ERRORS(RD_ERROR_NAME)
+#undef RD_ERROR_NAME
+    };
+    return (unsigned)code < RD_ERROR_COUNT ? names[code] : "?";
+}

@@ -1,10 +1,12 @@
 /* rayd's subcommands. Each takes its own argv (argv[0] is the subcommand)
- * and returns the process exit status:
- * 0 success, 1 usage, 2 scene error (nothing written), 3 I/O error. */
+ * and returns the process exit status, RD_EXIT_* (error_map.h): 0 success,
+ * 1 usage, 2 scene or image error (nothing written), 3 I/O error, and for
+ * rayd grade 4, graded and failing. */
 #ifndef RD_CLI_H
 #define RD_CLI_H
 
-enum { RD_EXIT_OK = 0, RD_EXIT_USAGE = 1, RD_EXIT_SCENE = 2, RD_EXIT_IO = 3 };
+#include "error_map.h"
+#include "scene_limits.h"
 
 int rd_cmd_render(int argc, char **argv);
 int rd_cmd_convert(int argc, char **argv);
@@ -12,8 +14,6 @@ int rd_cmd_schema(int argc, char **argv);
 int rd_cmd_serve(int argc, char **argv);
 int rd_cmd_converge(int argc, char **argv);
 int rd_cmd_grade(int argc, char **argv);
-
-#include "scene_limits.h"
 
 /* Removes every --max-NAME VALUE (or --max-NAME=VALUE) pair of the limits
  * table from argv, setting *lim; returns 0, or RD_EXIT_USAGE after printing

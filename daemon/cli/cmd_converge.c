@@ -9,8 +9,7 @@
 #include "png_read.h"
 #include "png_write.h"
 #include "rayd/render.h"
-#include "scene_assets.h"
-#include "scene_load.h"
+#include "scene_open.h"
 #include "svg_plot.h"
 #include "file_io.h"
 
@@ -28,6 +27,7 @@ static const char converge_help[] =
     "  --reference REF.png    compare with this image (same size as the render)\n"
     "  --reference-samples N  render the reference with N samples (default 1024)\n"
     "  --width W --height H   override the scene's size\n"
+    "  --max-...  N           a size limit; 'rayd limits' lists them with defaults\n"
     "  --threads N            render threads (default: the number of cores)\n"
     "  --adaptive             use adaptive passes (each row a progressive render)\n"
     "  --svg FILE             write the error-against-time plot as SVG\n"
@@ -73,34 +73,51 @@ int rd_cmd_converge(int argc, char **argv)
         {"height", required_argument, NULL, O_H}, {"threads", required_argument, NULL, O_THREADS},
         {"svg", required_argument, NULL, O_SVG}, {"csv", required_argument, NULL, O_CSV},
         {"adaptive", no_argument, NULL, O_ADAPTIVE}, {"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}};
-    long max_samples = 64, ref_samples = 1024, width = 0, height = 0, threads = sysconf(_SC_NPROCESSORS_ONLN);
+    long max_samples = 64, ref_samples = 1024, threads = sysconf(_SC_NPROCESSORS_ONLN);
     const char *ref_path = NULL, *svg = NULL, *csv = NULL;
     int adaptive = 0;
     if (threads < 1)
         threads = 1;
+    rd_scene_limits lim = rd_scene_limits_default();
+    int lrc = rd_cli_take_limits(&argc, argv, &lim, "rayd converge");
+    if (lrc)
+        return lrc;
+    rd_scene_overrides ov = {0};
+    rd_error err = {0};
     optind = 1;
     opterr = 0;
     int c;
     while ((c = getopt_long(argc, argv, ":h", opts, NULL)) != -1) {
-        long *dst = NULL, lo = 1, hi = 65536;
+        /* Sizes and sample counts take what the scene keys take. */
+        const char *key = c == O_W ? "width" : c == O_H ? "height" : c == O_MAX || c == O_REFS ? "samples" : NULL;
+        if (key) {
+            rd_scene_overrides one = {0};
+            char what[32];
+            snprintf(what, sizeof what, "%s", argv[optind - 2]);
+            if (rd_override_set(c == O_W || c == O_H ? &ov : &one, key, optarg, what, &err)) {
+                fprintf(stderr, "rayd converge: %s\n", err.message);
+                return RD_EXIT_USAGE;
+            }
+            if (c == O_MAX)
+                max_samples = one.values.samples;
+            if (c == O_REFS)
+                ref_samples = one.values.samples;
+            continue;
+        }
         switch (c) {
         case 'h': fputs(converge_help, stdout); return RD_EXIT_OK;
-        case O_MAX: dst = &max_samples; break;
-        case O_REFS: dst = &ref_samples; break;
-        case O_W: dst = &width, hi = 16384; break;
-        case O_H: dst = &height, hi = 16384; break;
-        case O_THREADS: dst = &threads, hi = 1024; break;
+        case O_THREADS:
+            if (rd_cli_int(optarg, 1, 1024, &threads)) {
+                fprintf(stderr, "rayd converge: --threads: expected an integer in 1..1024, got '%s'\n", optarg);
+                return RD_EXIT_USAGE;
+            }
+            break;
         case O_REF: ref_path = optarg; break;
         case O_SVG: svg = optarg; break;
         case O_CSV: csv = optarg; break;
         case O_ADAPTIVE: adaptive = 1; break;
         default:
             fprintf(stderr, "rayd converge: bad option '%s' (try 'rayd converge --help')\n", argv[optind - 1]);
-            return RD_EXIT_USAGE;
-        }
-        if (dst && rd_cli_int(optarg, lo, hi, dst)) {
-            fprintf(stderr, "rayd converge: %s: expected an integer in %ld..%ld, got '%s'\n", argv[optind - 2], lo, hi,
-                    optarg);
             return RD_EXIT_USAGE;
         }
     }
@@ -111,24 +128,17 @@ int rd_cmd_converge(int argc, char **argv)
     const char *path = argv[optind];
     rd_scene s;
     rd_scene_init(&s);
-    rd_error err = {0};
-    rd_scene_limits lim = rd_scene_limits_default();
-    rd_error_code rc = rd_scene_load_file(path, &lim, &s, &err);
-    if (!rc) {
-        char *dir = rd_dirname(path);
-        rd_asset_source src = rd_asset_folder(dir ? dir : ".");
-        rc = rd_scene_load_assets(&s, &src, &lim, NULL, &err);
-        free(dir);
-    }
+    /* Every row and the reference must fit the limits, not just the scene. */
+    char most[24];
+    snprintf(most, sizeof most, "%ld", max_samples > ref_samples || ref_path ? max_samples : ref_samples);
+    rd_override_set(&ov, "samples", most, "samples", &err);
+    rd_scene_source src = {.path = path};
+    rd_error_code rc = rd_scene_open(&src, &ov, &lim, &s, NULL, &err);
     if (rc) {
         fprintf(stderr, "%s\n", err.message);
         rd_scene_free(&s);
-        return rc == RD_ERR_IO ? RD_EXIT_IO : RD_EXIT_SCENE;
+        return rd_error_answer_for(rc).exit;
     }
-    if (width)
-        s.render.width = (int)width;
-    if (height)
-        s.render.height = (int)height;
     size_t n = (size_t)s.render.width * (size_t)s.render.height * 3;
     double *ref = malloc(n * sizeof *ref);
     double ref_err = 0;
@@ -156,7 +166,7 @@ int rd_cmd_converge(int argc, char **argv)
             fprintf(stderr, "rayd converge: %s\n", err.message);
             free(ref);
             rd_scene_free(&s);
-            return rc == RD_ERR_IO ? RD_EXIT_IO : RD_EXIT_SCENE;
+            return rd_error_answer_for(rc).exit;
         }
         for (size_t i = 0; i < n; i++)
             ref[i] = (double)png.rgb[i] / png.maxval;

@@ -7,8 +7,7 @@
 #include "cli.h"
 #include "grading.h"
 #include "png_write.h"
-#include "asset_source.h"
-#include "scene_load.h"
+#include "json_text.h"
 #include "file_io.h"
 
 static const char grade_help[] =
@@ -25,9 +24,49 @@ static const char grade_help[] =
     "  --assignments DIR    the assignments folder (default scenes/assignments)\n"
     "  --cache-dir DIR      where references are cached (default: none)\n"
     "  --threads N          render threads for the reference (default: the cores)\n"
+    "  --max-...  N         a size limit; 'rayd limits' lists them with defaults\n"
     "\n"
-    "Exit status: 0 pass; 4 graded, fail; 1 usage; 2 bad scene or image (not a\n"
-    "PNG, wrong size); 3 a file could not be read or written.\n";
+    "Exit status: 0 pass; 4 graded, fail; 1 usage or no such assignment; 2 bad\n"
+    "scene, assignment or image (not a PNG, damaged, wrong size); 3 a file could\n"
+    "not be read or written. Errors are those of POST /v1/grade for the same\n"
+    "input (docs/grading.md).\n";
+
+/* The heat map of where the image differs, as a PNG file. */
+static rd_error_code write_diff(const rd_grade_output *o, const char *path, rd_error *err)
+{
+    uint8_t *heat = malloc((size_t)o->width * (size_t)o->height * 3);
+    if (!heat)
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    rd_grade_heatmap(o->reference, o->image, o->width, o->height, o->thresholds.fail, heat);
+    unsigned char *png = NULL;
+    size_t len = 0;
+    rd_png_options po = rd_png_options_default();
+    rd_error_code rc = rd_png_encode(heat, o->width, o->height, &po, &png, &len, err);
+    free(heat);
+    if (!rc)
+        rc = rd_write_file(path, png, len, err);
+    free(png);
+    return rc;
+}
+
+/* Prints the verdict; the exit status of a graded image. */
+static int report(const rd_grade_output *o, const char *diff)
+{
+    int status = o->result.pass ? RD_EXIT_OK : RD_EXIT_GRADE_FAIL;
+    rd_error err = {0};
+    if (diff && write_diff(o, diff, &err)) {
+        fprintf(stderr, "rayd grade: %s\n", err.message);
+        status = RD_EXIT_IO;
+    }
+    char *json = rd_json_print(rd_grade_json(o));
+    if (!json) {
+        fprintf(stderr, "rayd grade: out of memory\n");
+        return RD_EXIT_SCENE;
+    }
+    fputs(json, stdout);
+    free(json);
+    return status;
+}
 
 int rd_cmd_grade(int argc, char **argv)
 {
@@ -37,89 +76,69 @@ int rd_cmd_grade(int argc, char **argv)
         {"image", required_argument, NULL, O_IMAGE}, {"diff", required_argument, NULL, O_DIFF},
         {"assignments", required_argument, NULL, O_DIR}, {"cache-dir", required_argument, NULL, O_CACHE},
         {"threads", required_argument, NULL, O_THREADS}, {"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}};
-    const char *assignment = NULL, *scene = NULL, *image = NULL, *diff = NULL;
-    rd_grader g;
-    memset(&g, 0, sizeof g);
-    g.assignments_dir = "scenes/assignments";
-    g.limits = rd_scene_limits_default();
+    rd_grade_input in = {0};
+    const char *image = NULL, *diff = NULL, *cache_dir = NULL;
+    rd_grader g = {.assignments_dir = "scenes/assignments", .limits = rd_scene_limits_default()};
+    int lrc = rd_cli_take_limits(&argc, argv, &g.limits, "rayd grade");
+    if (lrc)
+        return lrc;
     long threads = sysconf(_SC_NPROCESSORS_ONLN);
-    g.threads = threads > 0 ? (int)threads : 1;
+    if (threads < 1)
+        threads = 1;
     optind = 1;
     opterr = 0;
     int c;
     while ((c = getopt_long(argc, argv, ":h", opts, NULL)) != -1) {
         switch (c) {
         case 'h': fputs(grade_help, stdout); return RD_EXIT_OK;
-        case O_ASSIGN: assignment = optarg; break;
-        case O_SCENE: scene = optarg; break;
+        case O_ASSIGN: in.assignment = optarg; break;
+        case O_SCENE: in.scene_path = optarg; break;
         case O_IMAGE: image = optarg; break;
         case O_DIFF: diff = optarg; break;
         case O_DIR: g.assignments_dir = optarg; break;
-        case O_CACHE: g.cache_dir = optarg; break;
+        case O_CACHE: cache_dir = optarg; break;
         case O_THREADS:
             if (rd_cli_int(optarg, 1, 1024, &threads)) {
                 fprintf(stderr, "rayd grade: --threads: expected an integer in 1..1024, got '%s'\n", optarg);
                 return RD_EXIT_USAGE;
             }
-            g.threads = (int)threads;
             break;
         default:
             fprintf(stderr, "rayd grade: bad option '%s' (try 'rayd grade --help')\n", argv[optind - 1]);
             return RD_EXIT_USAGE;
         }
     }
-    if (optind != argc || !image || (!assignment == !scene)) {
+    if (optind != argc || !image || (!in.assignment == !in.scene_path)) {
         fprintf(stderr, "rayd grade: give --image and exactly one of --assignment or --scene (try 'rayd grade --help')\n");
         return RD_EXIT_USAGE;
     }
     rd_error err = {0};
-    char *png = NULL, *text = NULL;
-    size_t png_len = 0, text_len = 0;
-    rd_error_code rc = rd_read_file(image, 1u << 30, "(1 GiB)", &png, &png_len, &err);
-    if (!rc && scene)
-        rc = rd_read_file(scene, g.limits.max_bytes, "--max-scene-bytes", &text, &text_len, &err);
+    char *png = NULL;
+    /* The upload limit of the daemon: a PNG over the body limit is refused
+     * there before it is read, here likewise. */
+    rd_error_code rc = rd_read_file(image, RD_GRADE_MAX_PNG_BYTES, "the largest PNG graded, 1 GiB", &png, &in.png_len, &err);
     if (rc) {
         fprintf(stderr, "rayd grade: %s\n", err.message);
+        return rd_error_answer_for(rc).exit;
+    }
+    in.png = (const unsigned char *)png;
+    /* Only references on disk: one process grades one image. */
+    if (cache_dir && !(g.cache = rd_ref_cache_new(0, cache_dir, NULL, NULL))) {
         free(png);
-        return RD_EXIT_IO;
+        fprintf(stderr, "rayd grade: out of memory\n");
+        return RD_EXIT_SCENE;
     }
-    char *scene_dir = scene ? rd_dirname(scene) : NULL;
-    g.assets_dir = scene_dir;
     rd_grade_output out;
-    rc = rd_grade_run(&g, assignment, text, text_len, scene, (unsigned char *)png, png_len, &out, &err);
+    rc = rd_grade_run(&g, &in, (int)threads, &out, &err);
     free(png);
-    free(text);
-    free(scene_dir);
+    int status;
     if (rc) {
-        fprintf(stderr, "%s%s\n", out.status == RD_GRADE_BAD_SCENE ? "" : "rayd grade: ", err.message);
-        return out.status == RD_GRADE_UNKNOWN_ASSIGNMENT ? RD_EXIT_USAGE : RD_EXIT_SCENE;
-    }
-    int status = out.result.pass ? RD_EXIT_OK : 4;
-    if (diff) {
-        uint8_t *heat = malloc((size_t)out.width * (size_t)out.height * 3);
-        unsigned char *pngout = NULL;
-        size_t len = 0;
-        rc = heat ? RD_OK : rd_error_set(&err, RD_ERR_NOMEM, 0, 0, "out of memory");
-        if (!rc) {
-            rd_grade_heatmap(out.reference, out.image, out.width, out.height, out.thresholds.fail, heat);
-            rd_png_options po = rd_png_options_default();
-            rc = rd_png_encode(heat, out.width, out.height, &po, &pngout, &len, &err);
-        }
-        if (!rc)
-            rc = rd_write_file(diff, pngout, len, &err);
-        free(heat);
-        free(pngout);
-        if (rc) {
-            fprintf(stderr, "rayd grade: %s\n", err.message);
-            status = RD_EXIT_IO;
-        }
-    }
-    char *json = rd_grade_json(&out, NULL);
-    if (json) {
-        fputs(json, stdout);
-        fputc('\n', stdout);
-        free(json);
+        fprintf(stderr, "rayd grade: %s\n", err.message);
+        status = rd_grade_error_answer(out.stage, rc).exit;
+    } else {
+        status = report(&out, diff);
     }
     rd_grade_output_free(&out);
+    rd_ref_cache_free(g.cache);
     return status;
 }

@@ -7,8 +7,7 @@
 #include "cli.h"
 #include "png_write.h"
 #include "rayd/render.h"
-#include "scene_assets.h"
-#include "scene_load.h"
+#include "scene_open.h"
 #include "file_io.h"
 
 static const char render_help[] =
@@ -64,10 +63,6 @@ static int usage_error(const char *fmt, const char *arg)
     return RD_EXIT_USAGE;
 }
 
-static int exit_for(rd_error_code c)
-{
-    return c == RD_ERR_IO ? RD_EXIT_IO : RD_EXIT_SCENE;
-}
 
 int rd_cmd_render(int argc, char **argv)
 {
@@ -81,8 +76,9 @@ int rd_cmd_render(int argc, char **argv)
         {"adaptive", no_argument, NULL, O_ADAPTIVE},
         {NULL, 0, NULL, 0}};
     const char *output = NULL;
-    long width = 0, height = 0, samples = 0, threads = sysconf(_SC_NPROCESSORS_ONLN), level = -1;
-    const char *seed = NULL;
+    long threads = sysconf(_SC_NPROCESSORS_ONLN), level = -1;
+    rd_scene_overrides ov = {0};
+    rd_error err = {0};
     double budget = 0, target = 0;
     int adaptive = 0;
     if (threads < 1)
@@ -99,18 +95,16 @@ int rd_cmd_render(int argc, char **argv)
         case 'o': output = optarg; break;
         case 'h': fputs(render_help, stdout); return RD_EXIT_OK;
         case O_WIDTH:
-            if (rd_cli_int(optarg, 1, 16384, &width))
-                return usage_error("--width: expected an integer in 1..16384, got '%s'", optarg);
-            break;
         case O_HEIGHT:
-            if (rd_cli_int(optarg, 1, 16384, &height))
-                return usage_error("--height: expected an integer in 1..16384, got '%s'", optarg);
-            break;
         case O_SAMPLES:
-            if (rd_cli_int(optarg, 1, 65536, &samples))
-                return usage_error("--samples: expected an integer in 1..65536, got '%s'", optarg);
+        case O_SEED: {
+            const char *key = c == O_WIDTH ? "width" : c == O_HEIGHT ? "height" : c == O_SAMPLES ? "samples" : "seed";
+            char what[32];
+            snprintf(what, sizeof what, "--%s", key);
+            if (rd_override_set(&ov, key, optarg, what, &err))
+                return usage_error("%s", err.message);
             break;
-        case O_SEED: seed = optarg; break;
+        }
         case O_THREADS:
             if (rd_cli_int(optarg, 1, 1024, &threads))
                 return usage_error("--threads: expected an integer in 1..1024, got '%s'", optarg);
@@ -142,46 +136,17 @@ int rd_cmd_render(int argc, char **argv)
         return usage_error("%s", optind >= argc ? "expected one SCENE file" : "expected exactly one SCENE file");
     if (!output)
         return usage_error("%s", "missing -o OUT.png");
-    unsigned long long seed_value = 0;
-    if (seed) {
-        char *end;
-        seed_value = strtoull(seed, &end, 10);
-        if (*end || !*seed || seed[0] == '-')
-            return usage_error("--seed: expected a non-negative integer, got '%s'", seed);
-    }
-
     rd_scene scene;
     rd_scene_init(&scene);
-    rd_error err = {0};
-    rd_error_code rc = rd_scene_load_file(argv[optind], &lim, &scene, &err);
-    if (!rc) {
-        char *dir = rd_dirname(argv[optind]);
-        rd_asset_source src = rd_asset_folder(dir ? dir : ".");
-        rd_warnings warnings = {0, ""};
-        rc = rd_scene_load_assets(&scene, &src, &lim, &warnings, &err);
-        free(dir);
-        if (warnings.count)
-            fprintf(stderr, "%s%s", warnings.text,
-                    warnings.count > 5 ? "(more warnings not shown)\n" : "");
-    }
+    rd_scene_source src = {.path = argv[optind]};
+    rd_warnings warnings = {0, ""};
+    rd_error_code rc = rd_scene_open(&src, &ov, &lim, &scene, &warnings, &err);
+    if (warnings.count)
+        fprintf(stderr, "%s%s", warnings.text, warnings.count > 5 ? "(more warnings not shown)\n" : "");
     if (rc) {
         fprintf(stderr, "%s\n", err.message);
         rd_scene_free(&scene);
-        return exit_for(rc);
-    }
-    if (width)
-        scene.render.width = (int)width;
-    if (height)
-        scene.render.height = (int)height;
-    if (samples)
-        scene.render.samples = (int)samples;
-    if (seed)
-        scene.render.seed = seed_value;
-    rc = rd_scene_check_limits(&scene, &lim, argv[optind], &err);
-    if (rc) {
-        fprintf(stderr, "%s\n", err.message);
-        rd_scene_free(&scene);
-        return exit_for(rc);
+        return rd_error_answer_for(rc).exit;
     }
 
     rd_render_options ro = {0};
@@ -195,7 +160,7 @@ int rd_cmd_render(int argc, char **argv)
     if (rc) {
         fprintf(stderr, "%s: %s\n", argv[optind], err.message);
         rd_scene_free(&scene);
-        return exit_for(rc);
+        return rd_error_answer_for(rc).exit;
     }
     size_t n = (size_t)img.width * (size_t)img.height * 3;
     uint8_t *rgb = malloc(n);

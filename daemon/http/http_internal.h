@@ -8,6 +8,7 @@
 #include <stdatomic.h>
 
 #include "rayd/error.h"
+#include "error_map.h"
 #include "server.h"
 
 struct rd_server {
@@ -92,8 +93,6 @@ enum MHD_Result rd_reply_error_hdr(rd_req *r, unsigned status, const char *code,
 enum MHD_Result rd_reply_json(rd_req *r, unsigned status, char *json_text);
 
 /* HTTP status for a scene error code. */
-unsigned rd_status_for(rd_error_code c);
-const char *rd_code_for(rd_error_code c);
 
 /* Route handlers. The body is complete when they are called. */
 enum MHD_Result rd_route_render(rd_req *r, int async);
@@ -114,7 +113,7 @@ enum MHD_Result rd_route_grade_resumed(rd_req *r);
 enum MHD_Result rd_route_grade_files(rd_req *r, const char *rest);
 void rd_grade_req_free(rd_req *r);
 
-struct rd_grades *rd_grades_new(rd_jq *jobs, size_t cache_bytes);
+struct rd_grades *rd_grades_new(rd_jq *jobs, const rd_server_options *opt);
 void rd_grades_free(struct rd_grades *g);
 
 /* The web page, generated from daemon/http/web/index.html. */

@@ -348,34 +348,6 @@ int rd_req_socket(rd_req *r)
     return ci ? ci->connect_fd : -1;
 }
 
-unsigned rd_status_for(rd_error_code c)
-{
-    switch (c) {
-    case RD_ERR_SYNTAX: return 400;
-    case RD_ERR_INVALID: return 422;
-    case RD_ERR_LIMIT: return 413;
-    case RD_ERR_IO: return 422;
-    case RD_ERR_CANCELLED: return 503;
-    case RD_ERR_TIMEOUT: return 422;
-    case RD_ERR_BUSY: return 503;
-    default: return 503;
-    }
-}
-
-const char *rd_code_for(rd_error_code c)
-{
-    switch (c) {
-    case RD_ERR_SYNTAX: return "parse_error";
-    case RD_ERR_INVALID: return "invalid_scene";
-    case RD_ERR_LIMIT: return "too_large";
-    case RD_ERR_IO: return "missing_file";
-    case RD_ERR_CANCELLED: return "cancelled";
-    case RD_ERR_TIMEOUT: return "time_limit";
-    case RD_ERR_BUSY: return "queue_full";
-    default: return "unavailable";
-    }
-}
-
 /* Scene types we read; other families are refused with 415 (a PNG or a
  * form posted to /v1/render by mistake), anything else is sniffed. */
 static int refused_type(const char *ct)
@@ -722,7 +694,7 @@ rd_server *rd_server_start(const rd_server_options *opt, rd_error *err)
     pthread_mutex_init(&s->conn_mu, NULL);
     pthread_cond_init(&s->conn_cv, NULL);
     s->jobs = rd_jq_start(&opt->jobs, err);
-    s->grades = s->jobs ? rd_grades_new(s->jobs, opt->grade_cache_bytes) : NULL;
+    s->grades = s->jobs ? rd_grades_new(s->jobs, &s->opt) : NULL;
     if (!s->grades || pthread_create(&s->reaper, NULL, reaper, s) != 0) {
         if (s->jobs && !s->grades)
             rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");

@@ -7,27 +7,17 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/random.h>
-#include <time.h>
 
-#include "asset_source.h"
+#include "rayd/clock.h"
 #include "assignment.h"
+#include "error_map.h"
+#include "file_io.h"
 #include "grading.h"
 #include "http_internal.h"
-#include "png_read.h"
 #include "png_write.h"
-#include "reference.h"
-#include "scene_assets.h"
 #include "scene_load.h"
-#include "file_io.h"
 
-enum { REF_CACHE = 32, GRADES_KEPT = 256 };
-
-typedef struct {
-    char key[17];
-    uint8_t *rgb;
-    int w, h;
-    double used;
-} ref_entry;
+enum { GRADES_KEPT = 256 };
 
 typedef struct {
     char id[24];
@@ -36,15 +26,19 @@ typedef struct {
     double t;
 } grade_entry;
 
+/* The references (api/grading's cache, in memory and --cache-dir) and the
+ * images of finished grades share --grade-cache-bytes: kept grades shrink
+ * what references may hold, and the oldest grades go once references hold
+ * nothing. */
 struct rd_grades {
     pthread_mutex_t mu;
-    ref_entry refs[REF_CACHE];
+    rd_grader grader;
     grade_entry kept[GRADES_KEPT];
     size_t next;
     uint64_t key;
     uint64_t counter;
     rd_jq *jobs;                /* told of every byte the caches hold */
-    size_t bytes, cap;
+    size_t kept_bytes, cap;
 };
 
 /* The form as it arrives, on the HTTP thread. */
@@ -58,8 +52,8 @@ struct rd_grade_req {
     const char *bad;            /* the form is malformed: why (answered once it has arrived) */
 };
 
-/* One grade on a render thread: prepared (scene, image, reference from the
- * caches), rendered only when no reference is cached, then finished
+/* One grade on a render thread: prepared (rd_grade_prepare, which finds a
+ * cached reference), rendered only when there is none, then finished
  * (compare, heat map, the kept PNGs, the verdict). */
 typedef struct {
     char *image;
@@ -69,64 +63,38 @@ typedef struct {
     char assignment[80];
     rd_server *srv;
     rd_grade_output out;
-    char refkey[17];
-    unsigned status;            /* an error's HTTP status when not the scene code's */
-    const char *slug;
     char *json;                 /* the verdict */
 } grade_task;
 
-static double now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
-}
+static void count_bytes(void *jobs, long long delta) { rd_jq_external_bytes(jobs, delta); }
 
-struct rd_grades *rd_grades_new(rd_jq *jobs, size_t cap)
+struct rd_grades *rd_grades_new(rd_jq *jobs, const rd_server_options *opt)
 {
     struct rd_grades *g = calloc(1, sizeof *g);
-    if (g) {
-        g->jobs = jobs;
-        g->cap = cap;
-        pthread_mutex_init(&g->mu, NULL);
-        if (getrandom(&g->key, sizeof g->key, 0) != (ssize_t)sizeof g->key)
-            g->key = (uint64_t)now_ms() * 0x9e3779b97f4a7c15ULL;
+    if (!g)
+        return NULL;
+    g->grader.cache = rd_ref_cache_new(opt->grade_cache_bytes, opt->cache_dir, count_bytes, jobs);
+    if (!g->grader.cache) {
+        free(g);
+        return NULL;
     }
+    g->grader.assignments_dir = opt->assignments_dir;
+    g->grader.assets_dir = opt->scenes_dir;
+    g->grader.limits = opt->limits;
+    g->jobs = jobs;
+    g->cap = opt->grade_cache_bytes;
+    pthread_mutex_init(&g->mu, NULL);
+    if (getrandom(&g->key, sizeof g->key, 0) != (ssize_t)sizeof g->key)
+        g->key = (uint64_t)rd_now_ms() * 0x9e3779b97f4a7c15ULL;
     return g;
 }
 
-void rd_grades_free(struct rd_grades *g)
-{
-    if (!g)
-        return;
-    for (int i = 0; i < REF_CACHE; i++)
-        free(g->refs[i].rgb);
-    for (int i = 0; i < GRADES_KEPT; i++) {
-        free(g->kept[i].diff);
-        free(g->kept[i].reference);
-        free(g->kept[i].image);
-    }
-    pthread_mutex_destroy(&g->mu);
-    free(g);
-}
-
-static size_t kept_bytes(const grade_entry *e) { return e->diff_len + e->reference_len + e->image_len; }
-
-static void drop_ref(struct rd_grades *g, ref_entry *e)
-{
-    if (!e->rgb)
-        return;
-    size_t n = (size_t)e->w * (size_t)e->h * 3;
-    g->bytes -= n;
-    rd_jq_external_bytes(g->jobs, -(long long)n);
-    free(e->rgb);
-    e->rgb = NULL;
-}
+static size_t entry_bytes(const grade_entry *e) { return e->diff_len + e->reference_len + e->image_len; }
 
 static void drop_kept(struct rd_grades *g, grade_entry *e)
 {
-    size_t n = kept_bytes(e);
-    g->bytes -= n;
+    size_t n = entry_bytes(e);
+    g->kept_bytes -= n;
     rd_jq_external_bytes(g->jobs, -(long long)n);
     free(e->diff);
     free(e->reference);
@@ -134,22 +102,22 @@ static void drop_kept(struct rd_grades *g, grade_entry *e)
     memset(e, 0, sizeof *e);
 }
 
-/* The caches grew by delta bytes: past --grade-cache-bytes, the least
- * recently used references go first, then the oldest kept grades. Under
- * g->mu. */
-static void account(struct rd_grades *g, long long delta)
+void rd_grades_free(struct rd_grades *g)
 {
-    g->bytes += (size_t)delta;
-    rd_jq_external_bytes(g->jobs, delta);
-    while (g->bytes > g->cap) {
-        ref_entry *lru = NULL;
-        for (int i = 0; i < REF_CACHE; i++)
-            if (g->refs[i].rgb && (!lru || g->refs[i].used < lru->used))
-                lru = &g->refs[i];
-        if (lru) {
-            drop_ref(g, lru);
-            continue;
-        }
+    if (!g)
+        return;
+    for (int i = 0; i < GRADES_KEPT; i++)
+        drop_kept(g, &g->kept[i]);
+    rd_ref_cache_free(g->grader.cache);
+    pthread_mutex_destroy(&g->mu);
+    free(g);
+}
+
+/* Past the cap the references give way first, then the oldest grades.
+ * Under g->mu. */
+static void fit(struct rd_grades *g)
+{
+    while (g->kept_bytes > g->cap) {
         grade_entry *old = NULL;
         for (int i = 0; i < GRADES_KEPT; i++)
             if (g->kept[i].id[0] && (!old || g->kept[i].t < old->t))
@@ -158,50 +126,7 @@ static void account(struct rd_grades *g, long long delta)
             break;
         drop_kept(g, old);
     }
-}
-
-/* A copy of the cached reference, or NULL. */
-static uint8_t *ref_lookup(struct rd_grades *g, const char *key, int w, int h)
-{
-    uint8_t *copy = NULL;
-    pthread_mutex_lock(&g->mu);
-    for (int i = 0; i < REF_CACHE; i++)
-        if (g->refs[i].rgb && strcmp(g->refs[i].key, key) == 0 && g->refs[i].w == w && g->refs[i].h == h) {
-            size_t n = (size_t)w * (size_t)h * 3;
-            if ((copy = malloc(n)))
-                memcpy(copy, g->refs[i].rgb, n);
-            g->refs[i].used = now_ms();
-            break;
-        }
-    pthread_mutex_unlock(&g->mu);
-    return copy;
-}
-
-static void ref_store(struct rd_grades *g, const char *key, const uint8_t *rgb, int w, int h)
-{
-    size_t n = (size_t)w * (size_t)h * 3;
-    uint8_t *copy = malloc(n);
-    if (!copy)
-        return;
-    memcpy(copy, rgb, n);
-    pthread_mutex_lock(&g->mu);
-    int slot = 0;
-    for (int i = 0; i < REF_CACHE; i++) {
-        if (!g->refs[i].rgb) {
-            slot = i;
-            break;
-        }
-        if (g->refs[i].used < g->refs[slot].used)
-            slot = i;
-    }
-    drop_ref(g, &g->refs[slot]);
-    snprintf(g->refs[slot].key, sizeof g->refs[slot].key, "%s", key);
-    g->refs[slot].rgb = copy;
-    g->refs[slot].w = w;
-    g->refs[slot].h = h;
-    g->refs[slot].used = now_ms();
-    account(g, (long long)n);
-    pthread_mutex_unlock(&g->mu);
+    rd_ref_cache_set_max_bytes(g->grader.cache, g->cap - g->kept_bytes);
 }
 
 static unsigned char *encode(const uint8_t *rgb, int w, int h, size_t *len)
@@ -228,7 +153,7 @@ static void keep(struct rd_grades *g, const rd_grade_output *o, char id[24])
     }
     e.reference = encode(o->reference, o->width, o->height, &e.reference_len);
     e.image = encode(o->image, o->width, o->height, &e.image_len);
-    e.t = now_ms();
+    e.t = rd_now_ms();
     pthread_mutex_lock(&g->mu);
     uint64_t z = g->key ^ ++g->counter;
     z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
@@ -237,7 +162,9 @@ static void keep(struct rd_grades *g, const rd_grade_output *o, char id[24])
     grade_entry *slot = &g->kept[g->next++ % GRADES_KEPT];
     drop_kept(g, slot);
     *slot = e;
-    account(g, (long long)kept_bytes(&e));
+    g->kept_bytes += entry_bytes(&e);
+    rd_jq_external_bytes(g->jobs, (long long)entry_bytes(&e));
+    fit(g);
     pthread_mutex_unlock(&g->mu);
     memcpy(id, e.id, sizeof e.id);
 }
@@ -335,165 +262,62 @@ enum MHD_Result rd_route_grade_data(rd_req *r, const char *data, size_t size)
     return MHD_YES;
 }
 
-/* The kept images' addresses and the cache flag, added to the verdict. */
+/* The verdict with the kept images' addresses and the grade's id. */
 static char *verdict_json(const rd_grade_output *o, const char *id)
 {
-    char url[80];
-    snprintf(url, sizeof url, "/v1/grades/%s/diff.png", id);
-    char *json = rd_grade_json(o, url);
-    cJSON *root = json ? cJSON_Parse(json) : NULL;
-    free(json);
+    cJSON *root = rd_grade_json(o);
     if (!root)
         return NULL;
-    cJSON_AddStringToObject(root, "id", id);
-    snprintf(url, sizeof url, "/v1/grades/%s/reference.png", id);
-    cJSON_AddStringToObject(root, "reference_url", url);
-    snprintf(url, sizeof url, "/v1/grades/%s/image.png", id);
-    cJSON_AddStringToObject(root, "image_url", url);
-    cJSON_AddBoolToObject(root, "reference_cached", o->reference_cached);
-    char *text = cJSON_PrintUnformatted(root);
+    static const char *const files[][2] = {{"diff_url", "diff"}, {"reference_url", "reference"}, {"image_url", "image"}};
+    char url[80];
+    int ok = cJSON_AddStringToObject(root, "id", id) != NULL;
+    for (int i = 0; i < 3 && ok; i++) {
+        snprintf(url, sizeof url, "/v1/grades/%s/%s.png", id, files[i][1]);
+        ok = cJSON_AddStringToObject(root, files[i][0], url) != NULL;
+    }
+    char *text = ok ? cJSON_PrintUnformatted(root) : NULL;
     cJSON_Delete(root);
     return text;
 }
 
-static rd_error_code fail_as(grade_task *t, unsigned status, const char *slug, rd_error_code rc)
+static rd_grade_input input_of(const grade_task *t)
 {
-    t->status = status;
-    t->slug = slug;
-    return rc;
-}
-
-/* Width and height from a PNG's IHDR, which the signature check put at a
- * fixed place, so a size mismatch is found before decoding anything. */
-static int png_size(const unsigned char *p, size_t len, unsigned *w, unsigned *h)
-{
-    if (len < 24 || memcmp(p + 12, "IHDR", 4) != 0)
-        return 0;
-    *w = (unsigned)p[16] << 24 | (unsigned)p[17] << 16 | (unsigned)p[18] << 8 | p[19];
-    *h = (unsigned)p[20] << 24 | (unsigned)p[21] << 16 | (unsigned)p[22] << 8 | p[23];
-    return 1;
-}
-
-/* The reference from memory or --cache-dir; NULL when neither has it. */
-static uint8_t *cached_reference(grade_task *t, int w, int h)
-{
-    rd_server *srv = t->srv;
-    uint8_t *ref = ref_lookup(srv->grades, t->refkey, w, h);
-    if (ref || !srv->opt.cache_dir)
-        return ref;
-    char path[1100];
-    char *data;
-    size_t len;
-    int cw, ch;
-    rd_error err;
-    snprintf(path, sizeof path, "%s/%s.png", srv->opt.cache_dir, t->refkey);
-    if (rd_read_file(path, 1u << 30, "(cache)", &data, &len, &err) != RD_OK)
-        return NULL;
-    if (rd_grade_load_png((unsigned char *)data, len, (size_t)w * (size_t)h, &ref, &cw, &ch, &err) || cw != w ||
-        ch != h) {
-        free(ref);
-        ref = NULL;
-    }
-    free(data);
-    return ref;
-}
-
-static rd_error_code load_scene(grade_task *t, rd_scene *s, rd_error *err)
-{
-    rd_server *srv = t->srv;
-    rd_grade_output *o = &t->out;
-    rd_error_code rc;
-    char *dir;
-    if (t->assignment[0]) {
-        rd_assignment a;
-        rc = rd_assignment_load(srv->opt.assignments_dir, t->assignment, &a, err);
-        if (rc)
-            return fail_as(t, rc == RD_ERR_IO ? 404 : 422, rc == RD_ERR_IO ? "not_found" : "bad_assignment", rc);
-        snprintf(o->assignment, sizeof o->assignment, "%s", a.name);
-        snprintf(o->title, sizeof o->title, "%s", a.title);
-        o->thresholds = a.thresholds;
-        rc = rd_scene_load_file(a.scene_path, &srv->opt.limits, s, err);
-        dir = rd_dirname(a.scene_path);
-    } else {
-        rc = rd_scene_parse(t->scene, t->scene_len, RD_FMT_AUTO, "<upload>", &srv->opt.limits, s, err);
-        dir = strdup(srv->opt.scenes_dir);
-    }
-    if (!rc)
-        rc = rd_scene_check_limits(s, &srv->opt.limits, "<upload>", err);
-    if (!rc) {
-        rd_asset_source src = rd_asset_folder(dir ? dir : ".");
-        rc = rd_scene_load_assets(s, &src, &srv->opt.limits, NULL, err);
-    }
-    free(dir);
-    return rc;
-}
-
-static rd_error_code load_image(grade_task *t, int w, int h, rd_error *err)
-{
-    rd_grade_output *o = &t->out;
-    const unsigned char *png = (const unsigned char *)t->image;
-    if (!rd_png_sniff(png, t->image_len))
-        return fail_as(t, 415, "unsupported_media_type",
-                       rd_error_set(err, RD_ERR_INVALID, 0, 0, "the image is not a PNG file"));
-    unsigned iw, ih;
-    if (png_size(png, t->image_len, &iw, &ih) && (iw != (unsigned)w || ih != (unsigned)h))
-        return fail_as(t, 422, "size_mismatch",
-                       rd_error_set(err, RD_ERR_INVALID, 0, 0, "the image is %ux%u; the %s renders %dx%d", iw, ih,
-                                    t->assignment[0] ? "assignment" : "scene", w, h));
-    int dw, dh;
-    rd_error_code rc = rd_grade_load_png(png, t->image_len, t->srv->opt.limits.max_pixels, &o->image, &dw, &dh, err);
-    if (rc)
-        return rc == RD_ERR_LIMIT ? fail_as(t, 413, "too_large", rc) : fail_as(t, 422, "bad_image", rc);
-    free(t->image);
-    t->image = NULL;
-    o->width = dw;
-    o->height = dh;
-    return RD_OK;
+    rd_grade_input in = {0};
+    in.assignment = t->assignment[0] ? t->assignment : NULL;
+    in.scene_text = t->scene;
+    in.scene_len = t->scene_len;
+    in.source = "<upload>";
+    in.png = (const unsigned char *)t->image;
+    in.png_len = t->image_len;
+    return in;
 }
 
 static rd_error_code prepare_grade(void *arg, rd_scene *s, int *render, rd_error *err)
 {
     grade_task *t = arg;
-    rd_grade_output *o = &t->out;
-    o->thresholds = rd_grade_thresholds_default();
-    rd_error_code rc = load_scene(t, s, err);
-    if (!rc)
-        rc = load_image(t, s->render.width, s->render.height, err);
-    if (!rc && rd_reference_key(s, t->refkey, err))
-        rc = fail_as(t, 503, "unavailable", RD_ERR_NOMEM);
+    rd_grade_input in = input_of(t);
+    rd_error_code rc = rd_grade_prepare(&t->srv->grades->grader, &in, s, &t->out, err);
+    free(t->image);
+    t->image = NULL;
     if (rc)
         return rc;
-    o->reference = cached_reference(t, o->width, o->height);
-    o->reference_cached = o->reference != NULL;
-    *render = !o->reference;
+    *render = !t->out.reference;
     return RD_OK;
 }
 
 static rd_error_code finish_grade(void *arg, const uint8_t *rgb, int w, int h, rd_error *err)
 {
     grade_task *t = arg;
-    rd_server *srv = t->srv;
+    struct rd_grades *g = t->srv->grades;
     rd_grade_output *o = &t->out;
     if (rgb) {
-        size_t n = (size_t)w * (size_t)h * 3;
-        if (!(o->reference = malloc(n)))
-            return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
-        memcpy(o->reference, rgb, n);
-        ref_store(srv->grades, t->refkey, rgb, w, h);
-        if (srv->opt.cache_dir) {
-            size_t len;
-            unsigned char *png = encode(rgb, w, h, &len);
-            char path[1100];
-            rd_error ignore;
-            snprintf(path, sizeof path, "%s/%s.png", srv->opt.cache_dir, t->refkey);
-            if (png)
-                rd_write_file(path, png, len, &ignore);
-            free(png);
-        }
+        rd_error_code rc = rd_grade_set_reference(&g->grader, o, rgb, w, h, err);
+        if (rc)
+            return rc;
     }
-    rd_grade_compare(o->reference, o->image, o->width, o->height, &o->thresholds, &o->result);
+    rd_grade_finish(o);
     char id[24];
-    keep(srv->grades, o, id);
+    keep(g, o, id);
     t->json = verdict_json(o, id);
     return t->json ? RD_OK : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
 }
@@ -567,12 +391,10 @@ enum MHD_Result rd_route_grade_resumed(rd_req *r)
         return rd_reply_json(r, 200, json);
     }
     if (info.status == RD_JOB_FAILED) {
-        rd_error_code c = info.error.code;
-        if (t->status)
-            return rd_reply_error(r, t->status, t->slug, &info.error, NULL);
-        if (c == RD_ERR_TIMEOUT)
-            return rd_reply_error(r, 422, "time_limit", &info.error, NULL);
-        return rd_reply_error(r, rd_status_for(c), rd_code_for(c), &info.error, NULL);
+        /* A failed render of the reference fails the grade there. */
+        rd_grade_stage stage = t->out.stage ? t->out.stage : RD_GRADE_STAGE_REFERENCE;
+        rd_error_answer a = rd_grade_error_answer(stage, info.error.code);
+        return rd_reply_error(r, a.http, a.code, &info.error, NULL);
     }
     if (info.hung_up)
         return MHD_NO;

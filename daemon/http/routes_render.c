@@ -5,81 +5,22 @@
 #include <string.h>
 
 #include "http_internal.h"
-#include "scene_assets.h"
-#include "scene_load.h"
+#include "scene_open.h"
 
-/* The query's overrides of the scene's render section (http-api.md),
- * checked on the HTTP thread and applied once the scene is parsed. */
-typedef struct {
-    int has[4], value[4];       /* width, height, samples, max_depth */
-    int has_gamma, has_seed;
-    double gamma;
-    unsigned long long seed;
-} overrides;
-
-static const struct {
-    const char *name;
-    long lo, hi;
-    size_t off;
-} int_params[] = {{"width", 1, 16384, offsetof(rd_render_settings, width)},
-                  {"height", 1, 16384, offsetof(rd_render_settings, height)},
-                  {"samples", 1, 65536, offsetof(rd_render_settings, samples)},
-                  {"max_depth", 0, 64, offsetof(rd_render_settings, max_depth)}};
-
-/* 0, or fills err (RD_ERR_SYNTAX) naming the parameter. */
-static int read_overrides(struct MHD_Connection *c, overrides *ov, rd_error *err)
+/* The query's overrides of the scene's render section (http-api.md), read
+ * on the HTTP thread (the scene keys' own ranges) and applied once the
+ * scene is parsed. 0, or fills err (RD_ERR_SYNTAX) naming the parameter. */
+static int read_overrides(struct MHD_Connection *c, rd_scene_overrides *ov, rd_error *err)
 {
     memset(ov, 0, sizeof *ov);
-    for (size_t i = 0; i < sizeof int_params / sizeof int_params[0]; i++) {
-        const char *v = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, int_params[i].name);
-        if (!v)
-            continue;
-        char *end;
-        errno = 0;
-        long x = strtol(v, &end, 10);
-        if (!*v || *end || errno || x < int_params[i].lo || x > int_params[i].hi) {
-            rd_error_set(err, RD_ERR_SYNTAX, 0, 0, "query parameter %s: expected an integer in %ld..%ld, got '%.40s'",
-                         int_params[i].name, int_params[i].lo, int_params[i].hi, v);
+    for (int i = 0; rd_override_names[i]; i++) {
+        const char *v = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, rd_override_names[i]);
+        char what[48];
+        snprintf(what, sizeof what, "query parameter %s", rd_override_names[i]);
+        if (v && rd_override_set(ov, rd_override_names[i], v, what, err))
             return 1;
-        }
-        ov->has[i] = 1;
-        ov->value[i] = (int)x;
-    }
-    const char *v = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "gamma");
-    if (v) {
-        char *end;
-        double g = strtod(v, &end);
-        if (!*v || *end || !(g > 0) || !(g < 1e300)) {
-            rd_error_set(err, RD_ERR_SYNTAX, 0, 0, "query parameter gamma: expected a number > 0, got '%.40s'", v);
-            return 1;
-        }
-        ov->has_gamma = 1;
-        ov->gamma = g;
-    }
-    v = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "seed");
-    if (v) {
-        char *end;
-        errno = 0;
-        unsigned long long x = strtoull(v, &end, 10);
-        if (!*v || *end || errno || v[0] == '-') {
-            rd_error_set(err, RD_ERR_SYNTAX, 0, 0, "query parameter seed: expected a non-negative integer, got '%.40s'", v);
-            return 1;
-        }
-        ov->has_seed = 1;
-        ov->seed = x;
     }
     return 0;
-}
-
-static void apply_overrides(const overrides *ov, rd_scene *s)
-{
-    for (size_t i = 0; i < sizeof int_params / sizeof int_params[0]; i++)
-        if (ov->has[i])
-            *(int *)((char *)&s->render + int_params[i].off) = ov->value[i];
-    if (ov->has_gamma)
-        s->render.gamma = ov->gamma;
-    if (ov->has_seed)
-        s->render.seed = ov->seed;
 }
 
 /* An uploaded scene, parsed and given its assets on a render thread. */
@@ -87,7 +28,7 @@ typedef struct {
     char *body;
     size_t len;
     rd_scene_format fmt;
-    overrides ov;
+    rd_scene_overrides ov;
     const rd_server_options *opt;
 } render_task;
 
@@ -95,18 +36,13 @@ static rd_error_code prepare_render(void *arg, rd_scene *s, int *render, rd_erro
 {
     (void)render;
     render_task *t = arg;
-    rd_error_code rc = rd_scene_parse(t->body, t->len, t->fmt, "<upload>", &t->opt->limits, s, err);
+    rd_scene_source src = {.text = t->body, .len = t->len, .source = "<upload>", .format = t->fmt,
+                           .assets_dir = t->opt->scenes_dir};
+    rd_warnings w = {0, ""};
+    rd_error_code rc = rd_scene_open(&src, &t->ov, &t->opt->limits, s, &w, err);
     free(t->body);
     t->body = NULL;
-    if (rc)
-        return rc;
-    apply_overrides(&t->ov, s);
-    rc = rd_scene_check_limits(s, &t->opt->limits, "<upload>", err);
-    if (rc)
-        return rc;
-    rd_asset_source src = rd_asset_folder(t->opt->scenes_dir);
-    rd_warnings w = {0, ""};
-    return rd_scene_load_assets(s, &src, &t->opt->limits, &w, err);
+    return rc;
 }
 
 static void free_render(void *arg)
@@ -179,7 +115,7 @@ static char *job_json(const rd_jq_info *in)
     }
     if (in->status == RD_JOB_FAILED) {
         cJSON *e = cJSON_AddObjectToObject(o, "error");
-        cJSON_AddStringToObject(e, "code", rd_code_for(in->error.code));
+        cJSON_AddStringToObject(e, "code", rd_error_answer_for(in->error.code).code);
         cJSON_AddStringToObject(e, "message", in->error.message);
     }
     char *t = cJSON_PrintUnformatted(o);
@@ -242,7 +178,7 @@ static enum MHD_Result reply_ended(rd_req *r, const rd_jq_info *info)
         rd_error_code c = info->error.code;
         if (c == RD_ERR_TIMEOUT)
             return rd_reply_error(r, 422, "time_limit", &info->error, NULL);
-        return rd_reply_error(r, rd_status_for(c), rd_code_for(c), &info->error, NULL);
+        return rd_reply_error(r, rd_error_answer_for(c).http, rd_error_answer_for(c).code, &info->error, NULL);
     }
     if (info->hung_up)
         return MHD_NO; /* nobody to answer: close, and the log says so */

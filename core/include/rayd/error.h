@@ -1,17 +1,31 @@
-/* Errors are values: a code, an optional location and a message. */
+/* Errors are values: a code, an optional location and a message.
+ *
+ * RD_ERRORS is the one list of codes: each with its stable name (logs,
+ * JSON, tests) and what it means. A meaning gets its own code rather than
+ * borrowing a near one, so that every layer can map a code to an answer
+ * without knowing where it came from (daemon/errors/ maps them to HTTP
+ * statuses and exit codes, once). */
 #ifndef RD_ERROR_H
 #define RD_ERROR_H
 
+#define RD_ERRORS(X)                                                                         \
+    X(RD_OK, "ok", "success")                                                                \
+    X(RD_ERR_SYNTAX, "syntax", "malformed input: scene or assignment text, image bytes")     \
+    X(RD_ERR_INVALID, "invalid", "well-formed but invalid: unknown name, degenerate geometry, wrong size") \
+    X(RD_ERR_LIMIT, "limit", "over a configured size limit")                                 \
+    X(RD_ERR_IO, "io", "a file could not be read or written")                                \
+    X(RD_ERR_NOMEM, "nomem", "out of memory")                                                \
+    X(RD_ERR_CANCELLED, "cancelled", "stopped on request")                                   \
+    X(RD_ERR_TIMEOUT, "timeout", "a render ran past its time limit")                         \
+    X(RD_ERR_BUSY, "busy", "no room now (queue full): try again later")                      \
+    X(RD_ERR_NOT_FOUND, "not_found", "nothing of that name: assignment, scene, job")         \
+    X(RD_ERR_UNSUPPORTED, "unsupported", "a kind of input it does not read (not a PNG)")
+
 typedef enum {
-    RD_OK = 0,
-    RD_ERR_SYNTAX,      /* malformed input text */
-    RD_ERR_INVALID,     /* well-formed but invalid: unknown name, degenerate geometry */
-    RD_ERR_LIMIT,       /* over a configured size limit */
-    RD_ERR_IO,          /* a file could not be read or written */
-    RD_ERR_NOMEM,
-    RD_ERR_CANCELLED,
-    RD_ERR_TIMEOUT,     /* a render ran past its time limit */
-    RD_ERR_BUSY         /* no room now (queue full): try again later */
+#define RD_ERROR_ENUM(code, name, meaning) code,
+    RD_ERRORS(RD_ERROR_ENUM)
+#undef RD_ERROR_ENUM
+    RD_ERROR_COUNT
 } rd_error_code;
 
 typedef struct {
@@ -25,5 +39,9 @@ typedef struct {
 rd_error_code rd_error_set(rd_error *err, rd_error_code code, int line, int column,
                            const char *fmt, ...)
     __attribute__((format(printf, 5, 6)));
+
+/* The code's stable name ("syntax", "not_found"); "?" for a value outside
+ * the list. */
+const char *rd_error_name(rd_error_code code);
 
 #endif

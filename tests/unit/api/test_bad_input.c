@@ -680,21 +680,7 @@ JSON_ROWS(DEF_JSON)
 /* ------------------------------------------------------------------------ */
 /* Helpers */
 
-static const char *code_name(rd_error_code c)
-{
-    switch (c) {
-    case RD_OK: return "RD_OK";
-    case RD_ERR_SYNTAX: return "RD_ERR_SYNTAX";
-    case RD_ERR_INVALID: return "RD_ERR_INVALID";
-    case RD_ERR_LIMIT: return "RD_ERR_LIMIT";
-    case RD_ERR_IO: return "RD_ERR_IO";
-    case RD_ERR_NOMEM: return "RD_ERR_NOMEM";
-    case RD_ERR_CANCELLED: return "RD_ERR_CANCELLED";
-    case RD_ERR_TIMEOUT: return "RD_ERR_TIMEOUT";
-    case RD_ERR_BUSY: return "RD_ERR_BUSY";
-    }
-    return "?";
-}
+static const char *code_name(rd_error_code c) { return rd_error_name(c); }
 
 /* The parsing thread's own CPU time: the suites run in parallel with
  * renders and daemons, and wall time then measures them too. */
