@@ -123,8 +123,9 @@ void rd_ref_cache_free(rd_ref_cache *c)
 {
     if (!c)
         return;
+    /* Whoever listened to on_bytes may be gone already. */
     for (int i = 0; i < REF_SLOTS; i++)
-        drop(c, &c->slots[i]);
+        free(c->slots[i].rgb);
     pthread_mutex_destroy(&c->mu);
     free(c);
 }

@@ -33,7 +33,7 @@ typedef struct rd_ref_cache rd_ref_cache;
 rd_ref_cache *rd_ref_cache_new(size_t max_bytes, const char *dir, void (*on_bytes)(void *user, long long delta),
                                void *user);
 
-/* Frees every reference; NULL is a no-op. */
+/* Frees every reference, without telling on_bytes; NULL is a no-op. */
 void rd_ref_cache_free(rd_ref_cache *c);
 
 /* A malloc'ed copy (the caller frees it) of key's reference of w x h

@@ -106,8 +106,12 @@ void rd_grades_free(struct rd_grades *g)
 {
     if (!g)
         return;
-    for (int i = 0; i < GRADES_KEPT; i++)
-        drop_kept(g, &g->kept[i]);
+    /* The queue is gone by now: nobody is told of these bytes. */
+    for (int i = 0; i < GRADES_KEPT; i++) {
+        free(g->kept[i].diff);
+        free(g->kept[i].reference);
+        free(g->kept[i].image);
+    }
     rd_ref_cache_free(g->grader.cache);
     pthread_mutex_destroy(&g->mu);
     free(g);
