@@ -111,6 +111,7 @@ check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
 	RAYD=$(BUILD)/rayd sh tests/integration/cli_test.sh
 	RAYD=$(BUILD)/rayd sh tests/integration/formats_test.sh
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/schema_test.py
+	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/grade_parity_test.py
 
 # gcc plain, then clang with AddressSanitizer and UndefinedBehaviorSanitizer,
 # then the web page in headless Chromium, the fault test against the plain

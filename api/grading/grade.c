@@ -151,9 +151,10 @@ void rd_grade_heatmap(const uint8_t *ref, const uint8_t *img, int w, int h, int 
             double u = (t - 0.66) / 0.34;
             r = 255 - 40 * u, g = 0, bl = 220 * u;
         }
-        o[0] = (uint8_t)r;
-        o[1] = (uint8_t)g;
-        o[2] = (uint8_t)bl;
+        /* Rounded: truncation left the worst pixel at 219, not 220. */
+        o[0] = (uint8_t)(r + 0.5);
+        o[1] = (uint8_t)(g + 0.5);
+        o[2] = (uint8_t)(bl + 0.5);
     }
 }
 

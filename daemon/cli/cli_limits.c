@@ -58,7 +58,7 @@ int rd_cmd_limits(int argc, char **argv)
     size_t n;
     const rd_limit_info *info = rd_limits_info(&n);
     rd_scene_limits d = rd_scene_limits_default();
-    printf("Size limits on scene input (flags of 'rayd render' and 'rayd serve'):\n\n");
+    printf("Size limits on scene input (flags of 'rayd render', 'converge', 'grade' and 'serve'):\n\n");
     for (size_t i = 0; i < n; i++)
         printf("  %-22s %12zu  %s\n", info[i].flag, *(const size_t *)((const char *)&d + info[i].offset),
                info[i].what);
