@@ -1,5 +1,6 @@
 #include "rayd/job.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -35,6 +36,14 @@ struct rd_job {
     double deadline_ms;
     const atomic_int *cancel;
     double plan_ms;
+    /* The schedule of passes and what they measured (progress.h). */
+    rd_progress_settings progress;
+    double t0, pass_t0, last_pass_ms;
+    int spp, passes_done;
+    double error;
+    rd_stop_reason stopped_by;
+    rd_curve_point curve[RD_CURVE_MAX];
+    int curve_len;
 };
 
 
@@ -46,7 +55,7 @@ enum { WORLD_BYTES_PER_PRIM = 512 };
 size_t rd_job_estimate_bytes(const rd_scene *s, const rd_job_options *opt)
 {
     size_t npix = (size_t)s->render.width * (size_t)s->render.height;
-    int progressive = opt && opt->progressive, adaptive = opt && opt->adaptive;
+    int progressive = opt && rd_progress_is_progressive(&opt->progress), adaptive = opt && opt->progress.adaptive;
     size_t per_pixel = 3 * sizeof(double) + sizeof(uint32_t) + 3; /* mean, count, 8-bit output */
     if (progressive || s->render.samples > 1)
         per_pixel += 6 * sizeof(float) + 2 * sizeof(uint32_t);
@@ -66,9 +75,14 @@ rd_error_code rd_job_create(const rd_scene *s, const rd_job_options *opt, rd_job
     if (!j)
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
     j->scene = s;
-    j->tile = opt && opt->tile >= 1 ? opt->tile : 16;
-    j->progressive = opt ? opt->progressive : 0;
-    j->adaptive = opt ? opt->adaptive : 0;
+    j->t0 = t0;
+    j->tile = opt && opt->tile >= 1 ? opt->tile : RD_JOB_TILE;
+    if (opt)
+        j->progress = opt->progress;
+    if (j->progress.max_samples < 1)
+        j->progress.max_samples = s->render.samples < 1 ? 1 : s->render.samples;
+    j->progressive = rd_progress_is_progressive(&j->progress);
+    j->adaptive = j->progress.adaptive;
     j->pass_samples = s->render.samples < 1 ? 1 : s->render.samples;
     rd_error_code rc = rd_pinhole_make(&j->cam, &s->camera, s->render.width, s->render.height, err);
     if (rc) {
@@ -139,8 +153,10 @@ static double weight(const rd_job *j, size_t i)
 
 
 
-void rd_job_begin_pass(rd_job *j, int pass, int samples)
+/* Reads every pixel (adaptive): no tile may be rendering. */
+static void begin_pass(rd_job *j, int pass, int samples)
 {
+    j->pass_t0 = rd_now_ms();
     j->pass = pass;
     j->pass_samples = samples < 1 ? 1 : samples;
     j->mean_weight = 0;
@@ -151,6 +167,60 @@ void rd_job_begin_pass(rd_job *j, int pass, int samples)
             sum += weight(j, i);
         j->mean_weight = sum / (double)npix;
     }
+}
+
+int rd_job_first_pass(rd_job *j)
+{
+    rd_stop_reason why;
+    int n = rd_progress_next(&j->progress, 0, 0, 0, 0, 0, 0, &why);
+    begin_pass(j, 0, n);
+    return j->pass_samples;
+}
+
+int rd_job_end_pass(rd_job *j)
+{
+    j->last_pass_ms = rd_now_ms() - j->pass_t0;
+    j->spp += j->pass_samples;
+    j->passes_done = j->pass + 1;
+    j->error = rd_job_error_estimate(j);
+    if (j->curve_len < RD_CURVE_MAX) {
+        rd_curve_point *cp = &j->curve[j->curve_len++];
+        cp->ms = rd_now_ms() - j->t0;
+        cp->samples = j->adaptive ? rd_job_mean_samples(j) : j->spp;
+        cp->error = j->error;
+    }
+    int next = rd_progress_next(&j->progress, j->passes_done, j->spp, j->last_pass_ms, j->pass_samples,
+                                rd_now_ms() - j->t0, j->error, &j->stopped_by);
+    if (next > 0)
+        begin_pass(j, j->passes_done, next);
+    return next;
+}
+
+int rd_job_pass_samples(const rd_job *j) { return j->pass_samples; }
+
+int rd_job_samples_done(const rd_job *j) { return j->spp; }
+
+void rd_job_stats(const rd_job *j, rd_render_stats *st)
+{
+    rd_job_plan_stats(j, st);
+    st->passes = j->passes_done;
+    st->curve_len = j->curve_len;
+    memcpy(st->curve, j->curve, sizeof j->curve);
+    st->error_estimate = j->error;
+    st->stopped_by = j->stopped_by;
+    st->mean_samples = rd_job_mean_samples(j);
+    st->samples = (int)floor(st->mean_samples + 0.5);
+}
+
+void rd_stats_add_counts(rd_render_stats *st, const rd_job_counts *c, double wall_ms)
+{
+    st->camera_rays = c->camera;
+    st->shadow_rays = c->shadow;
+    st->secondary_rays = c->secondary;
+    st->nonfinite = c->nonfinite;
+    st->wall_ms = wall_ms;
+    uint64_t rays = c->camera + c->shadow + c->secondary;
+    st->rays_per_second = wall_ms > 0 ? rays / (wall_ms / 1e3) : 0;
 }
 
 double rd_job_mean_samples(const rd_job *j)

@@ -32,10 +32,9 @@ struct rd_server {
     atomic_ullong raw_refused;      /* requests refused before libmicrohttpd parsed them */
 };
 
-/* One grading request in progress (routes_grade.c). */
-typedef struct rd_grade_req rd_grade_req;
+typedef struct rd_route rd_route;
 
-typedef struct {
+typedef struct rd_req {
     rd_server *srv;
     struct MHD_Connection *conn;
     double t0;
@@ -50,7 +49,8 @@ typedef struct {
     int answered;           /* a response was queued early (413, 415, 503) */
     int too_big;            /* the body passed --max-body-bytes; the rest is dropped */
     size_t discarded;
-    int kind;               /* which route, see http_server.c */
+    const rd_route *route;  /* NULL: no such route */
+    size_t rest;            /* where the URL goes on past the route's path */
     int started;            /* on_request has seen the request */
     int http11;             /* HTTP/1.1: may be sent an interim 102 while it waits */
     int async;              /* POST /v1/jobs: answered 202 once the scene is read */
@@ -59,10 +59,39 @@ typedef struct {
     pthread_mutex_t mu;
     rd_jq_job *job;
     int suspended, finished;
-    /* POST /v1/grade */
-    struct MHD_PostProcessor *post;
-    rd_grade_req *grade;
+    /* the route's own state while the request lasts, freed by free_state */
+    void *state;
+    void (*free_state)(struct rd_req *r);
 } rd_req;
+
+/* One row of the route table (router.c). A path matches itself (EXACT),
+ * the paths below it, "/PATH/..." (BELOW), or either; the handlers get
+ * the rest of the URL after the path ("" or "/..."). */
+typedef enum { RD_ROUTE_EXACT, RD_ROUTE_BELOW, RD_ROUTE_EXACT_OR_BELOW } rd_route_match;
+
+struct rd_route {
+    const char *path;
+    rd_route_match match;
+    const char *methods;                        /* also the Allow header of a 405 */
+    const char *(*allow_for)(const char *rest); /* methods that depend on the rest; NULL: methods */
+    /* The headers have arrived: refuse early (413, 415, 503) or set up.
+     * NULL: nothing to do. */
+    enum MHD_Result (*begin)(rd_req *r);
+    /* Body bytes as they arrive; NULL: the server collects them up to
+     * --max-body-bytes when collect_body is set, else drops them. */
+    enum MHD_Result (*data)(rd_req *r, const char *data, size_t size);
+    int collect_body;
+    /* The whole request has arrived (r->body holds a collected body). */
+    enum MHD_Result (*complete)(rd_req *r, const char *rest);
+    /* The job it waited for ended; NULL when it never waits. */
+    enum MHD_Result (*resumed)(rd_req *r);
+};
+
+/* The route of url (and where its rest starts), or NULL. */
+const rd_route *rd_route_find(const char *url, size_t *rest);
+
+/* NULL when the route takes method on that rest, else its Allow header. */
+const char *rd_route_allowed(const rd_route *t, const char *method, const char *rest);
 
 /* Queue a response and record status and size for the log. Takes ownership
  * of body (malloc'ed) when must_free. */
@@ -92,26 +121,33 @@ enum MHD_Result rd_reply_error_hdr(rd_req *r, unsigned status, const char *code,
 
 enum MHD_Result rd_reply_json(rd_req *r, unsigned status, char *json_text);
 
-/* HTTP status for a scene error code. */
-
-/* Route handlers. The body is complete when they are called. */
-enum MHD_Result rd_route_render(rd_req *r, int async);
+/* Route handlers (router.c lists which serve what). */
+enum MHD_Result rd_render_begin(rd_req *r);
+enum MHD_Result rd_route_render_sync(rd_req *r, const char *rest);
+enum MHD_Result rd_route_jobs_post(rd_req *r, const char *rest);
 enum MHD_Result rd_route_render_resumed(rd_req *r);
-enum MHD_Result rd_route_job(rd_req *r, const char *id, const char *rest);
+/* GET or DELETE /v1/jobs/{id}, GET /v1/jobs/{id}/image */
+enum MHD_Result rd_route_job(rd_req *r, const char *rest);
 /* GET /v1/jobs/{id}/image?partial=1 of a running job, once its snapshot is encoded. */
 enum MHD_Result rd_route_job_image_resumed(rd_req *r);
-enum MHD_Result rd_route_scenes(rd_req *r, const char *name);
-enum MHD_Result rd_route_metrics(rd_req *r);
-enum MHD_Result rd_route_page(rd_req *r);
-/* The list, or with name "NAME/scene" that assignment's scene text. */
-enum MHD_Result rd_route_assignments(rd_req *r, const char *name);
-/* First call of POST /v1/grade: set up the form reader (or answer 415). */
+enum MHD_Result rd_route_scenes(rd_req *r, const char *rest);
+enum MHD_Result rd_route_metrics(rd_req *r, const char *rest);
+enum MHD_Result rd_route_page(rd_req *r, const char *rest);
+/* The list, or with rest "/NAME/scene" that assignment's scene text. */
+enum MHD_Result rd_route_assignments(rd_req *r, const char *rest);
+/* POST /v1/grade: the form read as it arrives, answered at its end. */
 enum MHD_Result rd_route_grade_begin(rd_req *r);
 enum MHD_Result rd_route_grade_data(rd_req *r, const char *data, size_t size);
-enum MHD_Result rd_route_grade(rd_req *r);
+enum MHD_Result rd_route_grade(rd_req *r, const char *rest);
 enum MHD_Result rd_route_grade_resumed(rd_req *r);
+/* GET /v1/grades/{id}/{diff,reference,image}.png */
 enum MHD_Result rd_route_grade_files(rd_req *r, const char *rest);
-void rd_grade_req_free(rd_req *r);
+
+/* The 413 of a body over --max-body-bytes. */
+enum MHD_Result rd_reply_too_large(rd_req *r, const char *what);
+
+/* The 503 of a server that is stopping. */
+enum MHD_Result rd_reply_draining(rd_req *r);
 
 struct rd_grades *rd_grades_new(rd_jq *jobs, const rd_server_options *opt);
 void rd_grades_free(struct rd_grades *g);

@@ -14,7 +14,6 @@
 #include "http_internal.h"
 #include "timed_wait.h"
 
-enum { R_NONE, R_RENDER, R_JOBS, R_JOB, R_SCENES, R_HEALTH, R_METRICS, R_PAGE, R_GRADE, R_ASSIGNMENTS, R_GRADES };
 
 static double now_ms(void)
 {
@@ -283,14 +282,17 @@ enum MHD_Result rd_reply_json(rd_req *r, unsigned status, char *json_text)
     return rd_reply(r, status, "application/json", json_text, strlen(json_text), 1);
 }
 
-/* The answer of a request whose job has ended (or been prepared). */
-static enum MHD_Result resumed(rd_req *r)
+enum MHD_Result rd_reply_too_large(rd_req *r, const char *what)
 {
-    switch (r->kind) {
-    case R_GRADE: return rd_route_grade_resumed(r);
-    case R_JOB: return rd_route_job_image_resumed(r);
-    default: return rd_route_render_resumed(r);
-    }
+    char msg[160];
+    snprintf(msg, sizeof msg, "%s is over the limit of %zu bytes (--max-body-bytes)", what,
+             r->srv->opt.max_body_bytes);
+    return rd_reply_error(r, 413, "too_large", NULL, msg);
+}
+
+enum MHD_Result rd_reply_draining(rd_req *r)
+{
+    return rd_reply_error_hdr(r, 503, "draining", "the server is shutting down", "Retry-After", "5");
 }
 
 /* Answers a half-closed client on the socket, then resumes its connection
@@ -299,7 +301,7 @@ static enum MHD_Result resumed(rd_req *r)
 static void *raw_answer_main(void *arg)
 {
     rd_req *r = arg;
-    resumed(r);
+    r->route->resumed(r);
     pthread_mutex_lock(&r->mu);
     MHD_resume_connection(r->conn);
     pthread_mutex_unlock(&r->mu);
@@ -348,112 +350,6 @@ int rd_req_socket(rd_req *r)
     return ci ? ci->connect_fd : -1;
 }
 
-/* Scene types we read; other families are refused with 415 (a PNG or a
- * form posted to /v1/render by mistake), anything else is sniffed. */
-static int refused_type(const char *ct)
-{
-    static const char *const families[] = {"image/", "audio/", "video/", "font/", "model/", "multipart/",
-                                           "application/pdf",
-                                           "application/zip", "application/gzip", NULL};
-    if (!ct)
-        return 0;
-    for (int i = 0; families[i]; i++)
-        if (strncasecmp(ct, families[i], strlen(families[i])) == 0)
-            return 1;
-    return 0;
-}
-
-static int route_of(const char *method, const char *url, int *method_ok, const char **allow)
-{
-    *method_ok = 1;
-    *allow = NULL;
-    int get = strcmp(method, "GET") == 0 || strcmp(method, "HEAD") == 0;
-    int post = strcmp(method, "POST") == 0;
-    int del = strcmp(method, "DELETE") == 0;
-    if (strcmp(url, "/v1/render") == 0) {
-        *method_ok = post;
-        *allow = "POST";
-        return R_RENDER;
-    }
-    if (strcmp(url, "/v1/jobs") == 0) {
-        *method_ok = post;
-        *allow = "POST";
-        return R_JOBS;
-    }
-    if (strncmp(url, "/v1/jobs/", 9) == 0) {
-        int image = strstr(url + 9, "/") != NULL;
-        *method_ok = get || (del && !image);
-        *allow = image ? "GET" : "GET, DELETE";
-        return R_JOB;
-    }
-    if (strcmp(url, "/v1/grade") == 0) {
-        *method_ok = post;
-        *allow = "POST";
-        return R_GRADE;
-    }
-    if (strcmp(url, "/v1/assignments") == 0 || strncmp(url, "/v1/assignments/", 16) == 0) {
-        *method_ok = get;
-        *allow = "GET";
-        return R_ASSIGNMENTS;
-    }
-    if (strncmp(url, "/v1/grades/", 11) == 0) {
-        *method_ok = get;
-        *allow = "GET";
-        return R_GRADES;
-    }
-    if (strcmp(url, "/v1/scenes") == 0 || strncmp(url, "/v1/scenes/", 11) == 0) {
-        *method_ok = get;
-        *allow = "GET";
-        return R_SCENES;
-    }
-    if (strcmp(url, "/healthz") == 0) {
-        *method_ok = get;
-        *allow = "GET";
-        return R_HEALTH;
-    }
-    if (strcmp(url, "/metrics") == 0) {
-        *method_ok = get;
-        *allow = "GET";
-        return R_METRICS;
-    }
-    if (strcmp(url, "/") == 0 || strcmp(url, "/index.html") == 0) {
-        *method_ok = get;
-        *allow = "GET";
-        return R_PAGE;
-    }
-    return R_NONE;
-}
-
-static enum MHD_Result dispatch(rd_req *r, const char *url)
-{
-    switch (r->kind) {
-    case R_RENDER: return rd_route_render(r, 0);
-    case R_JOBS: return rd_route_render(r, 1);
-    case R_JOB: {
-        const char *id = url + 9;
-        const char *slash = strchr(id, '/');
-        char idbuf[64];
-        size_t n = slash ? (size_t)(slash - id) : strlen(id);
-        if (n >= sizeof idbuf)
-            n = sizeof idbuf - 1;
-        memcpy(idbuf, id, n);
-        idbuf[n] = 0;
-        return rd_route_job(r, idbuf, slash ? slash : "");
-    }
-    case R_SCENES: return rd_route_scenes(r, url[10] == '/' ? url + 11 : NULL);
-    case R_HEALTH: {
-        static const char ok[] = "{\"status\":\"ok\"}\n";
-        return rd_reply(r, 200, "application/json", (void *)ok, sizeof ok - 1, 0);
-    }
-    case R_METRICS: return rd_route_metrics(r);
-    case R_GRADE: return rd_route_grade(r);
-    case R_ASSIGNMENTS: return rd_route_assignments(r, url[15] == '/' ? url + 16 : NULL);
-    case R_GRADES: return rd_route_grade_files(r, url + 11);
-    case R_PAGE: return rd_route_page(r);
-    default: return rd_reply_error(r, 404, "not_found", NULL, "no such route");
-    }
-}
-
 static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const char *url, const char *method,
                                   const char *version, const char *upload, size_t *upload_size, void **con_cls)
 {
@@ -480,53 +376,23 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
         snprintf(r->path, sizeof r->path, "%s", url);
         set_deadline(srv, conn, srv->opt.body_timeout_ms);
         atomic_fetch_add(&srv->requests, 1);
-        int method_ok;
-        const char *allow;
-        r->kind = route_of(method, url, &method_ok, &allow);
-        if (r->kind != R_NONE && !method_ok)
+        r->route = rd_route_find(url, &r->rest);
+        if (!r->route)
+            return MHD_YES; /* answered 404 once the request is in */
+        const char *allow = rd_route_allowed(r->route, method, url + r->rest);
+        if (allow)
             return rd_reply_error_hdr(r, 405, "method_not_allowed", "method not allowed on this route",
                                       MHD_HTTP_HEADER_ALLOW, allow);
-        if (r->kind == R_GRADE) {
-            const char *cl = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
-            if (cl && strtoull(cl, NULL, 10) > 3 * srv->opt.max_body_bytes) {
-                char msg[160];
-                snprintf(msg, sizeof msg, "the form is over the limit of %zu bytes (--max-body-bytes, per field)",
-                         srv->opt.max_body_bytes);
-                return rd_reply_error(r, 413, "too_large", NULL, msg);
-            }
-            return rd_route_grade_begin(r);
-        }
-        if (r->kind == R_RENDER || r->kind == R_JOBS) {
-            /* Refuse before reading a body we would throw away. */
-            if (atomic_load(&srv->draining))
-                return rd_reply_error_hdr(r, 503, "draining", "the server is shutting down", "Retry-After", "5");
-            rd_jq_metrics m;
-            rd_jq_metrics_get(srv->jobs, &m);
-            if (m.queued + m.running >= srv->opt.jobs.queue_length)
-                return rd_reply_error_hdr(r, 503, "queue_full", "the render queue is full; try again shortly",
-                                          "Retry-After", "1");
-            const char *ct = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
-            if (refused_type(ct))
-                return rd_reply_error(r, 415, "unsupported_media_type", NULL,
-                                      "send a scene as application/json, text/plain or text/x-rayd-cfg");
-            const char *cl = MHD_lookup_connection_value(conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
-            if (cl && strtoull(cl, NULL, 10) > srv->opt.max_body_bytes) {
-                char msg[160];
-                snprintf(msg, sizeof msg, "the body is over the limit of %zu bytes (--max-body-bytes)",
-                         srv->opt.max_body_bytes);
-                return rd_reply_error(r, 413, "too_large", NULL, msg);
-            }
-        }
-        return MHD_YES;
+        return r->route->begin ? r->route->begin(r) : MHD_YES;
     }
     if (*upload_size) {
         size_t n = *upload_size;
         *upload_size = 0;
-        if (r->answered)
+        if (r->answered || !r->route)
             return MHD_YES;
-        if (r->kind == R_GRADE)
-            return r->post ? rd_route_grade_data(r, upload, n) : MHD_YES;
-        if (r->kind != R_RENDER && r->kind != R_JOBS)
+        if (r->route->data)
+            return r->route->data(r, upload, n);
+        if (!r->route->collect_body)
             return MHD_YES; /* bodies of other routes are ignored */
         if (r->too_big || r->len + n > r->srv->opt.max_body_bytes) {
             /* A chunked body (no Content-Length to refuse up front) went
@@ -558,15 +424,13 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
     set_deadline(srv, conn, 0);
     if (r->answered)
         return MHD_YES;
-    if (r->too_big) {
-        char msg[160];
-        snprintf(msg, sizeof msg, "the body is over the limit of %zu bytes (--max-body-bytes)",
-                 r->srv->opt.max_body_bytes);
-        return rd_reply_error(r, 413, "too_large", NULL, msg);
-    }
+    if (r->too_big)
+        return rd_reply_too_large(r, "the body");
+    if (!r->route)
+        return rd_reply_error(r, 404, "not_found", NULL, "no such route");
     if (r->job)
-        return resumed(r);
-    return dispatch(r, url);
+        return r->route->resumed(r);
+    return r->route->complete(r, url + r->rest);
 }
 
 static void log_request(rd_server *srv, rd_req *r, enum MHD_RequestTerminationCode toe)
@@ -630,7 +494,8 @@ static void on_completed(void *cls, struct MHD_Connection *conn, void **con_cls,
     pthread_mutex_lock(&r->mu);
     pthread_mutex_unlock(&r->mu);
     pthread_mutex_destroy(&r->mu);
-    rd_grade_req_free(r);
+    if (r->free_state)
+        r->free_state(r);
     free(r->body);
     free(r);
 }

@@ -19,6 +19,11 @@
 
 enum { GRADES_KEPT = 256 };
 
+/* A form holds up to three fields (image, scene, assignment) of at most
+ * --max-body-bytes each; a bad one is read to its end and dropped, up to
+ * DISCARD_MAX more, before the connection is closed instead. */
+enum { FORM_FIELDS = 3, DISCARD_MAX = 1 << 20 };
+
 typedef struct {
     char id[24];
     unsigned char *diff, *reference, *image; /* PNGs */
@@ -41,8 +46,9 @@ struct rd_grades {
     size_t kept_bytes, cap;
 };
 
-/* The form as it arrives, on the HTTP thread. */
-struct rd_grade_req {
+/* The form as it arrives, on the HTTP thread (the request's state). */
+typedef struct {
+    struct MHD_PostProcessor *post;
     char *image;
     size_t image_len;
     char *scene;
@@ -50,7 +56,7 @@ struct rd_grade_req {
     char assignment[80];
     int too_big;
     const char *bad;            /* the form is malformed: why (answered once it has arrived) */
-};
+} grade_form;
 
 /* One grade on a render thread: prepared (rd_grade_prepare, which finds a
  * cached reference), rendered only when there is none, then finished
@@ -173,17 +179,17 @@ static void keep(struct rd_grades *g, const rd_grade_output *o, char id[24])
     memcpy(id, e.id, sizeof e.id);
 }
 
-void rd_grade_req_free(rd_req *r)
+static void free_form(rd_req *r)
 {
-    if (r->post)
-        MHD_destroy_post_processor(r->post);
-    r->post = NULL;
-    if (r->grade) {
-        free(r->grade->image);
-        free(r->grade->scene);
-        free(r->grade);
-        r->grade = NULL;
-    }
+    grade_form *g = r->state;
+    if (!g)
+        return;
+    if (g->post)
+        MHD_destroy_post_processor(g->post);
+    free(g->image);
+    free(g->scene);
+    free(g);
+    r->state = NULL;
 }
 
 static enum MHD_Result on_field(void *cls, enum MHD_ValueKind kind, const char *key, const char *filename,
@@ -192,7 +198,7 @@ static enum MHD_Result on_field(void *cls, enum MHD_ValueKind kind, const char *
 {
     (void)kind, (void)filename, (void)content_type, (void)encoding, (void)off;
     rd_req *r = cls;
-    rd_grade_req *g = r->grade;
+    grade_form *g = r->state;
     /* A part without a Content-Disposition name (or with an unquoted one)
      * comes with no key at all. */
     if (!key) {
@@ -237,15 +243,20 @@ static enum MHD_Result on_field(void *cls, enum MHD_ValueKind kind, const char *
 
 enum MHD_Result rd_route_grade_begin(rd_req *r)
 {
+    const char *cl = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
+    if (cl && strtoull(cl, NULL, 10) > FORM_FIELDS * r->srv->opt.max_body_bytes)
+        return rd_reply_too_large(r, "the form (each field may have --max-body-bytes)");
     const char *ct = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
     if (!ct || strncasecmp(ct, "multipart/form-data", 19) != 0)
         return rd_reply_error(r, 415, "unsupported_media_type", NULL,
                               "send multipart/form-data with 'image' and 'assignment' or 'scene'");
-    r->grade = calloc(1, sizeof *r->grade);
-    if (!r->grade)
+    grade_form *g = calloc(1, sizeof *g);
+    if (!g)
         return MHD_NO;
-    r->post = MHD_create_post_processor(r->conn, 64 * 1024, on_field, r);
-    if (!r->post)
+    r->state = g;
+    r->free_state = free_form;
+    g->post = MHD_create_post_processor(r->conn, 64 * 1024, on_field, r);
+    if (!g->post)
         return rd_reply_error(r, 415, "unsupported_media_type", NULL, "the form could not be read");
     return MHD_YES;
 }
@@ -256,12 +267,14 @@ enum MHD_Result rd_route_grade_begin(rd_req *r)
  * has its connection closed instead). */
 enum MHD_Result rd_route_grade_data(rd_req *r, const char *data, size_t size)
 {
-    rd_grade_req *g = r->grade;
+    grade_form *g = r->state;
+    if (!g || !g->post)
+        return MHD_YES;
     if (g->bad || g->too_big) {
         r->discarded += size;
-        return r->discarded > 3 * r->srv->opt.max_body_bytes + (1u << 20) ? MHD_NO : MHD_YES;
+        return r->discarded > FORM_FIELDS * r->srv->opt.max_body_bytes + DISCARD_MAX ? MHD_NO : MHD_YES;
     }
-    if (MHD_post_process(r->post, data, size) != MHD_YES && !g->bad && !g->too_big)
+    if (MHD_post_process(g->post, data, size) != MHD_YES && !g->bad && !g->too_big)
         g->bad = "the form data is malformed";
     return MHD_YES;
 }
@@ -338,22 +351,19 @@ static void free_grade(void *arg)
     free(t);
 }
 
-enum MHD_Result rd_route_grade(rd_req *r)
+enum MHD_Result rd_route_grade(rd_req *r, const char *rest)
 {
+    (void)rest;
     rd_server *srv = r->srv;
-    rd_grade_req *g = r->grade;
+    grade_form *g = r->state;
     if (!g)
         return rd_reply_error(r, 400, "parse_error", NULL, "no form");
-    if (g->too_big) {
-        char msg[160];
-        snprintf(msg, sizeof msg, "a form field is over the limit of %zu bytes (--max-body-bytes)",
-                 srv->opt.max_body_bytes);
-        return rd_reply_error(r, 413, "too_large", NULL, msg);
-    }
+    if (g->too_big)
+        return rd_reply_too_large(r, "a form field");
     if (g->bad)
         return rd_reply_error(r, 400, "parse_error", NULL, g->bad);
     if (atomic_load(&srv->draining))
-        return rd_reply_error_hdr(r, 503, "draining", "the server is shutting down", "Retry-After", "5");
+        return rd_reply_draining(r);
     if (!g->image || !g->image_len)
         return rd_reply_error(r, 400, "parse_error", NULL, "the form has no 'image' file");
     if (!g->assignment[0] == !g->scene)
@@ -406,8 +416,9 @@ enum MHD_Result rd_route_grade_resumed(rd_req *r)
                               "Retry-After", "5");
 }
 
-enum MHD_Result rd_route_grade_files(rd_req *r, const char *rest)
+enum MHD_Result rd_route_grade_files(rd_req *r, const char *path)
 {
+    const char *rest = path + 1;
     /* rest: "{id}/diff.png", "{id}/reference.png" or "{id}/image.png" */
     const char *slash = strchr(rest, '/');
     if (!slash || slash - rest >= 24)
@@ -441,8 +452,9 @@ enum MHD_Result rd_route_grade_files(rd_req *r, const char *rest)
     return rd_reply(r, 200, "image/png", copy, len, 1);
 }
 
-enum MHD_Result rd_route_assignments(rd_req *r, const char *name)
+enum MHD_Result rd_route_assignments(rd_req *r, const char *rest)
 {
+    const char *name = *rest ? rest + 1 : NULL;
     if (name && *name) {
         char n[80];
         const char *slash = strchr(name, '/');

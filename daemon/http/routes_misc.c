@@ -26,8 +26,9 @@ static int inside(const char *dir, const char *name)
 
 static int cmp_str(const void *a, const void *b) { return strcmp(*(char *const *)a, *(char *const *)b); }
 
-enum MHD_Result rd_route_scenes(rd_req *r, const char *name)
+enum MHD_Result rd_route_scenes(rd_req *r, const char *rest)
 {
+    const char *name = *rest ? rest + 1 : NULL;
     const char *dir = r->srv->opt.scenes_dir;
     if (!name || !*name) {
         DIR *d = opendir(dir);
@@ -79,8 +80,9 @@ enum MHD_Result rd_route_scenes(rd_req *r, const char *name)
     return rd_reply(r, 200, type, text, len, 1);
 }
 
-enum MHD_Result rd_route_metrics(rd_req *r)
+enum MHD_Result rd_route_metrics(rd_req *r, const char *rest)
 {
+    (void)rest;
     rd_jq_metrics m;
     rd_jq_metrics_get(r->srv->jobs, &m);
     char *buf = malloc(16384);
@@ -134,7 +136,8 @@ enum MHD_Result rd_route_metrics(rd_req *r)
     return rd_reply(r, 200, "text/plain; version=0.0.4", buf, n, 1);
 }
 
-enum MHD_Result rd_route_page(rd_req *r)
+enum MHD_Result rd_route_page(rd_req *r, const char *rest)
 {
+    (void)rest;
     return rd_reply(r, 200, "text/html; charset=utf-8", (void *)rd_web_index_html, strlen(rd_web_index_html), 0);
 }

@@ -3,6 +3,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 #include "http_internal.h"
 #include "scene_open.h"
@@ -123,11 +124,47 @@ static char *job_json(const rd_jq_info *in)
     return t;
 }
 
-enum MHD_Result rd_route_render(rd_req *r, int async)
+/* Scene types we read; other families are refused with 415 (a PNG or a
+ * form posted to /v1/render by mistake), anything else is sniffed. */
+static int refused_type(const char *ct)
+{
+    static const char *const families[] = {"image/", "audio/", "video/", "font/", "model/", "multipart/",
+                                           "application/pdf",
+                                           "application/zip", "application/gzip", NULL};
+    if (!ct)
+        return 0;
+    for (int i = 0; families[i]; i++)
+        if (strncasecmp(ct, families[i], strlen(families[i])) == 0)
+            return 1;
+    return 0;
+}
+
+/* Before the body: refuse what would be thrown away once read. */
+enum MHD_Result rd_render_begin(rd_req *r)
 {
     rd_server *srv = r->srv;
     if (atomic_load(&srv->draining))
-        return rd_reply_error_hdr(r, 503, "draining", "the server is shutting down", "Retry-After", "5");
+        return rd_reply_draining(r);
+    rd_jq_metrics m;
+    rd_jq_metrics_get(srv->jobs, &m);
+    if (m.queued + m.running >= srv->opt.jobs.queue_length)
+        return rd_reply_error_hdr(r, 503, "queue_full", "the render queue is full; try again shortly", "Retry-After",
+                                  "1");
+    const char *ct = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
+    if (refused_type(ct))
+        return rd_reply_error(r, 415, "unsupported_media_type", NULL,
+                              "send a scene as application/json, text/plain or text/x-rayd-cfg");
+    const char *cl = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
+    if (cl && strtoull(cl, NULL, 10) > srv->opt.max_body_bytes)
+        return rd_reply_too_large(r, "the body");
+    return MHD_YES;
+}
+
+static enum MHD_Result render(rd_req *r, int async)
+{
+    rd_server *srv = r->srv;
+    if (atomic_load(&srv->draining))
+        return rd_reply_draining(r);
     if (!r->body || r->len == 0)
         return rd_reply_error(r, 400, "parse_error", NULL, "the request has no scene in its body");
     const char *ct = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
@@ -297,12 +334,35 @@ enum MHD_Result rd_route_job_image_resumed(rd_req *r)
     return rd_reply_error_hdr(r, 503, "cancelled", "the server is shutting down", "Retry-After", "5");
 }
 
-enum MHD_Result rd_route_job(rd_req *r, const char *id, const char *rest)
+enum MHD_Result rd_route_render_sync(rd_req *r, const char *rest)
 {
+    (void)rest;
+    return render(r, 0);
+}
+
+enum MHD_Result rd_route_jobs_post(rd_req *r, const char *rest)
+{
+    (void)rest;
+    return render(r, 1);
+}
+
+static const char no_job[] = "no job with that id (finished jobs expire, see --result-ttl)";
+
+/* rest: "/{id}" or "/{id}/image". */
+enum MHD_Result rd_route_job(rd_req *r, const char *path)
+{
+    char id[24];
+    const char *slash = strchr(path + 1, '/');
+    size_t n = slash ? (size_t)(slash - path - 1) : strlen(path + 1);
+    if (n >= sizeof id)
+        return rd_reply_error(r, 404, "not_found", NULL, no_job);
+    memcpy(id, path + 1, n);
+    id[n] = 0;
+    const char *rest = slash ? slash : "";
     rd_server *srv = r->srv;
     rd_jq_job *job = rd_jq_find(srv->jobs, id);
     if (!job)
-        return rd_reply_error(r, 404, "not_found", NULL, "no job with that id (finished jobs expire, see --result-ttl)");
+        return rd_reply_error(r, 404, "not_found", NULL, no_job);
     snprintf(r->job_id, sizeof r->job_id, "%s", id);
     enum MHD_Result ret;
     if (strcmp(r->method, "DELETE") == 0 && !*rest) {

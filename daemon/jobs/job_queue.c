@@ -53,14 +53,8 @@ struct rd_jq_job {
     int tiles_total, next_tile, tiles_done, inflight;
     uint64_t tiles_given;       /* over all passes: the fair-share key */
     unsigned char *tile_state;
-    int samples;
     rd_progress_settings progress;
-    int pass, spp;
-    double pass_t0, last_pass_ms;
-    int last_pass_spp;
-    rd_stop_reason stopped_by;
-    rd_curve_point curve[RD_CURVE_MAX];
-    int curve_len;
+    int spp, pass_spp;          /* samples per pixel of the passes ended, of the one running */
     int cancel;                 /* asked to stop */
     int timed_out;
     int hung_up;                /* cancelled because its client went away */
@@ -73,8 +67,7 @@ struct rd_jq_job {
     rd_jq_job *hold;
     double t_submit, t_start, t_end;
     rd_job_counts counts;
-    rd_render_stats stats;
-    double error_estimate;
+    rd_render_stats stats;      /* what the core measured so far (rd_job_stats) */
     unsigned char *png;
     size_t png_len;
     rd_error error;
@@ -359,15 +352,7 @@ static void finish_locked(rd_jq *q, rd_jq_job *j, rd_job_status st)
     j->t_end = now_ms();
     if (!j->internal)
         count_outcome(q, j, st);
-    uint64_t rays = j->counts.camera + j->counts.shadow + j->counts.secondary;
-    j->stats.camera_rays = j->counts.camera;
-    j->stats.shadow_rays = j->counts.shadow;
-    j->stats.secondary_rays = j->counts.secondary;
-    j->stats.nonfinite = j->counts.nonfinite;
-    j->stats.samples = j->samples;
-    j->stats.wall_ms = j->t_start > 0 ? j->t_end - j->t_start : 0;
-    j->stats.rays_per_second = j->stats.wall_ms > 0 ? rays / (j->stats.wall_ms / 1e3) : 0;
-    j->stats.error_estimate = j->error_estimate;
+    rd_stats_add_counts(&j->stats, &j->counts, j->t_start > 0 ? j->t_end - j->t_start : 0);
     /* Only the status and the PNG outlive the render. */
     rd_job_free(j->core);
     j->core = NULL;
@@ -490,7 +475,7 @@ static void end_cancelled(rd_jq *q, rd_jq_job *j)
 
 static rd_job_options core_options(const rd_jq_job *j)
 {
-    rd_job_options jo = {16, rd_progress_is_progressive(&j->progress), j->progress.adaptive};
+    rd_job_options jo = {RD_JOB_TILE, j->progress};
     return jo;
 }
 
@@ -505,8 +490,7 @@ static void prepare_job(rd_jq *q, rd_jq_job *j)
     rd_error_code rc = j->task.prepare ? j->task.prepare(j->task.arg, &j->scene, &render, &err) : RD_OK;
     size_t need = 0;
     if (!rc && render) {
-        j->samples = j->scene.render.samples < 1 ? 1 : j->scene.render.samples;
-        j->progress.max_samples = j->samples;
+        j->progress.max_samples = j->scene.render.samples < 1 ? 1 : j->scene.render.samples;
         rd_job_options jo = core_options(j);
         need = rd_job_estimate_bytes(&j->scene, &jo);
         if (q->opt.memory_budget && need > q->opt.memory_budget)
@@ -558,9 +542,11 @@ static void finish_job(rd_jq *q, rd_jq_job *j)
     else if (!rc && rgb)
         rc = rd_png_encode(rgb, w, h, &q->opt.png, &png, &len, &err);
     free(rgb);
-    double mean = j->core ? rd_job_mean_samples(j->core) : 0;
+    rd_render_stats st = j->stats;
+    if (j->core)
+        rd_job_stats(j->core, &st);
     pthread_mutex_lock(&q->mu);
-    j->samples = (int)floor(mean + 0.5);
+    j->stats = st;
     if (rc) {
         fail_locked(q, j, &err);
     } else {
@@ -587,19 +573,17 @@ static void start_job(rd_jq *q, rd_jq_job *j)
     if (!rc && !(ts = calloc((size_t)rd_job_tile_count(core), 1)))
         rc = rd_error_set(&err, RD_ERR_NOMEM, 0, 0, "out of memory");
     rd_render_stats plan = {0};
+    int first = 0;
     if (!rc) {
         if (q->opt.job_timeout_ms > 0)
             rd_job_set_deadline(core, j->t_start + q->opt.job_timeout_ms);
         rd_job_set_cancel(core, &j->stop);
-        rd_job_plan_stats(core, &plan);
+        rd_job_stats(core, &plan);
+        first = rd_job_first_pass(core);
     }
     pthread_mutex_lock(&q->mu);
     /* Status readers copy stats under the lock. */
-    j->stats.prepare_ms = plan.prepare_ms;
-    j->stats.bvh_build_ms = plan.bvh_build_ms;
-    j->stats.bvh_nodes = plan.bvh_nodes;
-    j->stats.world_bytes = plan.world_bytes;
-    j->stats.primitives = plan.primitives;
+    j->stats = plan;
     if (rc) {
         rd_job_free(core);
         fail_locked(q, j, &err);
@@ -609,44 +593,30 @@ static void start_job(rd_jq *q, rd_jq_job *j)
     j->core = core;
     j->tile_state = ts;
     j->tiles_total = rd_job_tile_count(core);
-    rd_stop_reason why;
-    j->pass = 0;
     j->spp = 0;
-    j->last_pass_spp = rd_progress_next(&j->progress, 0, 0, 0, 0, 0, 0, &why);
-    j->pass_t0 = now_ms();
-    rd_job_begin_pass(core, 0, j->last_pass_spp);
+    j->pass_spp = first;
     j->status = RD_JOB_RUNNING;
     j->ph = PH_RUNNING;
     q->running_count++;
     pthread_cond_broadcast(&q->work_cv);
 }
 
-/* The last tile of a pass is done: estimate the error, add a curve point,
- * and start the next pass or finish. Under q->mu, with the job in
- * PH_FINISHING so no other worker touches it while the lock is released
- * for the estimate. */
+/* The last tile of a pass is done: the core ends the pass (estimate,
+ * curve point, the next pass begun) and the job starts rendering it or
+ * finishes. Under q->mu, with the job in PH_FINISHING so no other worker
+ * touches it while the lock is released: ending a pass reads every pixel. */
 static void end_of_pass(rd_jq *q, rd_jq_job *j)
 {
     j->ph = PH_FINISHING;
     pthread_mutex_unlock(&q->mu);
-    double est = rd_job_error_estimate(j->core);
-    double mean = j->progress.adaptive ? rd_job_mean_samples(j->core) : 0;
-    double now = now_ms();
+    int next = rd_job_end_pass(j->core);
+    rd_render_stats st;
+    rd_job_stats(j->core, &st);
     pthread_mutex_lock(&q->mu);
-    j->spp += j->last_pass_spp;
-    j->last_pass_ms = now - j->pass_t0;
-    j->error_estimate = est;
-    if (j->curve_len < RD_CURVE_MAX) {
-        rd_curve_point *cp = &j->curve[j->curve_len++];
-        cp->ms = now - j->t_start;
-        cp->samples = j->progress.adaptive ? mean : j->spp;
-        cp->error = est;
-    }
-    rd_stop_reason why;
-    int next = rd_progress_next(&j->progress, j->pass + 1, j->spp, j->last_pass_ms, j->last_pass_spp,
-                                now - j->t_start, est, &why);
+    j->stats = st;
+    j->spp = rd_job_samples_done(j->core);
+    j->pass_spp = next;
     if (next == 0) {
-        j->stopped_by = why;
         finish_job(q, j);
         return;
     }
@@ -654,11 +624,6 @@ static void end_of_pass(rd_jq *q, rd_jq_job *j)
         j->ph = PH_RUNNING; /* reaped by the next worker to look */
         return;
     }
-    /* Nothing renders this job now, so the pass may read every pixel. */
-    rd_job_begin_pass(j->core, j->pass + 1, next);
-    j->pass++;
-    j->last_pass_spp = next;
-    j->pass_t0 = now_ms();
     j->next_tile = 0;
     j->tiles_done = 0;
     memset(j->tile_state, TILE_DONE, (size_t)j->tiles_total);
@@ -1018,7 +983,7 @@ static double progress_of(const rd_jq_job *j)
     double p = j->tiles_total > 0 ? (double)j->tiles_done / j->tiles_total : 0;
     if (j->status == RD_JOB_RUNNING && rd_progress_is_progressive(&j->progress)) {
         /* Samples toward the cap, or time toward the budget. */
-        double by_spp = (j->spp + (double)j->last_pass_spp * j->tiles_done / (j->tiles_total ? j->tiles_total : 1)) /
+        double by_spp = (j->spp + (double)j->pass_spp * j->tiles_done / (j->tiles_total ? j->tiles_total : 1)) /
                         j->progress.max_samples;
         double by_time = j->progress.time_budget_ms > 0 ? (now_ms() - j->t_start) / j->progress.time_budget_ms : 0;
         p = by_spp > by_time ? by_spp : by_time;
@@ -1038,12 +1003,12 @@ void rd_jq_info_get(rd_jq *q, rd_jq_job *j, rd_jq_info *out)
     double now = now_ms();
     out->elapsed_ms = j->t_start > 0 ? (j->t_end > 0 ? j->t_end : now) - j->t_start : 0;
     out->queued_ms = (j->t_start > 0 ? j->t_start : now) - j->t_submit;
-    out->samples = j->status == RD_JOB_DONE ? j->samples : j->spp;
-    out->stopped_by = j->stopped_by;
-    out->passes = j->pass + (j->status == RD_JOB_DONE ? 1 : 0);
-    out->curve_len = j->curve_len;
-    memcpy(out->curve, j->curve, sizeof j->curve);
-    out->error_estimate = j->error_estimate;
+    out->samples = j->status == RD_JOB_DONE ? j->stats.samples : j->spp;
+    out->stopped_by = j->stats.stopped_by;
+    out->passes = j->stats.passes;
+    out->curve_len = j->stats.curve_len;
+    memcpy(out->curve, j->stats.curve, sizeof out->curve);
+    out->error_estimate = j->stats.error_estimate;
     out->stats = j->stats;
     if (j->active) {
         out->stats.camera_rays = j->counts.camera;

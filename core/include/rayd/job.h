@@ -19,6 +19,7 @@
 
 #include "rayd/error.h"
 #include "rayd/image.h"
+#include "rayd/progress.h"
 #include "rayd/scene.h"
 #include "rayd/stats.h"
 
@@ -28,10 +29,18 @@ typedef struct {
     uint64_t camera, shadow, secondary, nonfinite;
 } rd_job_counts;
 
+/* The default tile edge in pixels: the grain of scheduling and of fair
+ * share between jobs. */
+#define RD_JOB_TILE 16
+
 typedef struct {
-    int tile;           /* edge in pixels; < 1 means 16 */
-    int progressive;    /* every pass jitters, even a first pass of one sample */
-    int adaptive;       /* passes after the first give more samples to noisier pixels */
+    int tile;           /* edge in pixels; < 1 means RD_JOB_TILE */
+    /* The schedule of passes (progress.h); all zero: one pass of the
+     * scene's samples. max_samples < 1 means the scene's samples. A
+     * progressive schedule jitters every pass, even a first pass of one
+     * sample; an adaptive one gives later passes' samples to noisier
+     * pixels. */
+    rd_progress_settings progress;
 } rd_job_options;
 
 /* The most memory a job of this scene holds, in bytes: the scene itself,
@@ -49,10 +58,28 @@ int rd_job_width(const rd_job *j);
 int rd_job_height(const rd_job *j);
 const rd_scene *rd_job_scene(const rd_job *j);
 
-/* Starts pass `pass` of `samples` samples per pixel (on average, when
- * adaptive). Call it once, between passes, with no tile being rendered:
- * it reads every pixel. */
-void rd_job_begin_pass(rd_job *j, int pass, int samples);
+/* The passes, for every caller that schedules tiles (rd_render's threads,
+ * the daemon's pool): rd_job_first_pass starts the first and returns its
+ * samples per pixel; once every tile of a pass is rendered (and none is
+ * being rendered: it reads every pixel), rd_job_end_pass takes the error
+ * estimate, adds a point to the error-against-time curve (time since
+ * rd_job_create began), and starts the next pass as the schedule says,
+ * returning its samples, or 0 when the render is complete. A pass's
+ * samples are per pixel, on average when adaptive. */
+int rd_job_first_pass(rd_job *j);
+int rd_job_end_pass(rd_job *j);
+
+/* Samples per pixel of the current pass, and of the passes ended. */
+int rd_job_pass_samples(const rd_job *j);
+int rd_job_samples_done(const rd_job *j);
+
+/* What the job measured: the plan's figures, the passes ended, the curve,
+ * the last error estimate, the mean samples and the stop rule that held.
+ * Rays, threads and wall time are the caller's (rd_stats_add_counts). */
+void rd_job_stats(const rd_job *j, rd_render_stats *st);
+
+/* Rays traced and the time they took, with the rays per second. */
+void rd_stats_add_counts(rd_render_stats *st, const rd_job_counts *c, double wall_ms);
 
 /* Adds the current pass's samples to every pixel of tile t; returns 1, or
  * 0 when the deadline passed before it finished. With one pass of
@@ -95,7 +122,8 @@ void rd_job_tile_rgb8(const rd_job *j, int t, uint8_t *out);
  * contribute 0. */
 double rd_job_error_estimate(const rd_job *j);
 
-/* Time the plan took to build, BVH figures, memory: for statistics. */
+/* Time the plan took to build, BVH figures, memory: for statistics, as
+ * soon as the job exists. */
 void rd_job_plan_stats(const rd_job *j, rd_render_stats *st);
 
 #endif

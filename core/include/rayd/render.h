@@ -16,7 +16,7 @@
 
 typedef struct {
     int threads;                /* worker threads; < 1 means 1 */
-    int tile;                   /* tile edge in pixels; < 1 means 16 */
+    int tile;                   /* tile edge in pixels; < 1 means RD_JOB_TILE (job.h) */
     const atomic_int *cancel;   /* optional: non-zero stops the render within milliseconds */
     /* Optional; called by a worker after each tile, possibly concurrently. */
     void (*progress)(void *user, int tiles_done, int tiles_total);

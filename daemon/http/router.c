@@ -1,0 +1,62 @@
+/* Every route of the service (docs/http-api.md), in one table: adding a
+ * route means a row here and its handlers in a routes_*.c. The server only
+ * looks rows up and calls them. */
+#include <string.h>
+
+#include "http_internal.h"
+
+static enum MHD_Result health(rd_req *r, const char *rest)
+{
+    (void)rest;
+    static const char ok[] = "{\"status\":\"ok\"}\n";
+    return rd_reply(r, 200, "application/json", (void *)ok, sizeof ok - 1, 0);
+}
+
+/* GET /v1/jobs/{id} may also be deleted; its image only read. */
+static const char *job_allow(const char *rest) { return strchr(rest + 1, '/') ? "GET" : "GET, DELETE"; }
+
+static const rd_route routes[] = {
+    {"/v1/render", RD_ROUTE_EXACT, "POST", NULL, rd_render_begin, NULL, 1, rd_route_render_sync,
+     rd_route_render_resumed},
+    {"/v1/jobs", RD_ROUTE_EXACT, "POST", NULL, rd_render_begin, NULL, 1, rd_route_jobs_post,
+     rd_route_render_resumed},
+    {"/v1/jobs", RD_ROUTE_BELOW, "GET, DELETE", job_allow, NULL, NULL, 0, rd_route_job,
+     rd_route_job_image_resumed},
+    {"/v1/grade", RD_ROUTE_EXACT, "POST", NULL, rd_route_grade_begin, rd_route_grade_data, 0, rd_route_grade,
+     rd_route_grade_resumed},
+    {"/v1/assignments", RD_ROUTE_EXACT_OR_BELOW, "GET", NULL, NULL, NULL, 0, rd_route_assignments, NULL},
+    {"/v1/grades", RD_ROUTE_BELOW, "GET", NULL, NULL, NULL, 0, rd_route_grade_files, NULL},
+    {"/v1/scenes", RD_ROUTE_EXACT_OR_BELOW, "GET", NULL, NULL, NULL, 0, rd_route_scenes, NULL},
+    {"/healthz", RD_ROUTE_EXACT, "GET", NULL, NULL, NULL, 0, health, NULL},
+    {"/metrics", RD_ROUTE_EXACT, "GET", NULL, NULL, NULL, 0, rd_route_metrics, NULL},
+    {"/", RD_ROUTE_EXACT, "GET", NULL, NULL, NULL, 0, rd_route_page, NULL},
+    {"/index.html", RD_ROUTE_EXACT, "GET", NULL, NULL, NULL, 0, rd_route_page, NULL},
+};
+
+const rd_route *rd_route_find(const char *url, size_t *rest)
+{
+    for (size_t i = 0; i < sizeof routes / sizeof routes[0]; i++) {
+        const rd_route *t = &routes[i];
+        size_t n = strlen(t->path);
+        if (strncmp(url, t->path, n) != 0)
+            continue;
+        int exact = url[n] == 0, below = url[n] == '/' && url[n + 1] != 0;
+        if ((exact && t->match != RD_ROUTE_BELOW) || (below && t->match != RD_ROUTE_EXACT)) {
+            *rest = n;
+            return t;
+        }
+    }
+    return NULL;
+}
+
+const char *rd_route_allowed(const rd_route *t, const char *method, const char *rest)
+{
+    const char *allow = t->allow_for ? t->allow_for(rest) : t->methods;
+    /* HEAD is GET without the body, which libmicrohttpd leaves out. */
+    const char *m = strcmp(method, "HEAD") == 0 ? "GET" : method;
+    size_t n = strlen(m);
+    for (const char *p = allow; (p = strstr(p, m)); p += n)
+        if ((p == allow || p[-1] == ' ') && (p[n] == 0 || p[n] == ','))
+            return NULL;
+    return allow;
+}
