@@ -8,6 +8,7 @@
 #include <sys/stat.h>
 
 #include "grade.h"
+#include "hash.h"
 #include "png_write.h"
 #include "scene_write.h"
 #include "file_io.h"
@@ -18,39 +19,28 @@
 
 const char *rd_renderer_id(void) { return "rayd-core-" RD_CORE_HASH; }
 
-/* FNV-1a, 64 bits: a cache key, not a defence against forgery. */
-static uint64_t fnv(uint64_t h, const void *data, size_t n)
-{
-    const unsigned char *p = data;
-    for (size_t i = 0; i < n; i++) {
-        h ^= p[i];
-        h *= 0x100000001b3ULL;
-    }
-    return h;
-}
-
 rd_error_code rd_reference_key(const rd_scene *s, char key[17], rd_error *err)
 {
     char *text;
     rd_error_code rc = rd_scene_write_cfg(s, &text, err);
     if (rc)
         return rc;
-    uint64_t h = 0xcbf29ce484222325ULL;
-    h = fnv(h, rd_renderer_id(), strlen(rd_renderer_id()));
-    h = fnv(h, text, strlen(text));
+    uint64_t h = RD_FNV_OFFSET;
+    h = rd_fnv1a(h, rd_renderer_id(), strlen(rd_renderer_id()));
+    h = rd_fnv1a(h, text, strlen(text));
     free(text);
     for (size_t i = 0; i < s->mesh_count; i++) {
         const rd_mesh *m = &s->meshes[i];
-        h = fnv(h, m->positions, m->npositions * sizeof *m->positions);
-        h = fnv(h, m->normals, m->nnormals * sizeof *m->normals);
-        h = fnv(h, m->uvs, m->nuvs * sizeof *m->uvs);
-        h = fnv(h, m->faces, m->nfaces * sizeof *m->faces);
+        h = rd_fnv1a(h, m->positions, m->npositions * sizeof *m->positions);
+        h = rd_fnv1a(h, m->normals, m->nnormals * sizeof *m->normals);
+        h = rd_fnv1a(h, m->uvs, m->nuvs * sizeof *m->uvs);
+        h = rd_fnv1a(h, m->faces, m->nfaces * sizeof *m->faces);
     }
     for (size_t i = 0; i < s->texture_count; i++) {
         const rd_texture *t = &s->textures[i];
-        h = fnv(h, &t->width, sizeof t->width);
-        h = fnv(h, &t->height, sizeof t->height);
-        h = fnv(h, t->rgb, (size_t)t->width * (size_t)t->height * 3 * sizeof(float));
+        h = rd_fnv1a(h, &t->width, sizeof t->width);
+        h = rd_fnv1a(h, &t->height, sizeof t->height);
+        h = rd_fnv1a(h, t->rgb, (size_t)t->width * (size_t)t->height * 3 * sizeof(float));
     }
     snprintf(key, 17, "%016llx", (unsigned long long)h);
     return RD_OK;

@@ -9,6 +9,7 @@
 #include "json_text.h"
 #include "number_text.h"
 #include "scene_keys.h"
+#include "strbuf.h"
 
 /* What a key's field holds when nobody wrote it, for a section of the
  * given subtype: a fresh section built the way the reader builds one. */
@@ -83,40 +84,9 @@ static int wanted(const rd_key *k, unsigned bit, const void *base, const any_sec
     return memcmp(f, (const char *)d + k->offset, (size_t)key_bytes(k)) != 0;
 }
 
-typedef struct {
-    char *buf;
-    size_t len, cap;
-    int failed;
-} sbuf;
+#define put rd_strbuf_printf
 
-static void put(sbuf *b, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-static void put(sbuf *b, const char *fmt, ...)
-{
-    if (b->failed)
-        return;
-    va_list ap;
-    va_start(ap, fmt);
-    int n = vsnprintf(NULL, 0, fmt, ap);
-    va_end(ap);
-    if (b->len + (size_t)n + 1 > b->cap) {
-        size_t nc = b->cap ? b->cap : 1024;
-        while (nc < b->len + (size_t)n + 1)
-            nc *= 2;
-        char *p = realloc(b->buf, nc);
-        if (!p) {
-            b->failed = 1;
-            return;
-        }
-        b->buf = p;
-        b->cap = nc;
-    }
-    va_start(ap, fmt);
-    vsnprintf(b->buf + b->len, b->cap - b->len, fmt, ap);
-    va_end(ap);
-    b->len += (size_t)n;
-}
-
-static void put_num(sbuf *b, double v)
+static void put_num(rd_strbuf *b, double v)
 {
     char t[40];
     rd_number_text(v, t, sizeof t);
@@ -136,7 +106,7 @@ static int bare_word(const char *s)
     return 1;
 }
 
-static int cfg_string(sbuf *b, const char *s, rd_error *err)
+static int cfg_string(rd_strbuf *b, const char *s, rd_error *err)
 {
     if (strpbrk(s, "\"\r\n"))
         return rd_error_set(err, RD_ERR_INVALID, 0, 0,
@@ -148,7 +118,7 @@ static int cfg_string(sbuf *b, const char *s, rd_error *err)
     return RD_OK;
 }
 
-static rd_error_code cfg_value(sbuf *b, const rd_key *k, const void *base, rd_error *err)
+static rd_error_code cfg_value(rd_strbuf *b, const rd_key *k, const void *base, rd_error *err)
 {
     const char *f = (const char *)base + k->offset;
     switch (k->type) {
@@ -177,7 +147,7 @@ static rd_error_code cfg_value(sbuf *b, const rd_key *k, const void *base, rd_er
     return RD_OK;
 }
 
-static rd_error_code cfg_section(sbuf *b, rd_section_kind sec, const char *name, int subtype,
+static rd_error_code cfg_section(rd_strbuf *b, rd_section_kind sec, const char *name, int subtype,
                                  const void *base, const rd_object *o, rd_error *err)
 {
     any_section d;
@@ -217,19 +187,15 @@ static rd_section_kind object_section(const rd_object *o)
     }
 }
 
-static rd_error_code finish(sbuf *b, char **out, rd_error *err)
+static rd_error_code finish(rd_strbuf *b, char **out, rd_error *err)
 {
-    if (b->failed) {
-        free(b->buf);
-        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory writing the scene");
-    }
-    *out = b->buf;
-    return RD_OK;
+    *out = rd_strbuf_take(b, NULL);
+    return *out ? RD_OK : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory writing the scene");
 }
 
 rd_error_code rd_scene_write_cfg(const rd_scene *s, char **out, rd_error *err)
 {
-    sbuf b = {0};
+    rd_strbuf b = {0};
     *out = NULL;
     rd_error_code rc = RD_OK;
     put(&b, "# written by rayd convert\n");
@@ -245,7 +211,7 @@ rd_error_code rd_scene_write_cfg(const rd_scene *s, char **out, rd_error *err)
         rc = cfg_section(&b, object_section(&s->objects[i]), s->objects[i].name, 0, &s->objects[i],
                          &s->objects[i], err);
     if (rc) {
-        free(b.buf);
+        rd_strbuf_free(&b);
         return rc;
     }
     return finish(&b, out, err);

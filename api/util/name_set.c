@@ -4,6 +4,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "hash.h"
+
 struct rd_name_slot {
     char *name;
     size_t len;
@@ -21,15 +23,7 @@ void rd_name_set_free(rd_name_set *s)
     memset(s, 0, sizeof *s);
 }
 
-static uint64_t hash(int kind, const char *p, size_t n)
-{
-    uint64_t h = 0xcbf29ce484222325ULL ^ (uint64_t)kind;
-    for (size_t i = 0; i < n; i++) {
-        h ^= (unsigned char)p[i];
-        h *= 0x100000001b3ULL;
-    }
-    return h;
-}
+static uint64_t hash(int kind, const char *p, size_t n) { return rd_fnv1a(RD_FNV_OFFSET ^ (uint64_t)kind, p, n); }
 
 static int grow(rd_name_set *s)
 {

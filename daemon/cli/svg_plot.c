@@ -1,41 +1,13 @@
 #include "svg_plot.h"
 
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-typedef struct {
-    char *s;
-    size_t len, cap;
-} buf;
+#include "strbuf.h"
 
-static void put(buf *b, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-static void put(buf *b, const char *fmt, ...)
-{
-    if (!b->s)
-        return;
-    va_list ap;
-    va_start(ap, fmt);
-    int n = vsnprintf(NULL, 0, fmt, ap);
-    va_end(ap);
-    if (b->len + (size_t)n + 1 > b->cap) {
-        size_t nc = b->cap * 2 + (size_t)n + 1;
-        char *p = realloc(b->s, nc);
-        if (!p) {
-            free(b->s);
-            b->s = NULL;
-            return;
-        }
-        b->s = p;
-        b->cap = nc;
-    }
-    va_start(ap, fmt);
-    vsnprintf(b->s + b->len, b->cap - b->len, fmt, ap);
-    va_end(ap);
-    b->len += (size_t)n;
-}
+#define put rd_strbuf_printf
 
 char *rd_svg_loglog(const char *title, const char *xlabel, const char *ylabel, const rd_svg_series *series,
                     size_t nseries)
@@ -61,7 +33,7 @@ char *rd_svg_loglog(const char *title, const char *xlabel, const char *ylabel, c
     if (ly1 <= ly0)
         ly1 = ly0 + 1;
     const double W = 720, H = 480, L = 80, R = 20, T = 40, B = 60;
-    buf b = {malloc(4096), 0, 4096};
+    rd_strbuf b = {0};
 #define PX(v) (L + (log10(v) - lx0) / (lx1 - lx0) * (W - L - R))
 #define PY(v) (H - B - (log10(v) - ly0) / (ly1 - ly0) * (H - T - B))
     put(&b, "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%.0f\" height=\"%.0f\" viewBox=\"0 0 %.0f %.0f\" "
@@ -112,5 +84,5 @@ char *rd_svg_loglog(const char *title, const char *xlabel, const char *ylabel, c
 #undef PX
 #undef PY
     put(&b, "</svg>\n");
-    return b.s;
+    return rd_strbuf_take(&b, NULL);
 }

@@ -6,13 +6,13 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/random.h>
 
 #include "rayd/clock.h"
 #include "assignment.h"
 #include "error_map.h"
 #include "file_io.h"
 #include "grading.h"
+#include "hash.h"
 #include "http_internal.h"
 #include "png_write.h"
 #include "scene_load.h"
@@ -90,8 +90,7 @@ struct rd_grades *rd_grades_new(rd_jq *jobs, const rd_server_options *opt)
     g->jobs = jobs;
     g->cap = opt->grade_cache_bytes;
     pthread_mutex_init(&g->mu, NULL);
-    if (getrandom(&g->key, sizeof g->key, 0) != (ssize_t)sizeof g->key)
-        g->key = (uint64_t)rd_now_ms() * 0x9e3779b97f4a7c15ULL;
+    g->key = rd_random_key();
     return g;
 }
 
@@ -165,10 +164,7 @@ static void keep(struct rd_grades *g, const rd_grade_output *o, char id[24])
     e.image = encode(o->image, o->width, o->height, &e.image_len);
     e.t = rd_now_ms();
     pthread_mutex_lock(&g->mu);
-    uint64_t z = g->key ^ ++g->counter;
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    snprintf(e.id, sizeof e.id, "g%016llx", (unsigned long long)(z ^ (z >> 31)));
+    snprintf(e.id, sizeof e.id, "g%016llx", (unsigned long long)rd_mix64(g->key ^ ++g->counter));
     grade_entry *slot = &g->kept[g->next++ % GRADES_KEPT];
     drop_kept(g, slot);
     *slot = e;

@@ -7,6 +7,7 @@
 
 #include "asset_source.h"
 #include "http_internal.h"
+#include "strbuf.h"
 #include "scene_load.h"
 #include "file_io.h"
 
@@ -85,11 +86,8 @@ enum MHD_Result rd_route_metrics(rd_req *r, const char *rest)
     (void)rest;
     rd_jq_metrics m;
     rd_jq_metrics_get(r->srv->jobs, &m);
-    char *buf = malloc(16384);
-    if (!buf)
-        return MHD_NO;
-    size_t n = 0, cap = 16384;
-#define PUT(...) n += (size_t)snprintf(buf + n, cap - n, __VA_ARGS__)
+    rd_strbuf out = {0};
+#define PUT(...) rd_strbuf_printf(&out, __VA_ARGS__)
     PUT("# HELP rayd_queue_depth Render jobs waiting for a render thread.\n# TYPE rayd_queue_depth gauge\n");
     PUT("rayd_queue_depth %zu\n", m.queued);
     PUT("# HELP rayd_jobs_running Render jobs being rendered.\n# TYPE rayd_jobs_running gauge\n");
@@ -99,7 +97,7 @@ enum MHD_Result rd_route_metrics(rd_req *r, const char *rest)
     PUT("rayd_jobs_total{outcome=\"failed\"} %llu\n", (unsigned long long)m.failed);
     PUT("rayd_jobs_total{outcome=\"cancelled\"} %llu\n", (unsigned long long)m.cancelled);
     PUT("# HELP rayd_render_seconds Time from a job's start to its image.\n# TYPE rayd_render_seconds histogram\n");
-    for (int b = 0; b < 12; b++)
+    for (int b = 0; b < RD_JQ_BUCKETS; b++)
         PUT("rayd_render_seconds_bucket{le=\"%g\"} %llu\n", rd_jq_buckets[b],
             (unsigned long long)m.render_seconds_bucket[b]);
     PUT("rayd_render_seconds_bucket{le=\"+Inf\"} %llu\n", (unsigned long long)m.render_count);
@@ -133,7 +131,11 @@ enum MHD_Result rd_route_metrics(rd_req *r, const char *rest)
         PUT("rayd_http_responses_total{code=\"%dxx\"} %llu\n", c,
             (unsigned long long)atomic_load(&r->srv->http_count[c]));
 #undef PUT
-    return rd_reply(r, 200, "text/plain; version=0.0.4", buf, n, 1);
+    size_t n;
+    char *text = rd_strbuf_take(&out, &n);
+    if (!text)
+        return rd_reply_error(r, 503, "unavailable", NULL, "out of memory");
+    return rd_reply(r, 200, "text/plain; version=0.0.4", text, n, 1);
 }
 
 enum MHD_Result rd_route_page(rd_req *r, const char *rest)

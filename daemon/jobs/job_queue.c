@@ -9,15 +9,15 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/random.h>
 #include <sys/socket.h>
 #include <time.h>
 
 #include "rayd/job.h"
 #include "timed_wait.h"
 #include "rayd/clock.h"
+#include "hash.h"
 
-const double rd_jq_buckets[12] = {0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1, 2.5, 5, 10, 30};
+const double rd_jq_buckets[RD_JQ_BUCKETS] = {0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1, 2.5, 5, 10, 30};
 
 enum { TILE_PENDING, TILE_RENDERING, TILE_DONE };
 
@@ -100,7 +100,7 @@ struct rd_jq {
     uint64_t counter, key;
     uint64_t n_done, n_failed, n_cancelled, rays, render_count;
     double render_sum;
-    uint64_t buckets[12];
+    uint64_t buckets[RD_JQ_BUCKETS];
 };
 
 const char *rd_job_status_name(rd_job_status s)
@@ -110,14 +110,6 @@ const char *rd_job_status_name(rd_job_status s)
 }
 
 static double now_ms(void) { return rd_now_ms(); }
-
-static uint64_t mix(uint64_t z)
-{
-    z += 0x9e3779b97f4a7c15ULL;
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    return z ^ (z >> 31);
-}
 
 static void job_free(rd_jq_job *j)
 {
@@ -331,7 +323,7 @@ static void count_outcome(rd_jq *q, const rd_jq_job *j, rd_job_status st)
         double sec = (j->t_end - j->t_start) / 1e3;
         q->render_sum += sec;
         q->render_count++;
-        for (int b = 0; b < 12; b++)
+        for (int b = 0; b < RD_JQ_BUCKETS; b++)
             if (sec <= rd_jq_buckets[b])
                 q->buckets[b]++;
     } else if (st == RD_JOB_FAILED) {
@@ -790,8 +782,7 @@ rd_jq *rd_jq_start(const rd_jq_options *opt, rd_error *err)
     pthread_cond_init(&q->work_cv, NULL);
     pthread_cond_init(&q->idle_cv, NULL);
     pthread_cond_init(&q->watch_cv, NULL);
-    if (getrandom(&q->key, sizeof q->key, 0) != (ssize_t)sizeof q->key)
-        q->key = (uint64_t)now_ms() * 0x2545f4914f6cdd1dULL;
+    q->key = rd_random_key();
     q->threads = calloc((size_t)q->opt.workers + 1, sizeof *q->threads);
     if (!q->threads) {
         free(q);
@@ -882,7 +873,7 @@ rd_error_code rd_jq_submit(rd_jq *q, const rd_jq_task *task, const rd_jq_submit_
         return rd_error_set(err, RD_ERR_BUSY, 0, 0, "the render queue is full (%zu jobs, --queue)",
                             q->opt.queue_length);
     }
-    j->idnum = mix(q->key ^ ++q->counter);
+    j->idnum = rd_mix64(q->key ^ ++q->counter);
     snprintf(j->id, sizeof j->id, "%016llx", (unsigned long long)j->idnum);
     j->refs = j->internal ? 1 : 2; /* the registry's and the caller's */
     j->status = RD_JOB_QUEUED;

@@ -149,19 +149,22 @@ void rd_jq_release_png(rd_jq *q, rd_jq_job *j);
  * budget: delta bytes more (or fewer). */
 void rd_jq_external_bytes(rd_jq *q, long long delta);
 
+/* The render-seconds histogram: its buckets (upper bounds in seconds). */
+enum { RD_JQ_BUCKETS = 12 };
+
 typedef struct {
     size_t queued, running, waiting_memory;
     uint64_t done, failed, cancelled;
     uint64_t rays;
     double render_seconds_sum;
-    uint64_t render_seconds_bucket[12]; /* cumulative, upper bounds in rd_jq_buckets */
+    uint64_t render_seconds_bucket[RD_JQ_BUCKETS]; /* cumulative, upper bounds in rd_jq_buckets */
     uint64_t render_count;
     size_t result_bytes;
     size_t jobs_kept;
     size_t memory_budget, memory_reserved, external_bytes;
 } rd_jq_metrics;
 
-extern const double rd_jq_buckets[12];
+extern const double rd_jq_buckets[RD_JQ_BUCKETS];
 
 void rd_jq_metrics_get(rd_jq *q, rd_jq_metrics *m);
 
