@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "png_read.h"
+#include "scene_limits.h"
 
 rd_grade_thresholds rd_grade_thresholds_default(void)
 {
@@ -163,7 +164,7 @@ rd_error_code rd_grade_load_png(const unsigned char *data, size_t len, size_t ma
 {
     rd_png_image img;
     *out = NULL;
-    rd_error_code rc = rd_png_decode(data, len, max_pixels, "--max-pixels", &img, err);
+    rd_error_code rc = rd_png_decode(data, len, max_pixels, rd_limit_flag(offsetof(rd_scene_limits, max_pixels)), &img, err);
     if (rc)
         return rc;
     size_t n = (size_t)img.width * (size_t)img.height * 3;

@@ -9,6 +9,7 @@
 
 #include "grade.h"
 #include "hash.h"
+#include "png_read.h"
 #include "png_write.h"
 #include "scene_write.h"
 #include "file_io.h"
@@ -174,9 +175,7 @@ static uint8_t *read_disk(const rd_ref_cache *c, const char *key, int w, int h)
     char path[1100];
     if (!c->dir || (size_t)snprintf(path, sizeof path, "%s/%s.png", c->dir, key) >= sizeof path)
         return NULL;
-    /* A PNG of w x h RGB pixels stored without compression, with its
-     * filter bytes and chunks, is below this. */
-    size_t most = rgb_bytes(w, h) + (size_t)h + 65536;
+    size_t most = rd_png_file_bound(w, h);
     char *data;
     size_t len;
     rd_error ignore;

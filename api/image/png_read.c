@@ -130,3 +130,8 @@ rd_error_code rd_png_decode(const unsigned char *data, size_t len, size_t max_pi
     free(rows);
     return RD_OK;
 }
+
+size_t rd_png_file_bound(int width, int height)
+{
+    return (size_t)width * (size_t)height * 8 + (size_t)height + ((size_t)1 << 20);
+}

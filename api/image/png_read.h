@@ -24,6 +24,11 @@ typedef struct {
 rd_error_code rd_png_decode(const unsigned char *data, size_t len, size_t max_pixels,
                             const char *limit_flag, rd_png_image *out, rd_error *err);
 
+/* The largest file a PNG of width x height pixels needs in any layout
+ * (16-bit RGBA stored uncompressed, with filter bytes) plus 1 MiB of
+ * other chunks: the read limit of a PNG whose size is known. */
+size_t rd_png_file_bound(int width, int height);
+
 /* 1 when the bytes begin with the PNG signature. */
 int rd_png_sniff(const unsigned char *data, size_t len);
 

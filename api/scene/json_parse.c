@@ -11,6 +11,7 @@
 #include "name_set.h"
 #include "number_text.h"
 #include "scene_builder.h"
+#include "scene_keys.h"
 #include "suggest.h"
 #include "utf8.h"
 
@@ -294,13 +295,13 @@ static rd_error_code top_level(jparser *jp, const cJSON *root, rd_error *err)
             if (!type)
                 return rd_builder_error(jp->b, err, RD_ERR_INVALID, path_loc(p),
                                         "object is missing required key 'type' (sphere, plane, triangle or mesh)");
-            static const char *const kinds[] = {"sphere", "plane", "triangle", "mesh", NULL};
             rd_suggestion sg;
             rd_suggest_init(&sg);
             int known = 0;
-            for (int k = 0; kinds[k]; k++) {
-                known |= strcmp(type, kinds[k]) == 0;
-                rd_suggest_offer(&sg, type, strlen(type), kinds[k]);
+            for (int k = RD_SEC_SPHERE; k < RD_SEC_COUNT; k++) {
+                const char *kind = rd_section_kind_name((rd_section_kind)k);
+                known |= strcmp(type, kind) == 0;
+                rd_suggest_offer(&sg, type, strlen(type), kind);
             }
             if (!known) {
                 char q[PATH_MAX_LEN + 8];

@@ -476,12 +476,10 @@ rd_error_code rd_builder_section(rd_builder *b, const char *kind, size_t kind_le
     char label[100];
     int ki = rd_section_kind_find(kind, kind_len);
     if (ki < 0) {
-        static const char *const kinds[] = {"render", "camera", "light", "material",
-                                            "sphere", "plane", "triangle", "mesh"};
         rd_suggestion sg;
         rd_suggest_init(&sg);
-        for (size_t i = 0; i < sizeof kinds / sizeof kinds[0]; i++)
-            rd_suggest_offer(&sg, kind, kind_len, kinds[i]);
+        for (int k = 0; k < RD_SEC_COUNT; k++)
+            rd_suggest_offer(&sg, kind, kind_len, rd_section_kind_name((rd_section_kind)k));
         const char *best = rd_suggest_result(&sg, kind_len);
         int shown = cut(kind, kind_len);
         return rd_builder_error(b, err, RD_ERR_SYNTAX, where, "unknown section kind '%.*s'%s%s%s", shown,

@@ -7,13 +7,11 @@
 
 #include "rayd/scene.h"
 
-const char *const rd_light_type_words[] = {"point", "directional", "spot", "area", NULL};
-const char *const rd_material_type_words[] = {
-    "diffuse", "phong", "blinn_phong", "cook_torrance", "perfect_specular",
-    "specular_refraction", "pseudo_normal_color", "textured_phong", NULL};
-
-static const char *const section_words[RD_SEC_COUNT] = {
-    "render", "camera", "light", "material", "sphere", "plane", "triangle", "mesh"};
+#define RD_WORD(id, word) word,
+const char *const rd_light_type_words[] = {RD_LIGHT_TYPES(RD_WORD) NULL};
+const char *const rd_material_type_words[] = {RD_MATERIAL_TYPES(RD_WORD) NULL};
+static const char *const section_words[RD_SEC_COUNT] = {RD_SECTION_KINDS(RD_WORD)};
+#undef RD_WORD
 
 #define INF INFINITY
 #define ALL RD_ALL_SUBTYPES

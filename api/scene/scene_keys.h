@@ -6,9 +6,17 @@
 
 #include <stddef.h>
 
+/* Every section kind once, with its cfg header word; the object kinds
+ * (sphere to mesh) come last, in this order. */
+#define RD_SECTION_KINDS(X)                                                                            \
+    X(RENDER, "render") X(CAMERA, "camera") X(LIGHT, "light") X(MATERIAL, "material") X(SPHERE, "sphere") \
+    X(PLANE, "plane") X(TRIANGLE, "triangle") X(MESH, "mesh")
+
 typedef enum {
-    RD_SEC_RENDER, RD_SEC_CAMERA, RD_SEC_LIGHT, RD_SEC_MATERIAL,
-    RD_SEC_SPHERE, RD_SEC_PLANE, RD_SEC_TRIANGLE, RD_SEC_MESH, RD_SEC_COUNT
+#define RD_SEC_ENUM(id, word) RD_SEC_##id,
+    RD_SECTION_KINDS(RD_SEC_ENUM)
+#undef RD_SEC_ENUM
+    RD_SEC_COUNT
 } rd_section_kind;
 
 typedef enum {

@@ -27,19 +27,19 @@ rd_error_code rd_plan_build(rd_plan *p, const rd_scene *s, rd_error *err)
 {
     memset(p, 0, sizeof *p);
     p->scene = s;
-    for (size_t j = 0; j < s->object_count; j++) {
-        int mi = s->objects[j].material;
-        if (mi < 0 || (size_t)mi >= s->material_count)
-            return rd_error_set(err, RD_ERR_INVALID, 0, 0, "object %zu has no material", j);
-        const rd_material *m = &s->materials[mi];
-        if (m->type == RD_MAT_TEXTURED_PHONG &&
-            (m->texture_index < 0 || (size_t)m->texture_index >= s->texture_count))
-            return rd_error_set(err, RD_ERR_INVALID, 0, 0, "material '%s': its texture was not loaded",
-                                m->name ? m->name : "?");
-    }
+    /* The world checks that every object has a material. */
     rd_error_code rc = rd_world_build(&p->world, s, err);
     if (rc)
         return rc;
+    for (size_t j = 0; j < s->object_count; j++) {
+        const rd_material *m = &s->materials[s->objects[j].material];
+        if (m->type == RD_MAT_TEXTURED_PHONG &&
+            (m->texture_index < 0 || (size_t)m->texture_index >= s->texture_count)) {
+            rd_world_free(&p->world);
+            return rd_error_set(err, RD_ERR_INVALID, 0, 0, "material '%s': its texture was not loaded",
+                                m->name ? m->name : "?");
+        }
+    }
     p->lights = calloc(s->light_count + 1, sizeof *p->lights);
     if (!p->lights) {
         rd_world_free(&p->world);

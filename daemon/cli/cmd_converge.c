@@ -152,9 +152,13 @@ int rd_cmd_converge(int argc, char **argv)
         char *data;
         size_t len;
         rd_png_image png;
-        rc = rd_read_file(ref_path, 1u << 30, "--reference", &data, &len, &err);
+        /* The reference has the render's size, which the limits allowed. */
+        int w = s.render.width, h = s.render.height;
+        rc = rd_read_file(ref_path, rd_png_file_bound(w, h), "--reference: a PNG of the render's size", &data,
+                          &len, &err);
         if (!rc) {
-            rc = rd_png_decode((unsigned char *)data, len, 1u << 28, "--reference", &png, &err);
+            rc = rd_png_decode((unsigned char *)data, len, (size_t)w * (size_t)h, "--reference: the render's size",
+                               &png, &err);
             free(data);
         }
         if (!rc && (png.width != s.render.width || png.height != s.render.height)) {

@@ -395,12 +395,12 @@ enum MHD_Result rd_route_grade_resumed(rd_req *r)
     rd_jq_info info;
     rd_jq_info_get(r->srv->jobs, r->job, &info);
     grade_task *t = rd_jq_task_arg(r->job);
-    if (info.status == RD_JOB_DONE && t->json) {
+    if (info.status == RD_JQ_DONE && t->json) {
         char *json = t->json;
         t->json = NULL;
         return rd_reply_json(r, 200, json);
     }
-    if (info.status == RD_JOB_FAILED) {
+    if (info.status == RD_JQ_FAILED) {
         /* A failed render of the reference fails the grade there. */
         rd_grade_stage stage = t->out.stage ? t->out.stage : RD_GRADE_STAGE_REFERENCE;
         rd_error_answer a = rd_grade_error_answer(stage, info.error.code);
@@ -464,7 +464,8 @@ enum MHD_Result rd_route_assignments(rd_req *r, const char *rest)
         char *text;
         size_t tl;
         if (rd_assignment_load(r->srv->opt.assignments_dir, n, &a, &err) ||
-            rd_read_file(a.scene_path, r->srv->opt.limits.max_bytes, "--max-scene-bytes", &text, &tl, &err))
+            rd_read_file(a.scene_path, r->srv->opt.limits.max_bytes, rd_limit_flag(offsetof(rd_scene_limits, max_bytes)), &text,
+                         &tl, &err))
             return rd_reply_error(r, 404, "not_found", NULL, "no such assignment");
         return rd_reply(r, 200, "text/x-rayd-cfg", text, tl, 1);
     }

@@ -74,7 +74,9 @@ enum MHD_Result rd_route_scenes(rd_req *r, const char *rest)
     char *text;
     size_t len;
     rd_error err = {0};
-    if (rd_path_inside(dir, file, path, &err) || rd_read_file(path, r->srv->opt.limits.max_bytes, "--max-scene-bytes", &text, &len, &err))
+    if (rd_path_inside(dir, file, path, &err) || rd_read_file(path, r->srv->opt.limits.max_bytes,
+                                                                  rd_limit_flag(offsetof(rd_scene_limits, max_bytes)),
+                                                                  &text, &len, &err))
         return rd_reply_error(r, 404, "not_found", NULL, "no bundled scene by that name");
     size_t fl = strlen(file);
     const char *type = fl > 5 && strcmp(file + fl - 5, ".json") == 0 ? "application/json" : "text/x-rayd-cfg";

@@ -89,7 +89,7 @@ static char *job_json(const rd_jq_info *in)
 {
     cJSON *o = cJSON_CreateObject();
     cJSON_AddStringToObject(o, "id", in->id);
-    cJSON_AddStringToObject(o, "status", rd_job_status_name(in->status));
+    cJSON_AddStringToObject(o, "status", rd_jq_status_name(in->status));
     cJSON_AddNumberToObject(o, "progress", in->progress);
     cJSON_AddNumberToObject(o, "elapsed_ms", in->elapsed_ms);
     cJSON_AddNumberToObject(o, "queued_ms", in->queued_ms);
@@ -103,9 +103,9 @@ static char *job_json(const rd_jq_info *in)
         cJSON_AddItemToArray(curve, cJSON_CreateDoubleArray(pt, 3));
     }
     cJSON_AddNumberToObject(o, "passes", in->passes);
-    if (in->status == RD_JOB_DONE)
+    if (in->status == RD_JQ_DONE)
         cJSON_AddStringToObject(o, "stopped_by", rd_stop_reason_name(in->stopped_by));
-    if (in->status == RD_JOB_DONE || in->status == RD_JOB_RUNNING) {
+    if (in->status == RD_JQ_DONE || in->status == RD_JQ_RUNNING) {
         cJSON *st = cJSON_AddObjectToObject(o, "stats");
         cJSON_AddNumberToObject(st, "camera_rays", (double)in->stats.camera_rays);
         cJSON_AddNumberToObject(st, "shadow_rays", (double)in->stats.shadow_rays);
@@ -114,7 +114,7 @@ static char *job_json(const rd_jq_info *in)
         cJSON_AddNumberToObject(st, "prepare_ms", in->stats.prepare_ms);
         cJSON_AddNumberToObject(st, "primitives", (double)in->stats.primitives);
     }
-    if (in->status == RD_JOB_FAILED) {
+    if (in->status == RD_JQ_FAILED) {
         cJSON *e = cJSON_AddObjectToObject(o, "error");
         cJSON_AddStringToObject(e, "code", rd_error_answer_for(in->error.code).code);
         cJSON_AddStringToObject(e, "message", in->error.message);
@@ -211,7 +211,7 @@ static enum MHD_Result render(rd_req *r, int async)
 /* The answer for a job that failed or was cancelled. */
 static enum MHD_Result reply_ended(rd_req *r, const rd_jq_info *info)
 {
-    if (info->status == RD_JOB_FAILED) {
+    if (info->status == RD_JQ_FAILED) {
         rd_error_code c = info->error.code;
         if (c == RD_ERR_TIMEOUT)
             return rd_reply_error(r, 422, "time_limit", &info->error, NULL);
@@ -245,11 +245,11 @@ enum MHD_Result rd_route_render_resumed(rd_req *r)
     rd_server *srv = r->srv;
     rd_jq_info info;
     rd_jq_info_get(srv->jobs, r->job, &info);
-    if (info.status == RD_JOB_FAILED || info.status == RD_JOB_CANCELLED)
+    if (info.status == RD_JQ_FAILED || info.status == RD_JQ_CANCELLED)
         return reply_ended(r, &info);
     if (r->async)
         return reply_accepted(r, &info);
-    if (info.status != RD_JOB_DONE)
+    if (info.status != RD_JQ_DONE)
         return rd_reply_error(r, 503, "unavailable", NULL, "the render ended without an image");
     unsigned char *png;
     size_t len;
@@ -322,12 +322,12 @@ enum MHD_Result rd_route_job_image_resumed(rd_req *r)
     rd_jq_info info;
     rd_jq_info_get(r->srv->jobs, r->job, &info);
     partial_task *t = rd_jq_task_arg(r->job);
-    if (info.status == RD_JOB_DONE && t->png) {
+    if (info.status == RD_JQ_DONE && t->png) {
         unsigned char *png = t->png;
         t->png = NULL;
         return rd_reply(r, 200, "image/png", png, t->len, 1);
     }
-    if (info.status == RD_JOB_FAILED)
+    if (info.status == RD_JQ_FAILED)
         return rd_reply_error(r, 409, "not_ready", &info.error, NULL);
     if (info.hung_up)
         return MHD_NO;
@@ -379,7 +379,7 @@ enum MHD_Result rd_route_job(rd_req *r, const char *path)
         int partial = p && strcmp(p, "0") != 0;
         rd_jq_info now;
         rd_jq_info_get(srv->jobs, job, &now);
-        if (partial && now.status == RD_JOB_RUNNING)
+        if (partial && now.status == RD_JQ_RUNNING)
             return submit_partial(r, job);
         unsigned char *png;
         size_t len;
@@ -387,9 +387,9 @@ enum MHD_Result rd_route_job(rd_req *r, const char *path)
         if (rd_jq_png(srv->jobs, job, partial, &png, &len, &err)) {
             rd_jq_info info;
             rd_jq_info_get(srv->jobs, job, &info);
-            if (info.status == RD_JOB_DONE)
+            if (info.status == RD_JQ_DONE)
                 ret = rd_reply_error(r, 404, "expired", &err, NULL);
-            else if (info.status == RD_JOB_QUEUED || info.status == RD_JOB_RUNNING)
+            else if (info.status == RD_JQ_QUEUED || info.status == RD_JQ_RUNNING)
                 ret = rd_reply_error(r, 409, "not_ready", &err, NULL);
             else
                 ret = rd_reply_error(r, 409, "no_image", &err, NULL);

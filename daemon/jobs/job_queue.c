@@ -44,7 +44,7 @@ struct rd_jq_job {
     rd_jq *q;
     int refs;
     char id[24];
-    rd_job_status status;
+    rd_jq_status status;
     phase ph;
     rd_jq_task task;
     rd_scene scene;
@@ -103,7 +103,7 @@ struct rd_jq {
     uint64_t buckets[RD_JQ_BUCKETS];
 };
 
-const char *rd_job_status_name(rd_job_status s)
+const char *rd_jq_status_name(rd_jq_status s)
 {
     static const char *const names[] = {"queued", "running", "done", "failed", "cancelled"};
     return (unsigned)s < 5 ? names[s] : "?";
@@ -176,7 +176,7 @@ static void remove_active(rd_jq *q, rd_jq_job *j)
             q->active_tail = prev;
         j->active = 0;
         q->active_count--;
-        if (j->status == RD_JOB_RUNNING)
+        if (j->status == RD_JQ_RUNNING)
             q->running_count--;
     }
 }
@@ -316,9 +316,9 @@ static void sweep(rd_jq *q)
 }
 
 /* The outcome counters of /metrics. Under q->mu. */
-static void count_outcome(rd_jq *q, const rd_jq_job *j, rd_job_status st)
+static void count_outcome(rd_jq *q, const rd_jq_job *j, rd_jq_status st)
 {
-    if (st == RD_JOB_DONE) {
+    if (st == RD_JQ_DONE) {
         q->n_done++;
         double sec = (j->t_end - j->t_start) / 1e3;
         q->render_sum += sec;
@@ -326,7 +326,7 @@ static void count_outcome(rd_jq *q, const rd_jq_job *j, rd_job_status st)
         for (int b = 0; b < RD_JQ_BUCKETS; b++)
             if (sec <= rd_jq_buckets[b])
                 q->buckets[b]++;
-    } else if (st == RD_JOB_FAILED) {
+    } else if (st == RD_JQ_FAILED) {
         q->n_failed++;
     } else {
         q->n_cancelled++;
@@ -336,7 +336,7 @@ static void count_outcome(rd_jq *q, const rd_jq_job *j, rd_job_status st)
 
 /* The job leaves the active list with its final status; the caller then
  * calls its done callback without the lock. Under q->mu. */
-static void finish_locked(rd_jq *q, rd_jq_job *j, rd_job_status st)
+static void finish_locked(rd_jq *q, rd_jq_job *j, rd_jq_status st)
 {
     remove_active(q, j);
     j->status = st;
@@ -362,7 +362,7 @@ static void finish_locked(rd_jq *q, rd_jq_job *j, rd_job_status st)
 static void fail_locked(rd_jq *q, rd_jq_job *j, const rd_error *err)
 {
     j->error = *err;
-    finish_locked(q, j, RD_JOB_FAILED);
+    finish_locked(q, j, RD_JQ_FAILED);
 }
 
 /* Called without the lock; the callback is read under it, since a request
@@ -460,7 +460,7 @@ static void end_cancelled(rd_jq *q, rd_jq_job *j)
                      q->opt.job_timeout_ms);
         fail_locked(q, j, &e);
     } else {
-        finish_locked(q, j, RD_JOB_CANCELLED);
+        finish_locked(q, j, RD_JQ_CANCELLED);
     }
     notify_locked(q, j);
 }
@@ -544,7 +544,7 @@ static void finish_job(rd_jq *q, rd_jq_job *j)
     } else {
         j->png = png;
         j->png_len = len;
-        finish_locked(q, j, RD_JOB_DONE);
+        finish_locked(q, j, RD_JQ_DONE);
     }
     notify_locked(q, j);
 }
@@ -587,7 +587,7 @@ static void start_job(rd_jq *q, rd_jq_job *j)
     j->tiles_total = rd_job_tile_count(core);
     j->spp = 0;
     j->pass_spp = first;
-    j->status = RD_JOB_RUNNING;
+    j->status = RD_JQ_RUNNING;
     j->ph = PH_RUNNING;
     q->running_count++;
     pthread_cond_broadcast(&q->work_cv);
@@ -821,7 +821,7 @@ void rd_jq_stop(rd_jq *q)
     pthread_mutex_lock(&q->mu);
     while (q->active_head) {
         rd_jq_job *j = q->active_head;
-        finish_locked(q, j, RD_JOB_CANCELLED);
+        finish_locked(q, j, RD_JQ_CANCELLED);
         notify_locked(q, j);
     }
     while (q->all.head)
@@ -876,7 +876,7 @@ rd_error_code rd_jq_submit(rd_jq *q, const rd_jq_task *task, const rd_jq_submit_
     j->idnum = rd_mix64(q->key ^ ++q->counter);
     snprintf(j->id, sizeof j->id, "%016llx", (unsigned long long)j->idnum);
     j->refs = j->internal ? 1 : 2; /* the registry's and the caller's */
-    j->status = RD_JOB_QUEUED;
+    j->status = RD_JQ_QUEUED;
     j->ph = PH_NEW;
     j->active = 1;
     charge(q, j, task->input_bytes);
@@ -969,10 +969,10 @@ int rd_jq_cancel(rd_jq *q, rd_jq_job *j)
 
 static double progress_of(const rd_jq_job *j)
 {
-    if (j->status == RD_JOB_DONE)
+    if (j->status == RD_JQ_DONE)
         return 1.0;
     double p = j->tiles_total > 0 ? (double)j->tiles_done / j->tiles_total : 0;
-    if (j->status == RD_JOB_RUNNING && rd_progress_is_progressive(&j->progress)) {
+    if (j->status == RD_JQ_RUNNING && rd_progress_is_progressive(&j->progress)) {
         /* Samples toward the cap, or time toward the budget. */
         double by_spp = (j->spp + (double)j->pass_spp * j->tiles_done / (j->tiles_total ? j->tiles_total : 1)) /
                         j->progress.max_samples;
@@ -994,7 +994,7 @@ void rd_jq_info_get(rd_jq *q, rd_jq_job *j, rd_jq_info *out)
     double now = now_ms();
     out->elapsed_ms = j->t_start > 0 ? (j->t_end > 0 ? j->t_end : now) - j->t_start : 0;
     out->queued_ms = (j->t_start > 0 ? j->t_start : now) - j->t_submit;
-    out->samples = j->status == RD_JOB_DONE ? j->stats.samples : j->spp;
+    out->samples = j->status == RD_JQ_DONE ? j->stats.samples : j->spp;
     out->stopped_by = j->stats.stopped_by;
     out->passes = j->stats.passes;
     out->curve_len = j->stats.curve_len;
@@ -1030,11 +1030,11 @@ rd_error_code rd_jq_png(rd_jq *q, rd_jq_job *j, int partial, unsigned char **png
         return copy ? RD_OK : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
     }
     if (!partial || j->ph != PH_RUNNING || !j->core) {
-        rd_job_status st = j->status;
+        rd_jq_status st = j->status;
         pthread_mutex_unlock(&q->mu);
-        if (st == RD_JOB_DONE)
+        if (st == RD_JQ_DONE)
             return rd_error_set(err, RD_ERR_INVALID, 0, 0, "the image has expired (--result-memory)");
-        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "job is %s: no image yet", rd_job_status_name(st));
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "job is %s: no image yet", rd_jq_status_name(st));
     }
     /* Tiles marked done were written before the lock that marked them. */
     int w = rd_job_width(j->core), h = rd_job_height(j->core);

@@ -31,9 +31,9 @@
 #include "rayd/render.h"
 #include "rayd/scene.h"
 
-typedef enum { RD_JOB_QUEUED, RD_JOB_RUNNING, RD_JOB_DONE, RD_JOB_FAILED, RD_JOB_CANCELLED } rd_job_status;
+typedef enum { RD_JQ_QUEUED, RD_JQ_RUNNING, RD_JQ_DONE, RD_JQ_FAILED, RD_JQ_CANCELLED } rd_jq_status;
 
-const char *rd_job_status_name(rd_job_status s);
+const char *rd_jq_status_name(rd_jq_status s);
 
 typedef struct {
     int workers;                /* render threads */
@@ -118,7 +118,7 @@ int rd_jq_cancel(rd_jq *q, rd_jq_job *j);
 /* A consistent copy of what a client may ask about a job. */
 typedef struct {
     char id[24];
-    rd_job_status status;
+    rd_jq_status status;
     double progress;            /* 0..1, tiles done over tiles */
     double elapsed_ms;          /* since it started (0 while queued) */
     double queued_ms;           /* waiting before it started */

@@ -31,7 +31,15 @@ typedef struct {
  * refuse a camera the tracer could not orient. */
 #define RD_MIN_UP_SINE 1e-9
 
-typedef enum { RD_LIGHT_POINT, RD_LIGHT_DIRECTIONAL, RD_LIGHT_SPOT, RD_LIGHT_AREA } rd_light_type;
+/* Every light type once, with the word the scene formats use for it. */
+#define RD_LIGHT_TYPES(X) X(POINT, "point") X(DIRECTIONAL, "directional") X(SPOT, "spot") X(AREA, "area")
+
+typedef enum {
+#define RD_LIGHT_ENUM(id, word) RD_LIGHT_##id,
+    RD_LIGHT_TYPES(RD_LIGHT_ENUM)
+#undef RD_LIGHT_ENUM
+    RD_LIGHT_COUNT
+} rd_light_type;
 
 typedef struct {
     char *name;         /* may be NULL (anonymous) */
@@ -44,15 +52,16 @@ typedef struct {
     int samples;                    /* area: samples² points */
 } rd_light;
 
+/* Every material type once (shading.md), with its word in the formats. */
+#define RD_MATERIAL_TYPES(X)                                                                          \
+    X(DIFFUSE, "diffuse") X(PHONG, "phong") X(BLINN_PHONG, "blinn_phong") X(COOK_TORRANCE, "cook_torrance") \
+    X(PERFECT_SPECULAR, "perfect_specular") X(SPECULAR_REFRACTION, "specular_refraction")             \
+    X(PSEUDO_NORMAL_COLOR, "pseudo_normal_color") X(TEXTURED_PHONG, "textured_phong")
+
 typedef enum {
-    RD_MAT_DIFFUSE,
-    RD_MAT_PHONG,
-    RD_MAT_BLINN_PHONG,
-    RD_MAT_COOK_TORRANCE,
-    RD_MAT_PERFECT_SPECULAR,
-    RD_MAT_SPECULAR_REFRACTION,
-    RD_MAT_PSEUDO_NORMAL_COLOR,
-    RD_MAT_TEXTURED_PHONG,
+#define RD_MAT_ENUM(id, word) RD_MAT_##id,
+    RD_MATERIAL_TYPES(RD_MAT_ENUM)
+#undef RD_MAT_ENUM
     RD_MAT_COUNT
 } rd_material_type;
 

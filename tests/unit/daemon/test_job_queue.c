@@ -57,7 +57,7 @@ static rd_jq_job *submit(rd_jq *q, const char *text, const char *query_w, rd_err
     return j;
 }
 
-static rd_job_status status_of(rd_jq *q, rd_jq_job *j)
+static rd_jq_status status_of(rd_jq *q, rd_jq_job *j)
 {
     rd_jq_info in;
     rd_jq_info_get(q, j, &in);
@@ -65,15 +65,15 @@ static rd_job_status status_of(rd_jq *q, rd_jq_job *j)
 }
 
 /* Polls until the job reaches st or timeout_ms passes; the time it took. */
-static double wait_status(rd_jq *q, rd_jq_job *j, rd_job_status st, double timeout_ms)
+static double wait_status(rd_jq *q, rd_jq_job *j, rd_jq_status st, double timeout_ms)
 {
     double t0 = rd_now_ms();
     while (status_of(q, j) != st && rd_now_ms() - t0 < timeout_ms) {
         struct timespec ts = {0, 1000000};
         nanosleep(&ts, NULL);
     }
-    cr_assert_eq(status_of(q, j), st, "status %s, not %s, after %.0f ms", rd_job_status_name(status_of(q, j)),
-                 rd_job_status_name(st), timeout_ms);
+    cr_assert_eq(status_of(q, j), st, "status %s, not %s, after %.0f ms", rd_jq_status_name(status_of(q, j)),
+                 rd_jq_status_name(st), timeout_ms);
     return rd_now_ms() - t0;
 }
 
@@ -87,7 +87,7 @@ Test(job_queue, eviction_drops_the_oldest_finished)
     char ids[6][24];
     for (int i = 0; i < 6; i++) {
         rd_jq_job *j = submit(q, small_scene, NULL, RD_OK);
-        wait_status(q, j, RD_JOB_DONE, 10000);
+        wait_status(q, j, RD_JQ_DONE, 10000);
         rd_jq_info in;
         rd_jq_info_get(q, j, &in);
         memcpy(ids[i], in.id, sizeof ids[i]);
@@ -121,7 +121,7 @@ Test(job_queue, many_jobs_keep_exactly_the_newest)
     static char ids[N][24];
     for (int i = 0; i < N; i++) {
         rd_jq_job *j = submit(q, small_scene, NULL, RD_OK);
-        wait_status(q, j, RD_JOB_DONE, 10000);
+        wait_status(q, j, RD_JQ_DONE, 10000);
         rd_jq_info in;
         rd_jq_info_get(q, j, &in);
         memcpy(ids[i], in.id, sizeof ids[i]);
@@ -153,7 +153,7 @@ Test(job_queue, result_memory_drops_the_oldest_images)
     rd_jq *q = rd_jq_start(&o, &err);
     cr_assert_not_null(q);
     rd_jq_job *first = submit(q, small_scene, NULL, RD_OK);
-    wait_status(q, first, RD_JOB_DONE, 10000);
+    wait_status(q, first, RD_JQ_DONE, 10000);
     unsigned char *png;
     size_t len;
     cr_assert_eq(rd_jq_png(q, first, 0, &png, &len, &err), RD_OK, "%s", err.message);
@@ -167,7 +167,7 @@ Test(job_queue, result_memory_drops_the_oldest_images)
     rd_jq_job *jobs[5];
     for (int i = 0; i < 5; i++) {
         jobs[i] = submit(q, small_scene, NULL, RD_OK);
-        wait_status(q, jobs[i], RD_JOB_DONE, 10000);
+        wait_status(q, jobs[i], RD_JQ_DONE, 10000);
     }
     for (int i = 0; i < 5; i++) {
         rd_error_code rc = rd_jq_png(q, jobs[i], 0, &png, &len, &err);
@@ -176,7 +176,7 @@ Test(job_queue, result_memory_drops_the_oldest_images)
             free(png);
         else
             cr_assert(strstr(err.message, "--result-memory"), "%s", err.message);
-        cr_assert_eq(status_of(q, jobs[i]), RD_JOB_DONE);
+        cr_assert_eq(status_of(q, jobs[i]), RD_JQ_DONE);
         rd_jq_job_unref(jobs[i]);
     }
     rd_jq_stop(q);
@@ -189,7 +189,7 @@ Test(job_queue, job_over_the_budget_fails_naming_the_flag)
     rd_error err;
     rd_jq *q = rd_jq_start(&o, &err);
     rd_jq_job *j = submit(q, small_scene, "1024", RD_OK);
-    wait_status(q, j, RD_JOB_FAILED, 10000);
+    wait_status(q, j, RD_JQ_FAILED, 10000);
     rd_jq_info in;
     rd_jq_info_get(q, j, &in);
     cr_assert_eq(in.error.code, RD_ERR_LIMIT);
@@ -214,7 +214,7 @@ Test(job_queue, second_job_waits_for_memory)
     rd_jq *q = rd_jq_start(&o, &err);
     rd_jq_job *a = submit(q, runaway_scene, "512", RD_OK);
     rd_jq_job *b = submit(q, runaway_scene, "512", RD_OK);
-    wait_status(q, a, RD_JOB_RUNNING, 10000);
+    wait_status(q, a, RD_JQ_RUNNING, 10000);
     rd_jq_metrics m;
     for (int i = 0; i < 2000; i++) {
         rd_jq_metrics_get(q, &m);
@@ -225,12 +225,12 @@ Test(job_queue, second_job_waits_for_memory)
     }
     cr_assert_eq(m.waiting_memory, 1, "the second job did not wait for memory");
     cr_assert_eq(m.running, 1);
-    cr_assert_eq(status_of(q, b), RD_JOB_QUEUED);
+    cr_assert_eq(status_of(q, b), RD_JQ_QUEUED);
     cr_assert_leq(m.memory_reserved, o.memory_budget);
     rd_jq_cancel(q, a);
-    wait_status(q, b, RD_JOB_RUNNING, 10000);
+    wait_status(q, b, RD_JQ_RUNNING, 10000);
     rd_jq_cancel(q, b);
-    wait_status(q, b, RD_JOB_CANCELLED, 10000);
+    wait_status(q, b, RD_JQ_CANCELLED, 10000);
     rd_jq_job_unref(a);
     rd_jq_job_unref(b);
     rd_jq_stop(q);
@@ -244,14 +244,14 @@ Test(job_queue, cancel_stops_a_runaway_render_inside_a_pixel)
     rd_jq *q = rd_jq_start(&o, &err);
     rd_jq_job *a = submit(q, runaway_scene, NULL, RD_OK);
     rd_jq_job *b = submit(q, runaway_scene, NULL, RD_OK);
-    wait_status(q, a, RD_JOB_RUNNING, 10000);
-    wait_status(q, b, RD_JOB_RUNNING, 10000);
+    wait_status(q, a, RD_JQ_RUNNING, 10000);
+    wait_status(q, b, RD_JQ_RUNNING, 10000);
     struct timespec settle = {0, 50 * 1000000L};
     nanosleep(&settle, NULL);
     cr_assert_eq(rd_jq_cancel(q, a), 1);
-    double ms = wait_status(q, a, RD_JOB_CANCELLED, 5000);
+    double ms = wait_status(q, a, RD_JQ_CANCELLED, 5000);
     cr_log_info("cancelled within %.1f ms", ms);
-    cr_assert_eq(status_of(q, b), RD_JOB_RUNNING, "cancelling one job stopped the other");
+    cr_assert_eq(status_of(q, b), RD_JQ_RUNNING, "cancelling one job stopped the other");
     rd_jq_job_unref(a);
     rd_jq_job_unref(b);
     /* Stopping the queue cancels b and joins both threads. */
@@ -267,7 +267,7 @@ Test(job_queue, timeout_fails_with_its_own_code)
     rd_error err;
     rd_jq *q = rd_jq_start(&o, &err);
     rd_jq_job *j = submit(q, runaway_scene, NULL, RD_OK);
-    wait_status(q, j, RD_JOB_FAILED, 10000);
+    wait_status(q, j, RD_JQ_FAILED, 10000);
     rd_jq_info in;
     rd_jq_info_get(q, j, &in);
     cr_assert_eq(in.error.code, RD_ERR_TIMEOUT);
@@ -313,7 +313,7 @@ Test(job_queue, internal_work_is_neither_listed_nor_counted)
     rd_jq_submit_options so = {.watch_fd = -1, .internal = 1};
     rd_jq_job *j;
     cr_assert_eq(rd_jq_submit(q, &t, &so, &j, &err), RD_OK);
-    wait_status(q, j, RD_JOB_DONE, 10000);
+    wait_status(q, j, RD_JQ_DONE, 10000);
     cr_assert(atomic_load(&ran));
     rd_jq_info in;
     rd_jq_info_get(q, j, &in);
@@ -342,18 +342,18 @@ Test(job_queue, preparing_does_not_wait_for_busy_render_threads)
     rd_jq *q = rd_jq_start(&o, &err);
     rd_jq_job *a = submit(q, runaway_scene, NULL, RD_OK);
     rd_jq_job *b = submit(q, runaway_scene, NULL, RD_OK);
-    wait_status(q, a, RD_JOB_RUNNING, 10000);
-    wait_status(q, b, RD_JOB_RUNNING, 10000);
+    wait_status(q, a, RD_JQ_RUNNING, 10000);
+    wait_status(q, b, RD_JQ_RUNNING, 10000);
     rd_jq_task t = {bad_scene, NULL, NULL, NULL, 0};
     rd_jq_submit_options so = {.watch_fd = -1};
     rd_jq_job *c;
     cr_assert_eq(rd_jq_submit(q, &t, &so, &c, &err), RD_OK);
-    double ms = wait_status(q, c, RD_JOB_FAILED, 5000);
+    double ms = wait_status(q, c, RD_JQ_FAILED, 5000);
     cr_log_info("a bad scene failed %.1f ms after submission, render threads busy", ms);
     rd_jq_info in;
     rd_jq_info_get(q, c, &in);
     cr_assert_eq(in.error.code, RD_ERR_SYNTAX);
-    cr_assert_eq(status_of(q, a), RD_JOB_RUNNING);
+    cr_assert_eq(status_of(q, a), RD_JQ_RUNNING);
     rd_jq_job_unref(a);
     rd_jq_job_unref(b);
     rd_jq_job_unref(c);
