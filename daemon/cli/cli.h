@@ -16,9 +16,10 @@ int rd_cmd_converge(int argc, char **argv);
 int rd_cmd_grade(int argc, char **argv);
 
 /* Removes every --max-NAME VALUE (or --max-NAME=VALUE) pair of the limits
- * table from argv, setting *lim; returns 0, or RD_EXIT_USAGE after printing
- * a message prefixed with who. */
-int rd_cli_take_limits(int *argc, char **argv, rd_scene_limits *lim, const char *who);
+ * table from argv, setting *lim, but for the flag own (NULL: none), which
+ * the command uses for something else; returns 0, or RD_EXIT_USAGE after
+ * printing a message prefixed with who. */
+int rd_cli_take_limits(int *argc, char **argv, rd_scene_limits *lim, const char *who, const char *own);
 
 /* Prints the limits and their defaults. */
 int rd_cmd_limits(int argc, char **argv);

@@ -5,7 +5,7 @@
 
 #include "cli.h"
 
-int rd_cli_take_limits(int *argc, char **argv, rd_scene_limits *lim, const char *who)
+int rd_cli_take_limits(int *argc, char **argv, rd_scene_limits *lim, const char *who, const char *own)
 {
     size_t n;
     const rd_limit_info *info = rd_limits_info(&n);
@@ -15,7 +15,8 @@ int rd_cli_take_limits(int *argc, char **argv, rd_scene_limits *lim, const char 
         const rd_limit_info *hit = NULL;
         const char *value = NULL;
         int used = 1;
-        if (strncmp(a, "--max-", 6) == 0) {
+        if (strncmp(a, "--max-", 6) == 0 && !(own && strncmp(a, own, strlen(own)) == 0 &&
+                                                (a[strlen(own)] == 0 || a[strlen(own)] == '='))) {
             for (size_t k = 0; k < n && !hit; k++) {
                 size_t fl = strlen(info[k].flag);
                 if (strncmp(a, info[k].flag, fl) == 0 && (a[fl] == 0 || a[fl] == '=')) {
@@ -63,4 +64,16 @@ int rd_cmd_limits(int argc, char **argv)
         printf("  %-22s %12zu  %s\n", info[i].flag, *(const size_t *)((const char *)&d + info[i].offset),
                info[i].what);
     return RD_EXIT_OK;
+}
+
+int rd_cli_int(const char *s, long lo, long hi, long *out)
+{
+    if (!s || !*s)
+        return 1;
+    char *end;
+    long v = strtol(s, &end, 10);
+    if (*end || v < lo || v > hi)
+        return 1;
+    *out = v;
+    return 0;
 }

@@ -28,6 +28,7 @@ static const char converge_help[] =
     "  --reference-samples N  render the reference with N samples (default 1024)\n"
     "  --width W --height H   override the scene's size\n"
     "  --max-...  N           a size limit; 'rayd limits' lists them with defaults\n"
+    "                         (but --max-samples is the last row here)\n"
     "  --threads N            render threads (default: the number of cores)\n"
     "  --adaptive             use adaptive passes (each row a progressive render)\n"
     "  --svg FILE             write the error-against-time plot as SVG\n"
@@ -79,7 +80,7 @@ int rd_cmd_converge(int argc, char **argv)
     if (threads < 1)
         threads = 1;
     rd_scene_limits lim = rd_scene_limits_default();
-    int lrc = rd_cli_take_limits(&argc, argv, &lim, "rayd converge");
+    int lrc = rd_cli_take_limits(&argc, argv, &lim, "rayd converge", "--max-samples");
     if (lrc)
         return lrc;
     rd_scene_overrides ov = {0};

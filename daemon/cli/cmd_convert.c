@@ -5,7 +5,6 @@
 #include "cli.h"
 #include "png_write.h"
 #include "scene_load.h"
-#include "scene_schema.h"
 #include "scene_write.h"
 #include "file_io.h"
 
@@ -86,22 +85,4 @@ int rd_cmd_convert(int argc, char **argv)
         return RD_EXIT_IO;
     }
     return RD_EXIT_OK;
-}
-
-int rd_cmd_schema(int argc, char **argv)
-{
-    if (argc > 1 && (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0)) {
-        fputs("usage: rayd schema\n\nPrints the JSON Schema of JSON scenes (docs/scene.schema.json),\n"
-              "generated from the same key table as the parsers.\n", stdout);
-        return RD_EXIT_OK;
-    }
-    char *text;
-    rd_error err = {0};
-    if (rd_scene_schema(&text, &err)) {
-        fprintf(stderr, "rayd schema: %s\n", err.message);
-        return RD_EXIT_IO;
-    }
-    fputs(text, stdout);
-    free(text);
-    return fflush(stdout) == 0 ? RD_EXIT_OK : RD_EXIT_IO;
 }

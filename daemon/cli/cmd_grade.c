@@ -79,7 +79,7 @@ int rd_cmd_grade(int argc, char **argv)
     rd_grade_input in = {0};
     const char *image = NULL, *diff = NULL, *cache_dir = NULL;
     rd_grader g = {.assignments_dir = "scenes/assignments", .limits = rd_scene_limits_default()};
-    int lrc = rd_cli_take_limits(&argc, argv, &g.limits, "rayd grade");
+    int lrc = rd_cli_take_limits(&argc, argv, &g.limits, "rayd grade", NULL);
     if (lrc)
         return lrc;
     long threads = sysconf(_SC_NPROCESSORS_ONLN);

@@ -43,18 +43,6 @@ static const char render_help[] =
     "render, in [0,1] units (1 = 255 levels); 0 with one sample per pixel. curve\n"
     "has one point per pass: elapsed ms, samples per pixel, error estimate.\n";
 
-int rd_cli_int(const char *s, long lo, long hi, long *out)
-{
-    if (!s || !*s)
-        return 1;
-    char *end;
-    long v = strtol(s, &end, 10);
-    if (*end || v < lo || v > hi)
-        return 1;
-    *out = v;
-    return 0;
-}
-
 static int usage_error(const char *fmt, const char *arg)
 {
     fprintf(stderr, "rayd render: ");
@@ -84,7 +72,7 @@ int rd_cmd_render(int argc, char **argv)
     if (threads < 1)
         threads = 1;
     rd_scene_limits lim = rd_scene_limits_default();
-    int lrc = rd_cli_take_limits(&argc, argv, &lim, "rayd render");
+    int lrc = rd_cli_take_limits(&argc, argv, &lim, "rayd render", NULL);
     if (lrc)
         return lrc;
     optind = 1;

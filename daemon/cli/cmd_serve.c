@@ -1,4 +1,5 @@
-#include <errno.h>
+#include <limits.h>
+#include <stddef.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -8,176 +9,243 @@
 #include "cli.h"
 #include "server.h"
 
-static const char serve_help[] =
-    "usage: rayd serve [options]\n"
-    "\n"
-    "Runs the HTTP render service (see docs/http-api.md): POST a cfg or JSON scene\n"
-    "to /v1/render for a PNG, or to /v1/jobs for a job to poll. SIGTERM or SIGINT\n"
-    "stops it gracefully: no new work, running renders finish (up to --drain-ms),\n"
-    "the rest are cancelled, every client gets an answer, exit 0.\n"
-    "\n"
-    "  --listen HOST:PORT      address to listen on (default 127.0.0.1:8080; port 0 picks one)\n"
-    "  --port-file FILE        write the port listened on to FILE once ready\n"
-    "  --threads N             render threads (default: the number of cores)\n"
-    "  --http-threads N        HTTP threads, at least 2 (default 2)\n"
-    "  --queue N               jobs queued or running at most; more get 503 (default 64)\n"
-    "  --max-body-bytes N      request body limit, answered 413 (default 16777216)\n"
-    "  --job-timeout-ms N      a render running longer fails (default 120000; 0 = none)\n"
-    "  --max-connections N     open connections at most (default 1024)\n"
-    "  --max-per-ip N          open connections per client address (default 512)\n"
-    "  --connection-timeout N  seconds an idle connection is kept (default 30)\n"
-    "  --header-timeout-ms N   a request's headers must arrive within N ms of its start (default 10000)\n"
-    "  --body-timeout-ms N     its body within N ms of its headers (default 60000)\n"
-    "  --max-query-args N      query arguments at most; more get 431 (default 64)\n"
-    "  --memory-budget N       bytes for running jobs, results and grading caches; a job starts only\n"
-    "                          when it fits, one that never could gets 413 (default: half the RAM)\n"
-    "  --grade-cache-bytes N   grading references and kept grade images (default 268435456)\n"
-    "  --max-jobs-kept N       finished jobs whose status stays readable (default 4096)\n"
-    "  --result-memory N       bytes of finished PNGs kept for /v1/jobs (default 268435456)\n"
-    "  --result-ttl N          seconds a finished job stays readable (default 600)\n"
-    "  --drain-ms N            on SIGTERM, how long running renders may finish (default 10000)\n"
-    "  --png-level N           zlib level 0..9 of answers (default 1)\n"
-    "  --scenes DIR            bundled scenes, and where scenes' files resolve (default scenes)\n"
-    "  --assignments DIR       graded assignments (default scenes/assignments)\n"
-    "  --cache-dir DIR         keep grading references on disk too (default: memory only)\n"
-    "  --log-format text|json  one line per request on stderr (default text)\n"
-    "  --max-...  N            scene size limits, as for 'rayd render' (see 'rayd limits')\n";
+/* What the command line sets: the server's options and the command's own. */
+typedef struct {
+    rd_server_options o;
+    char host[64];
+    double drain_ms;
+    const char *port_file;
+} serve_args;
 
-static int parse_size(const char *flag, const char *v, unsigned long long lo, unsigned long long hi,
-                      unsigned long long *out)
+typedef enum { K_INT, K_UNSIGNED, K_SIZE, K_DOUBLE, K_STRING, K_LISTEN, K_LOG } flag_kind;
+
+/* One flag of rayd serve: where its value goes, its range, and its help.
+ * The help's default is printed from rd_server_options_default unless the
+ * row says it in words (dflt). */
+typedef struct {
+    const char *name, *arg, *help, *dflt;
+    flag_kind kind;
+    size_t offset;
+    unsigned long long lo, hi;
+    double scale;       /* K_DOUBLE: the value times this (seconds to ms) */
+} serve_flag;
+
+#define A(f) offsetof(serve_args, f)
+static const serve_flag flags[] = {
+    {"--listen", "HOST:PORT", "address to listen on (port 0 picks one)", NULL, K_LISTEN, 0, 0, 65535, 0},
+    {"--port-file", "FILE", "write the port listened on to FILE once ready", "none", K_STRING, A(port_file), 0, 0, 0},
+    {"--threads", "N", "render threads", "the number of cores", K_INT, A(o.jobs.workers), 1, 1024, 0},
+    {"--http-threads", "N", "HTTP threads, at least 2", NULL, K_INT, A(o.http_threads), 2, 256, 0},
+    {"--queue", "N", "jobs queued or running at most; more get 503", NULL, K_SIZE, A(o.jobs.queue_length), 1,
+     1000000, 0},
+    {"--max-body-bytes", "N", "request body limit, answered 413", NULL, K_SIZE, A(o.max_body_bytes), 1, 1ull << 34, 0},
+    {"--job-timeout-ms", "N", "a render running longer fails (0 = none)", NULL, K_DOUBLE, A(o.jobs.job_timeout_ms), 0,
+     1ull << 40, 1},
+    {"--max-connections", "N", "open connections at most", NULL, K_UNSIGNED, A(o.max_connections), 1, 1000000, 0},
+    {"--max-per-ip", "N", "open connections per client address", NULL, K_UNSIGNED, A(o.max_per_ip), 1, 1000000, 0},
+    {"--connection-timeout", "N", "seconds an idle connection is kept", NULL, K_UNSIGNED, A(o.connection_timeout_s), 1,
+     86400, 0},
+    {"--header-timeout-ms", "N", "a request's headers must arrive within N ms of its start", NULL, K_DOUBLE,
+     A(o.header_timeout_ms), 1, 1ull << 30, 1},
+    {"--body-timeout-ms", "N", "its body within N ms of its headers", NULL, K_DOUBLE, A(o.body_timeout_ms), 1,
+     1ull << 30, 1},
+    {"--max-query-args", "N", "query arguments at most; more get 431", NULL, K_UNSIGNED, A(o.max_query_args), 1,
+     10000, 0},
+    {"--memory-budget", "N",
+     "bytes for running jobs, results and grading caches; a job starts only when it fits, one that never could "
+     "gets 413",
+     "half the RAM", K_SIZE, A(o.jobs.memory_budget), 1u << 20, 1ull << 50, 0},
+    {"--grade-cache-bytes", "N", "grading references and kept grade images", NULL, K_SIZE, A(o.grade_cache_bytes), 0,
+     1ull << 40, 0},
+    {"--max-jobs-kept", "N", "finished jobs whose status stays readable", NULL, K_SIZE, A(o.jobs.kept_max), 1,
+     10000000, 0},
+    {"--result-memory", "N", "bytes of finished PNGs kept for /v1/jobs", NULL, K_SIZE, A(o.jobs.result_memory), 0,
+     1ull << 40, 0},
+    {"--result-ttl", "N", "seconds a finished job stays readable", NULL, K_DOUBLE, A(o.jobs.result_ttl_ms), 0,
+     1ull << 30, 1e3},
+    {"--drain-ms", "N", "on SIGTERM, how long running renders may finish", NULL, K_DOUBLE, A(drain_ms), 0, 1ull << 30,
+     1},
+    {"--png-level", "N", "zlib level 0..9 of answers", NULL, K_INT, A(o.jobs.png.level), 0, 9, 0},
+    {"--scenes", "DIR", "bundled scenes, and where scenes' files resolve", NULL, K_STRING, A(o.scenes_dir), 0, 0, 0},
+    {"--assignments", "DIR", "graded assignments", NULL, K_STRING, A(o.assignments_dir), 0, 0, 0},
+    {"--cache-dir", "DIR", "keep grading references on disk too", "memory only", K_STRING, A(o.cache_dir), 0, 0, 0},
+    {"--log-format", "text|json", "one line per request on stderr", "text", K_LOG, 0, 0, 0, 0},
+};
+#undef A
+
+static serve_args defaults(void)
 {
-    char *end;
-    errno = 0;
-    unsigned long long x = v && *v && *v != '-' ? strtoull(v, &end, 10) : 0;
-    if (!v || !*v || *v == '-' || *end || errno || x < lo || x > hi) {
-        fprintf(stderr, "rayd serve: %s: expected an integer in %llu..%llu, got '%s'\n", flag, lo, hi, v ? v : "");
-        return 1;
+    serve_args a;
+    memset(&a, 0, sizeof a);
+    a.o = rd_server_options_default();
+    snprintf(a.host, sizeof a.host, "%s", a.o.listen_host);
+    a.o.listen_host = a.host;
+    a.drain_ms = 10000;
+    return a;
+}
+
+/* The default of a flag as its value would be written. */
+static void default_text(const serve_flag *f, const serve_args *a, char *buf, size_t size)
+{
+    const char *p = (const char *)a + f->offset;
+    switch (f->kind) {
+    case K_INT: snprintf(buf, size, "%d", *(const int *)p); break;
+    case K_UNSIGNED: snprintf(buf, size, "%u", *(const unsigned *)p); break;
+    case K_SIZE: snprintf(buf, size, "%zu", *(const size_t *)p); break;
+    case K_DOUBLE: snprintf(buf, size, "%.0f", *(const double *)p / f->scale); break;
+    case K_STRING: snprintf(buf, size, "%s", *(const char *const *)p ? *(const char *const *)p : "none"); break;
+    case K_LISTEN: snprintf(buf, size, "%s:%u", a->host, (unsigned)a->o.port); break;
+    case K_LOG: buf[0] = 0; break;
     }
-    *out = x;
+}
+
+/* "  HEAD   TEXT", TEXT wrapped at 100 columns under itself. */
+static void print_wrapped(const char *head, const char *text)
+{
+    enum { INDENT = 26, WIDTH = 100 };
+    printf("  %-23s ", head);
+    int col = INDENT;
+    while (*text) {
+        size_t word = strcspn(text, " ");
+        if (col > INDENT && col + (int)word > WIDTH) {
+            printf("\n%*s", INDENT, "");
+            col = INDENT;
+        }
+        printf("%.*s", (int)word, text);
+        col += (int)word;
+        text += word;
+        if (*text == ' ') {
+            text++;
+            if (*text && col + 1 + (int)strcspn(text, " ") <= WIDTH) {
+                putchar(' ');
+                col++;
+            } else if (*text) {
+                printf("\n%*s", INDENT, "");
+                col = INDENT;
+            }
+        }
+    }
+    putchar('\n');
+}
+
+static void print_help(void)
+{
+    serve_args a = defaults();
+    fputs("usage: rayd serve [options]\n\n"
+          "Runs the HTTP render service (see docs/http-api.md): POST a cfg or JSON scene\n"
+          "to /v1/render for a PNG, or to /v1/jobs for a job to poll. SIGTERM or SIGINT\n"
+          "stops it gracefully: no new work, running renders finish (up to --drain-ms),\n"
+          "the rest are cancelled, every client gets an answer, exit 0.\n\n",
+          stdout);
+    for (size_t i = 0; i < sizeof flags / sizeof flags[0]; i++) {
+        const serve_flag *f = &flags[i];
+        char head[48], dflt[96];
+        snprintf(head, sizeof head, "%s %s", f->name, f->arg);
+        if (f->dflt)
+            snprintf(dflt, sizeof dflt, "%s", f->dflt);
+        else
+            default_text(f, &a, dflt, sizeof dflt);
+        char line[400];
+        snprintf(line, sizeof line, "%s (default %s)", f->help, dflt);
+        print_wrapped(head, line);
+    }
+    fputs("  --max-...  N            scene size limits, as for 'rayd render' (see 'rayd limits')\n", stdout);
+}
+
+static int bad_value(const serve_flag *f, const char *v)
+{
+    if (f->kind == K_LISTEN)
+        fprintf(stderr, "rayd serve: --listen expects HOST:PORT with a port in 0..65535, got '%s'\n", v);
+    else if (f->kind == K_LOG)
+        fprintf(stderr, "rayd serve: --log-format takes text or json, got '%s'\n", v);
+    else
+        fprintf(stderr, "rayd serve: %s: expected an integer in %llu..%llu, got '%s'\n", f->name, f->lo, f->hi, v);
+    return RD_EXIT_USAGE;
+}
+
+/* Stores v for f into a; 0, or the exit status after a message. */
+static int set_flag(const serve_flag *f, const char *v, serve_args *a)
+{
+    char *p = (char *)a + f->offset;
+    long lo = (long)f->lo, hi = f->hi > (unsigned long long)LONG_MAX ? LONG_MAX : (long)f->hi, x = 0;
+    if (f->kind == K_STRING) {
+        *(const char **)p = v;
+        return 0;
+    }
+    if (f->kind == K_LOG) {
+        if (strcmp(v, "json") != 0 && strcmp(v, "text") != 0)
+            return bad_value(f, v);
+        a->o.log_json = strcmp(v, "json") == 0;
+        return 0;
+    }
+    if (f->kind == K_LISTEN) {
+        const char *colon = strrchr(v, ':');
+        if (!colon || (size_t)(colon - v) >= sizeof a->host || rd_cli_int(colon + 1, lo, hi, &x))
+            return bad_value(f, v);
+        memcpy(a->host, v, (size_t)(colon - v));
+        a->host[colon - v] = 0;
+        a->o.port = (uint16_t)x;
+        return 0;
+    }
+    if (rd_cli_int(v, lo, hi, &x))
+        return bad_value(f, v);
+    switch (f->kind) {
+    case K_INT: *(int *)p = (int)x; break;
+    case K_UNSIGNED: *(unsigned *)p = (unsigned)x; break;
+    case K_SIZE: *(size_t *)p = (size_t)x; break;
+    default: *(double *)p = (double)x * f->scale; break;
+    }
+    return 0;
+}
+
+static const serve_flag *find_flag(const char *name)
+{
+    for (size_t i = 0; i < sizeof flags / sizeof flags[0]; i++)
+        if (strcmp(flags[i].name, name) == 0)
+            return &flags[i];
+    return NULL;
+}
+
+enum { HELP_PRINTED = -1 };
+
+/* 0 with *a filled, HELP_PRINTED, or the exit status of a usage error. */
+static int parse_args(int argc, char **argv, serve_args *a)
+{
+    *a = defaults();
+    int lrc = rd_cli_take_limits(&argc, argv, &a->o.limits, "rayd serve", NULL);
+    if (lrc)
+        return lrc;
+    for (int i = 1; i < argc; i++) {
+        if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
+            print_help();
+            return HELP_PRINTED;
+        }
+        const serve_flag *f = find_flag(argv[i]);
+        if (!f) {
+            fprintf(stderr, "rayd serve: unknown option '%s' (try 'rayd serve --help')\n", argv[i]);
+            return RD_EXIT_USAGE;
+        }
+        if (i + 1 >= argc) {
+            fprintf(stderr, "rayd serve: %s needs a value (try 'rayd serve --help')\n", argv[i]);
+            return RD_EXIT_USAGE;
+        }
+        int rc = set_flag(f, argv[++i], a);
+        if (rc)
+            return rc;
+    }
     return 0;
 }
 
 int rd_cmd_serve(int argc, char **argv)
 {
-    rd_server_options o = rd_server_options_default();
-    char host[64] = "127.0.0.1";
-    o.listen_host = host;
-    double drain_ms = 10000;
-    const char *port_file = NULL;
-
-    int lrc = rd_cli_take_limits(&argc, argv, &o.limits, "rayd serve");
-    if (lrc)
-        return lrc;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        const char *v = i + 1 < argc ? argv[i + 1] : NULL;
-        unsigned long long x;
-        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
-            fputs(serve_help, stdout);
-            return RD_EXIT_OK;
-        }
-        if (!v) {
-            fprintf(stderr, "rayd serve: %s needs a value (try 'rayd serve --help')\n", a);
-            return RD_EXIT_USAGE;
-        }
-        i++;
-        if (strcmp(a, "--listen") == 0) {
-            const char *colon = strrchr(v, ':');
-            if (!colon || (size_t)(colon - v) >= sizeof host || parse_size("--listen port", colon + 1, 0, 65535, &x))
-                return fprintf(stderr, "rayd serve: --listen expects HOST:PORT, got '%s'\n", v), RD_EXIT_USAGE;
-            memcpy(host, v, (size_t)(colon - v));
-            host[colon - v] = 0;
-            o.port = (uint16_t)x;
-        } else if (strcmp(a, "--port-file") == 0) {
-            port_file = v;
-        } else if (strcmp(a, "--threads") == 0) {
-            if (parse_size(a, v, 1, 1024, &x))
-                return RD_EXIT_USAGE;
-            o.jobs.workers = (int)x;
-        } else if (strcmp(a, "--http-threads") == 0) {
-            if (parse_size(a, v, 2, 256, &x))
-                return RD_EXIT_USAGE;
-            o.http_threads = (int)x;
-        } else if (strcmp(a, "--queue") == 0) {
-            if (parse_size(a, v, 1, 1000000, &x))
-                return RD_EXIT_USAGE;
-            o.jobs.queue_length = x;
-        } else if (strcmp(a, "--max-body-bytes") == 0) {
-            if (parse_size(a, v, 1, 1ull << 34, &x))
-                return RD_EXIT_USAGE;
-            o.max_body_bytes = x;
-        } else if (strcmp(a, "--job-timeout-ms") == 0) {
-            if (parse_size(a, v, 0, 1ull << 40, &x))
-                return RD_EXIT_USAGE;
-            o.jobs.job_timeout_ms = (double)x;
-        } else if (strcmp(a, "--max-connections") == 0) {
-            if (parse_size(a, v, 1, 1000000, &x))
-                return RD_EXIT_USAGE;
-            o.max_connections = (unsigned)x;
-        } else if (strcmp(a, "--max-per-ip") == 0) {
-            if (parse_size(a, v, 1, 1000000, &x))
-                return RD_EXIT_USAGE;
-            o.max_per_ip = (unsigned)x;
-        } else if (strcmp(a, "--connection-timeout") == 0) {
-            if (parse_size(a, v, 1, 86400, &x))
-                return RD_EXIT_USAGE;
-            o.connection_timeout_s = (unsigned)x;
-        } else if (strcmp(a, "--header-timeout-ms") == 0) {
-            if (parse_size(a, v, 1, 1ull << 30, &x))
-                return RD_EXIT_USAGE;
-            o.header_timeout_ms = (double)x;
-        } else if (strcmp(a, "--body-timeout-ms") == 0) {
-            if (parse_size(a, v, 1, 1ull << 30, &x))
-                return RD_EXIT_USAGE;
-            o.body_timeout_ms = (double)x;
-        } else if (strcmp(a, "--max-query-args") == 0) {
-            if (parse_size(a, v, 1, 10000, &x))
-                return RD_EXIT_USAGE;
-            o.max_query_args = (unsigned)x;
-        } else if (strcmp(a, "--memory-budget") == 0) {
-            if (parse_size(a, v, 1u << 20, 1ull << 50, &x))
-                return RD_EXIT_USAGE;
-            o.jobs.memory_budget = x;
-        } else if (strcmp(a, "--grade-cache-bytes") == 0) {
-            if (parse_size(a, v, 0, 1ull << 40, &x))
-                return RD_EXIT_USAGE;
-            o.grade_cache_bytes = x;
-        } else if (strcmp(a, "--max-jobs-kept") == 0) {
-            if (parse_size(a, v, 1, 10000000, &x))
-                return RD_EXIT_USAGE;
-            o.jobs.kept_max = x;
-        } else if (strcmp(a, "--result-memory") == 0) {
-            if (parse_size(a, v, 0, 1ull << 40, &x))
-                return RD_EXIT_USAGE;
-            o.jobs.result_memory = x;
-        } else if (strcmp(a, "--result-ttl") == 0) {
-            if (parse_size(a, v, 0, 1ull << 30, &x))
-                return RD_EXIT_USAGE;
-            o.jobs.result_ttl_ms = (double)x * 1e3;
-        } else if (strcmp(a, "--drain-ms") == 0) {
-            if (parse_size(a, v, 0, 1ull << 30, &x))
-                return RD_EXIT_USAGE;
-            drain_ms = (double)x;
-        } else if (strcmp(a, "--png-level") == 0) {
-            if (parse_size(a, v, 0, 9, &x))
-                return RD_EXIT_USAGE;
-            o.jobs.png.level = (int)x;
-        } else if (strcmp(a, "--scenes") == 0) {
-            o.scenes_dir = v;
-        } else if (strcmp(a, "--assignments") == 0) {
-            o.assignments_dir = v;
-        } else if (strcmp(a, "--cache-dir") == 0) {
-            o.cache_dir = v;
-        } else if (strcmp(a, "--log-format") == 0) {
-            if (strcmp(v, "json") == 0)
-                o.log_json = 1;
-            else if (strcmp(v, "text") != 0)
-                return fprintf(stderr, "rayd serve: --log-format takes text or json\n"), RD_EXIT_USAGE;
-        } else {
-            fprintf(stderr, "rayd serve: unknown option '%s' (try 'rayd serve --help')\n", a);
-            return RD_EXIT_USAGE;
-        }
-    }
+    serve_args args;
+    int prc = parse_args(argc, argv, &args);
+    if (prc)
+        return prc == HELP_PRINTED ? RD_EXIT_OK : prc;
+    rd_server_options o = args.o;
+    o.listen_host = args.host;
+    const char *host = args.host, *port_file = args.port_file;
+    double drain_ms = args.drain_ms;
 
     /* Block the stop signals in every thread; this one waits for them. */
     sigset_t set;

@@ -55,6 +55,24 @@ expect_exit 2 "unknown material" -- "$RAYD" render "$T/inv.cfg" -o "$T/inv.png"
 expect_exit 3 "missing scene file" -- "$RAYD" render "$T/nope.cfg" -o "$T/n.png"
 expect_exit 3 "unwritable output" -- "$RAYD" render scenes/diffuse.cfg -o "$T/no/such/dir/x.png" --width 8 --height 8
 
+# The other commands' usage errors and limits: the same exit codes.
+expect_exit 1 "serve: bad number" -- "$RAYD" serve --threads x
+grep -q -- "--threads: expected an integer in 1..1024, got 'x'" "$T/err" && ok || bad "serve --threads x: $(cat "$T/err")"
+expect_exit 1 "serve: bad --listen" -- "$RAYD" serve --listen nowhere
+expect_exit 1 "serve: unknown option" -- "$RAYD" serve --colour red
+expect_exit 0 "serve --help" -- "$RAYD" serve --help
+grep -q -- "--memory-budget N" "$T/out" && grep -q "(default 64)" "$T/out" && ok || bad "serve --help lacks flags or defaults"
+expect_exit 0 "limits" -- "$RAYD" limits
+grep -q -- "--max-samples *65536" "$T/out" && ok || bad "rayd limits: $(head -c 300 "$T/out")"
+expect_exit 1 "converge: --max-samples is its last row" -- "$RAYD" converge scenes/diffuse.cfg --max-samples 0
+grep -q -- "--max-samples: expected an integer in 1..65536" "$T/err" && ok || bad "converge --max-samples 0: $(cat "$T/err")"
+expect_exit 2 "converge: a limit applies" -- "$RAYD" converge scenes/diffuse.cfg --max-pixels 100
+grep -q -- "--max-pixels" "$T/err" && ok || bad "converge limit message: $(cat "$T/err")"
+expect_exit 1 "converge: --width out of range" -- "$RAYD" converge scenes/diffuse.cfg --width 0
+grep -q "expected an integer in 1..16384" "$T/err" && ok || bad "converge --width 0: $(cat "$T/err")"
+expect_exit 0 "schema" -- "$RAYD" schema
+grep -q '"\$schema"' "$T/out" && ok || bad "rayd schema printed no JSON Schema"
+
 # Every bundled scene renders, as an RGB PNG of its size, with no NaN.
 for f in scenes/*.cfg; do
     n=$(basename "$f" .cfg)
