@@ -11,16 +11,10 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "rayd/clock.h"
 #include "http_internal.h"
 #include "timed_wait.h"
 
-
-static double now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
-}
 
 /* An open connection. libmicrohttpd's own timeout counts idle time, which
  * every trickled byte resets; these deadlines count from when the headers
@@ -39,7 +33,7 @@ static void set_deadline(rd_server *s, struct MHD_Connection *conn, double after
     if (!c)
         return;
     pthread_mutex_lock(&s->conn_mu);
-    c->deadline = after_ms > 0 ? now_ms() + after_ms : 0;
+    c->deadline = after_ms > 0 ? rd_now_ms() + after_ms : 0;
     pthread_mutex_unlock(&s->conn_mu);
 }
 
@@ -57,7 +51,7 @@ static void on_connection(void *cls, struct MHD_Connection *conn, void **socket_
             return;
         c->fd = ci->connect_fd;
         pthread_mutex_lock(&s->conn_mu);
-        c->deadline = now_ms() + s->opt.header_timeout_ms;
+        c->deadline = rd_now_ms() + s->opt.header_timeout_ms;
         c->next = s->conns;
         if (s->conns)
             s->conns->prev = c;
@@ -89,7 +83,7 @@ static void *reaper(void *arg)
     rd_server *s = arg;
     pthread_mutex_lock(&s->conn_mu);
     while (!s->reaper_stop) {
-        double now = now_ms();
+        double now = rd_now_ms();
         for (struct rd_conn *c = s->conns; c; c = c->next)
             if (c->deadline > 0 && now > c->deadline) {
                 shutdown(c->fd, SHUT_RDWR);
@@ -144,6 +138,11 @@ static void *on_uri(void *cls, const char *uri, struct MHD_Connection *conn)
 /* Below the 5 s a stopping server waits for suspended clients. */
 enum { RAW_ANSWER_MS = 4000 };
 
+/* At a stop: how long cancelled jobs may take to end (one is bounded by its
+ * parse, the rest stop within milliseconds), then how long the resumed
+ * clients' answers may take to go out. */
+enum { CANCELLED_END_MS = 30000, ANSWERS_SENT_MS = 5000 };
+
 /* 1 when the client shut its sending side but still reads. */
 static int peer_half_closed(int fd)
 {
@@ -157,7 +156,7 @@ static int peer_half_closed(int fd)
 static int send_all(int fd, const void *data, size_t len, double deadline)
 {
     const char *p = data;
-    while (len > 0 && now_ms() < deadline) {
+    while (len > 0 && rd_now_ms() < deadline) {
         ssize_t k = send(fd, p, len, MSG_NOSIGNAL | MSG_DONTWAIT);
         if (k > 0) {
             p += k;
@@ -195,7 +194,7 @@ static enum MHD_Result reply_raw(rd_req *r, int fd, unsigned status, const char 
         return MHD_NO;
     memcpy(head + n, "\r\n", 2);
     n += 2;
-    double deadline = now_ms() + RAW_ANSWER_MS;
+    double deadline = rd_now_ms() + RAW_ANSWER_MS;
     if (send_all(fd, head, n, deadline) && send_all(fd, body, len, deadline)) {
         r->status = status;
         r->bytes = len;
@@ -364,7 +363,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
         pthread_mutex_init(&r->mu, NULL);
         r->srv = srv;
         r->conn = conn;
-        r->t0 = now_ms();
+        r->t0 = rd_now_ms();
         *con_cls = r;
     }
     if (r->raw)
@@ -442,7 +441,7 @@ static void log_request(rd_server *srv, rd_req *r, enum MHD_RequestTerminationCo
     char when[96];
     snprintf(when, sizeof when, "%04d-%02d-%02dT%02d:%02d:%02d.%03ldZ", tm.tm_year + 1900, tm.tm_mon + 1,
              tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec, ts.tv_nsec / 1000000);
-    double ms = now_ms() - r->t0;
+    double ms = rd_now_ms() - r->t0;
     const char *end = toe == MHD_REQUEST_TERMINATED_COMPLETED_OK ? "" : " (connection closed early)";
     if (srv->opt.log_json) {
         cJSON *o = cJSON_CreateObject();
@@ -608,9 +607,9 @@ void rd_server_stop(rd_server *s, double drain_ms)
     /* The rest are cancelled and end within milliseconds (a job being
      * prepared, within its parse). */
     rd_jq_cancel_all(s->jobs);
-    rd_jq_drain(s->jobs, 30000);
+    rd_jq_drain(s->jobs, CANCELLED_END_MS);
     /* Every suspended client has been resumed: let MHD send their answers. */
-    for (int i = 0; i < 500 && atomic_load(&s->waiting) > 0; i++)
+    for (double t0 = rd_now_ms(); atomic_load(&s->waiting) > 0 && rd_now_ms() - t0 < ANSWERS_SENT_MS;)
         usleep(10000);
     atomic_store(&s->stopped, 1);
     MHD_socket fd = MHD_quiesce_daemon(s->mhd);

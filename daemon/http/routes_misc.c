@@ -11,11 +11,9 @@
 #include "scene_load.h"
 #include "file_io.h"
 
-static int scene_file(const char *name)
-{
-    size_t n = strlen(name);
-    return (n > 4 && strcmp(name + n - 4, ".cfg") == 0) || (n > 5 && strcmp(name + n - 5, ".json") == 0);
-}
+static int scene_file(const char *name) { return rd_ends_with(name, ".cfg") || rd_ends_with(name, ".json"); }
+
+static int listed(const struct dirent *e) { return e->d_name[0] != '.' && scene_file(e->d_name); }
 
 /* Links that lead out of the folder are neither listed nor served. */
 static int inside(const char *dir, const char *name)
@@ -25,42 +23,33 @@ static int inside(const char *dir, const char *name)
     return rd_path_inside(dir, name, real, &err) == RD_OK;
 }
 
-static int cmp_str(const void *a, const void *b) { return strcmp(*(char *const *)a, *(char *const *)b); }
-
 enum MHD_Result rd_route_scenes(rd_req *r, const char *rest)
 {
     const char *name = *rest ? rest + 1 : NULL;
     const char *dir = r->srv->opt.scenes_dir;
     if (!name || !*name) {
-        DIR *d = opendir(dir);
-        if (!d)
+        struct dirent **names;
+        int n = scandir(dir, &names, listed, alphasort);
+        if (n < 0)
             return rd_reply_json(r, 200, strdup("{\"scenes\":[]}"));
-        char *names[512];
-        size_t n = 0;
-        struct dirent *e;
-        while ((e = readdir(d)) && n < 512)
-            if (e->d_name[0] != '.' && scene_file(e->d_name) && inside(dir, e->d_name))
-                names[n++] = strdup(e->d_name);
-        closedir(d);
-        qsort(names, n, sizeof names[0], cmp_str);
         cJSON *root = cJSON_CreateObject(), *arr = cJSON_AddArrayToObject(root, "scenes");
-        for (size_t i = 0; i < n; i++) {
-            if (!names[i])
-                continue;
-            cJSON *o = cJSON_CreateObject();
-            size_t len = strlen(names[i]);
-            int json = len > 5 && strcmp(names[i] + len - 5, ".json") == 0;
-            char base[256];
-            snprintf(base, sizeof base, "%.*s", (int)(len - (json ? 5 : 4)), names[i]);
-            cJSON_AddStringToObject(o, "name", names[i]);
-            cJSON_AddStringToObject(o, "scene", base);
-            cJSON_AddStringToObject(o, "format", json ? "json" : "cfg");
-            char url[300];
-            snprintf(url, sizeof url, "/v1/scenes/%s", names[i]);
-            cJSON_AddStringToObject(o, "url", url);
-            cJSON_AddItemToArray(arr, o);
+        for (int i = 0; i < n; i++) {
+            const char *file = names[i]->d_name;
+            if (inside(dir, file)) {
+                cJSON *o = cJSON_CreateObject();
+                int json = rd_ends_with(file, ".json");
+                char base[256], url[300];
+                snprintf(base, sizeof base, "%.*s", (int)(strlen(file) - (json ? 5 : 4)), file);
+                snprintf(url, sizeof url, "/v1/scenes/%s", file);
+                cJSON_AddStringToObject(o, "name", file);
+                cJSON_AddStringToObject(o, "scene", base);
+                cJSON_AddStringToObject(o, "format", json ? "json" : "cfg");
+                cJSON_AddStringToObject(o, "url", url);
+                cJSON_AddItemToArray(arr, o);
+            }
             free(names[i]);
         }
+        free(names);
         char *t = cJSON_PrintUnformatted(root);
         cJSON_Delete(root);
         return rd_reply_json(r, 200, t);
@@ -78,8 +67,7 @@ enum MHD_Result rd_route_scenes(rd_req *r, const char *rest)
                                                                   rd_limit_flag(offsetof(rd_scene_limits, max_bytes)),
                                                                   &text, &len, &err))
         return rd_reply_error(r, 404, "not_found", NULL, "no bundled scene by that name");
-    size_t fl = strlen(file);
-    const char *type = fl > 5 && strcmp(file + fl - 5, ".json") == 0 ? "application/json" : "text/x-rayd-cfg";
+    const char *type = rd_ends_with(file, ".json") ? "application/json" : "text/x-rayd-cfg";
     return rd_reply(r, 200, type, text, len, 1);
 }
 

@@ -109,7 +109,6 @@ const char *rd_jq_status_name(rd_jq_status s)
     return (unsigned)s < 5 ? names[s] : "?";
 }
 
-static double now_ms(void) { return rd_now_ms(); }
 
 static void job_free(rd_jq_job *j)
 {
@@ -305,7 +304,7 @@ static void make_evictable(rd_jq *q, rd_jq_job *j)
  * Under q->mu. */
 static void sweep(rd_jq *q)
 {
-    double now = now_ms();
+    double now = rd_now_ms();
     for (int k = 0; k < 2; k++)
         while (q->kept[k].head && now - q->kept[k].head->t_end > q->opt.result_ttl_ms)
             drop_registered(q, q->kept[k].head);
@@ -341,7 +340,7 @@ static void finish_locked(rd_jq *q, rd_jq_job *j, rd_jq_status st)
     remove_active(q, j);
     j->status = st;
     j->ph = PH_ENDED;
-    j->t_end = now_ms();
+    j->t_end = rd_now_ms();
     if (!j->internal)
         count_outcome(q, j, st);
     rd_stats_add_counts(&j->stats, &j->counts, j->t_start > 0 ? j->t_end - j->t_start : 0);
@@ -432,7 +431,7 @@ static void *watchdog(void *arg)
     rd_jq *q = arg;
     pthread_mutex_lock(&q->mu);
     while (!q->stopping) {
-        double now = now_ms();
+        double now = rd_now_ms();
         for (rd_jq_job *j = q->active_head; j; j = j->next_active) {
             if (j->cancel)
                 continue;
@@ -517,7 +516,7 @@ static void finish_job(rd_jq *q, rd_jq_job *j)
 {
     j->ph = PH_FINISHING;
     if (j->t_start == 0)
-        j->t_start = now_ms();
+        j->t_start = rd_now_ms();
     pthread_mutex_unlock(&q->mu);
     rd_error err = {0};
     rd_error_code rc = RD_OK;
@@ -554,7 +553,7 @@ static void finish_job(rd_jq *q, rd_jq_job *j)
 static void start_job(rd_jq *q, rd_jq_job *j)
 {
     j->ph = PH_STARTING;
-    j->t_start = now_ms();
+    j->t_start = rd_now_ms();
     charge(q, j, j->footprint);
     pthread_mutex_unlock(&q->mu);
     rd_job *core = NULL;
@@ -862,7 +861,7 @@ rd_error_code rd_jq_submit(rd_jq *q, const rd_jq_task *task, const rd_jq_submit_
         j->watch_fd = -1;
     }
     j->sync = j->was_sync = j->done != NULL && !j->notify_prepared;
-    j->t_submit = now_ms();
+    j->t_submit = rd_now_ms();
     pthread_mutex_lock(&q->mu);
     sweep(q);
     if (q->stopping || q->active_count >= q->opt.queue_length) {
@@ -976,7 +975,7 @@ static double progress_of(const rd_jq_job *j)
         /* Samples toward the cap, or time toward the budget. */
         double by_spp = (j->spp + (double)j->pass_spp * j->tiles_done / (j->tiles_total ? j->tiles_total : 1)) /
                         j->progress.max_samples;
-        double by_time = j->progress.time_budget_ms > 0 ? (now_ms() - j->t_start) / j->progress.time_budget_ms : 0;
+        double by_time = j->progress.time_budget_ms > 0 ? (rd_now_ms() - j->t_start) / j->progress.time_budget_ms : 0;
         p = by_spp > by_time ? by_spp : by_time;
         if (p > 0.99)
             p = 0.99;
@@ -991,7 +990,7 @@ void rd_jq_info_get(rd_jq *q, rd_jq_job *j, rd_jq_info *out)
     snprintf(out->id, sizeof out->id, "%s", j->id);
     out->status = j->status;
     out->progress = progress_of(j);
-    double now = now_ms();
+    double now = rd_now_ms();
     out->elapsed_ms = j->t_start > 0 ? (j->t_end > 0 ? j->t_end : now) - j->t_start : 0;
     out->queued_ms = (j->t_start > 0 ? j->t_start : now) - j->t_submit;
     out->samples = j->status == RD_JQ_DONE ? j->stats.samples : j->spp;
@@ -1096,10 +1095,10 @@ void rd_jq_metrics_get(rd_jq *q, rd_jq_metrics *m)
 
 int rd_jq_drain(rd_jq *q, double timeout_ms)
 {
-    double end = now_ms() + timeout_ms;
+    double end = rd_now_ms() + timeout_ms;
     pthread_mutex_lock(&q->mu);
     while (q->active_count > 0) {
-        double left = end - now_ms();
+        double left = end - rd_now_ms();
         if (left <= 0)
             break;
         rd_timed_wait(&q->idle_cv, &q->mu, left);

@@ -291,3 +291,25 @@ void rd_fuzz_check_roundtrip(const rd_scene *s)
     for (size_t i = 0; i < sizeof formats / sizeof formats[0]; i++)
         roundtrip(&formats[i], s);
 }
+
+void rd_fuzz_scene_text(const uint8_t *data, size_t size, rd_fuzz_reader parse)
+{
+    static const char source[] = "<fuzz>";
+    rd_scene_limits lim = rd_fuzz_limits();
+    rd_scene s;
+    rd_error err;
+    rd_scene_init(&s);
+    rd_fuzz_error_init(&err);
+    rd_error_code rc = parse((const char *)data, size, source, &lim, &s, &err);
+    if (rc == RD_OK) {
+        /* Also on the daemon's path after every parse; pure arithmetic. */
+        rd_fuzz_error_init(&err);
+        rc = rd_scene_check_limits(&s, &lim, source, &err);
+        if (rc)
+            rd_fuzz_check_error(rc, &err, source);
+        rd_fuzz_check_roundtrip(&s);
+    } else {
+        rd_fuzz_check_error(rc, &err, source);
+    }
+    rd_scene_free(&s);
+}

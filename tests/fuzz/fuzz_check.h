@@ -9,6 +9,7 @@
 #define RD_FUZZ_CHECK_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 #include "rayd/error.h"
 #include "rayd/scene.h"
@@ -40,5 +41,15 @@ void rd_fuzz_check_error(rd_error_code rc, const rd_error *err, const char *sour
  * text again. rd_scene_write_cfg may refuse only a scene holding a name or
  * string with '"', CR or LF, as scene_write.h documents. */
 void rd_fuzz_check_roundtrip(const rd_scene *s);
+
+/* One scene reader's target (fuzz_cfg.c, fuzz_json.c): parse data (exactly
+ * size bytes, not NUL-terminated, so AddressSanitizer catches a reader that
+ * runs past the end) named "<fuzz>"; a scene must pass the limit check's
+ * rules and the round trip, an error must be well formed, and the scene is
+ * freed either way (LeakSanitizer catches a partly filled scene that
+ * leaks). */
+typedef rd_error_code (*rd_fuzz_reader)(const char *text, size_t len, const char *source, const rd_scene_limits *lim,
+                                        rd_scene *s, rd_error *err);
+void rd_fuzz_scene_text(const uint8_t *data, size_t size, rd_fuzz_reader parse);
 
 #endif

@@ -13,6 +13,8 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "rayd/clock.h"
+
 static rd_server *server;
 static uint16_t port;
 static FILE *report; /* the real stderr */
@@ -90,18 +92,11 @@ void rd_fuzz_server_start(const rd_server_options *o)
     atexit(stop_server);
 }
 
-static double now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
-}
-
 /* Waits for `events` until the deadline; 0 when it passed. */
 static int wait_for(int fd, short events, double deadline)
 {
     for (;;) {
-        double left = deadline - now_ms();
+        double left = deadline - rd_now_ms();
         if (left <= 0)
             return 0;
         struct pollfd p = {fd, events, 0};
@@ -150,7 +145,7 @@ static const char *header(const char *head, const char *name)
 int rd_fuzz_request(const char *method, const char *target, const char *content_type, const uint8_t *body,
                     size_t len)
 {
-    double start = now_ms(), deadline = start + RD_FUZZ_ANSWER_MS;
+    double start = rd_now_ms(), deadline = start + RD_FUZZ_ANSWER_MS;
     int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
     if (fd < 0)
         rd_fuzz_http_fail("socket: %s", strerror(errno));

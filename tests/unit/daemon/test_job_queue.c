@@ -182,6 +182,68 @@ Test(job_queue, result_memory_drops_the_oldest_images)
     rd_jq_stop(q);
 }
 
+/* Fair share: with one render thread busy on a job of 256 tiles, a job of
+ * one tile is given the next tile once it is prepared, so the big job moves
+ * on by about one tile meanwhile, not by all it has left. Preparing runs on
+ * its own thread, whose delay on a loaded machine is not measured: only the
+ * big job's tiles between the small one being prepared and its end. */
+Test(job_queue, a_small_job_overtakes_a_big_one)
+{
+    rd_jq_options o = options();
+    o.workers = 1;
+    rd_error err;
+    rd_jq *q = rd_jq_start(&o, &err);
+    cr_assert_not_null(q);
+    static const char big_scene[] = "[render]\nwidth = 256\nheight = 256\nsamples = 64\n"
+                                    "[light]\ntype = point\nposition = 0 5 5\ncolor = 1 1 1\n"
+                                    "[material m]\ntype = diffuse\nkd = 0.5 0.5 0.5\n"
+                                    "[sphere]\ncenter = 0 0 0\nradius = 1\nmaterial = m\n";
+    rd_jq_job *big = submit(q, big_scene, NULL, RD_OK);
+    wait_status(q, big, RD_JQ_RUNNING, 10000);
+    rd_jq_job *small = submit(q, small_scene, NULL, RD_OK);
+    rd_jq_info in, bin;
+    for (rd_jq_info_get(q, small, &in); !in.prepared; rd_jq_info_get(q, small, &in)) {
+        struct timespec ts = {0, 200000};
+        nanosleep(&ts, NULL);
+    }
+    rd_jq_info_get(q, big, &bin);
+    double p0 = bin.progress;
+    wait_status(q, small, RD_JQ_DONE, 60000);
+    rd_jq_info_get(q, big, &bin);
+    cr_assert_eq(bin.status, RD_JQ_RUNNING, "the big job ended before the small one");
+    double tiles = (bin.progress - p0) * 256;
+    cr_assert_leq(tiles, 16, "the big job rendered %.0f tiles while the small one waited", tiles);
+    rd_jq_cancel(q, big);
+    rd_jq_job_unref(big);
+    rd_jq_job_unref(small);
+    rd_jq_stop(q);
+}
+
+/* A finished job is readable for --result-ttl, then gone. */
+Test(job_queue, finished_jobs_expire_after_their_ttl)
+{
+    rd_jq_options o = options();
+    o.result_ttl_ms = 2000;
+    rd_error err;
+    rd_jq *q = rd_jq_start(&o, &err);
+    cr_assert_not_null(q);
+    rd_jq_job *j = submit(q, small_scene, NULL, RD_OK);
+    wait_status(q, j, RD_JQ_DONE, 10000);
+    rd_jq_info in;
+    rd_jq_info_get(q, j, &in);
+    rd_jq_job_unref(j);
+    rd_jq_job *f = rd_jq_find(q, in.id);
+    cr_assert_not_null(f, "gone at once");
+    rd_jq_job_unref(f);
+    struct timespec ts = {2, 200000000};
+    nanosleep(&ts, NULL);
+    cr_assert_null(rd_jq_find(q, in.id), "still there after its TTL");
+    rd_jq_metrics m;
+    rd_jq_metrics_get(q, &m);
+    cr_assert_eq(m.jobs_kept, 0);
+    rd_jq_stop(q);
+}
+
 Test(job_queue, job_over_the_budget_fails_naming_the_flag)
 {
     rd_jq_options o = options();
