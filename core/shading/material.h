@@ -13,6 +13,17 @@
 rd_rgb rd_calc_reflected_light(const rd_material *m, const rd_hit *hit, rd_vec3 incoming,
                                rd_vec3 outgoing);
 
+/* cos α = -N·L of light arriving along L, clamped to 1 (rounding can
+ * pass it); 0 when the light is behind the surface or grazes it, where
+ * every material reflects nothing. */
+static inline double rd_incidence(const rd_hit *hit, rd_vec3 L)
+{
+    double cosa = -v3_dot(hit->n, L);
+    if (!(cosa > 0))
+        return 0;
+    return cosa > 1 ? 1 : cosa;
+}
+
 rd_rgb rd_diffuse_reflected(const rd_material *m, const rd_hit *hit, rd_vec3 L, rd_vec3 V);
 rd_rgb rd_phong_reflected(const rd_material *m, const rd_hit *hit, rd_vec3 L, rd_vec3 V);
 rd_rgb rd_blinn_phong_reflected(const rd_material *m, const rd_hit *hit, rd_vec3 L, rd_vec3 V);

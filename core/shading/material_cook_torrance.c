@@ -23,11 +23,9 @@ static double beckmann(rd_vec3 N, rd_vec3 H, double nh, double m)
 
 rd_rgb rd_cook_torrance_reflected(const rd_material *m, const rd_hit *hit, rd_vec3 L, rd_vec3 V)
 {
-    double cosa = -v3_dot(hit->n, L);
-    if (!(cosa > 0))
+    double cosa = rd_incidence(hit, L);
+    if (cosa == 0)
         return v3(0, 0, 0);
-    if (cosa > 1)
-        cosa = 1;
     rd_rgb c = v3_scale(m->kd, cosa);
     double nv = v3_dot(hit->n, V);
     if (!(nv > 0))
