@@ -4,7 +4,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-enum { BINS = 16, LEAF_MAX = 4, STACK = 128 };
+/* BINS: SAH bins per axis. LEAF_MAX: primitives per leaf the estimate of
+ * node count assumes. SMALL_LEAF: a node this small becomes a leaf when no
+ * split is cheaper; a larger one is split even so. */
+enum { BINS = 16, LEAF_MAX = 4, SMALL_LEAF = 16, MAX_DEPTH = RD_BVH_STACK - 8 };
 
 static float down(double x)
 {
@@ -164,8 +167,8 @@ static int build(builder *bd, uint32_t node, size_t first, size_t count, int dep
         }
     }
     size_t mid;
-    if (best_axis < 0 || (best_cost >= leaf_cost && count <= 16)) {
-        if (best_axis < 0 && count > 16 && depth < STACK - 8) {
+    if (best_axis < 0 || (best_cost >= leaf_cost && count <= SMALL_LEAF)) {
+        if (best_axis < 0 && count > SMALL_LEAF && depth < MAX_DEPTH) {
             /* Centroids all coincide: halve by index so leaves stay small. */
             mid = first + count / 2;
         } else {
@@ -190,7 +193,7 @@ static int build(builder *bd, uint32_t node, size_t first, size_t count, int dep
         if (mid == first || mid == first + count)
             mid = first + count / 2;
     }
-    if (depth >= STACK - 8) {
+    if (depth >= MAX_DEPTH) {
         /* Deeper than traversal's stack allows: stop here, however big. */
         if (count > UINT16_MAX)
             return 0;

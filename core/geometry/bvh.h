@@ -14,6 +14,11 @@
 #include "rayd/error.h"
 #include "ray.h"
 
+/* Entries of a traversal stack: the builder keeps every leaf shallower than
+ * RD_BVH_STACK - 8, so a depth-first walk pushing one node per level (and
+ * two at the last) never overflows a stack of this size. */
+#define RD_BVH_STACK 128
+
 /* 32 bytes. Bounds are floats rounded outward from the double bounds, so a
  * box always contains its primitives. */
 typedef struct {

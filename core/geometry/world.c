@@ -180,7 +180,7 @@ static void bvh_closest(const rd_world *w, rd_ray r, best_hit *b)
 {
     const rd_bvh *bvh = &w->bvh;
     rd_bvh_ray br = rd_bvh_ray_make(r);
-    uint32_t stack[128];
+    uint32_t stack[RD_BVH_STACK];
     int sp = 0;
     double tn;
     if (!rd_bvh_box_hit(&bvh->nodes[0], &br, b->t, &tn))
@@ -219,7 +219,7 @@ static int bvh_any(const rd_world *w, rd_ray r, double tmax)
 {
     const rd_bvh *bvh = &w->bvh;
     rd_bvh_ray br = rd_bvh_ray_make(r);
-    uint32_t stack[128];
+    uint32_t stack[RD_BVH_STACK];
     int sp = 0;
     double tn;
     if (!rd_bvh_box_hit(&bvh->nodes[0], &br, tmax, &tn))

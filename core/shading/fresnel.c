@@ -11,10 +11,8 @@ double rd_fresnel_dielectric(double cosi, double n1, double n2, double *cost_out
         return 0;
     }
     double eta = n1 / n2;
-    /* cos²θt = 1 - η²(1 - cos²θi), written so that it does not cancel near
-     * grazing incidence. */
-    /* Near the critical angle cos²θt is a difference of nearly equal terms:
-     * long double keeps the digits. */
+    /* cos²θt = (1 - η²) + η² cos²θi. Near the critical angle it is a
+     * difference of nearly equal terms: long double keeps the digits. */
     long double el = (long double)eta;
     double cos2t = (double)((1 - el * el) + el * el * (long double)cosi * (long double)cosi);
     if (!(cos2t > 0)) {
