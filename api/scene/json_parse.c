@@ -232,12 +232,10 @@ static rd_error_code top_level(jparser *jp, const cJSON *root, rd_error *err)
             rd_suggest_offer(&sg, m->string, strlen(m->string), tops[i]);
         }
         if (!known) {
-            const char *best = rd_suggest_result(&sg, strlen(m->string));
-            char p[PATH_MAX_LEN];
+            char p[PATH_MAX_LEN], hint[300];
             snprintf(p, sizeof p, "%.*s", CUT(m->string));
-            return rd_builder_error(jp->b, err, RD_ERR_SYNTAX, path_loc(p), "unknown key '%.*s'%s%s%s",
-                                    CUT(m->string), best ? "; did you mean '" : "", best ? best : "",
-                                    best ? "'?" : "");
+            return rd_builder_error(jp->b, err, RD_ERR_SYNTAX, path_loc(p), "unknown key '%.*s'%s", CUT(m->string),
+                                    rd_suggest_hint(&sg, strlen(m->string), hint, sizeof hint));
         }
     }
     const cJSON *v;
@@ -305,12 +303,11 @@ static rd_error_code top_level(jparser *jp, const cJSON *root, rd_error *err)
             }
             if (!known) {
                 char q[PATH_MAX_LEN + 8];
-                const char *best = rd_suggest_result(&sg, strlen(type));
+                char hint[300];
                 snprintf(q, sizeof q, "%.200s.type", p);
                 return rd_builder_error(jp->b, err, RD_ERR_SYNTAX, path_loc(q),
-                                        "type: expected one of sphere, plane, triangle, mesh, got '%.*s'%s%s%s",
-                                        CUT(type), best ? "; did you mean '" : "", best ? best : "",
-                                        best ? "'?" : "");
+                                        "type: expected one of sphere, plane, triangle, mesh, got '%.*s'%s", CUT(type),
+                                        rd_suggest_hint(&sg, strlen(type), hint, sizeof hint));
             }
             if ((rc = section(jp, type, name, p, m, object_skip, err)))
                 return rc;

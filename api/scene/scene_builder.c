@@ -180,10 +180,9 @@ static rd_error_code enum_value(rd_builder *b, const rd_key *k, const rd_value *
         rd_suggest_offer(&sg, t->text, t->len, k->words[i]);
         snprintf(list + strlen(list), sizeof list - strlen(list), "%s%s", i ? ", " : "", k->words[i]);
     }
-    const char *best = rd_suggest_result(&sg, t->len);
-    return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected one of %s, got %s%s%s%s",
-                            k->name, list, rd_token_what(t, tb, sizeof tb),
-                            best ? "; did you mean '" : "", best ? best : "", best ? "'?" : "");
+    char hint[300];
+    return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected one of %s, got %s%s", k->name, list,
+                            rd_token_what(t, tb, sizeof tb), rd_suggest_hint(&sg, t->len, hint, sizeof hint));
 }
 
 /* Stores entry e into the struct at base. */
@@ -376,13 +375,9 @@ static rd_error_code unknown_key(rd_builder *b, rd_section_kind sec, const rd_en
     for (size_t i = 0; i < nk; i++)
         if (keys[i].section == sec)
             rd_suggest_offer(&sg, e->key, e->key_len, keys[i].name);
-    const char *best = rd_suggest_result(&sg, e->key_len);
-    int shown = cut(e->key, e->key_len);
-    if (best)
-        return rd_builder_error(b, err, RD_ERR_SYNTAX, e->key_loc,
-                                "unknown key '%.*s' in %s; did you mean '%s'?", shown, e->key, label, best);
-    return rd_builder_error(b, err, RD_ERR_SYNTAX, e->key_loc, "unknown key '%.*s' in %s", shown,
-                            e->key, label);
+    char hint[300];
+    return rd_builder_error(b, err, RD_ERR_SYNTAX, e->key_loc, "unknown key '%.*s' in %s%s", cut(e->key, e->key_len),
+                            e->key, label, rd_suggest_hint(&sg, e->key_len, hint, sizeof hint));
 }
 
 static rd_loc loc_of(const rd_entry *e, rd_loc fallback)
@@ -480,10 +475,9 @@ rd_error_code rd_builder_section(rd_builder *b, const char *kind, size_t kind_le
         rd_suggest_init(&sg);
         for (int k = 0; k < RD_SEC_COUNT; k++)
             rd_suggest_offer(&sg, kind, kind_len, rd_section_kind_name((rd_section_kind)k));
-        const char *best = rd_suggest_result(&sg, kind_len);
-        int shown = cut(kind, kind_len);
-        return rd_builder_error(b, err, RD_ERR_SYNTAX, where, "unknown section kind '%.*s'%s%s%s", shown,
-                                kind, best ? "; did you mean '" : "", best ? best : "", best ? "'?" : "");
+        char hint[300];
+        return rd_builder_error(b, err, RD_ERR_SYNTAX, where, "unknown section kind '%.*s'%s", cut(kind, kind_len),
+                                kind, rd_suggest_hint(&sg, kind_len, hint, sizeof hint));
     }
     rd_section_kind sec = (rd_section_kind)ki;
     section_label(label, sizeof label, sec, name, name_len);
@@ -645,10 +639,10 @@ rd_error_code rd_builder_finish(rd_builder *b, rd_error *err)
             rd_suggest_init(&sg);
             for (size_t j = 0; j < s->material_count; j++)
                 rd_suggest_offer(&sg, o->material_name, strlen(o->material_name), s->materials[j].name);
-            const char *best = rd_suggest_result(&sg, strlen(o->material_name));
-            return rd_builder_error(b, err, RD_ERR_INVALID, l, "no material named '%.*s'%s%s%s",
-                                    cut(o->material_name, strlen(o->material_name)), o->material_name, best ? "; did you mean '" : "", best ? best : "",
-                                    best ? "'?" : "");
+            char hint[300];
+            size_t len = strlen(o->material_name);
+            return rd_builder_error(b, err, RD_ERR_INVALID, l, "no material named '%.*s'%s", cut(o->material_name, len),
+                                    o->material_name, rd_suggest_hint(&sg, len, hint, sizeof hint));
         }
         o->material = m;
     }

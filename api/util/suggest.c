@@ -1,5 +1,7 @@
 #include "suggest.h"
 
+#include <stdio.h>
+
 #include <string.h>
 
 int rd_edit_distance(const char *a, size_t alen, const char *b, size_t blen)
@@ -52,4 +54,14 @@ const char *rd_suggest_result(const rd_suggestion *s, size_t typed_len)
     if (s->dist <= 2 && (size_t)s->dist * 3 <= longer)
         return s->best;
     return NULL;
+}
+
+const char *rd_suggest_hint(const rd_suggestion *s, size_t typed_len, char *buf, size_t size)
+{
+    const char *best = rd_suggest_result(s, typed_len);
+    if (best)
+        snprintf(buf, size, "; did you mean '%.200s'?", best);
+    else if (size)
+        buf[0] = 0;
+    return buf;
 }

@@ -20,4 +20,9 @@ void rd_suggest_offer(rd_suggestion *s, const char *typed, size_t len, const cha
  * most 2, and at most a third of the longer word), else NULL. */
 const char *rd_suggest_result(const rd_suggestion *s, size_t typed_len);
 
+/* What messages append: "; did you mean 'WORD'?" for the result, or "" when
+ * there is none. Written into buf (at least 300 bytes for any word), which
+ * it returns. */
+const char *rd_suggest_hint(const rd_suggestion *s, size_t typed_len, char *buf, size_t size);
+
 #endif
