@@ -177,21 +177,9 @@ rd_error_code rd_cfg_parse(const char *text, size_t len, const char *source,
 {
     rd_scene_limits lim = lim_in ? *lim_in : rd_scene_limits_default();
     source = source ? source : "<scene>";
-    if (len > lim.max_bytes)
-        return rd_loc_error(err, RD_ERR_LIMIT, source, (rd_loc){0, 0, NULL},
-                            "scene is %zu bytes, over the limit of %zu (%s)", len, lim.max_bytes,
-                            rd_limit_flag(offsetof(rd_scene_limits, max_bytes)));
-    size_t bad = rd_utf8_invalid_at(text, len);
-    if (bad < len) {
-        int line = 1;
-        /* Columns never count a byte-order mark. */
-        const char *ls = len >= 3 && memcmp(text, "\xef\xbb\xbf", 3) == 0 && bad >= 3 ? text + 3 : text;
-        for (const char *q = text; q < text + bad; q++)
-            if (*q == '\n')
-                line++, ls = q + 1;
-        return rd_loc_error(err, RD_ERR_SYNTAX, source, at(line, ls, text + bad),
-                            text[bad] ? "invalid UTF-8" : "NUL byte in the scene text");
-    }
+    rd_error_code rc = rd_scene_text_check(text, len, source, &lim, err);
+    if (rc)
+        return rc;
     parser ps;
     memset(&ps, 0, sizeof ps);
     ps.text = text;
@@ -200,10 +188,7 @@ rd_error_code rd_cfg_parse(const char *text, size_t len, const char *source,
     ps.b = rd_builder_new(s, source, &lim);
     if (!ps.b)
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "%s: out of memory", source);
-    const char *p = text;
-    if (len >= 3 && memcmp(p, "\xef\xbb\xbf", 3) == 0)
-        p += 3;
-    rd_error_code rc = RD_OK;
+    const char *p = text + rd_utf8_bom(text, len);
     int line = 0;
     while (p < ps.end && rc == RD_OK) {
         line++;

@@ -39,14 +39,10 @@ static rd_loc path_loc(const char *path)
 }
 
 /* Line and column of byte offset off. */
-static rd_loc text_loc(const char *text, size_t off)
+static rd_loc text_loc(const char *text, size_t len, size_t off)
 {
-    int line = 1;
-    const char *ls = off >= 3 && memcmp(text, "\xef\xbb\xbf", 3) == 0 ? text + 3 : text;
-    for (size_t i = 0; i < off; i++)
-        if (text[i] == '\n')
-            line++, ls = text + i + 1;
-    rd_loc l = {line, rd_utf8_column(ls, text + off), NULL};
+    rd_loc l = {0, 0, NULL};
+    rd_utf8_position(text, len, off, &l.line, &l.column);
     return l;
 }
 
@@ -323,24 +319,18 @@ rd_error_code rd_json_parse(const char *text, size_t len, const char *source,
     memset(&jp, 0, sizeof jp);
     jp.lim = lim_in ? *lim_in : rd_scene_limits_default();
     jp.source = source ? source : "<scene>";
-    if (len > jp.lim.max_bytes)
-        return rd_loc_error(err, RD_ERR_LIMIT, jp.source, (rd_loc){0, 0, NULL},
-                            "scene is %zu bytes, over the limit of %zu (%s)", len, jp.lim.max_bytes,
-                            rd_limit_flag(offsetof(rd_scene_limits, max_bytes)));
-    size_t bad = rd_utf8_invalid_at(text, len);
-    if (bad < len)
-        return rd_loc_error(err, RD_ERR_SYNTAX, jp.source, text_loc(text, bad),
-                            text[bad] ? "invalid UTF-8" : "NUL byte in the scene text");
-    size_t skip = len >= 3 && memcmp(text, "\xef\xbb\xbf", 3) == 0 ? 3 : 0;
-    /* Columns do not count the byte-order mark, as in cfg. */
-    rd_error_code rc = rd_json_check(text + skip, len - skip, jp.source, jp.lim.max_nesting, jp.lim.max_name, err);
+    rd_error_code rc = rd_scene_text_check(text, len, jp.source, &jp.lim, err);
+    if (rc)
+        return rc;
+    size_t skip = rd_utf8_bom(text, len);
+    rc = rd_json_check(text + skip, len - skip, jp.source, jp.lim.max_nesting, jp.lim.max_name, err);
     if (rc)
         return rc;
     const char *end = NULL;
     cJSON *root = cJSON_ParseWithLengthOpts(text + skip, len - skip, &end, 0);
     if (!root) {
         size_t off = end && end >= text + skip && end <= text + len ? (size_t)(end - text) : len;
-        rd_loc l = text_loc(text, off);
+        rd_loc l = text_loc(text, len, off);
         if (off >= len)
             return rd_loc_error(err, RD_ERR_SYNTAX, jp.source, l, "JSON syntax error: unexpected end of input");
         return rd_loc_error(err, RD_ERR_SYNTAX, jp.source, l, "JSON syntax error");
@@ -351,7 +341,7 @@ rd_error_code rd_json_parse(const char *text, size_t len, const char *source,
         off++;
     if (off < len) {
         cJSON_Delete(root);
-        return rd_loc_error(err, RD_ERR_SYNTAX, jp.source, text_loc(text, off),
+        return rd_loc_error(err, RD_ERR_SYNTAX, jp.source, text_loc(text, len, off),
                             "JSON syntax error: text after the scene object");
     }
     jp.b = rd_builder_new(s, jp.source, &jp.lim);

@@ -75,6 +75,21 @@ rd_error_code rd_builder_error(const rd_builder *b, rd_error *err, rd_error_code
     return code;
 }
 
+rd_error_code rd_scene_text_check(const char *text, size_t len, const char *source, const rd_scene_limits *lim,
+                                  rd_error *err)
+{
+    if (len > lim->max_bytes)
+        return rd_loc_error(err, RD_ERR_LIMIT, source, (rd_loc){0, 0, NULL},
+                            "scene is %zu bytes, over the limit of %zu (%s)", len, lim->max_bytes,
+                            rd_limit_flag(offsetof(rd_scene_limits, max_bytes)));
+    size_t bad = rd_utf8_invalid_at(text, len);
+    if (bad >= len)
+        return RD_OK;
+    rd_loc l = {0, 0, NULL};
+    rd_utf8_position(text, len, bad, &l.line, &l.column);
+    return rd_loc_error(err, RD_ERR_SYNTAX, source, l, text[bad] ? "invalid UTF-8" : "NUL byte in the scene text");
+}
+
 rd_builder *rd_builder_new(rd_scene *s, const char *source, const rd_scene_limits *lim)
 {
     rd_builder *b = calloc(1, sizeof *b);

@@ -33,6 +33,12 @@ typedef struct {
 
 typedef struct rd_builder rd_builder;
 
+/* What both readers check before reading anything: the size limit, then
+ * valid UTF-8 without NUL bytes (the error at the first bad byte, with its
+ * line and column). */
+rd_error_code rd_scene_text_check(const char *text, size_t len, const char *source, const rd_scene_limits *lim,
+                                  rd_error *err);
+
 /* source: the name used in messages ("phong.cfg", "<upload>"). The scene
  * must have been rd_scene_init'ed. NULL when out of memory. */
 rd_builder *rd_builder_new(rd_scene *s, const char *source, const rd_scene_limits *lim);

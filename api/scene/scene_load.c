@@ -12,12 +12,11 @@
 #include "cfg_parse.h"
 #include "file_io.h"
 #include "json_parse.h"
+#include "utf8.h"
 
 rd_scene_format rd_scene_sniff(const char *text, size_t len)
 {
-    size_t i = 0;
-    if (len >= 3 && memcmp(text, "\xef\xbb\xbf", 3) == 0)
-        i = 3;
+    size_t i = rd_utf8_bom(text, len);
     while (i < len && (text[i] == ' ' || text[i] == '\t' || text[i] == '\r' || text[i] == '\n'))
         i++;
     return i < len && text[i] == '{' ? RD_FMT_JSON : RD_FMT_CFG;

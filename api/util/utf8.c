@@ -1,5 +1,7 @@
 #include "utf8.h"
 
+#include <string.h>
+
 size_t rd_utf8_invalid_at(const char *str, size_t len)
 {
     const unsigned char *s = (const unsigned char *)str;
@@ -56,4 +58,21 @@ size_t rd_utf8_prefix(const char *s, size_t len, size_t max_chars)
         chars++;
     }
     return i;
+}
+
+size_t rd_utf8_bom(const char *text, size_t len)
+{
+    return len >= 3 && memcmp(text, "\xef\xbb\xbf", 3) == 0 ? 3 : 0;
+}
+
+void rd_utf8_position(const char *text, size_t len, size_t off, int *line, int *column)
+{
+    int n = 1;
+    size_t bom = rd_utf8_bom(text, len);
+    const char *ls = off >= bom ? text + bom : text;
+    for (size_t i = 0; i < off; i++)
+        if (text[i] == '\n')
+            n++, ls = text + i + 1;
+    *line = n;
+    *column = rd_utf8_column(ls, text + off);
 }

@@ -16,4 +16,11 @@ size_t rd_utf8_prefix(const char *s, size_t len, size_t max_chars);
 /* 1-based character column of offset pos in the line starting at line_start. */
 int rd_utf8_column(const char *line_start, const char *pos);
 
+/* 3 when text begins with a UTF-8 byte-order mark, else 0. */
+size_t rd_utf8_bom(const char *text, size_t len);
+
+/* The 1-based line and character column of byte offset off; a byte-order
+ * mark at the start counts for no column. */
+void rd_utf8_position(const char *text, size_t len, size_t off, int *line, int *column);
+
 #endif
