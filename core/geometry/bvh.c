@@ -94,115 +94,136 @@ static uint32_t new_node(builder *bd)
     return (uint32_t)bd->b->nnodes++;
 }
 
+/* Bounds of the records' boxes and of their centroids. */
+static void node_bounds(const rec *r, size_t first, size_t count, box *bounds, box *cb)
+{
+    box_empty(bounds);
+    box_empty(cb);
+    for (size_t i = first; i < first + count; i++) {
+        box_grow(bounds, &r[i].b);
+        box_grow_point(cb, r[i].c);
+    }
+}
+
+/* A binned SAH split: records whose centroid's bin along axis is at most
+ * bin go left. axis < 0: no split exists (centroids coincide). */
+typedef struct {
+    int axis, bin;
+    double cost;
+    double scale;   /* bins per unit along axis */
+    float lo;       /* where bin 0 starts */
+} split;
+
+static int bin_of(const rec *x, const split *sp)
+{
+    int k = (int)(((double)x->c[sp->axis] - sp->lo) * sp->scale);
+    return k < 0 ? 0 : (k >= BINS ? BINS - 1 : k);
+}
+
+/* The cheapest split along the widest spread of centroids: binning all
+ * three axes gave slightly better trees for three times the build work. */
+static void find_split(const rec *r, size_t first, size_t count, const box *bounds, const box *cb, split *sp)
+{
+    int axis = 0;
+    for (int k = 1; k < 3; k++)
+        if ((double)cb->hi[k] - cb->lo[k] > (double)cb->hi[axis] - cb->lo[axis])
+            axis = k;
+    double ext = (double)cb->hi[axis] - (double)cb->lo[axis];
+    *sp = (split){-1, 0, INFINITY, ext > 0 ? BINS / ext : 0, cb->lo[axis]};
+    if (!(sp->scale > 0))
+        return;
+    sp->axis = axis;
+    box bb[BINS];
+    size_t bc[BINS] = {0};
+    for (int k = 0; k < BINS; k++)
+        box_empty(&bb[k]);
+    for (size_t i = first; i < first + count; i++) {
+        int k = bin_of(&r[i], sp);
+        bc[k]++;
+        box_grow(&bb[k], &r[i].b);
+    }
+    double right_area[BINS], parent_area = box_area(bounds);
+    size_t right_count[BINS], cnt = 0;
+    box acc;
+    box_empty(&acc);
+    for (int k = BINS - 1; k > 0; k--) {
+        box_grow(&acc, &bb[k]);
+        cnt += bc[k];
+        right_area[k] = box_area(&acc);
+        right_count[k] = cnt;
+    }
+    box_empty(&acc);
+    cnt = 0;
+    int best = -1;
+    for (int k = 0; k < BINS - 1; k++) {
+        box_grow(&acc, &bb[k]);
+        cnt += bc[k];
+        if (cnt == 0 || right_count[k + 1] == 0)
+            continue;
+        double cost = 0.5 + (box_area(&acc) * cnt + right_area[k + 1] * right_count[k + 1]) /
+                                (parent_area > 0 ? parent_area : 1);
+        if (cost < sp->cost) {
+            sp->cost = cost;
+            best = k;
+        }
+    }
+    sp->axis = best < 0 ? -1 : axis;
+    sp->bin = best < 0 ? 0 : best;
+}
+
+/* Moves the left side's records first; returns where the right begins,
+ * halving by index when one side would be empty. */
+static size_t partition(rec *r, size_t first, size_t count, const split *sp)
+{
+    size_t i = first, j = first + count;
+    while (i < j) {
+        if (bin_of(&r[i], sp) <= sp->bin) {
+            i++;
+        } else {
+            rec t = r[i];
+            r[i] = r[--j];
+            r[j] = t;
+        }
+    }
+    return i == first || i == first + count ? first + count / 2 : i;
+}
+
+static int make_leaf(rd_bvh_node *n, size_t first, size_t count)
+{
+    if (count > UINT16_MAX)
+        return 0;
+    n->offset = (uint32_t)first;
+    n->count = (uint16_t)count;
+    return 1;
+}
+
 /* Splits prims[first, first+count) recursively; returns 0 on out of memory. */
 static int build(builder *bd, uint32_t node, size_t first, size_t count, int depth)
 {
-    rec *r = bd->r;
     box bounds, cb;
-    box_empty(&bounds);
-    box_empty(&cb);
-    for (size_t i = first; i < first + count; i++) {
-        box_grow(&bounds, &r[i].b);
-        box_grow_point(&cb, r[i].c);
-    }
+    node_bounds(bd->r, first, count, &bounds, &cb);
     rd_bvh_node *n = &bd->b->nodes[node];
     memcpy(n->lo, bounds.lo, sizeof n->lo);
     memcpy(n->hi, bounds.hi, sizeof n->hi);
     n->axis = 0;
-    if (count <= LEAF_MAX) {
-        n->offset = (uint32_t)first;
-        n->count = (uint16_t)count;
-        return 1;
-    }
-    /* Best binned SAH split over all three axes. */
-    int best_axis = -1, best_bin = 0;
-    double best_cost = INFINITY;
-    double leaf_cost = (double)count;
-    double parent_area = box_area(&bounds);
-    /* Bin along the widest spread of centroids only: binning all three
-     * axes gave slightly better trees for three times the build work. */
-    int axis = 0;
-    for (int k = 1; k < 3; k++)
-        if ((double)cb.hi[k] - cb.lo[k] > (double)cb.hi[axis] - cb.lo[axis])
-            axis = k;
-    double ext = (double)cb.hi[axis] - (double)cb.lo[axis];
-    double sc = ext > 0 ? BINS / ext : 0;
-    float clo = cb.lo[axis];
-    if (sc > 0) {
-        box bb[BINS];
-        size_t bc[BINS] = {0};
-        for (int k = 0; k < BINS; k++)
-            box_empty(&bb[k]);
-        for (size_t i = first; i < first + count; i++) {
-            int k = (int)(((double)r[i].c[axis] - clo) * sc);
-            k = k < 0 ? 0 : (k >= BINS ? BINS - 1 : k);
-            bc[k]++;
-            box_grow(&bb[k], &r[i].b);
-        }
-        double right_area[BINS];
-        size_t right_count[BINS];
-        box acc;
-        box_empty(&acc);
-        size_t cnt = 0;
-        for (int k = BINS - 1; k > 0; k--) {
-            box_grow(&acc, &bb[k]);
-            cnt += bc[k];
-            right_area[k] = box_area(&acc);
-            right_count[k] = cnt;
-        }
-        box_empty(&acc);
-        cnt = 0;
-        for (int k = 0; k < BINS - 1; k++) {
-            box_grow(&acc, &bb[k]);
-            cnt += bc[k];
-            if (cnt == 0 || right_count[k + 1] == 0)
-                continue;
-            double cost = 0.5 + (box_area(&acc) * cnt + right_area[k + 1] * right_count[k + 1]) /
-                                    (parent_area > 0 ? parent_area : 1);
-            if (cost < best_cost) {
-                best_cost = cost;
-                best_axis = axis;
-                best_bin = k;
-            }
-        }
-    }
+    if (count <= LEAF_MAX)
+        return make_leaf(n, first, count);
+    split sp;
+    find_split(bd->r, first, count, &bounds, &cb, &sp);
     size_t mid;
-    if (best_axis < 0 || (best_cost >= leaf_cost && count <= SMALL_LEAF)) {
-        if (best_axis < 0 && count > SMALL_LEAF && depth < MAX_DEPTH) {
-            /* Centroids all coincide: halve by index so leaves stay small. */
-            mid = first + count / 2;
-        } else {
-            n->offset = (uint32_t)first;
-            n->count = (uint16_t)count;
-            return 1;
-        }
+    if (sp.axis < 0 || (sp.cost >= (double)count && count <= SMALL_LEAF)) {
+        if (!(sp.axis < 0 && count > SMALL_LEAF && depth < MAX_DEPTH))
+            return make_leaf(n, first, count);
+        /* Centroids all coincide: halve by index so leaves stay small. */
+        mid = first + count / 2;
     } else {
-        size_t i = first, j = first + count;
-        while (i < j) {
-            int k = (int)(((double)r[i].c[best_axis] - clo) * sc);
-            k = k < 0 ? 0 : (k >= BINS ? BINS - 1 : k);
-            if (k <= best_bin) {
-                i++;
-            } else {
-                rec t = r[i];
-                r[i] = r[--j];
-                r[j] = t;
-            }
-        }
-        mid = i;
-        if (mid == first || mid == first + count)
-            mid = first + count / 2;
+        mid = partition(bd->r, first, count, &sp);
     }
-    if (depth >= MAX_DEPTH) {
-        /* Deeper than traversal's stack allows: stop here, however big. */
-        if (count > UINT16_MAX)
-            return 0;
-        n->offset = (uint32_t)first;
-        n->count = (uint16_t)count;
-        return 1;
-    }
-    bd->b->nodes[node].axis = (uint16_t)(best_axis < 0 ? 0 : best_axis);
-    bd->b->nodes[node].count = 0;
+    /* Deeper than traversal's stack allows: stop here, however big. */
+    if (depth >= MAX_DEPTH)
+        return make_leaf(n, first, count);
+    n->axis = (uint16_t)(sp.axis < 0 ? 0 : sp.axis);
+    n->count = 0;
     uint32_t left = new_node(bd);
     if (left == UINT32_MAX || !build(bd, left, first, mid - first, depth + 1))
         return 0;
