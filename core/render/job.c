@@ -208,7 +208,9 @@ void rd_job_stats(const rd_job *j, rd_render_stats *st)
     memcpy(st->curve, j->curve, sizeof j->curve);
     st->error_estimate = j->error;
     st->stopped_by = j->stopped_by;
-    st->mean_samples = rd_job_mean_samples(j);
+    /* Pixels are set up by their tile's first pass: before one has ended
+     * there is nothing to count. */
+    st->mean_samples = j->passes_done > 0 ? rd_job_mean_samples(j) : 0;
     st->samples = (int)floor(st->mean_samples + 0.5);
 }
 

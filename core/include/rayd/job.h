@@ -74,7 +74,8 @@ int rd_job_pass_samples(const rd_job *j);
 int rd_job_samples_done(const rd_job *j);
 
 /* What the job measured: the plan's figures, the passes ended, the curve,
- * the last error estimate, the mean samples and the stop rule that held.
+ * the last error estimate, the mean samples (0 before a pass has ended)
+ * and the stop rule that held.
  * Rays, threads and wall time are the caller's (rd_stats_add_counts). */
 void rd_job_stats(const rd_job *j, rd_render_stats *st);
 
