@@ -80,5 +80,61 @@ cmp -s "$T/t1.png" "$T/t2.png" && ok || bad "1 and 2 threads give different imag
 cmp -s "$T/a.png" "$T/b.png" && bad "seed does not change the image" || ok
 cmp -s "$T/a.png" "$T/c.png" && ok || bad "same seed gives a different image"
 
+# --stats-format json: one JSON object with every figure of the text line.
+# "both" prints the line and then the object for the same render, so every
+# figure (times too) can be checked against the line, formatted as it is.
+cat >"$T/stats_check.py" <<'PY'
+import json, sys
+lines = open(sys.argv[1]).read().splitlines()
+text = [l for l in lines if l.startswith("render: ")]
+objs = [l for l in lines if l.startswith("{")]
+if len(text) != 1 or len(objs) != 1:
+    sys.exit("want one text line and one JSON line, got %d and %d" % (len(text), len(objs)))
+o = json.loads(objs[0])
+t = text[0][len("render: "):].split(" ")
+size, kv = t[0], dict(f.split("=", 1) for f in t[1:])
+fmt = {"time_ms": "%.3f", "rays_per_s": "%.4g", "error_estimate": "%.6f", "prepare_ms": "%.3f",
+       "bvh_build_ms": "%.3f"}
+bad = []
+if size != "%dx%d" % (o["width"], o["height"]):
+    bad.append("size %s against %sx%s" % (size, o["width"], o["height"]))
+for k, v in kv.items():
+    if k not in o:
+        bad.append("%s: in the text line, not in the JSON" % k)
+    elif k == "curve":
+        got = ",".join("%.3f:%s:%.6f" % (p["ms"], "%g" % p["samples"], p["error"]) for p in o["curve"])
+    elif k == "stopped_by":
+        got = o[k]
+    elif k in fmt:
+        got = fmt[k] % o[k]
+    else:
+        got = "%d" % o[k] if o[k] == int(o[k]) else repr(o[k])
+    if got != v:
+        bad.append("%s: text %s, JSON %s" % (k, v, got))
+want = set(kv) | {"width", "height", "mean_samples"}
+if set(o) != want:
+    bad.append("JSON keys differ from the line's: %s" % sorted(set(o) ^ want))
+if bad:
+    sys.exit("; ".join(bad))
+PY
+"$RAYD" render scenes/area_light.cfg -o "$T/j.png" --width 40 --height 30 --time-budget-ms 200 --stats-format both 2>"$T/err"
+/usr/bin/python3 "$T/stats_check.py" "$T/err" 2>"$T/why" && ok || bad "--stats-format both: $(cat "$T/why")"
+"$RAYD" render scenes/mesh.cfg -o "$T/j.png" --width 32 --height 24 --samples 2 --stats-format both 2>"$T/err"
+/usr/bin/python3 "$T/stats_check.py" "$T/err" 2>"$T/why" && ok || bad "--stats-format both, mesh: $(cat "$T/why")"
+# json alone: the object is the only line, and nothing else changes.
+"$RAYD" render scenes/phong.cfg -o "$T/j1.png" --width 32 --height 24 --samples 4 --stats-format json 2>"$T/err"
+[ "$(wc -l <"$T/err")" -eq 1 ] && /usr/bin/python3 -c '
+import json, sys
+o = json.load(open(sys.argv[1]))
+assert (o["width"], o["height"], o["samples"], o["camera_rays"], o["primitives"]) == (32, 24, 4, 3072, 4), o
+assert o["stopped_by"] == "samples" and o["passes"] == 1 and len(o["curve"]) == 1, o
+' "$T/err" && ok || bad "--stats-format json: $(cat "$T/err")"
+"$RAYD" render scenes/phong.cfg -o "$T/j2.png" --width 32 --height 24 --samples 4 2>/dev/null
+cmp -s "$T/j1.png" "$T/j2.png" && ok || bad "--stats-format json changes the image"
+expect_exit 1 "--stats-format xml" -- "$RAYD" render scenes/phong.cfg -o "$T/j3.png" --stats-format xml
+grep -q "stats-format: expected text, json or both" "$T/err" && ok || bad "--stats-format xml message: $(cat "$T/err")"
+expect_exit 0 "rayd render --help" -- "$RAYD" render --help
+grep -q -- "--stats-format" "$T/out" && ok || bad "render --help does not explain --stats-format"
+
 echo "cli: $pass passed, $fail failed"
 [ "$fail" -eq 0 ]
