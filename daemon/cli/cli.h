@@ -12,6 +12,7 @@ int rd_cmd_schema(int argc, char **argv);
 int rd_cmd_serve(int argc, char **argv);
 int rd_cmd_converge(int argc, char **argv);
 int rd_cmd_grade(int argc, char **argv);
+int rd_cmd_compare(int argc, char **argv);
 
 #include "scene_limits.h"
 

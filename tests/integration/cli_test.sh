@@ -136,5 +136,52 @@ grep -q "stats-format: expected text, json or both" "$T/err" && ok || bad "--sta
 expect_exit 0 "rayd render --help" -- "$RAYD" render --help
 grep -q -- "--stats-format" "$T/out" && ok || bad "render --help does not explain --stats-format"
 
+# rayd compare: how two PNGs differ, as JSON.
+cmpjson() {  # file expression: the python expression over o must hold
+    /usr/bin/python3 -c 'import json, sys; o = json.load(open(sys.argv[1])); sys.exit(0 if eval(sys.argv[2]) else 1)' "$1" "$2"
+}
+expect_exit 0 "compare --help" -- "$RAYD" compare --help
+grep -q "psnr" "$T/out" && ok || bad "compare --help does not explain psnr"
+expect_exit 0 "compare identical" -- "$RAYD" compare "$T/a.png" "$T/c.png"
+cmpjson "$T/out" 'o["identical"] is True and o["psnr"] is None and o["rmse"] == 0 and o["max_diff"] == 0 and o["differing_pixels"] == 0 and (o["width"], o["height"]) == (40, 30)' &&
+    ok || bad "compare of identical images: $(cat "$T/out")"
+expect_exit 0 "compare different" -- "$RAYD" compare "$T/a.png" "$T/b.png"
+cmpjson "$T/out" 'o["identical"] is False and 0 < o["rmse"] < 1 and o["psnr"] > 0 and 0 < o["max_diff"] <= 255 and 0 < o["differing_pixels"] <= 1200' &&
+    ok || bad "compare of different images: $(cat "$T/out")"
+# A PNG written by hand (grey, 2x2, one pixel 51 levels off): exact values.
+/usr/bin/python3 - "$T" <<'PY'
+import struct, sys, zlib
+def png(path, ctype, rows):
+    raw = b"".join(b"\0" + bytes(r) for r in rows)
+    def chunk(k, d):
+        return struct.pack(">I", len(d)) + k + d + struct.pack(">I", zlib.crc32(k + d))
+    w = len(rows[0]) // (1 if ctype == 0 else 3)
+    ihdr = struct.pack(">IIBBBBB", w, len(rows), 8, ctype, 0, 0, 0)
+    open(path, "wb").write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+d = sys.argv[1]
+png(d + "/g1.png", 0, [[100, 100], [100, 100]])
+png(d + "/g2.png", 2, [[100, 100, 100, 100, 151, 100], [100, 100, 100, 100, 100, 100]])
+PY
+expect_exit 0 "compare grey with RGB" -- "$RAYD" compare "$T/g1.png" "$T/g2.png"
+cmpjson "$T/out" 'abs(o["rmse"] - 51 / (255 * 12 ** 0.5)) < 1e-15 and abs(o["psnr"] - 24.771212547196626) < 1e-9 and o["max_diff"] == 51 and o["differing_pixels"] == 1 and o["differing_pixels_over_1"] == 1' &&
+    ok || bad "compare of the 2x2 pair: $(cat "$T/out")"
+expect_exit 1 "compare one image" -- "$RAYD" compare "$T/a.png"
+expect_exit 1 "compare three images" -- "$RAYD" compare "$T/a.png" "$T/b.png" "$T/c.png"
+expect_exit 1 "compare unknown option" -- "$RAYD" compare "$T/a.png" "$T/b.png" --fast
+expect_exit 1 "compare bad limit" -- "$RAYD" compare "$T/a.png" "$T/b.png" --max-pixels x
+expect_exit 2 "compare sizes differ" -- "$RAYD" compare "$T/a.png" "$T/s.png"
+grep -q "sizes differ" "$T/err" && ok || bad "compare size message: $(cat "$T/err")"
+expect_exit 2 "compare over --max-pixels" -- "$RAYD" compare "$T/a.png" "$T/b.png" --max-pixels 100
+grep -q -- "--max-pixels" "$T/err" && ok || bad "compare limit message: $(cat "$T/err")"
+printf 'not a png at all' >"$T/junk.png"
+expect_exit 2 "compare not a PNG" -- "$RAYD" compare "$T/a.png" "$T/junk.png"
+head -c 100 "$T/a.png" >"$T/cut.png"
+expect_exit 2 "compare truncated PNG" -- "$RAYD" compare "$T/cut.png" "$T/a.png"
+grep -q "cut.png" "$T/err" && ok || bad "compare names the bad file: $(cat "$T/err")"
+: >"$T/empty.png"
+expect_exit 2 "compare empty file" -- "$RAYD" compare "$T/empty.png" "$T/a.png"
+expect_exit 3 "compare missing file" -- "$RAYD" compare "$T/a.png" "$T/nope.png"
+expect_exit 3 "compare a folder" -- "$RAYD" compare "$T/a.png" "$T"
+
 echo "cli: $pass passed, $fail failed"
 [ "$fail" -eq 0 ]
