@@ -183,5 +183,33 @@ expect_exit 2 "compare empty file" -- "$RAYD" compare "$T/empty.png" "$T/a.png"
 expect_exit 3 "compare missing file" -- "$RAYD" compare "$T/a.png" "$T/nope.png"
 expect_exit 3 "compare a folder" -- "$RAYD" compare "$T/a.png" "$T"
 
+# rayd convert --expand: every key, and meshes as rayd loaded them.
+expect_exit 0 "convert --expand" -- "$RAYD" convert scenes/phong.cfg "$T/px.json" --expand
+/usr/bin/python3 -c '
+import json, sys
+o = json.load(open(sys.argv[1]))
+assert o["render"]["seed"] == 0 and o["camera"]["up"] == [0, 1, 0] and o["render"]["gamma"] == 1, o["render"]
+assert all("kd" in m and "ambient" in m for m in o["materials"].values()), o["materials"]
+' "$T/px.json" && ok || bad "convert --expand does not write the defaults: $(head -c 300 "$T/px.json")"
+"$RAYD" render "$T/px.json" -o "$T/px.png" --width 40 --height 30 2>/dev/null
+"$RAYD" render scenes/phong.cfg -o "$T/pc.png" --width 40 --height 30 2>/dev/null
+cmp -s "$T/px.png" "$T/pc.png" && ok || bad "the expanded scene renders differently"
+expect_exit 0 "convert --expand mesh" -- "$RAYD" convert scenes/mesh.cfg "$T/mx.json" --expand
+"$RAYD" render scenes/mesh.cfg -o "$T/mx.png" --width 8 --height 6 --stats-format json 2>"$T/mx.err"
+/usr/bin/python3 -c '
+import json, sys
+o = json.load(open(sys.argv[1]))
+st = json.loads(open(sys.argv[2]).read().splitlines()[-1])
+m = [x for x in o["objects"] if x["type"] == "mesh"][0]["loaded"]
+np, nn = len(m["positions"]), len(m["normals"])
+assert len(m["faces"]) + 1 == st["primitives"], (len(m["faces"]), st["primitives"])
+assert all(len(f) == 6 and 0 <= min(f[:3]) and max(f[:3]) < np and -1 <= min(f[3:]) and max(f[3:]) < nn
+           for f in m["faces"])
+' "$T/mx.json" "$T/mx.err" && ok || bad "convert --expand: the mesh is not the one rayd renders"
+expect_exit 2 "an expanded mesh is not read back" -- "$RAYD" render "$T/mx.json" -o "$T/mx2.png"
+expect_exit 2 "convert --expand over --max-objects" -- "$RAYD" convert scenes/mesh.cfg "$T/mx3.json" --expand --max-objects 1000
+grep -q -- "--max-objects" "$T/err" && ok || bad "convert --expand limit message: $(cat "$T/err")"
+expect_exit 1 "convert --expand to cfg" -- "$RAYD" convert scenes/phong.cfg "$T/px.cfg" --expand
+
 echo "cli: $pass passed, $fail failed"
 [ "$fail" -eq 0 ]
