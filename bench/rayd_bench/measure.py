@@ -73,6 +73,13 @@ def _spawn(cmd, cwd, env, timeout):
             timer.start()
         try:
             _, status, ru = _wait4(p.pid)
+        except BaseException:
+            # Interrupted (SIGINT, or SIGTERM turned into SystemExit): the
+            # measured program goes with the driver.
+            _kill(p.pid)
+            _wait4(p.pid)
+            p.returncode = -signal.SIGKILL
+            raise
         finally:
             if timer:
                 timer.cancel()
