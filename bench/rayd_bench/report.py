@@ -186,12 +186,16 @@ def t_http(sec):
     s = sec["settings"]
     sizes = "; ".join("%dx%d: a %s-byte PNG, rendered in %s ms by rayd serve" % (
         x["size"][0], x["size"][1], n(x["png_bytes"]), f(x["render_ms"], "%.2f")) for x in sec["sizes"])
+    def lat(w, k):
+        # wrk reports 0 for the percentiles of a run in which nothing was answered.
+        return f(w[k], "%.2f") if w["requests"] else "none answered"
+
     rows = []
     for r in sec["rows"]:
         a, b = r["rayd"], r["bare"]
-        rows.append(["%dx%d" % tuple(r["size"]), r["connections"], f(a["rps"]), f(a["p50_ms"], "%.2f"),
-                     f(a["p99_ms"], "%.2f"), a["failed"], f(b["rps"]), f(b["p50_ms"], "%.2f"), f(b["p99_ms"], "%.2f"),
-                     b["failed"], ratio(a["rps"], b["rps"], "%.3g")])
+        rows.append(["%dx%d" % tuple(r["size"]), r["connections"], f(a["rps"]), lat(a, "p50_ms"), lat(a, "p99_ms"),
+                     a["failed"], f(b["rps"]), lat(b, "p50_ms"), lat(b, "p99_ms"), b["failed"],
+                     ratio(a["rps"], b["rps"], "%.3g")])
     return "\n".join([
         "wrk %d s per run; rayd serve with %d render threads, --queue %d; bare_mhd with %d threads. %s." % (
             s["seconds"], s["render_threads"], s["queue"], s["bare_threads"], sizes), "",

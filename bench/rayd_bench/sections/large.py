@@ -35,8 +35,8 @@ def generate(ctx, gen):
             measure.run([py, "scenes/gen.py", "spheres", cfg, str(n)], cwd=ctx.root, what="scenes/gen.py spheres")
             scene = cfg
             out[s] = {"expect_primitives": n + 1, "spheres": n,
-                      "what": "scenes/gen.py spheres %d: Phong spheres on a Lambert plane, "
-                              "1 point + 1 directional light" % n}
+                      "what": "scenes/gen.py spheres %d: %s Phong spheres on a Lambert plane, "
+                              "1 point + 1 directional light" % (n, "{:,}".format(n))}
         else:
             segs, sides = KNOT[ctx.quick]
             obj = os.path.join(gen, "knot1m.obj")
@@ -56,8 +56,8 @@ def generate(ctx, gen):
                 json.dump(doc, f, indent=1)
             tris = 2 * segs * sides
             out[s] = {"expect_primitives": tris + 1, "triangles": tris,
-                      "what": "scenes/mesh.cfg with scenes/gen.py knot %d %d: %d triangles, Cook-Torrance gold "
-                              "on a Lambert plane, 2 point lights" % (segs, sides, tris)}
+                      "what": "scenes/mesh.cfg with scenes/gen.py knot %d %d: %s triangles, Cook-Torrance gold "
+                              "on a Lambert plane, 2 point lights" % (segs, sides, "{:,}".format(tris))}
         pov = os.path.join(gen, s + ".pov")
         measure.run([py, "bench/cfg2pov.py", scene, pov, "--width", str(w), "--height", str(h),
                      "--rayd", ctx.rayd] + MAX_OBJECTS, cwd=ctx.root, what="bench/cfg2pov.py on " + s)
