@@ -60,7 +60,7 @@ TEST_OBJ   := $(patsubst %.c,$(BUILD)/%.o,$(TEST_SRC))
 # The job queue's objects: tests/unit/daemon drives it without HTTP.
 JOBS_OBJ   := $(patsubst %.c,$(BUILD)/%.o,$(wildcard daemon/jobs/*.c))
 
-.PHONY: all deps test check run bench clean scenes fuzz stability tsan fault print-includes
+.PHONY: all deps test check run bench bench-quick clean scenes fuzz stability tsan fault print-includes
 
 # Large inputs are generated, not kept in git.
 GENERATED := scenes/generated/knot.obj
@@ -157,9 +157,18 @@ fuzz: deps
 run: all $(GENERATED)
 	$(BUILD)/rayd serve --listen 127.0.0.1:8080 --scenes scenes
 
+# The benchmark driver (bench/rayd_bench, Python's standard library):
+# every section, results in build/bench/results.json, tables printed;
+# BENCH_ARGS passes options (e.g. "--only http --runs 5"). bench-quick
+# checks the driver itself with small sizes in a minute or two.
 bench: all
 	@sh deploy/deps.sh bench
-	@sh bench/run.sh $(BUILD)/rayd
+	@PYTHONPATH=bench /usr/bin/python3 -m rayd_bench --rayd $(BUILD)/rayd $(BENCH_ARGS)
+
+bench-quick: all
+	@sh deploy/deps.sh bench
+	@PYTHONPATH=bench /usr/bin/python3 -m rayd_bench --rayd $(BUILD)/rayd --quick \
+	    --results build/bench/results-quick.json $(BENCH_ARGS)
 
 # The include path of every folder at once, for builds outside this file
 # (tests/fuzz/run.sh).

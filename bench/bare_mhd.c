@@ -1,4 +1,4 @@
-/* bare_mhd.c: the HTTP ceiling of this machine, for bench/run.sh (BENCH_HTTP).
+/* bare_mhd.c: the HTTP ceiling of this machine, for the benchmark's http section.
  *
  * A libmicrohttpd server started with the same flags as `rayd serve`
  * (daemon/http/http_server.c: internal polling thread, epoll, a thread pool of 2,

@@ -1,6 +1,6 @@
 // bench/diffuse.pov: scenes/diffuse.cfg written for POV-Ray 3.7, for `make bench`.
 //
-// Render (what bench/run.sh does):
+// Render (what the benchmark, bench/rayd_bench, does):
 //   povray +Ibench/diffuse.pov +O/tmp/diffuse.png +W1920 +H1080 -D -A +WT1 File_Gamma=1.0
 //
 // Same as the cfg (the same numbers, in the same right-handed coordinates):

@@ -1,6 +1,6 @@
 // bench/phong.pov: scenes/phong.cfg written for POV-Ray 3.7, for `make bench`.
 //
-// Render (what bench/run.sh does):
+// Render (what the benchmark, bench/rayd_bench, does):
 //   povray +Ibench/phong.pov +O/tmp/phong.png +W1920 +H1080 -D -A +WT1 File_Gamma=1.0
 //
 // Same as the cfg (the same numbers, in the same right-handed coordinates):

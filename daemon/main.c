@@ -15,6 +15,7 @@ static const char help[] =
     "  grade --assignment A --image P   grade a student's image against the reference\n"
     "  converge SCENE            error against samples and time, with a plot\n"
     "  convert IN OUT            turn a cfg scene into JSON or back\n"
+    "  compare A.png B.png       how two images differ (RMSE, PSNR, pixels), as JSON\n"
     "  limits                    list the size limits and their defaults\n"
     "  schema                    print the JSON Schema of JSON scenes\n"
     "\n"
@@ -44,6 +45,8 @@ int main(int argc, char **argv)
         return rd_cmd_limits(argc - 1, argv + 1);
     if (strcmp(argv[1], "convert") == 0)
         return rd_cmd_convert(argc - 1, argv + 1);
+    if (strcmp(argv[1], "compare") == 0)
+        return rd_cmd_compare(argc - 1, argv + 1);
     fprintf(stderr, "rayd: unknown command '%s'\n\n%s", argv[1], help);
     return RD_EXIT_USAGE;
 }

@@ -64,9 +64,10 @@ static int key_bytes(const rd_key *k)
     }
 }
 
-/* Whether key k of the section at base should be written. */
+/* Whether key k of the section at base should be written; every: also at
+ * its default. */
 static int wanted(const rd_key *k, unsigned bit, const void *base, const any_section *d,
-                  const rd_object *o)
+                  const rd_object *o, int every)
 {
     if (!(k->applies & bit) || strcmp(k->name, "type") == 0)
         return 0;
@@ -81,6 +82,8 @@ static int wanted(const rd_key *k, unsigned bit, const void *base, const any_sec
         if (k->name[0] == 'u')
             return o->has_uv;
     }
+    if (every)
+        return 1;
     return memcmp(f, (const char *)d + k->offset, (size_t)key_bytes(k)) != 0;
 }
 
@@ -167,7 +170,7 @@ static rd_error_code cfg_section(rd_strbuf *b, rd_section_kind sec, const char *
     size_t nk;
     const rd_key *keys = rd_keys_all(&nk);
     for (size_t i = 0; i < nk; i++) {
-        if (keys[i].section != sec || !wanted(&keys[i], bit, base, &d, o))
+        if (keys[i].section != sec || !wanted(&keys[i], bit, base, &d, o, 0))
             continue;
         put(b, "%s = ", keys[i].name);
         if (cfg_value(b, &keys[i], base, err))
@@ -262,7 +265,7 @@ static cJSON *json_value(const rd_key *k, const void *base)
 }
 
 static cJSON *json_section(rd_section_kind sec, int subtype, const void *base, const rd_object *o,
-                           const char *name, const char *type_word)
+                           const char *name, const char *type_word, int every)
 {
     any_section d;
     defaults_for(sec, subtype, &d);
@@ -277,35 +280,86 @@ static cJSON *json_section(rd_section_kind sec, int subtype, const void *base, c
     size_t nk;
     const rd_key *keys = rd_keys_all(&nk);
     for (size_t i = 0; i < nk; i++)
-        if (keys[i].section == sec && wanted(&keys[i], bit, base, &d, o))
+        if (keys[i].section == sec && wanted(&keys[i], bit, base, &d, o, every))
             cJSON_AddItemToObject(obj, keys[i].name, json_value(&keys[i], base));
     return obj;
 }
 
+/* A loaded mesh as arrays (rd_scene_write_options.loaded_meshes); NULL when
+ * out of memory. */
+static cJSON *mesh_json(const rd_mesh *m)
+{
+    cJSON *o = cJSON_CreateObject();
+    cJSON *pos = cJSON_AddArrayToObject(o, "positions");
+    cJSON *nrm = cJSON_AddArrayToObject(o, "normals");
+    cJSON *faces = cJSON_AddArrayToObject(o, "faces");
+    int ok = pos && nrm && faces;
+    for (size_t i = 0; ok && i < m->npositions; i++) {
+        double v[3] = {m->positions[i].x, m->positions[i].y, m->positions[i].z};
+        ok = cJSON_AddItemToArray(pos, raw_numbers(v, 3));
+    }
+    for (size_t i = 0; ok && i < m->nnormals; i++) {
+        double v[3] = {m->normals[i].x, m->normals[i].y, m->normals[i].z};
+        ok = cJSON_AddItemToArray(nrm, raw_numbers(v, 3));
+    }
+    for (size_t i = 0; ok && i < m->nfaces; i++) {
+        const rd_mesh_face *f = &m->faces[i];
+        double v[6] = {f->v[0], f->v[1], f->v[2], f->n[0], f->n[1], f->n[2]};
+        ok = cJSON_AddItemToArray(faces, raw_numbers(v, 6));
+    }
+    if (!ok) {
+        cJSON_Delete(o);
+        return NULL;
+    }
+    return o;
+}
+
 rd_error_code rd_scene_write_json(const rd_scene *s, char **out, rd_error *err)
 {
+    return rd_scene_write_json_with(s, NULL, out, err);
+}
+
+rd_error_code rd_scene_write_json_with(const rd_scene *s, const rd_scene_write_options *opt, char **out,
+                                       rd_error *err)
+{
+    int every = opt && opt->every_key, loaded = opt && opt->loaded_meshes;
     *out = NULL;
     cJSON *root = cJSON_CreateObject();
     if (!root)
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory writing the scene");
-    cJSON_AddItemToObject(root, "render", json_section(RD_SEC_RENDER, 0, &s->render, NULL, NULL, NULL));
-    cJSON_AddItemToObject(root, "camera", json_section(RD_SEC_CAMERA, 0, &s->camera, NULL, NULL, NULL));
+    cJSON_AddItemToObject(root, "render", json_section(RD_SEC_RENDER, 0, &s->render, NULL, NULL, NULL, every));
+    cJSON_AddItemToObject(root, "camera", json_section(RD_SEC_CAMERA, 0, &s->camera, NULL, NULL, NULL, every));
     cJSON *lights = cJSON_AddArrayToObject(root, "lights");
     for (size_t i = 0; lights && i < s->light_count; i++)
         cJSON_AddItemToArray(lights, json_section(RD_SEC_LIGHT, (int)s->lights[i].type, &s->lights[i], NULL,
-                                                  s->lights[i].name, rd_light_type_words[s->lights[i].type]));
+                                                  s->lights[i].name, rd_light_type_words[s->lights[i].type],
+                                                  every));
     cJSON *mats = cJSON_AddObjectToObject(root, "materials");
     for (size_t i = 0; mats && i < s->material_count; i++) {
         const rd_material *m = &s->materials[i];
         cJSON_AddItemToObject(mats, m->name ? m->name : "",
                               json_section(RD_SEC_MATERIAL, (int)m->type, m, NULL, NULL,
-                                           rd_material_type_words[m->type]));
+                                           rd_material_type_words[m->type], every));
     }
     cJSON *objs = cJSON_AddArrayToObject(root, "objects");
-    for (size_t i = 0; objs && i < s->object_count; i++) {
+    int ok = objs != NULL;
+    for (size_t i = 0; ok && i < s->object_count; i++) {
         const rd_object *o = &s->objects[i];
         rd_section_kind sec = object_section(o);
-        cJSON_AddItemToArray(objs, json_section(sec, 0, o, o, o->name, rd_section_kind_name(sec)));
+        cJSON *obj = json_section(sec, 0, o, o, o->name, rd_section_kind_name(sec), every);
+        ok = cJSON_AddItemToArray(objs, obj);
+        if (ok && loaded && o->type == RD_OBJ_MESH && o->mesh >= 0 && (size_t)o->mesh < s->mesh_count) {
+            cJSON *mj = mesh_json(&s->meshes[o->mesh]);
+            ok = mj && cJSON_AddItemToObject(obj, "loaded", mj);
+            if (mj && !ok)
+                cJSON_Delete(mj);
+        }
+    }
+    /* An object or mesh dropped for want of memory would be a different
+     * scene, not a shorter text: fail instead. */
+    if (!ok) {
+        cJSON_Delete(root);
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory writing the scene");
     }
     char *copy = rd_json_print(root);
     if (!copy)

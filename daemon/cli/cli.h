@@ -14,6 +14,7 @@ int rd_cmd_schema(int argc, char **argv);
 int rd_cmd_serve(int argc, char **argv);
 int rd_cmd_converge(int argc, char **argv);
 int rd_cmd_grade(int argc, char **argv);
+int rd_cmd_compare(int argc, char **argv);
 
 /* Removes every --max-NAME VALUE (or --max-NAME=VALUE) pair of the limits
  * table from argv, setting *lim, but for the flag own (NULL: none), which

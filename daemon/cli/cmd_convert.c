@@ -4,12 +4,13 @@
 
 #include "cli.h"
 #include "png_write.h"
+#include "scene_assets.h"
 #include "scene_load.h"
 #include "scene_write.h"
 #include "file_io.h"
 
 static const char convert_help[] =
-    "usage: rayd convert IN OUT [--to cfg|json]\n"
+    "usage: rayd convert IN OUT [--to cfg|json] [--expand [--max-... N]]\n"
     "\n"
     "Reads the scene IN (.cfg or .json; other names are sniffed) and writes the\n"
     "same scene to OUT in the other format, or the one OUT's extension names.\n"
@@ -17,15 +18,33 @@ static const char convert_help[] =
     "key that differs from its default is written, so converting the result\n"
     "again gives the same text.\n"
     "\n"
+    "  --expand   JSON only: the scene as rayd renders it, for other programs\n"
+    "             (bench/cfg2pov.py): every key with its value, defaults\n"
+    "             included, and each mesh object with a member \"loaded\": the\n"
+    "             OBJ as rayd reads it, in world coordinates (translate, scale,\n"
+    "             rotate applied), polygons fanned: {\"positions\": [[x,y,z],\n"
+    "             ...], \"normals\": [...], \"faces\": [[v0,v1,v2,n0,n1,n2],\n"
+    "             ...]}, indices from 0, n -1 where a corner has no normal;\n"
+    "             rayd itself refuses \"loaded\" when reading a scene\n"
+    "  --max-...  N  the size limits of 'rayd limits' for the scene and its\n"
+    "             meshes (a mesh of a million triangles needs --max-objects)\n"
+    "\n"
     "Exit status: 0 written; 1 usage error; 2 scene error; 3 I/O error.\n";
 
 int rd_cmd_convert(int argc, char **argv)
 {
     const char *in = NULL, *out = NULL, *to = NULL;
+    int expand = 0;
+    rd_scene_limits lim = rd_scene_limits_default();
+    int lrc = rd_cli_take_limits(&argc, argv, &lim, "rayd convert");
+    if (lrc)
+        return lrc;
     for (int i = 1; i < argc; i++) {
         if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
             fputs(convert_help, stdout);
             return RD_EXIT_OK;
+        } else if (strcmp(argv[i], "--expand") == 0) {
+            expand = 1;
         } else if (strcmp(argv[i], "--to") == 0 && i + 1 < argc) {
             to = argv[++i];
         } else if (argv[i][0] == '-' && argv[i][1] != 0) {
@@ -61,13 +80,28 @@ int rd_cmd_convert(int argc, char **argv)
         fprintf(stderr, "rayd convert: cannot tell the format of '%s': name it .cfg or .json, or give --to\n", out);
         return RD_EXIT_USAGE;
     }
+    if (expand && json != 1) {
+        fprintf(stderr, "rayd convert: --expand writes JSON only\n");
+        return RD_EXIT_USAGE;
+    }
     rd_scene s;
     rd_scene_init(&s);
     rd_error err = {0};
-    rd_error_code rc = rd_scene_load_file(in, NULL, &s, &err);
+    rd_error_code rc = rd_scene_load_file(in, &lim, &s, &err);
+    if (!rc && expand) {
+        char *dir = rd_dirname(in);
+        rd_asset_source src = rd_asset_folder(dir ? dir : ".");
+        rd_warnings warnings = {0, ""};
+        rc = dir ? rd_scene_load_assets(&s, &src, &lim, &warnings, &err)
+                 : rd_error_set(&err, RD_ERR_NOMEM, 0, 0, "out of memory");
+        free(dir);
+        if (warnings.count)
+            fprintf(stderr, "%s%s", warnings.text, warnings.count > 5 ? "(more warnings not shown)\n" : "");
+    }
     char *text = NULL;
+    rd_scene_write_options wo = {.every_key = expand, .loaded_meshes = expand};
     if (!rc)
-        rc = json ? rd_scene_write_json(&s, &text, &err) : rd_scene_write_cfg(&s, &text, &err);
+        rc = json ? rd_scene_write_json_with(&s, &wo, &text, &err) : rd_scene_write_cfg(&s, &text, &err);
     rd_scene_free(&s);
     if (rc) {
         fprintf(stderr, "%s\n", err.message);

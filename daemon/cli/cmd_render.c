@@ -1,3 +1,4 @@
+#include <cJSON.h>
 #include <getopt.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -28,6 +29,9 @@ static const char render_help[] =
     "      --target-error E    render in passes until the error estimate is <= E\n"
     "                      (either makes --samples the cap, not the count)\n"
     "      --adaptive      later passes spend samples where the estimated error is\n"
+    "      --stats-format text|json|both  the statistics as the line below (text,\n"
+    "                      the default), as one JSON object on one line (json), or\n"
+    "                      the line and then the object (both)\n"
     "      --max-...  N    a size limit; 'rayd limits' lists them with defaults\n"
     "  -h, --help          this text\n"
     "\n"
@@ -41,7 +45,80 @@ static const char render_help[] =
     "  stopped_by=samples|time_budget|target_error passes=N curve=MS:SPP:ERR,...\n"
     "error_estimate is the estimated RMS error of the image against a converged\n"
     "render, in [0,1] units (1 = 255 levels); 0 with one sample per pixel. curve\n"
-    "has one point per pass: elapsed ms, samples per pixel, error estimate.\n";
+    "has one point per pass: elapsed ms, samples per pixel, error estimate.\n"
+    "\n"
+    "Statistics object (--stats-format json): the same figures under the same\n"
+    "names, numbers at full precision: width, height, samples, threads, time_ms,\n"
+    "camera_rays, shadow_rays, secondary_rays, rays_per_s, error_estimate,\n"
+    "nonfinite, prepare_ms, bvh_build_ms, bvh_nodes, primitives, world_bytes,\n"
+    "stopped_by, passes, curve (an array of {ms, samples, error}), and\n"
+    "mean_samples (the exact mean per pixel; samples is it rounded).\n";
+
+enum { STATS_TEXT = 1, STATS_JSON = 2 };
+
+static void stats_text(const rd_image *img, const rd_render_stats *st)
+{
+    fprintf(stderr,
+            "render: %dx%d samples=%d threads=%d time_ms=%.3f camera_rays=%llu shadow_rays=%llu "
+            "secondary_rays=%llu rays_per_s=%.4g error_estimate=%.6f nonfinite=%llu prepare_ms=%.3f "
+            "bvh_build_ms=%.3f bvh_nodes=%zu primitives=%zu world_bytes=%zu stopped_by=%s passes=%d curve=",
+            img->width, img->height, st->samples, st->threads, st->wall_ms,
+            (unsigned long long)st->camera_rays, (unsigned long long)st->shadow_rays,
+            (unsigned long long)st->secondary_rays, st->rays_per_second, st->error_estimate,
+            (unsigned long long)st->nonfinite, st->prepare_ms, st->bvh_build_ms, st->bvh_nodes, st->primitives,
+            st->world_bytes, rd_stop_reason_name(st->stopped_by), st->passes);
+    for (int i = 0; i < st->curve_len; i++)
+        fprintf(stderr, "%s%.3f:%g:%.6f", i ? "," : "", st->curve[i].ms, st->curve[i].samples, st->curve[i].error);
+    fputc('\n', stderr);
+}
+
+/* One line, so that a reader can take the last line of stderr whatever
+ * warnings came before it. Returns 0, or -1 when out of memory. */
+static int stats_json(const rd_image *img, const rd_render_stats *st)
+{
+    cJSON *o = cJSON_CreateObject();
+    int ok = o != NULL;
+    ok = ok && cJSON_AddNumberToObject(o, "width", img->width);
+    ok = ok && cJSON_AddNumberToObject(o, "height", img->height);
+    ok = ok && cJSON_AddNumberToObject(o, "samples", st->samples);
+    ok = ok && cJSON_AddNumberToObject(o, "mean_samples", st->mean_samples);
+    ok = ok && cJSON_AddNumberToObject(o, "threads", st->threads);
+    ok = ok && cJSON_AddNumberToObject(o, "time_ms", st->wall_ms);
+    ok = ok && cJSON_AddNumberToObject(o, "camera_rays", (double)st->camera_rays);
+    ok = ok && cJSON_AddNumberToObject(o, "shadow_rays", (double)st->shadow_rays);
+    ok = ok && cJSON_AddNumberToObject(o, "secondary_rays", (double)st->secondary_rays);
+    ok = ok && cJSON_AddNumberToObject(o, "rays_per_s", st->rays_per_second);
+    ok = ok && cJSON_AddNumberToObject(o, "error_estimate", st->error_estimate);
+    ok = ok && cJSON_AddNumberToObject(o, "nonfinite", (double)st->nonfinite);
+    ok = ok && cJSON_AddNumberToObject(o, "prepare_ms", st->prepare_ms);
+    ok = ok && cJSON_AddNumberToObject(o, "bvh_build_ms", st->bvh_build_ms);
+    ok = ok && cJSON_AddNumberToObject(o, "bvh_nodes", (double)st->bvh_nodes);
+    ok = ok && cJSON_AddNumberToObject(o, "primitives", (double)st->primitives);
+    ok = ok && cJSON_AddNumberToObject(o, "world_bytes", (double)st->world_bytes);
+    ok = ok && cJSON_AddStringToObject(o, "stopped_by", rd_stop_reason_name(st->stopped_by));
+    ok = ok && cJSON_AddNumberToObject(o, "passes", st->passes);
+    cJSON *curve = ok ? cJSON_AddArrayToObject(o, "curve") : NULL;
+    ok = curve != NULL;
+    for (int i = 0; ok && i < st->curve_len; i++) {
+        cJSON *pt = cJSON_CreateObject();
+        if (!pt || !cJSON_AddItemToArray(curve, pt)) {
+            cJSON_Delete(pt);
+            ok = 0;
+            break;
+        }
+        ok = ok && cJSON_AddNumberToObject(pt, "ms", st->curve[i].ms);
+        ok = ok && cJSON_AddNumberToObject(pt, "samples", st->curve[i].samples);
+        ok = ok && cJSON_AddNumberToObject(pt, "error", st->curve[i].error);
+    }
+    char *text = ok ? cJSON_PrintUnformatted(o) : NULL;
+    cJSON_Delete(o);
+    if (!text)
+        return -1;
+    fputs(text, stderr);
+    fputc('\n', stderr);
+    free(text);
+    return 0;
+}
 
 static int usage_error(const char *fmt, const char *arg)
 {
@@ -54,21 +131,24 @@ static int usage_error(const char *fmt, const char *arg)
 
 int rd_cmd_render(int argc, char **argv)
 {
-    enum { O_WIDTH = 256, O_HEIGHT, O_SAMPLES, O_SEED, O_THREADS, O_PNG_LEVEL, O_BUDGET, O_TARGET, O_ADAPTIVE };
+    enum {
+        O_WIDTH = 256, O_HEIGHT, O_SAMPLES, O_SEED, O_THREADS, O_PNG_LEVEL, O_BUDGET, O_TARGET, O_ADAPTIVE,
+        O_STATS_FORMAT
+    };
     static const struct option opts[] = {
         {"output", required_argument, NULL, 'o'}, {"width", required_argument, NULL, O_WIDTH},
         {"height", required_argument, NULL, O_HEIGHT}, {"samples", required_argument, NULL, O_SAMPLES},
         {"seed", required_argument, NULL, O_SEED}, {"threads", required_argument, NULL, O_THREADS},
         {"png-level", required_argument, NULL, O_PNG_LEVEL}, {"help", no_argument, NULL, 'h'},
         {"time-budget-ms", required_argument, NULL, O_BUDGET}, {"target-error", required_argument, NULL, O_TARGET},
-        {"adaptive", no_argument, NULL, O_ADAPTIVE},
+        {"adaptive", no_argument, NULL, O_ADAPTIVE}, {"stats-format", required_argument, NULL, O_STATS_FORMAT},
         {NULL, 0, NULL, 0}};
     const char *output = NULL;
     long threads = sysconf(_SC_NPROCESSORS_ONLN), level = -1;
     rd_scene_overrides ov = {0};
     rd_error err = {0};
     double budget = 0, target = 0;
-    int adaptive = 0;
+    int adaptive = 0, stats_format = STATS_TEXT;
     if (threads < 1)
         threads = 1;
     rd_scene_limits lim = rd_scene_limits_default();
@@ -116,6 +196,16 @@ int rd_cmd_render(int argc, char **argv)
             break;
         }
         case O_ADAPTIVE: adaptive = 1; break;
+        case O_STATS_FORMAT:
+            if (strcmp(optarg, "text") == 0)
+                stats_format = STATS_TEXT;
+            else if (strcmp(optarg, "json") == 0)
+                stats_format = STATS_JSON;
+            else if (strcmp(optarg, "both") == 0)
+                stats_format = STATS_TEXT | STATS_JSON;
+            else
+                return usage_error("--stats-format: expected text, json or both, got '%s'", optarg);
+            break;
         case ':': return usage_error("%s needs a value", argv[optind - 1]);
         default: return usage_error("unknown option '%s'", argv[optind - 1]);
         }
@@ -165,18 +255,10 @@ int rd_cmd_render(int argc, char **argv)
         if (!rc)
             rc = rd_write_file(output, png, png_len, &err);
     }
-    fprintf(stderr,
-            "render: %dx%d samples=%d threads=%d time_ms=%.3f camera_rays=%llu shadow_rays=%llu "
-            "secondary_rays=%llu rays_per_s=%.4g error_estimate=%.6f nonfinite=%llu prepare_ms=%.3f "
-            "bvh_build_ms=%.3f bvh_nodes=%zu primitives=%zu world_bytes=%zu stopped_by=%s passes=%d curve=",
-            img.width, img.height, st.samples, st.threads, st.wall_ms,
-            (unsigned long long)st.camera_rays, (unsigned long long)st.shadow_rays,
-            (unsigned long long)st.secondary_rays, st.rays_per_second, st.error_estimate,
-            (unsigned long long)st.nonfinite, st.prepare_ms, st.bvh_build_ms, st.bvh_nodes, st.primitives,
-            st.world_bytes, rd_stop_reason_name(st.stopped_by), st.passes);
-    for (int i = 0; i < st.curve_len; i++)
-        fprintf(stderr, "%s%.3f:%g:%.6f", i ? "," : "", st.curve[i].ms, st.curve[i].samples, st.curve[i].error);
-    fputc('\n', stderr);
+    if (stats_format & STATS_TEXT)
+        stats_text(&img, &st);
+    if ((stats_format & STATS_JSON) && stats_json(&img, &st) && !rc)
+        rc = rd_error_set(&err, RD_ERR_NOMEM, 0, 0, "out of memory writing the statistics");
     free(png);
     free(rgb);
     rd_image_free(&img);

@@ -98,5 +98,136 @@ cmp -s "$T/t1.png" "$T/t2.png" && ok || bad "1 and 2 threads give different imag
 cmp -s "$T/a.png" "$T/b.png" && bad "seed does not change the image" || ok
 cmp -s "$T/a.png" "$T/c.png" && ok || bad "same seed gives a different image"
 
+# --stats-format json: one JSON object with every figure of the text line.
+# "both" prints the line and then the object for the same render, so every
+# figure (times too) can be checked against the line, formatted as it is.
+cat >"$T/stats_check.py" <<'PY'
+import json, sys
+lines = open(sys.argv[1]).read().splitlines()
+text = [l for l in lines if l.startswith("render: ")]
+objs = [l for l in lines if l.startswith("{")]
+if len(text) != 1 or len(objs) != 1:
+    sys.exit("want one text line and one JSON line, got %d and %d" % (len(text), len(objs)))
+o = json.loads(objs[0])
+t = text[0][len("render: "):].split(" ")
+size, kv = t[0], dict(f.split("=", 1) for f in t[1:])
+fmt = {"time_ms": "%.3f", "rays_per_s": "%.4g", "error_estimate": "%.6f", "prepare_ms": "%.3f",
+       "bvh_build_ms": "%.3f"}
+bad = []
+if size != "%dx%d" % (o["width"], o["height"]):
+    bad.append("size %s against %sx%s" % (size, o["width"], o["height"]))
+for k, v in kv.items():
+    if k not in o:
+        bad.append("%s: in the text line, not in the JSON" % k)
+    elif k == "curve":
+        got = ",".join("%.3f:%s:%.6f" % (p["ms"], "%g" % p["samples"], p["error"]) for p in o["curve"])
+    elif k == "stopped_by":
+        got = o[k]
+    elif k in fmt:
+        got = fmt[k] % o[k]
+    else:
+        got = "%d" % o[k] if o[k] == int(o[k]) else repr(o[k])
+    if got != v:
+        bad.append("%s: text %s, JSON %s" % (k, v, got))
+want = set(kv) | {"width", "height", "mean_samples"}
+if set(o) != want:
+    bad.append("JSON keys differ from the line's: %s" % sorted(set(o) ^ want))
+if bad:
+    sys.exit("; ".join(bad))
+PY
+"$RAYD" render scenes/area_light.cfg -o "$T/j.png" --width 40 --height 30 --time-budget-ms 200 --stats-format both 2>"$T/err"
+/usr/bin/python3 "$T/stats_check.py" "$T/err" 2>"$T/why" && ok || bad "--stats-format both: $(cat "$T/why")"
+"$RAYD" render scenes/mesh.cfg -o "$T/j.png" --width 32 --height 24 --samples 2 --stats-format both 2>"$T/err"
+/usr/bin/python3 "$T/stats_check.py" "$T/err" 2>"$T/why" && ok || bad "--stats-format both, mesh: $(cat "$T/why")"
+# json alone: the object is the only line, and nothing else changes.
+"$RAYD" render scenes/phong.cfg -o "$T/j1.png" --width 32 --height 24 --samples 4 --stats-format json 2>"$T/err"
+[ "$(wc -l <"$T/err")" -eq 1 ] && /usr/bin/python3 -c '
+import json, sys
+o = json.load(open(sys.argv[1]))
+assert (o["width"], o["height"], o["samples"], o["camera_rays"], o["primitives"]) == (32, 24, 4, 3072, 4), o
+assert o["stopped_by"] == "samples" and o["passes"] == 1 and len(o["curve"]) == 1, o
+' "$T/err" && ok || bad "--stats-format json: $(cat "$T/err")"
+"$RAYD" render scenes/phong.cfg -o "$T/j2.png" --width 32 --height 24 --samples 4 2>/dev/null
+cmp -s "$T/j1.png" "$T/j2.png" && ok || bad "--stats-format json changes the image"
+expect_exit 1 "--stats-format xml" -- "$RAYD" render scenes/phong.cfg -o "$T/j3.png" --stats-format xml
+grep -q "stats-format: expected text, json or both" "$T/err" && ok || bad "--stats-format xml message: $(cat "$T/err")"
+expect_exit 0 "rayd render --help" -- "$RAYD" render --help
+grep -q -- "--stats-format" "$T/out" && ok || bad "render --help does not explain --stats-format"
+
+# rayd compare: how two PNGs differ, as JSON.
+cmpjson() {  # file expression: the python expression over o must hold
+    /usr/bin/python3 -c 'import json, sys; o = json.load(open(sys.argv[1])); sys.exit(0 if eval(sys.argv[2]) else 1)' "$1" "$2"
+}
+expect_exit 0 "compare --help" -- "$RAYD" compare --help
+grep -q "psnr" "$T/out" && ok || bad "compare --help does not explain psnr"
+expect_exit 0 "compare identical" -- "$RAYD" compare "$T/a.png" "$T/c.png"
+cmpjson "$T/out" 'o["identical"] is True and o["psnr"] is None and o["rmse"] == 0 and o["max_diff"] == 0 and o["differing_pixels"] == 0 and (o["width"], o["height"]) == (40, 30)' &&
+    ok || bad "compare of identical images: $(cat "$T/out")"
+expect_exit 0 "compare different" -- "$RAYD" compare "$T/a.png" "$T/b.png"
+cmpjson "$T/out" 'o["identical"] is False and 0 < o["rmse"] < 1 and o["psnr"] > 0 and 0 < o["max_diff"] <= 255 and 0 < o["differing_pixels"] <= 1200' &&
+    ok || bad "compare of different images: $(cat "$T/out")"
+# A PNG written by hand (grey, 2x2, one pixel 51 levels off): exact values.
+/usr/bin/python3 - "$T" <<'PY'
+import struct, sys, zlib
+def png(path, ctype, rows):
+    raw = b"".join(b"\0" + bytes(r) for r in rows)
+    def chunk(k, d):
+        return struct.pack(">I", len(d)) + k + d + struct.pack(">I", zlib.crc32(k + d))
+    w = len(rows[0]) // (1 if ctype == 0 else 3)
+    ihdr = struct.pack(">IIBBBBB", w, len(rows), 8, ctype, 0, 0, 0)
+    open(path, "wb").write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+d = sys.argv[1]
+png(d + "/g1.png", 0, [[100, 100], [100, 100]])
+png(d + "/g2.png", 2, [[100, 100, 100, 100, 151, 100], [100, 100, 100, 100, 100, 100]])
+PY
+expect_exit 0 "compare grey with RGB" -- "$RAYD" compare "$T/g1.png" "$T/g2.png"
+cmpjson "$T/out" 'abs(o["rmse"] - 51 / (255 * 12 ** 0.5)) < 1e-15 and abs(o["psnr"] - 24.771212547196626) < 1e-9 and o["max_diff"] == 51 and o["differing_pixels"] == 1 and o["differing_pixels_over_1"] == 1' &&
+    ok || bad "compare of the 2x2 pair: $(cat "$T/out")"
+expect_exit 1 "compare one image" -- "$RAYD" compare "$T/a.png"
+expect_exit 1 "compare three images" -- "$RAYD" compare "$T/a.png" "$T/b.png" "$T/c.png"
+expect_exit 1 "compare unknown option" -- "$RAYD" compare "$T/a.png" "$T/b.png" --fast
+expect_exit 1 "compare bad limit" -- "$RAYD" compare "$T/a.png" "$T/b.png" --max-pixels x
+expect_exit 2 "compare sizes differ" -- "$RAYD" compare "$T/a.png" "$T/s.png"
+grep -q "sizes differ" "$T/err" && ok || bad "compare size message: $(cat "$T/err")"
+expect_exit 2 "compare over --max-pixels" -- "$RAYD" compare "$T/a.png" "$T/b.png" --max-pixels 100
+grep -q -- "--max-pixels" "$T/err" && ok || bad "compare limit message: $(cat "$T/err")"
+printf 'not a png at all' >"$T/junk.png"
+expect_exit 2 "compare not a PNG" -- "$RAYD" compare "$T/a.png" "$T/junk.png"
+head -c 100 "$T/a.png" >"$T/cut.png"
+expect_exit 2 "compare truncated PNG" -- "$RAYD" compare "$T/cut.png" "$T/a.png"
+grep -q "cut.png" "$T/err" && ok || bad "compare names the bad file: $(cat "$T/err")"
+: >"$T/empty.png"
+expect_exit 2 "compare empty file" -- "$RAYD" compare "$T/empty.png" "$T/a.png"
+expect_exit 3 "compare missing file" -- "$RAYD" compare "$T/a.png" "$T/nope.png"
+expect_exit 3 "compare a folder" -- "$RAYD" compare "$T/a.png" "$T"
+
+# rayd convert --expand: every key, and meshes as rayd loaded them.
+expect_exit 0 "convert --expand" -- "$RAYD" convert scenes/phong.cfg "$T/px.json" --expand
+/usr/bin/python3 -c '
+import json, sys
+o = json.load(open(sys.argv[1]))
+assert o["render"]["seed"] == 0 and o["camera"]["up"] == [0, 1, 0] and o["render"]["gamma"] == 1, o["render"]
+assert all("kd" in m and "ambient" in m for m in o["materials"].values()), o["materials"]
+' "$T/px.json" && ok || bad "convert --expand does not write the defaults: $(head -c 300 "$T/px.json")"
+"$RAYD" render "$T/px.json" -o "$T/px.png" --width 40 --height 30 2>/dev/null
+"$RAYD" render scenes/phong.cfg -o "$T/pc.png" --width 40 --height 30 2>/dev/null
+cmp -s "$T/px.png" "$T/pc.png" && ok || bad "the expanded scene renders differently"
+expect_exit 0 "convert --expand mesh" -- "$RAYD" convert scenes/mesh.cfg "$T/mx.json" --expand
+"$RAYD" render scenes/mesh.cfg -o "$T/mx.png" --width 8 --height 6 --stats-format json 2>"$T/mx.err"
+/usr/bin/python3 -c '
+import json, sys
+o = json.load(open(sys.argv[1]))
+st = json.loads(open(sys.argv[2]).read().splitlines()[-1])
+m = [x for x in o["objects"] if x["type"] == "mesh"][0]["loaded"]
+np, nn = len(m["positions"]), len(m["normals"])
+assert len(m["faces"]) + 1 == st["primitives"], (len(m["faces"]), st["primitives"])
+assert all(len(f) == 6 and 0 <= min(f[:3]) and max(f[:3]) < np and -1 <= min(f[3:]) and max(f[3:]) < nn
+           for f in m["faces"])
+' "$T/mx.json" "$T/mx.err" && ok || bad "convert --expand: the mesh is not the one rayd renders"
+expect_exit 2 "an expanded mesh is not read back" -- "$RAYD" render "$T/mx.json" -o "$T/mx2.png"
+expect_exit 2 "convert --expand over --max-objects" -- "$RAYD" convert scenes/mesh.cfg "$T/mx3.json" --expand --max-objects 1000
+grep -q -- "--max-objects" "$T/err" && ok || bad "convert --expand limit message: $(cat "$T/err")"
+expect_exit 1 "convert --expand to cfg" -- "$RAYD" convert scenes/phong.cfg "$T/px.cfg" --expand
+
 echo "cli: $pass passed, $fail failed"
 [ "$fail" -eq 0 ]

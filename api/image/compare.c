@@ -1,0 +1,41 @@
+#include "compare.h"
+
+#include <math.h>
+
+void rd_compare_rgb8(const uint8_t *a, const uint8_t *b, size_t pixels, rd_compare_result *out)
+{
+    /* Integer sums are exact: at most 3·255² per pixel, so 2^64 covers far
+     * more pixels than any image limit allows. */
+    uint64_t sq = 0, sum_a = 0, sum_b = 0;
+    size_t differ = 0, over1 = 0;
+    int max_diff = 0;
+    for (size_t p = 0; p < pixels; p++) {
+        const uint8_t *pa = a + 3 * p, *pb = b + 3 * p;
+        int worst = 0;
+        for (int c = 0; c < 3; c++) {
+            int d = (int)pa[c] - (int)pb[c];
+            int ad = d < 0 ? -d : d;
+            sq += (uint64_t)(d * d);
+            sum_a += pa[c];
+            sum_b += pb[c];
+            worst = ad > worst ? ad : worst;
+        }
+        differ += worst > 0;
+        over1 += worst > 1;
+        max_diff = worst > max_diff ? worst : max_diff;
+    }
+    out->pixels = pixels;
+    out->max_diff = max_diff;
+    out->differing_pixels = differ;
+    out->differing_pixels_over_1 = over1;
+    if (pixels == 0) {
+        out->rmse = out->mean_a = out->mean_b = 0;
+        out->psnr_db = INFINITY;
+        return;
+    }
+    double n = 3.0 * (double)pixels;
+    out->rmse = sqrt((double)sq / n) / 255.0;
+    out->psnr_db = sq == 0 ? INFINITY : -20.0 * log10(out->rmse);
+    out->mean_a = (double)sum_a / n / 255.0;
+    out->mean_b = (double)sum_b / n / 255.0;
+}

@@ -1,0 +1,28 @@
+/* How two 8-bit RGB images of the same size differ, pixel by pixel: the
+ * figures `rayd compare` prints and the benchmark reads, in one place so
+ * that grading can use them too. Pure functions over buffers the caller
+ * owns and keeps; nothing is allocated, nothing can fail. */
+#ifndef RD_COMPARE_H
+#define RD_COMPARE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+typedef struct {
+    size_t pixels;
+    /* Root-mean-square difference over every pixel and channel, in output
+     * units (1 = 255 levels: the units of rayd's error_estimate). */
+    double rmse;
+    /* 20·log10(1 / rmse) in dB; +infinity when the images are identical. */
+    double psnr_db;
+    int max_diff;                   /* largest channel difference, 0..255 */
+    size_t differing_pixels;        /* pixels that differ in any channel */
+    size_t differing_pixels_over_1; /* of which by more than 1 level in some channel */
+    double mean_a, mean_b;          /* each image's mean channel value, 0..1 */
+} rd_compare_result;
+
+/* Compares a and b, each pixels·3 bytes (R, G, B per pixel). With no pixels
+ * every figure is 0 and psnr_db is +infinity, as for identical images. */
+void rd_compare_rgb8(const uint8_t *a, const uint8_t *b, size_t pixels, rd_compare_result *out);
+
+#endif
