@@ -88,7 +88,7 @@ static char *result_json(int w, int h, const rd_compare_result *r)
 int rd_cmd_compare(int argc, char **argv)
 {
     rd_scene_limits lim = rd_scene_limits_default();
-    int lrc = rd_cli_take_limits(&argc, argv, &lim, "rayd compare");
+    int lrc = rd_cli_take_limits(&argc, argv, &lim, "rayd compare", NULL);
     if (lrc)
         return lrc;
     const char *path[2] = {NULL, NULL};

@@ -4,7 +4,7 @@
 
 #include "cli.h"
 #include "png_write.h"
-#include "scene_assets.h"
+#include "scene_open.h"
 #include "scene_load.h"
 #include "scene_write.h"
 #include "file_io.h"
@@ -36,7 +36,7 @@ int rd_cmd_convert(int argc, char **argv)
     const char *in = NULL, *out = NULL, *to = NULL;
     int expand = 0;
     rd_scene_limits lim = rd_scene_limits_default();
-    int lrc = rd_cli_take_limits(&argc, argv, &lim, "rayd convert");
+    int lrc = rd_cli_take_limits(&argc, argv, &lim, "rayd convert", NULL);
     if (lrc)
         return lrc;
     for (int i = 1; i < argc; i++) {
@@ -87,17 +87,13 @@ int rd_cmd_convert(int argc, char **argv)
     rd_scene s;
     rd_scene_init(&s);
     rd_error err = {0};
-    rd_error_code rc = rd_scene_load_file(in, &lim, &s, &err);
-    if (!rc && expand) {
-        char *dir = rd_dirname(in);
-        rd_asset_source src = rd_asset_folder(dir ? dir : ".");
-        rd_warnings warnings = {0, ""};
-        rc = dir ? rd_scene_load_assets(&s, &src, &lim, &warnings, &err)
-                 : rd_error_set(&err, RD_ERR_NOMEM, 0, 0, "out of memory");
-        free(dir);
-        if (warnings.count)
-            fprintf(stderr, "%s%s", warnings.text, warnings.count > 5 ? "(more warnings not shown)\n" : "");
-    }
+    /* Expanded, the scene is opened as for a render: with its meshes. */
+    rd_scene_source src = {.path = in};
+    rd_warnings warnings = {0, ""};
+    rd_error_code rc = expand ? rd_scene_open(&src, NULL, &lim, &s, &warnings, &err)
+                              : rd_scene_load_file(in, &lim, &s, &err);
+    if (warnings.count)
+        fprintf(stderr, "%s%s", warnings.text, warnings.count > 5 ? "(more warnings not shown)\n" : "");
     char *text = NULL;
     rd_scene_write_options wo = {.every_key = expand, .loaded_meshes = expand};
     if (!rc)
@@ -105,7 +101,7 @@ int rd_cmd_convert(int argc, char **argv)
     rd_scene_free(&s);
     if (rc) {
         fprintf(stderr, "%s\n", err.message);
-        return rc == RD_ERR_IO ? RD_EXIT_IO : RD_EXIT_SCENE;
+        return rd_error_answer_for(rc).exit;
     }
     if (strcmp(out, "-") == 0) {
         fputs(text, stdout);
