@@ -21,6 +21,14 @@ static const char help[] =
     "\n"
     "'rayd COMMAND --help' explains a command's options.\n";
 
+static const struct {
+    const char *name;
+    int (*run)(int argc, char **argv);
+} commands[] = {
+    {"render", rd_cmd_render},   {"serve", rd_cmd_serve},   {"grade", rd_cmd_grade},   {"converge", rd_cmd_converge},
+    {"convert", rd_cmd_convert}, {"compare", rd_cmd_compare}, {"limits", rd_cmd_limits}, {"schema", rd_cmd_schema},
+};
+
 int main(int argc, char **argv)
 {
     if (argc < 2) {
@@ -31,22 +39,9 @@ int main(int argc, char **argv)
         fputs(help, stdout);
         return RD_EXIT_OK;
     }
-    if (strcmp(argv[1], "render") == 0)
-        return rd_cmd_render(argc - 1, argv + 1);
-    if (strcmp(argv[1], "grade") == 0)
-        return rd_cmd_grade(argc - 1, argv + 1);
-    if (strcmp(argv[1], "converge") == 0)
-        return rd_cmd_converge(argc - 1, argv + 1);
-    if (strcmp(argv[1], "serve") == 0)
-        return rd_cmd_serve(argc - 1, argv + 1);
-    if (strcmp(argv[1], "schema") == 0)
-        return rd_cmd_schema(argc - 1, argv + 1);
-    if (strcmp(argv[1], "limits") == 0)
-        return rd_cmd_limits(argc - 1, argv + 1);
-    if (strcmp(argv[1], "convert") == 0)
-        return rd_cmd_convert(argc - 1, argv + 1);
-    if (strcmp(argv[1], "compare") == 0)
-        return rd_cmd_compare(argc - 1, argv + 1);
+    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
+        if (strcmp(argv[1], commands[i].name) == 0)
+            return commands[i].run(argc - 1, argv + 1);
     fprintf(stderr, "rayd: unknown command '%s'\n\n%s", argv[1], help);
     return RD_EXIT_USAGE;
 }

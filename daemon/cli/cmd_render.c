@@ -129,7 +129,41 @@ static int usage_error(const char *fmt, const char *arg)
 }
 
 
-int rd_cmd_render(int argc, char **argv)
+typedef struct {
+    const char *scene, *output;
+    long threads, level;
+    rd_scene_overrides ov;
+    rd_scene_limits lim;
+    rd_render_options ro;
+    int stats_format;
+} render_args;
+
+enum { HELP_PRINTED = -1 };
+
+/* A number > 0 for --time-budget-ms or --target-error. */
+static int positive(const char *flag, const char *v, double *out)
+{
+    char *end;
+    double x = strtod(v, &end);
+    if (!*v || *end || !(x > 0) || !(x < 1e15)) {
+        char fmt[80];
+        snprintf(fmt, sizeof fmt, "%s: expected a number > 0, got '%%s'", flag);
+        return usage_error(fmt, v);
+    }
+    *out = x;
+    return 0;
+}
+
+static int stats_format_of(const char *v, int *out)
+{
+    *out = strcmp(v, "text") == 0 ? STATS_TEXT : strcmp(v, "json") == 0 ? STATS_JSON
+                                             : strcmp(v, "both") == 0   ? STATS_TEXT | STATS_JSON
+                                                                        : 0;
+    return *out ? 0 : usage_error("--stats-format: expected text, json or both, got '%s'", v);
+}
+
+/* 0 with *a filled, HELP_PRINTED, or the exit status of a usage error. */
+static int parse_args(int argc, char **argv, render_args *a)
 {
     enum {
         O_WIDTH = 256, O_HEIGHT, O_SAMPLES, O_SEED, O_THREADS, O_PNG_LEVEL, O_BUDGET, O_TARGET, O_ADAPTIVE,
@@ -143,124 +177,113 @@ int rd_cmd_render(int argc, char **argv)
         {"time-budget-ms", required_argument, NULL, O_BUDGET}, {"target-error", required_argument, NULL, O_TARGET},
         {"adaptive", no_argument, NULL, O_ADAPTIVE}, {"stats-format", required_argument, NULL, O_STATS_FORMAT},
         {NULL, 0, NULL, 0}};
-    const char *output = NULL;
-    long threads = sysconf(_SC_NPROCESSORS_ONLN), level = -1;
-    rd_scene_overrides ov = {0};
+    memset(a, 0, sizeof *a);
+    a->threads = sysconf(_SC_NPROCESSORS_ONLN);
+    if (a->threads < 1)
+        a->threads = 1;
+    a->level = -1;
+    a->stats_format = STATS_TEXT;
+    a->lim = rd_scene_limits_default();
+    int rc = rd_cli_take_limits(&argc, argv, &a->lim, "rayd render", NULL);
+    if (rc)
+        return rc;
     rd_error err = {0};
-    double budget = 0, target = 0;
-    int adaptive = 0, stats_format = STATS_TEXT;
-    if (threads < 1)
-        threads = 1;
-    rd_scene_limits lim = rd_scene_limits_default();
-    int lrc = rd_cli_take_limits(&argc, argv, &lim, "rayd render", NULL);
-    if (lrc)
-        return lrc;
     optind = 1;
     opterr = 0;
     int c;
     while ((c = getopt_long(argc, argv, ":o:h", opts, NULL)) != -1) {
-        switch (c) {
-        case 'o': output = optarg; break;
-        case 'h': fputs(render_help, stdout); return RD_EXIT_OK;
-        case O_WIDTH:
-        case O_HEIGHT:
-        case O_SAMPLES:
-        case O_SEED: {
-            const char *key = c == O_WIDTH ? "width" : c == O_HEIGHT ? "height" : c == O_SAMPLES ? "samples" : "seed";
-            char what[32];
+        const char *key = c == O_WIDTH ? "width" : c == O_HEIGHT ? "height" : c == O_SAMPLES ? "samples"
+                        : c == O_SEED                              ? "seed"
+                                                                   : NULL;
+        char what[32];
+        if (key) {
             snprintf(what, sizeof what, "--%s", key);
-            if (rd_override_set(&ov, key, optarg, what, &err))
-                return usage_error("%s", err.message);
-            break;
+            rc = rd_override_set(&a->ov, key, optarg, what, &err) ? usage_error("%s", err.message) : 0;
+        } else if (c == 'o') {
+            a->output = optarg;
+        } else if (c == 'h') {
+            fputs(render_help, stdout);
+            return HELP_PRINTED;
+        } else if (c == O_THREADS) {
+            rc = rd_cli_int(optarg, 1, 1024, &a->threads)
+                     ? usage_error("--threads: expected an integer in 1..1024, got '%s'", optarg)
+                     : 0;
+        } else if (c == O_PNG_LEVEL) {
+            rc = rd_cli_int(optarg, 0, 9, &a->level) ? usage_error("--png-level: expected an integer in 0..9, got '%s'",
+                                                                   optarg)
+                                                     : 0;
+        } else if (c == O_BUDGET) {
+            rc = positive("--time-budget-ms", optarg, &a->ro.time_budget_ms);
+        } else if (c == O_TARGET) {
+            rc = positive("--target-error", optarg, &a->ro.target_error);
+        } else if (c == O_ADAPTIVE) {
+            a->ro.adaptive = 1;
+        } else if (c == O_STATS_FORMAT) {
+            rc = stats_format_of(optarg, &a->stats_format);
+        } else {
+            rc = usage_error(c == ':' ? "%s needs a value" : "unknown option '%s'", argv[optind - 1]);
         }
-        case O_THREADS:
-            if (rd_cli_int(optarg, 1, 1024, &threads))
-                return usage_error("--threads: expected an integer in 1..1024, got '%s'", optarg);
-            break;
-        case O_PNG_LEVEL:
-            if (rd_cli_int(optarg, 0, 9, &level))
-                return usage_error("--png-level: expected an integer in 0..9, got '%s'", optarg);
-            break;
-        case O_BUDGET:
-        case O_TARGET: {
-            char *end;
-            double v = strtod(optarg, &end);
-            if (!*optarg || *end || !(v > 0) || !(v < 1e15))
-                return usage_error(c == O_BUDGET ? "--time-budget-ms: expected a number > 0, got '%s'"
-                                                 : "--target-error: expected a number > 0, got '%s'",
-                                   optarg);
-            if (c == O_BUDGET)
-                budget = v;
-            else
-                target = v;
-            break;
-        }
-        case O_ADAPTIVE: adaptive = 1; break;
-        case O_STATS_FORMAT:
-            if (strcmp(optarg, "text") == 0)
-                stats_format = STATS_TEXT;
-            else if (strcmp(optarg, "json") == 0)
-                stats_format = STATS_JSON;
-            else if (strcmp(optarg, "both") == 0)
-                stats_format = STATS_TEXT | STATS_JSON;
-            else
-                return usage_error("--stats-format: expected text, json or both, got '%s'", optarg);
-            break;
-        case ':': return usage_error("%s needs a value", argv[optind - 1]);
-        default: return usage_error("unknown option '%s'", argv[optind - 1]);
-        }
+        if (rc)
+            return rc;
     }
     if (optind != argc - 1)
         return usage_error("%s", optind >= argc ? "expected one SCENE file" : "expected exactly one SCENE file");
-    if (!output)
+    if (!a->output)
         return usage_error("%s", "missing -o OUT.png");
+    a->scene = argv[optind];
+    a->ro.threads = (int)a->threads;
+    return 0;
+}
+
+/* The image as a PNG file. */
+static rd_error_code write_png(const rd_image *img, double gamma, const render_args *a, rd_error *err)
+{
+    uint8_t *rgb = malloc((size_t)img->width * (size_t)img->height * 3);
+    if (!rgb)
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    rd_image_to_rgb8(img, gamma, rgb);
+    rd_png_options po = rd_png_options_default();
+    if (a->level >= 0)
+        po.level = (int)a->level;
+    unsigned char *png = NULL;
+    size_t len = 0;
+    rd_error_code rc = rd_png_encode(rgb, img->width, img->height, &po, &png, &len, err);
+    free(rgb);
+    if (!rc)
+        rc = rd_write_file(a->output, png, len, err);
+    free(png);
+    return rc;
+}
+
+int rd_cmd_render(int argc, char **argv)
+{
+    render_args a;
+    int prc = parse_args(argc, argv, &a);
+    if (prc)
+        return prc == HELP_PRINTED ? RD_EXIT_OK : prc;
     rd_scene scene;
     rd_scene_init(&scene);
-    rd_scene_source src = {.path = argv[optind]};
+    rd_scene_source src = {.path = a.scene};
     rd_warnings warnings = {0, ""};
-    rd_error_code rc = rd_scene_open(&src, &ov, &lim, &scene, &warnings, &err);
+    rd_error err = {0};
+    rd_error_code rc = rd_scene_open(&src, &a.ov, &a.lim, &scene, &warnings, &err);
     if (warnings.count)
         fprintf(stderr, "%s%s", warnings.text, warnings.count > 5 ? "(more warnings not shown)\n" : "");
-    if (rc) {
-        fprintf(stderr, "%s\n", err.message);
-        rd_scene_free(&scene);
-        return rd_error_answer_for(rc).exit;
-    }
-
-    rd_render_options ro = {0};
-    ro.threads = (int)threads;
-    ro.time_budget_ms = budget;
-    ro.target_error = target;
-    ro.adaptive = adaptive;
     rd_image img;
     rd_render_stats st;
-    rc = rd_render(&scene, &ro, &img, &st, &err);
+    if (!rc && (rc = rd_render(&scene, &a.ro, &img, &st, &err)))
+        fprintf(stderr, "%s: %s\n", a.scene, err.message);
+    else if (rc)
+        fprintf(stderr, "%s\n", err.message);
     if (rc) {
-        fprintf(stderr, "%s: %s\n", argv[optind], err.message);
         rd_scene_free(&scene);
         return rd_error_answer_for(rc).exit;
     }
-    size_t n = (size_t)img.width * (size_t)img.height * 3;
-    uint8_t *rgb = malloc(n);
-    unsigned char *png = NULL;
-    size_t png_len = 0;
-    rd_png_options po = rd_png_options_default();
-    if (level >= 0)
-        po.level = (int)level;
-    if (!rgb) {
-        rc = rd_error_set(&err, RD_ERR_NOMEM, 0, 0, "out of memory");
-    } else {
-        rd_image_to_rgb8(&img, scene.render.gamma, rgb);
-        rc = rd_png_encode(rgb, img.width, img.height, &po, &png, &png_len, &err);
-        if (!rc)
-            rc = rd_write_file(output, png, png_len, &err);
-    }
-    if (stats_format & STATS_TEXT)
+    rc = write_png(&img, scene.render.gamma, &a, &err);
+    if (a.stats_format & STATS_TEXT)
         stats_text(&img, &st);
-    if ((stats_format & STATS_JSON) && stats_json(&img, &st) && !rc)
+    if ((a.stats_format & STATS_JSON) && stats_json(&img, &st) && !rc)
         rc = rd_error_set(&err, RD_ERR_NOMEM, 0, 0, "out of memory writing the statistics");
-    free(png);
-    free(rgb);
     rd_image_free(&img);
     rd_scene_free(&scene);
     if (rc) {
