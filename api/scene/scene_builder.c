@@ -478,47 +478,49 @@ static rd_error_code add_ref(rd_builder *b, size_t object, rd_loc l, rd_error *e
     return RD_OK;
 }
 
-rd_error_code rd_builder_section(rd_builder *b, const char *kind, size_t kind_len,
-                                 const char *name, size_t name_len, rd_loc where,
-                                 const rd_entry *entries, size_t n, rd_error *err)
+/* The section kind named by kind, or an error with a did-you-mean. */
+static rd_error_code resolve_kind(rd_builder *b, const char *kind, size_t kind_len, rd_loc where,
+                                  rd_section_kind *sec, rd_error *err)
 {
-    rd_scene *s = b->s;
-    char label[100];
     int ki = rd_section_kind_find(kind, kind_len);
-    if (ki < 0) {
-        rd_suggestion sg;
-        rd_suggest_init(&sg);
-        for (int k = 0; k < RD_SEC_COUNT; k++)
-            rd_suggest_offer(&sg, kind, kind_len, rd_section_kind_name((rd_section_kind)k));
-        char hint[300];
-        return rd_builder_error(b, err, RD_ERR_SYNTAX, where, "unknown section kind '%.*s'%s", cut(kind, kind_len),
-                                kind, rd_suggest_hint(&sg, kind_len, hint, sizeof hint));
+    if (ki >= 0) {
+        *sec = (rd_section_kind)ki;
+        return RD_OK;
     }
-    rd_section_kind sec = (rd_section_kind)ki;
-    section_label(label, sizeof label, sec, name, name_len);
+    rd_suggestion sg;
+    rd_suggest_init(&sg);
+    for (int k = 0; k < RD_SEC_COUNT; k++)
+        rd_suggest_offer(&sg, kind, kind_len, rd_section_kind_name((rd_section_kind)k));
+    char hint[300];
+    return rd_builder_error(b, err, RD_ERR_SYNTAX, where, "unknown section kind '%.*s'%s", cut(kind, kind_len), kind,
+                            rd_suggest_hint(&sg, kind_len, hint, sizeof hint));
+}
 
+/* [render] and [camera] once and unnamed, [material NAME] named, names
+ * unique per kind. */
+static rd_error_code check_header(rd_builder *b, rd_section_kind sec, const char *name, size_t name_len, rd_loc where,
+                                  rd_error *err)
+{
+    int named = name && name_len;
     if (sec == RD_SEC_RENDER || sec == RD_SEC_CAMERA) {
-        if (b->seen[sec]) {
-            if (b->seen[sec] > 1)
-                return rd_builder_error(b, err, RD_ERR_SYNTAX, where,
-                                        "duplicate [%s] section (first at line %d)",
-                                        rd_section_kind_name(sec), b->seen[sec] - 1);
-            return rd_builder_error(b, err, RD_ERR_SYNTAX, where, "duplicate [%s] section",
-                                    rd_section_kind_name(sec));
-        }
+        if (b->seen[sec] > 1)
+            return rd_builder_error(b, err, RD_ERR_SYNTAX, where, "duplicate [%s] section (first at line %d)",
+                                    rd_section_kind_name(sec), b->seen[sec] - 1);
+        if (b->seen[sec])
+            return rd_builder_error(b, err, RD_ERR_SYNTAX, where, "duplicate [%s] section", rd_section_kind_name(sec));
         b->seen[sec] = 1 + where.line;
-        if (name && name_len)
-            return rd_builder_error(b, err, RD_ERR_SYNTAX, where, "[%s] takes no name",
-                                    rd_section_kind_name(sec));
+        if (named)
+            return rd_builder_error(b, err, RD_ERR_SYNTAX, where, "[%s] takes no name", rd_section_kind_name(sec));
     }
-    if (sec == RD_SEC_MATERIAL && !(name && name_len))
+    if (sec == RD_SEC_MATERIAL && !named)
         return rd_builder_error(b, err, RD_ERR_SYNTAX, where, "[material] needs a name, as in [material red]");
-    if (name && name_len) {
-        rd_error_code rc = check_name(b, sec, name, name_len, where, err);
-        if (rc)
-            return rc;
-    }
+    return named ? check_name(b, sec, name, name_len, where, err) : RD_OK;
+}
 
+/* Keys of sane length, not too many, none twice. */
+static rd_error_code check_entries(rd_builder *b, const char *label, const rd_entry *entries, size_t n, rd_loc where,
+                                   rd_error *err)
+{
     for (size_t i = 0; i < n; i++)
         if (entries[i].key_len > RD_MAX_KEY_BYTES)
             return rd_builder_error(b, err, RD_ERR_SYNTAX, entries[i].key_loc, "a key longer than %d bytes",
@@ -526,120 +528,164 @@ rd_error_code rd_builder_section(rd_builder *b, const char *kind, size_t kind_le
     if (n > RD_MAX_SECTION_KEYS)
         return rd_builder_error(b, err, RD_ERR_LIMIT, where, "%s has %zu keys; a section holds at most %d", label, n,
                                 RD_MAX_SECTION_KEYS);
-    /* Same key twice in one section. */
     for (size_t i = 1; i < n; i++)
-        for (size_t j = 0; j < i; j++)
-            if (entries[i].key_len == entries[j].key_len &&
-                memcmp(entries[i].key, entries[j].key, entries[i].key_len) == 0) {
-                int shown = cut(entries[i].key, entries[i].key_len);
-                if (entries[j].key_loc.line > 0)
-                    return rd_builder_error(b, err, RD_ERR_SYNTAX, entries[i].key_loc,
-                                            "duplicate key '%.*s' in %s (first at line %d)", shown,
-                                            entries[i].key, label, entries[j].key_loc.line);
-                return rd_builder_error(b, err, RD_ERR_SYNTAX, entries[i].key_loc,
-                                        "duplicate key '%.*s' in %s", shown, entries[i].key, label);
-            }
+        for (size_t j = 0; j < i; j++) {
+            const rd_entry *x = &entries[i], *y = &entries[j];
+            if (x->key_len != y->key_len || memcmp(x->key, y->key, x->key_len) != 0)
+                continue;
+            int shown = cut(x->key, x->key_len);
+            if (y->key_loc.line > 0)
+                return rd_builder_error(b, err, RD_ERR_SYNTAX, x->key_loc,
+                                        "duplicate key '%.*s' in %s (first at line %d)", shown, x->key, label,
+                                        y->key_loc.line);
+            return rd_builder_error(b, err, RD_ERR_SYNTAX, x->key_loc, "duplicate key '%.*s' in %s", shown, x->key,
+                                    label);
+        }
+    return RD_OK;
+}
 
-    void *base = NULL;
-    size_t object_index = 0;
-    switch (sec) {
-    case RD_SEC_RENDER: base = &s->render; break;
-    case RD_SEC_CAMERA: base = &s->camera; break;
-    case RD_SEC_LIGHT:
+static rd_error_code too_many(rd_builder *b, rd_loc where, const char *what, size_t limit, size_t offset,
+                              rd_error *err)
+{
+    return rd_builder_error(b, err, RD_ERR_LIMIT, where, "too many %s (limit %zu, %s)", what, limit,
+                            rd_limit_flag(offset));
+}
+
+/* The struct the section fills: the render or camera settings, or a new
+ * light, material or object (within its limit), given its name. */
+static rd_error_code alloc_section(rd_builder *b, rd_section_kind sec, const char *name, size_t name_len, rd_loc where,
+                                   void **base, size_t *object_index, rd_error *err)
+{
+    rd_scene *s = b->s;
+    *base = NULL;
+    char **name_slot = NULL;
+    if (sec == RD_SEC_RENDER) {
+        *base = &s->render;
+    } else if (sec == RD_SEC_CAMERA) {
+        *base = &s->camera;
+    } else if (sec == RD_SEC_LIGHT) {
         if (s->light_count >= b->lim.max_lights)
-            return rd_builder_error(b, err, RD_ERR_LIMIT, where, "too many lights (limit %zu, %s)",
-                                    b->lim.max_lights, rd_limit_flag(offsetof(rd_scene_limits, max_lights)));
-        base = rd_scene_add_light(s);
-        break;
-    case RD_SEC_MATERIAL:
+            return too_many(b, where, "lights", b->lim.max_lights, offsetof(rd_scene_limits, max_lights), err);
+        rd_light *l = rd_scene_add_light(s);
+        *base = l;
+        name_slot = l ? &l->name : NULL;
+    } else if (sec == RD_SEC_MATERIAL) {
         if (s->material_count >= b->lim.max_materials)
-            return rd_builder_error(b, err, RD_ERR_LIMIT, where, "too many materials (limit %zu, %s)",
-                                    b->lim.max_materials, rd_limit_flag(offsetof(rd_scene_limits, max_materials)));
-        base = rd_scene_add_material(s);
-        break;
-    default:
+            return too_many(b, where, "materials", b->lim.max_materials, offsetof(rd_scene_limits, max_materials),
+                            err);
+        rd_material *m = rd_scene_add_material(s);
+        *base = m;
+        name_slot = m ? &m->name : NULL;
+    } else {
         if (s->object_count >= b->lim.max_objects)
-            return rd_builder_error(b, err, RD_ERR_LIMIT, where, "too many objects (limit %zu, %s)",
-                                    b->lim.max_objects, rd_limit_flag(offsetof(rd_scene_limits, max_objects)));
-        object_index = s->object_count;
-        base = rd_scene_add_object(s);
-        if (base) {
-            static const rd_object_type types[] = {[RD_SEC_SPHERE] = RD_OBJ_SPHERE,
-                                                   [RD_SEC_PLANE] = RD_OBJ_PLANE,
-                                                   [RD_SEC_TRIANGLE] = RD_OBJ_TRIANGLE,
-                                                   [RD_SEC_MESH] = RD_OBJ_MESH};
-            ((rd_object *)base)->type = types[sec];
-        }
-        break;
+            return too_many(b, where, "objects", b->lim.max_objects, offsetof(rd_scene_limits, max_objects), err);
+        static const rd_object_type types[] = {[RD_SEC_SPHERE] = RD_OBJ_SPHERE, [RD_SEC_PLANE] = RD_OBJ_PLANE,
+                                               [RD_SEC_TRIANGLE] = RD_OBJ_TRIANGLE, [RD_SEC_MESH] = RD_OBJ_MESH};
+        *object_index = s->object_count;
+        rd_object *o = rd_scene_add_object(s);
+        if (o)
+            o->type = types[sec];
+        *base = o;
+        name_slot = o ? &o->name : NULL;
     }
-    if (!base)
+    if (!*base)
         return rd_builder_error(b, err, RD_ERR_NOMEM, where, "out of memory");
-    if (sec != RD_SEC_RENDER && sec != RD_SEC_CAMERA && name && name_len) {
-        char **slot = sec == RD_SEC_LIGHT      ? &((rd_light *)base)->name
-                      : sec == RD_SEC_MATERIAL ? &((rd_material *)base)->name
-                                               : &((rd_object *)base)->name;
-        *slot = dupn(name, name_len);
-        if (!*slot)
-            return rd_builder_error(b, err, RD_ERR_NOMEM, where, "out of memory");
-    }
+    if (name_slot && name && name_len && !(*name_slot = dupn(name, name_len)))
+        return rd_builder_error(b, err, RD_ERR_NOMEM, where, "out of memory");
+    return RD_OK;
+}
 
-    /* The type comes first: it decides the defaults and which keys apply. */
-    unsigned subtype_bit = 1;
-    const rd_entry *type_entry = NULL;
-    rd_error_code rc;
-    if (sec == RD_SEC_LIGHT || sec == RD_SEC_MATERIAL) {
-        type_entry = find_entry(entries, n, "type");
-        const rd_key *tk = rd_key_find(sec, "type", 4);
-        int t = 0;
-        if (type_entry) {
-            if ((rc = enum_value(b, tk, &type_entry->value, &t, err)))
-                return rc;
-        } else if (sec == RD_SEC_MATERIAL) {
-            return rd_builder_error(b, err, RD_ERR_INVALID, where, "%s is missing required key 'type'", label);
-        }
-        if (sec == RD_SEC_MATERIAL)
-            rd_material_defaults(base, (rd_material_type)t);
-        else
-            ((rd_light *)base)->type = (rd_light_type)t;
-        subtype_bit = 1u << t;
-    }
-
-    for (size_t i = 0; i < n; i++) {
-        const rd_entry *e = &entries[i];
-        if (e == type_entry)
-            continue;
-        const rd_key *k = rd_key_find(sec, e->key, e->key_len);
-        if (!k)
-            return unknown_key(b, sec, e, label, err);
-        if (!(k->applies & subtype_bit)) {
-            const char *tn = sec == RD_SEC_LIGHT ? rd_light_type_words[__builtin_ctz(subtype_bit)]
-                                                 : rd_material_type_words[__builtin_ctz(subtype_bit)];
-            return rd_builder_error(b, err, RD_ERR_SYNTAX, e->key_loc,
-                                    "key '%s' does not apply to a %s %s in %s", k->name, tn,
-                                    subtype_noun(sec), label);
-        }
-        if ((rc = apply(b, k, e, base, err)))
+/* A light's or material's type comes first: it decides the defaults and
+ * which keys apply. *subtype_bit: the type's bit (1 for other sections). */
+static rd_error_code apply_type(rd_builder *b, rd_section_kind sec, const char *label, const rd_entry *entries,
+                                size_t n, rd_loc where, void *base, const rd_entry **type_entry,
+                                unsigned *subtype_bit, rd_error *err)
+{
+    *subtype_bit = 1;
+    *type_entry = NULL;
+    if (sec != RD_SEC_LIGHT && sec != RD_SEC_MATERIAL)
+        return RD_OK;
+    *type_entry = find_entry(entries, n, "type");
+    int t = 0;
+    if (*type_entry) {
+        rd_error_code rc = enum_value(b, rd_key_find(sec, "type", 4), &(*type_entry)->value, &t, err);
+        if (rc)
             return rc;
-        if (strcmp(k->name, "file") == 0 || strcmp(k->name, "texture") == 0) {
-            char **at = sec == RD_SEC_MESH ? &((rd_object *)base)->where : &((rd_material *)base)->where;
-            free(*at);
-            *at = loc_text(b, e->value.loc);
-            if (!*at)
-                return rd_builder_error(b, err, RD_ERR_NOMEM, where_loc_none(), "out of memory");
-        }
-        if (k->type == RD_KT_NAME && strcmp(k->name, "material") == 0 &&
-            (rc = add_ref(b, object_index, e->value.loc, err)))
-            return rc;
+    } else if (sec == RD_SEC_MATERIAL) {
+        return rd_builder_error(b, err, RD_ERR_INVALID, where, "%s is missing required key 'type'", label);
     }
+    if (sec == RD_SEC_MATERIAL)
+        rd_material_defaults(base, (rd_material_type)t);
+    else
+        ((rd_light *)base)->type = (rd_light_type)t;
+    *subtype_bit = 1u << t;
+    return RD_OK;
+}
 
+/* One entry into base, through its key; file names keep where they were
+ * written, material names are resolved once the scene is complete. */
+static rd_error_code apply_entry(rd_builder *b, rd_section_kind sec, const char *label, const rd_entry *e,
+                                 unsigned subtype_bit, void *base, size_t object_index, rd_error *err)
+{
+    const rd_key *k = rd_key_find(sec, e->key, e->key_len);
+    if (!k)
+        return unknown_key(b, sec, e, label, err);
+    if (!(k->applies & subtype_bit)) {
+        const char *tn = sec == RD_SEC_LIGHT ? rd_light_type_words[__builtin_ctz(subtype_bit)]
+                                             : rd_material_type_words[__builtin_ctz(subtype_bit)];
+        return rd_builder_error(b, err, RD_ERR_SYNTAX, e->key_loc, "key '%s' does not apply to a %s %s in %s", k->name,
+                                tn, subtype_noun(sec), label);
+    }
+    rd_error_code rc = apply(b, k, e, base, err);
+    if (rc)
+        return rc;
+    if (strcmp(k->name, "file") == 0 || strcmp(k->name, "texture") == 0) {
+        char **at = sec == RD_SEC_MESH ? &((rd_object *)base)->where : &((rd_material *)base)->where;
+        free(*at);
+        if (!(*at = loc_text(b, e->value.loc)))
+            return rd_builder_error(b, err, RD_ERR_NOMEM, where_loc_none(), "out of memory");
+    }
+    if (k->type == RD_KT_NAME && strcmp(k->name, "material") == 0)
+        return add_ref(b, object_index, e->value.loc, err);
+    return RD_OK;
+}
+
+static rd_error_code check_required(rd_builder *b, rd_section_kind sec, const char *label, const rd_entry *entries,
+                                    size_t n, unsigned subtype_bit, rd_loc where, rd_error *err)
+{
     size_t nk;
     const rd_key *keys = rd_keys_all(&nk);
     for (size_t i = 0; i < nk; i++)
-        if (keys[i].section == sec && (keys[i].required & subtype_bit) &&
-            !find_entry(entries, n, keys[i].name))
-            return rd_builder_error(b, err, RD_ERR_INVALID, where, "%s is missing required key '%s'",
-                                    label, keys[i].name);
-    return check_section(b, sec, base, entries, n, where, err);
+        if (keys[i].section == sec && (keys[i].required & subtype_bit) && !find_entry(entries, n, keys[i].name))
+            return rd_builder_error(b, err, RD_ERR_INVALID, where, "%s is missing required key '%s'", label,
+                                    keys[i].name);
+    return RD_OK;
+}
+
+rd_error_code rd_builder_section(rd_builder *b, const char *kind, size_t kind_len,
+                                 const char *name, size_t name_len, rd_loc where,
+                                 const rd_entry *entries, size_t n, rd_error *err)
+{
+    rd_section_kind sec = RD_SEC_RENDER;
+    rd_error_code rc = resolve_kind(b, kind, kind_len, where, &sec, err);
+    if (rc)
+        return rc;
+    char label[100];
+    section_label(label, sizeof label, sec, name, name_len);
+    void *base = NULL;
+    size_t object_index = 0;
+    const rd_entry *type_entry = NULL;
+    unsigned subtype_bit = 1;
+    if ((rc = check_header(b, sec, name, name_len, where, err)) || (rc = check_entries(b, label, entries, n, where, err)) ||
+        (rc = alloc_section(b, sec, name, name_len, where, &base, &object_index, err)) ||
+        (rc = apply_type(b, sec, label, entries, n, where, base, &type_entry, &subtype_bit, err)))
+        return rc;
+    for (size_t i = 0; i < n; i++)
+        if (&entries[i] != type_entry &&
+            (rc = apply_entry(b, sec, label, &entries[i], subtype_bit, base, object_index, err)))
+            return rc;
+    rc = check_required(b, sec, label, entries, n, subtype_bit, where, err);
+    return rc ? rc : check_section(b, sec, base, entries, n, where, err);
 }
 
 rd_error_code rd_builder_finish(rd_builder *b, rd_error *err)
