@@ -200,15 +200,11 @@ static rd_error_code enum_value(rd_builder *b, const rd_key *k, const rd_value *
                             rd_token_what(t, tb, sizeof tb), rd_suggest_hint(&sg, t->len, hint, sizeof hint));
 }
 
-/* Stores entry e into the struct at base. */
-static rd_error_code apply(rd_builder *b, const rd_key *k, const rd_entry *e, void *base,
-                           rd_error *err)
+/* A JSON value whose shape cannot be the key's (an array for a number, a
+ * number for a name), before its contents are read. */
+static rd_error_code check_shape(rd_builder *b, const rd_key *k, const rd_value *v, rd_error *err)
 {
-    const rd_value *v = &e->value;
-    void *dst = (char *)base + k->offset;
-    char tb[200], pb[300];
-    double d[3];
-    rd_error_code rc;
+    char tb[200];
     int json = v->loc.path != NULL;
     int vector = k->type == RD_KT_VEC2 || k->type == RD_KT_VEC3;
     if (json && v->is_array && !vector && k->type != RD_KT_REAL_OR_VEC3) {
@@ -232,90 +228,102 @@ static rd_error_code apply(rd_builder *b, const rd_key *k, const rd_entry *e, vo
         return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected %s, got %s", k->name,
                                 k->type == RD_KT_ENUM ? "a word (a string)" : "a name (a string)",
                                 rd_token_what(&v->tok[0], tb, sizeof tb));
-    switch (k->type) {
-    case RD_KT_INT: {
-        long long x;
-        if ((rc = one_token(b, k, v, "an integer", err)))
-            return rc;
-        if (rd_parse_int(&v->tok[0], (long long)k->lo, (long long)k->hi, &x))
-            return rd_builder_error(b, err, RD_ERR_SYNTAX, token_loc(v, 0, pb, sizeof pb),
-                                    "%s: expected an integer in %lld..%lld, got %s", k->name,
-                                    (long long)k->lo, (long long)k->hi,
-                                    rd_token_what(&v->tok[0], tb, sizeof tb));
-        *(int *)dst = (int)x;
-        return RD_OK;
-    }
-    case RD_KT_SEED: {
-        unsigned long long x;
-        if ((rc = one_token(b, k, v, "an integer", err)))
-            return rc;
-        /* A JSON number at or above 2^53 may already have lost digits. */
-        if (v->tok[0].number && strtod(v->tok[0].text, NULL) >= 9007199254740992.0)
-            return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc,
-                                    "%s: a JSON number of 2^53 or more may have lost digits; write the seed as a "
-                                    "string, e.g. \"18446744073709551615\"",
-                                    k->name);
-        if (rd_parse_u64(&v->tok[0], &x))
-            return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc,
-                                    "%s: expected an integer in 0..18446744073709551615, got %s%s", k->name,
-                                    rd_token_what(&v->tok[0], tb, sizeof tb),
-                                    v->tok[0].number ? " (JSON numbers above 2^53 lose digits: write a large seed "
-                                                       "as a string)"
-                                                     : "");
-        *(uint64_t *)dst = x;
-        return RD_OK;
-    }
-    case RD_KT_REAL:
-        if ((rc = numbers(b, k, v, 1, d, err)))
-            return rc;
+    return RD_OK;
+}
+
+static rd_error_code store_int(rd_builder *b, const rd_key *k, const rd_value *v, int *dst, rd_error *err)
+{
+    char tb[200], pb[300];
+    long long x;
+    rd_error_code rc = one_token(b, k, v, "an integer", err);
+    if (rc)
+        return rc;
+    if (rd_parse_int(&v->tok[0], (long long)k->lo, (long long)k->hi, &x))
+        return rd_builder_error(b, err, RD_ERR_SYNTAX, token_loc(v, 0, pb, sizeof pb),
+                                "%s: expected an integer in %lld..%lld, got %s", k->name, (long long)k->lo,
+                                (long long)k->hi, rd_token_what(&v->tok[0], tb, sizeof tb));
+    *dst = (int)x;
+    return RD_OK;
+}
+
+static rd_error_code store_seed(rd_builder *b, const rd_key *k, const rd_value *v, uint64_t *dst, rd_error *err)
+{
+    char tb[200];
+    unsigned long long x;
+    rd_error_code rc = one_token(b, k, v, "an integer", err);
+    if (rc)
+        return rc;
+    /* A JSON number at or above 2^53 may already have lost digits. */
+    if (v->tok[0].number && strtod(v->tok[0].text, NULL) >= 9007199254740992.0)
+        return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc,
+                                "%s: a JSON number of 2^53 or more may have lost digits; write the seed as a "
+                                "string, e.g. \"18446744073709551615\"",
+                                k->name);
+    if (rd_parse_u64(&v->tok[0], &x))
+        return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc,
+                                "%s: expected an integer in 0..18446744073709551615, got %s%s", k->name,
+                                rd_token_what(&v->tok[0], tb, sizeof tb),
+                                v->tok[0].number ? " (JSON numbers above 2^53 lose digits: write a large seed "
+                                                   "as a string)"
+                                                 : "");
+    *dst = x;
+    return RD_OK;
+}
+
+/* REAL, VEC2, VEC3, and REAL_OR_VEC3 (one number s meaning (s, s, s)). */
+static rd_error_code store_numbers(rd_builder *b, const rd_key *k, const rd_value *v, void *dst, rd_error *err)
+{
+    double d[3];
+    int one = k->type == RD_KT_REAL || (k->type == RD_KT_REAL_OR_VEC3 && v->total == 1 && !v->is_array);
+    int n = one ? 1 : k->type == RD_KT_VEC2 ? 2 : 3;
+    rd_error_code rc = numbers(b, k, v, n, d, err);
+    if (rc)
+        return rc;
+    if (k->type == RD_KT_REAL)
         *(double *)dst = d[0];
-        return RD_OK;
+    else if (k->type == RD_KT_VEC2)
+        memcpy(dst, d, 2 * sizeof d[0]);
+    else
+        *(rd_vec3 *)dst = one ? v3(d[0], d[0], d[0]) : v3(d[0], d[1], d[2]);
+    return RD_OK;
+}
+
+static rd_error_code store_text(rd_builder *b, const rd_key *k, const rd_value *v, char **slot, rd_error *err)
+{
+    rd_error_code rc = one_token(b, k, v, k->type == RD_KT_NAME ? "a name" : "a string", err);
+    if (rc)
+        return rc;
+    const rd_token *t = &v->tok[0];
+    if (t->len == 0)
+        return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: must not be empty", k->name);
+    if (t->len > b->lim.max_name)
+        return rd_builder_error(b, err, RD_ERR_LIMIT, v->loc, "%s: longer than the limit of %zu bytes (%s)", k->name,
+                                b->lim.max_name, rd_limit_flag(offsetof(rd_scene_limits, max_name)));
+    if (memchr(t->text, 0, t->len))
+        return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: contains a NUL byte", k->name);
+    free(*slot);
+    *slot = dupn(t->text, t->len);
+    return *slot ? RD_OK : rd_builder_error(b, err, RD_ERR_NOMEM, v->loc, "out of memory");
+}
+
+/* Stores entry e into the struct at base. */
+static rd_error_code apply(rd_builder *b, const rd_key *k, const rd_entry *e, void *base, rd_error *err)
+{
+    const rd_value *v = &e->value;
+    void *dst = (char *)base + k->offset;
+    rd_error_code rc = check_shape(b, k, v, err);
+    if (rc)
+        return rc;
+    switch (k->type) {
+    case RD_KT_INT: return store_int(b, k, v, dst, err);
+    case RD_KT_SEED: return store_seed(b, k, v, dst, err);
+    case RD_KT_REAL:
     case RD_KT_VEC2:
-        if ((rc = numbers(b, k, v, 2, d, err)))
-            return rc;
-        ((double *)dst)[0] = d[0];
-        ((double *)dst)[1] = d[1];
-        return RD_OK;
-    case RD_KT_REAL_OR_VEC3:
-        if (v->total == 1 && !v->is_array) {
-            if ((rc = numbers(b, k, v, 1, d, err)))
-                return rc;
-            *(rd_vec3 *)dst = v3(d[0], d[0], d[0]);
-            return RD_OK;
-        }
-        /* fall through */
     case RD_KT_VEC3:
-        if ((rc = numbers(b, k, v, 3, d, err)))
-            return rc;
-        *(rd_vec3 *)dst = v3(d[0], d[1], d[2]);
-        return RD_OK;
-    case RD_KT_ENUM: {
-        int x;
-        if ((rc = enum_value(b, k, v, &x, err)))
-            return rc;
-        *(int *)dst = x;
-        return RD_OK;
-    }
+    case RD_KT_REAL_OR_VEC3: return store_numbers(b, k, v, dst, err);
+    case RD_KT_ENUM: return enum_value(b, k, v, dst, err);
     case RD_KT_NAME:
-    case RD_KT_STRING: {
-        if ((rc = one_token(b, k, v, k->type == RD_KT_NAME ? "a name" : "a string", err)))
-            return rc;
-        const rd_token *t = &v->tok[0];
-        if (t->len == 0)
-            return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: must not be empty", k->name);
-        if (t->len > b->lim.max_name)
-            return rd_builder_error(b, err, RD_ERR_LIMIT, v->loc,
-                                    "%s: longer than the limit of %zu bytes (%s)", k->name, b->lim.max_name,
-                                    rd_limit_flag(offsetof(rd_scene_limits, max_name)));
-        if (memchr(t->text, 0, t->len))
-            return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: contains a NUL byte", k->name);
-        char **slot = dst;
-        free(*slot);
-        *slot = dupn(t->text, t->len);
-        if (!*slot)
-            return rd_builder_error(b, err, RD_ERR_NOMEM, v->loc, "out of memory");
-        return RD_OK;
-    }
+    case RD_KT_STRING: return store_text(b, k, v, dst, err);
     }
     return RD_OK;
 }
