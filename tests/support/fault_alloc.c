@@ -3,9 +3,12 @@
 
 #include <cJSON.h>
 #include <errno.h>
+#include <execinfo.h>
 #include <stdatomic.h>
 #include <stddef.h>
+#include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 void *__real_malloc(size_t n);
 void *__real_calloc(size_t m, size_t n);
@@ -55,7 +58,12 @@ static int should_fail(void)
         return 0;
     long left = atomic_fetch_sub(&countdown, 1);
     if (left == 1 || (left < 1 && atomic_load(&persist))) {
-        atomic_fetch_add(&injected, 1);
+        /* RD_FAULT_TRACE=1: where the first failure of each arming strikes. */
+        if (atomic_fetch_add(&injected, 1) == 0 && getenv("RD_FAULT_TRACE")) {
+            void *frames[16];
+            backtrace_symbols_fd(frames, backtrace(frames, 16), STDERR_FILENO);
+            write(STDERR_FILENO, "--\n", 3);
+        }
         errno = ENOMEM;
         return 1;
     }

@@ -28,7 +28,10 @@
  * their own (Criterion) are not wrapped. With one operation running at a
  * time, "the k-th allocation from now" is the k-th of that operation.
  *
- * Unarmed, the wrappers only count and pass through. */
+ * Unarmed, the wrappers only count and pass through. With RD_FAULT_TRACE
+ * set in the environment, the first failure injected after each
+ * rd_fault_arm prints a backtrace on stderr (addr2line -e build/unit-tests
+ * turns its offsets into lines), to find which allocation a test names. */
 #ifndef RD_TEST_FAULT_ALLOC_H
 #define RD_TEST_FAULT_ALLOC_H
 
