@@ -13,8 +13,8 @@ rd_grade_thresholds rd_grade_thresholds_default(void)
     return t;
 }
 
-void rd_grade_compare(const uint8_t *ref, const uint8_t *img, int w, int h, const rd_grade_thresholds *t,
-                      rd_grade_result *out)
+rd_error_code rd_grade_compare(const uint8_t *ref, const uint8_t *img, int w, int h, const rd_grade_thresholds *t,
+                               rd_grade_result *out)
 {
     memset(out, 0, sizeof *out);
     out->width = w;
@@ -66,6 +66,8 @@ void rd_grade_compare(const uint8_t *ref, const uint8_t *img, int w, int h, cons
     }
     out->ssim = rd_ssim(ref, img, w, h);
     out->pass = out->failed_fraction <= t->fail_fraction && out->hard_pixels <= (size_t)t->hard_fail_pixels;
+    /* SSIM of two real images is never NaN: its denominators hold C1, C2 > 0. */
+    return isnan(out->ssim) ? RD_ERR_NOMEM : RD_OK;
 }
 
 static double *luminance(const uint8_t *p, size_t n)

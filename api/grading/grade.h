@@ -46,12 +46,14 @@ static inline int rd_pixel_diff(const uint8_t *a, const uint8_t *b)
     return m;
 }
 
-void rd_grade_compare(const uint8_t *ref, const uint8_t *img, int width, int height, const rd_grade_thresholds *t,
-                      rd_grade_result *out);
+/* RD_ERR_NOMEM when there is no memory for SSIM's luminance planes (out's
+ * ssim is then NaN). */
+rd_error_code rd_grade_compare(const uint8_t *ref, const uint8_t *img, int width, int height,
+                               const rd_grade_thresholds *t, rd_grade_result *out);
 
 /* SSIM of the two images' luminance (Y = 0.299 R + 0.587 G + 0.114 B),
  * mean over every 11x11 window inside the image (smaller images: one window
- * of their size). */
+ * of their size). NaN when out of memory. */
 double rd_ssim(const uint8_t *a, const uint8_t *b, int width, int height);
 
 /* The diff heat map: the reference in grey, failed pixels coloured by the

@@ -120,9 +120,9 @@ rd_error_code rd_grade_set_reference(const rd_grader *g, rd_grade_output *o, con
     return RD_OK;
 }
 
-void rd_grade_finish(rd_grade_output *o)
+rd_error_code rd_grade_finish(rd_grade_output *o)
 {
-    rd_grade_compare(o->reference, o->image, o->width, o->height, &o->thresholds, &o->result);
+    return rd_grade_compare(o->reference, o->image, o->width, o->height, &o->thresholds, &o->result);
 }
 
 static rd_error_code render_reference(const rd_grader *g, const rd_scene *s, int threads, rd_grade_output *o,
@@ -157,8 +157,8 @@ rd_error_code rd_grade_run(const rd_grader *g, const rd_grade_input *in, int thr
     if (!rc && !o->reference)
         rc = render_reference(g, &s, threads, o, err);
     rd_scene_free(&s);
-    if (!rc)
-        rd_grade_finish(o);
+    if (!rc && rd_grade_finish(o))
+        rc = rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory comparing the images");
     return rc;
 }
 

@@ -82,8 +82,9 @@ rd_error_code rd_grade_prepare(const rd_grader *g, const rd_grade_input *in, rd_
 rd_error_code rd_grade_set_reference(const rd_grader *g, rd_grade_output *o, const uint8_t *rgb, int w, int h,
                                      rd_error *err);
 
-/* Compares the image with the reference (both present). */
-void rd_grade_finish(rd_grade_output *o);
+/* Compares the image with the reference (both present). RD_ERR_NOMEM
+ * when out of memory, with o->result incomplete. */
+rd_error_code rd_grade_finish(rd_grade_output *o);
 
 /* The whole pipeline on the calling thread, rendering with `threads`. */
 rd_error_code rd_grade_run(const rd_grader *g, const rd_grade_input *in, int threads, rd_grade_output *o,

@@ -54,15 +54,17 @@ rd_error_code rd_png_decode(const unsigned char *data, size_t len, size_t max_pi
     /* Read after a longjmp, so volatile. */
     unsigned char *volatile pixels = NULL;
     png_bytep *volatile rows = NULL;
-    volatile rd_error_code limit_hit = RD_OK;
+    /* An error decided here rather than by libpng (a limit, our own
+     * allocations), returned after the longjmp. */
+    volatile rd_error_code decided = RD_OK;
     if (setjmp(png_jmpbuf(png))) {
         png_destroy_read_struct(&png, &info, NULL);
         free(pixels);
         free(rows);
         free(out->rgb);
         out->rgb = NULL;
-        if (limit_hit)
-            return limit_hit;
+        if (decided)
+            return decided;
         return rd_error_set(err, RD_ERR_SYNTAX, 0, 0, "damaged PNG: %s", r.msg[0] ? r.msg : "unreadable");
     }
     png_set_read_fn(png, &r, read_fn);
@@ -93,8 +95,8 @@ rd_error_code rd_png_decode(const unsigned char *data, size_t len, size_t max_pi
     png_uint_32 w = png_get_image_width(png, info), h = png_get_image_height(png, info);
     int ctype = png_get_color_type(png, info), depth = png_get_bit_depth(png, info);
     if ((unsigned long long)w * h > max_pixels) {
-        limit_hit = rd_error_set(err, RD_ERR_LIMIT, 0, 0, "PNG of %ux%u is %llu pixels, over the limit of %zu (%s)",
-                                 (unsigned)w, (unsigned)h, (unsigned long long)w * h, max_pixels, limit_flag);
+        decided = rd_error_set(err, RD_ERR_LIMIT, 0, 0, "PNG of %ux%u is %llu pixels, over the limit of %zu (%s)",
+                               (unsigned)w, (unsigned)h, (unsigned long long)w * h, max_pixels, limit_flag);
         png_longjmp(png, 1);
     }
     out->had_alpha = (ctype & PNG_COLOR_MASK_ALPHA) || png_get_valid(png, info, PNG_INFO_tRNS);
@@ -113,8 +115,10 @@ rd_error_code rd_png_decode(const unsigned char *data, size_t len, size_t max_pi
     pixels = malloc(rowbytes * h);
     rows = malloc(sizeof(png_bytep) * h);
     out->rgb = malloc(sizeof(uint16_t) * 3 * (size_t)w * h);
-    if (!pixels || !rows || !out->rgb)
-        png_error(png, "out of memory");
+    if (!pixels || !rows || !out->rgb) {
+        decided = rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory for a %ux%u PNG", (unsigned)w, (unsigned)h);
+        png_longjmp(png, 1);
+    }
     for (png_uint_32 y = 0; y < h; y++)
         rows[y] = pixels + y * rowbytes;
     png_read_image(png, rows);

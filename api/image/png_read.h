@@ -20,7 +20,7 @@ typedef struct {
  * before allocating pixels, an image of more than max_pixels pixels
  * (RD_ERR_LIMIT naming limit_flag). Alpha is dropped, not composited.
  * RD_ERR_SYNTAX for a file that is not a PNG or is damaged, with libpng's
- * reason. */
+ * reason; RD_ERR_NOMEM when there is no memory for its pixels. */
 rd_error_code rd_png_decode(const unsigned char *data, size_t len, size_t max_pixels,
                             const char *limit_flag, rd_png_image *out, rd_error *err);
 

@@ -57,7 +57,11 @@ rd_error_code rd_png_encode(const uint8_t *rgb, int width, int height, const rd_
     }
     /* volatile: read after longjmp */
     png_bytep *volatile rows = malloc((size_t)height * sizeof(png_bytep));
-    if (!rows || setjmp(png_jmpbuf(png))) {
+    if (!rows) {
+        png_destroy_write_struct(&png, &info);
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory encoding PNG");
+    }
+    if (setjmp(png_jmpbuf(png))) {
         png_destroy_write_struct(&png, &info);
         free(rows);
         free(m.data);

@@ -171,10 +171,13 @@ static rd_error_code duplicates(jparser *jp, const cJSON *obj, const char *path,
     rd_name_set seen;
     rd_name_set_init(&seen);
     const cJSON *dup = NULL;
-    for (const cJSON *a = obj->child; a && !dup; a = a->next)
-        if (a->string && rd_name_set_add(&seen, 0, a->string, strlen(a->string), 1) >= 0)
+    long first = -1;
+    for (const cJSON *a = obj->child; a && !dup && first != -2; a = a->next)
+        if (a->string && (first = rd_name_set_add(&seen, 0, a->string, strlen(a->string), 1)) >= 0)
             dup = a;
     rd_name_set_free(&seen);
+    if (first == -2)
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "%s: out of memory", jp->source);
     if (dup) {
         char p[PATH_MAX_LEN];
         if (*path)
@@ -328,6 +331,10 @@ rd_error_code rd_json_parse(const char *text, size_t len, const char *source,
         return rc;
     const char *end = NULL;
     cJSON *root = cJSON_ParseWithLengthOpts(text + skip, len - skip, &end, 0);
+    /* cJSON reads every text the strict check passed, up to its own
+     * nesting limit: within that, no tree means no memory. */
+    if (!root && jp.lim.max_nesting <= CJSON_NESTING_LIMIT)
+        return rd_loc_error(err, RD_ERR_NOMEM, jp.source, (rd_loc){0, 0, NULL}, "out of memory");
     if (!root) {
         size_t off = end && end >= text + skip && end <= text + len ? (size_t)(end - text) : len;
         rd_loc l = text_loc(text, len, off);

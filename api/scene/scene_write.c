@@ -21,11 +21,13 @@ typedef union {
     rd_object o;
 } any_section;
 
-static void defaults_for(rd_section_kind sec, int subtype, any_section *d)
+/* 0 when out of memory. */
+static int defaults_for(rd_section_kind sec, int subtype, any_section *d)
 {
     memset(d, 0, sizeof *d);
     rd_scene s;
     rd_scene_init(&s);
+    int ok = 1;
     switch (sec) {
     case RD_SEC_RENDER: d->r = s.render; break;
     case RD_SEC_CAMERA: d->c = s.camera; break;
@@ -35,6 +37,7 @@ static void defaults_for(rd_section_kind sec, int subtype, any_section *d)
             l->type = (rd_light_type)subtype;
             d->l = *l;
         }
+        ok = l != NULL;
         break;
     }
     case RD_SEC_MATERIAL:
@@ -44,10 +47,12 @@ static void defaults_for(rd_section_kind sec, int subtype, any_section *d)
         rd_object *o = rd_scene_add_object(&s);
         if (o)
             d->o = *o;
+        ok = o != NULL;
         break;
     }
     }
     rd_scene_free(&s);
+    return ok;
 }
 
 static int key_bytes(const rd_key *k)
@@ -154,7 +159,8 @@ static rd_error_code cfg_section(rd_strbuf *b, rd_section_kind sec, const char *
                                  const void *base, const rd_object *o, rd_error *err)
 {
     any_section d;
-    defaults_for(sec, subtype, &d);
+    if (!defaults_for(sec, subtype, &d))
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory writing the scene");
     unsigned bit = (sec == RD_SEC_LIGHT || sec == RD_SEC_MATERIAL) ? 1u << subtype : 1u;
     put(b, "\n[%s", rd_section_kind_name(sec));
     if (name) {
@@ -229,15 +235,16 @@ static cJSON *raw_number(double v)
     return cJSON_CreateRaw(t);
 }
 
-static cJSON *raw_numbers(const double *v, int n)
+static cJSON *raw_numbers(const double *v, int n, int *failed)
 {
     cJSON *a = cJSON_CreateArray();
     for (int i = 0; a && i < n; i++)
-        cJSON_AddItemToArray(a, raw_number(v[i]));
+        rd_json_add(a, NULL, raw_number(v[i]), failed);
     return a;
 }
 
-static cJSON *json_value(const rd_key *k, const void *base)
+/* Sets *failed when a part could not be made (see rd_json_add). */
+static cJSON *json_value(const rd_key *k, const void *base, int *failed)
 {
     const char *f = (const char *)base + k->offset;
     switch (k->type) {
@@ -250,12 +257,12 @@ static cJSON *json_value(const rd_key *k, const void *base)
         return v <= (1ULL << 53) ? cJSON_CreateRaw(t) : cJSON_CreateString(t);
     }
     case RD_KT_REAL: return raw_number(*(const double *)f);
-    case RD_KT_VEC2: return raw_numbers((const double *)f, 2);
+    case RD_KT_VEC2: return raw_numbers((const double *)f, 2, failed);
     case RD_KT_VEC3:
     case RD_KT_REAL_OR_VEC3: {
         const rd_vec3 *v = (const rd_vec3 *)f;
         double a[3] = {v->x, v->y, v->z};
-        return raw_numbers(a, 3);
+        return raw_numbers(a, 3, failed);
     }
     case RD_KT_ENUM: return cJSON_CreateString(k->words[*(const int *)f]);
     case RD_KT_NAME:
@@ -265,51 +272,47 @@ static cJSON *json_value(const rd_key *k, const void *base)
 }
 
 static cJSON *json_section(rd_section_kind sec, int subtype, const void *base, const rd_object *o,
-                           const char *name, const char *type_word, int every)
+                           const char *name, const char *type_word, int every, int *failed)
 {
     any_section d;
-    defaults_for(sec, subtype, &d);
+    if (!defaults_for(sec, subtype, &d))
+        return NULL;
     unsigned bit = (sec == RD_SEC_LIGHT || sec == RD_SEC_MATERIAL) ? 1u << subtype : 1u;
     cJSON *obj = cJSON_CreateObject();
     if (!obj)
         return NULL;
     if (name)
-        cJSON_AddStringToObject(obj, "name", name);
+        rd_json_add(obj, "name", cJSON_CreateString(name), failed);
     if (type_word)
-        cJSON_AddStringToObject(obj, "type", type_word);
+        rd_json_add(obj, "type", cJSON_CreateString(type_word), failed);
     size_t nk;
     const rd_key *keys = rd_keys_all(&nk);
     for (size_t i = 0; i < nk; i++)
         if (keys[i].section == sec && wanted(&keys[i], bit, base, &d, o, every))
-            cJSON_AddItemToObject(obj, keys[i].name, json_value(&keys[i], base));
+            rd_json_add(obj, keys[i].name, json_value(&keys[i], base, failed), failed);
     return obj;
 }
 
-/* A loaded mesh as arrays (rd_scene_write_options.loaded_meshes); NULL when
- * out of memory. */
-static cJSON *mesh_json(const rd_mesh *m)
+/* A loaded mesh as arrays (rd_scene_write_options.loaded_meshes); sets
+ * *failed when a part could not be made. */
+static cJSON *mesh_json(const rd_mesh *m, int *failed)
 {
     cJSON *o = cJSON_CreateObject();
-    cJSON *pos = cJSON_AddArrayToObject(o, "positions");
-    cJSON *nrm = cJSON_AddArrayToObject(o, "normals");
-    cJSON *faces = cJSON_AddArrayToObject(o, "faces");
-    int ok = pos && nrm && faces;
-    for (size_t i = 0; ok && i < m->npositions; i++) {
+    cJSON *pos = rd_json_add(o, "positions", cJSON_CreateArray(), failed);
+    cJSON *nrm = rd_json_add(o, "normals", cJSON_CreateArray(), failed);
+    cJSON *faces = rd_json_add(o, "faces", cJSON_CreateArray(), failed);
+    for (size_t i = 0; pos && !*failed && i < m->npositions; i++) {
         double v[3] = {m->positions[i].x, m->positions[i].y, m->positions[i].z};
-        ok = cJSON_AddItemToArray(pos, raw_numbers(v, 3));
+        rd_json_add(pos, NULL, raw_numbers(v, 3, failed), failed);
     }
-    for (size_t i = 0; ok && i < m->nnormals; i++) {
+    for (size_t i = 0; nrm && !*failed && i < m->nnormals; i++) {
         double v[3] = {m->normals[i].x, m->normals[i].y, m->normals[i].z};
-        ok = cJSON_AddItemToArray(nrm, raw_numbers(v, 3));
+        rd_json_add(nrm, NULL, raw_numbers(v, 3, failed), failed);
     }
-    for (size_t i = 0; ok && i < m->nfaces; i++) {
+    for (size_t i = 0; faces && !*failed && i < m->nfaces; i++) {
         const rd_mesh_face *f = &m->faces[i];
         double v[6] = {f->v[0], f->v[1], f->v[2], f->n[0], f->n[1], f->n[2]};
-        ok = cJSON_AddItemToArray(faces, raw_numbers(v, 6));
-    }
-    if (!ok) {
-        cJSON_Delete(o);
-        return NULL;
+        rd_json_add(faces, NULL, raw_numbers(v, 6, failed), failed);
     }
     return o;
 }
@@ -327,37 +330,35 @@ rd_error_code rd_scene_write_json_with(const rd_scene *s, const rd_scene_write_o
     cJSON *root = cJSON_CreateObject();
     if (!root)
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory writing the scene");
-    cJSON_AddItemToObject(root, "render", json_section(RD_SEC_RENDER, 0, &s->render, NULL, NULL, NULL, every));
-    cJSON_AddItemToObject(root, "camera", json_section(RD_SEC_CAMERA, 0, &s->camera, NULL, NULL, NULL, every));
-    cJSON *lights = cJSON_AddArrayToObject(root, "lights");
+    int f = 0;
+    rd_json_add(root, "render", json_section(RD_SEC_RENDER, 0, &s->render, NULL, NULL, NULL, every, &f), &f);
+    rd_json_add(root, "camera", json_section(RD_SEC_CAMERA, 0, &s->camera, NULL, NULL, NULL, every, &f), &f);
+    cJSON *lights = rd_json_add(root, "lights", cJSON_CreateArray(), &f);
     for (size_t i = 0; lights && i < s->light_count; i++)
-        cJSON_AddItemToArray(lights, json_section(RD_SEC_LIGHT, (int)s->lights[i].type, &s->lights[i], NULL,
-                                                  s->lights[i].name, rd_light_type_words[s->lights[i].type],
-                                                  every));
-    cJSON *mats = cJSON_AddObjectToObject(root, "materials");
+        rd_json_add(lights, NULL,
+                    json_section(RD_SEC_LIGHT, (int)s->lights[i].type, &s->lights[i], NULL, s->lights[i].name,
+                                 rd_light_type_words[s->lights[i].type], every, &f),
+                    &f);
+    cJSON *mats = rd_json_add(root, "materials", cJSON_CreateObject(), &f);
     for (size_t i = 0; mats && i < s->material_count; i++) {
         const rd_material *m = &s->materials[i];
-        cJSON_AddItemToObject(mats, m->name ? m->name : "",
-                              json_section(RD_SEC_MATERIAL, (int)m->type, m, NULL, NULL,
-                                           rd_material_type_words[m->type], every));
+        rd_json_add(mats, m->name ? m->name : "",
+                    json_section(RD_SEC_MATERIAL, (int)m->type, m, NULL, NULL, rd_material_type_words[m->type], every,
+                                 &f),
+                    &f);
     }
-    cJSON *objs = cJSON_AddArrayToObject(root, "objects");
-    int ok = objs != NULL;
-    for (size_t i = 0; ok && i < s->object_count; i++) {
+    cJSON *objs = rd_json_add(root, "objects", cJSON_CreateArray(), &f);
+    for (size_t i = 0; objs && i < s->object_count; i++) {
         const rd_object *o = &s->objects[i];
         rd_section_kind sec = object_section(o);
-        cJSON *obj = json_section(sec, 0, o, o, o->name, rd_section_kind_name(sec), every);
-        ok = cJSON_AddItemToArray(objs, obj);
-        if (ok && loaded && o->type == RD_OBJ_MESH && o->mesh >= 0 && (size_t)o->mesh < s->mesh_count) {
-            cJSON *mj = mesh_json(&s->meshes[o->mesh]);
-            ok = mj && cJSON_AddItemToObject(obj, "loaded", mj);
-            if (mj && !ok)
-                cJSON_Delete(mj);
-        }
+        cJSON *obj = rd_json_add(objs, NULL, json_section(sec, 0, o, o, o->name, rd_section_kind_name(sec), every, &f),
+                                 &f);
+        if (obj && loaded && o->type == RD_OBJ_MESH && o->mesh >= 0 && (size_t)o->mesh < s->mesh_count)
+            rd_json_add(obj, "loaded", mesh_json(&s->meshes[o->mesh], &f), &f);
     }
     /* An object or mesh dropped for want of memory would be a different
      * scene, not a shorter text: fail instead. */
-    if (!ok) {
+    if (f) {
         cJSON_Delete(root);
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory writing the scene");
     }

@@ -20,3 +20,13 @@ char *rd_json_print(cJSON *root)
     cJSON_free(text);
     return copy;
 }
+
+cJSON *rd_json_add(cJSON *parent, const char *key, cJSON *item, int *failed)
+{
+    if (!parent || !item || !(key ? cJSON_AddItemToObject(parent, key, item) : cJSON_AddItemToArray(parent, item))) {
+        cJSON_Delete(item);
+        *failed = 1;
+        return NULL;
+    }
+    return item;
+}

@@ -8,4 +8,11 @@
  * in a newline, which the caller frees with free(); NULL when out of memory. */
 char *rd_json_print(cJSON *root);
 
+/* Adds item to parent, under key when parent is an object (key NULL: to
+ * the end of an array), and returns item. When item or parent is NULL or
+ * the add fails (cJSON out of memory), deletes item, sets *failed and
+ * returns NULL: a tree is built without a check at every step and checked
+ * once, through *failed, at the end. */
+cJSON *rd_json_add(cJSON *parent, const char *key, cJSON *item, int *failed);
+
 #endif

@@ -14,6 +14,7 @@
 #include "grading.h"
 #include "hash.h"
 #include "http_internal.h"
+#include "json_text.h"
 #include "png_write.h"
 #include "scene_load.h"
 
@@ -328,7 +329,8 @@ static rd_error_code finish_grade(void *arg, const uint8_t *rgb, int w, int h, r
         if (rc)
             return rc;
     }
-    rd_grade_finish(o);
+    if (rd_grade_finish(o))
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory comparing the images");
     char id[24];
     keep(g, o, id);
     t->json = verdict_json(o, id);
@@ -448,6 +450,31 @@ enum MHD_Result rd_route_grade_files(rd_req *r, const char *path)
     return rd_reply(r, 200, "image/png", copy, len, 1);
 }
 
+/* One assignment of the list: name, title, size, thresholds, scene address. */
+static cJSON *assignment_json(const rd_assignment *a, int *f)
+{
+    cJSON *o = cJSON_CreateObject();
+    rd_json_add(o, "name", cJSON_CreateString(a->name), f);
+    rd_json_add(o, "title", cJSON_CreateString(a->title), f);
+    rd_scene s;
+    rd_scene_init(&s);
+    rd_error e2;
+    if (rd_scene_load_file(a->scene_path, NULL, &s, &e2) == RD_OK) {
+        rd_json_add(o, "width", cJSON_CreateNumber(s.render.width), f);
+        rd_json_add(o, "height", cJSON_CreateNumber(s.render.height), f);
+    }
+    rd_scene_free(&s);
+    cJSON *t = rd_json_add(o, "thresholds", cJSON_CreateObject(), f);
+    rd_json_add(t, "fail", cJSON_CreateNumber(a->thresholds.fail), f);
+    rd_json_add(t, "fail_fraction", cJSON_CreateNumber(a->thresholds.fail_fraction), f);
+    rd_json_add(t, "hard_fail", cJSON_CreateNumber(a->thresholds.hard_fail), f);
+    rd_json_add(t, "hard_fail_pixels", cJSON_CreateNumber(a->thresholds.hard_fail_pixels), f);
+    char url[200];
+    snprintf(url, sizeof url, "/v1/assignments/%s/scene", a->name);
+    rd_json_add(o, "scene_url", cJSON_CreateString(url), f);
+    return o;
+}
+
 enum MHD_Result rd_route_assignments(rd_req *r, const char *rest)
 {
     const char *name = *rest ? rest + 1 : NULL;
@@ -472,33 +499,20 @@ enum MHD_Result rd_route_assignments(rd_req *r, const char *rest)
     rd_assignment *list;
     size_t n;
     rd_error err = {0};
-    if (rd_assignment_list(r->srv->opt.assignments_dir, &list, &n, &err))
+    rd_error_code rc = rd_assignment_list(r->srv->opt.assignments_dir, &list, &n, &err);
+    if (rc == RD_ERR_NOMEM)
+        return rd_reply_error(r, 503, "unavailable", &err, NULL);
+    if (rc)
         return rd_reply_json(r, 200, strdup("{\"assignments\":[]}"));
-    cJSON *root = cJSON_CreateObject(), *arr = cJSON_AddArrayToObject(root, "assignments");
-    for (size_t i = 0; i < n; i++) {
-        cJSON *o = cJSON_CreateObject();
-        cJSON_AddStringToObject(o, "name", list[i].name);
-        cJSON_AddStringToObject(o, "title", list[i].title);
-        rd_scene s;
-        rd_scene_init(&s);
-        rd_error e2;
-        if (rd_scene_load_file(list[i].scene_path, NULL, &s, &e2) == RD_OK) {
-            cJSON_AddNumberToObject(o, "width", s.render.width);
-            cJSON_AddNumberToObject(o, "height", s.render.height);
-        }
-        rd_scene_free(&s);
-        cJSON *t = cJSON_AddObjectToObject(o, "thresholds");
-        cJSON_AddNumberToObject(t, "fail", list[i].thresholds.fail);
-        cJSON_AddNumberToObject(t, "fail_fraction", list[i].thresholds.fail_fraction);
-        cJSON_AddNumberToObject(t, "hard_fail", list[i].thresholds.hard_fail);
-        cJSON_AddNumberToObject(t, "hard_fail_pixels", list[i].thresholds.hard_fail_pixels);
-        char url[200];
-        snprintf(url, sizeof url, "/v1/assignments/%s/scene", list[i].name);
-        cJSON_AddStringToObject(o, "scene_url", url);
-        cJSON_AddItemToArray(arr, o);
-    }
+    int f = 0;
+    cJSON *root = cJSON_CreateObject();
+    cJSON *arr = rd_json_add(root, "assignments", cJSON_CreateArray(), &f);
+    for (size_t i = 0; arr && !f && i < n; i++)
+        rd_json_add(arr, NULL, assignment_json(&list[i], &f), &f);
     free(list);
-    char *text = cJSON_PrintUnformatted(root);
+    char *text = f ? NULL : cJSON_PrintUnformatted(root);
     cJSON_Delete(root);
+    if (!text)
+        return rd_reply_error(r, 503, "unavailable", NULL, "out of memory");
     return rd_reply_json(r, 200, text);
 }

@@ -7,6 +7,7 @@
 
 #include "asset_source.h"
 #include "http_internal.h"
+#include "json_text.h"
 #include "strbuf.h"
 #include "scene_load.h"
 #include "file_io.h"
@@ -32,26 +33,29 @@ enum MHD_Result rd_route_scenes(rd_req *r, const char *rest)
         int n = scandir(dir, &names, listed, alphasort);
         if (n < 0)
             return rd_reply_json(r, 200, strdup("{\"scenes\":[]}"));
-        cJSON *root = cJSON_CreateObject(), *arr = cJSON_AddArrayToObject(root, "scenes");
+        int f = 0;
+        cJSON *root = cJSON_CreateObject();
+        cJSON *arr = rd_json_add(root, "scenes", cJSON_CreateArray(), &f);
         for (int i = 0; i < n; i++) {
             const char *file = names[i]->d_name;
-            if (inside(dir, file)) {
-                cJSON *o = cJSON_CreateObject();
+            if (arr && !f && inside(dir, file)) {
+                cJSON *o = rd_json_add(arr, NULL, cJSON_CreateObject(), &f);
                 int json = rd_ends_with(file, ".json");
                 char base[256], url[300];
                 snprintf(base, sizeof base, "%.*s", (int)(strlen(file) - (json ? 5 : 4)), file);
                 snprintf(url, sizeof url, "/v1/scenes/%s", file);
-                cJSON_AddStringToObject(o, "name", file);
-                cJSON_AddStringToObject(o, "scene", base);
-                cJSON_AddStringToObject(o, "format", json ? "json" : "cfg");
-                cJSON_AddStringToObject(o, "url", url);
-                cJSON_AddItemToArray(arr, o);
+                rd_json_add(o, "name", cJSON_CreateString(file), &f);
+                rd_json_add(o, "scene", cJSON_CreateString(base), &f);
+                rd_json_add(o, "format", cJSON_CreateString(json ? "json" : "cfg"), &f);
+                rd_json_add(o, "url", cJSON_CreateString(url), &f);
             }
             free(names[i]);
         }
         free(names);
-        char *t = cJSON_PrintUnformatted(root);
+        char *t = f ? NULL : cJSON_PrintUnformatted(root);
         cJSON_Delete(root);
+        if (!t)
+            return rd_reply_error(r, 503, "unavailable", NULL, "out of memory");
         return rd_reply_json(r, 200, t);
     }
     /* A bare name ("phong") means its cfg; only plain file names are served. */
