@@ -3,9 +3,9 @@
  * (ray.h).
  *
  * Exact t values come from geometry chosen so that the arithmetic is exact
- * (integers, halves, Pythagorean triples). The randomized tests use their
- * own fixed-seed generator, so they are reproducible and do not depend on
- * the core's sampler. */
+ * (integers, halves, Pythagorean triples). The randomized tests draw from
+ * the fixed-seed generator of tests/support/rng.h, so they are reproducible
+ * and do not depend on the core's sampler. */
 #include <criterion/criterion.h>
 #include <float.h>
 #include <math.h>
@@ -17,54 +17,15 @@
 #include "ray.h"
 #include "sphere.h"
 #include "triangle.h"
-
-#define assert_near(a, b, tol) \
-    cr_assert(fabs((double)(a) - (double)(b)) <= (tol), "%s = %.17g, expected %.17g (tol %g)", #a, (double)(a), (double)(b), (double)(tol))
-
-#define assert_vec_near(v, ex, ey, ez, tol) \
-    do {                                     \
-        rd_vec3 v_ = (v);                    \
-        assert_near(v_.x, ex, tol);          \
-        assert_near(v_.y, ey, tol);          \
-        assert_near(v_.z, ez, tol);          \
-    } while (0)
-
-/* ---- a small deterministic generator for the randomized tests ---------- */
-
-typedef struct { uint64_t s; } trng;
-
-static double trng_next(trng *g) /* uniform in [0, 1) */
-{
-    uint64_t z = (g->s += 0x9e3779b97f4a7c15ULL);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    z ^= z >> 31;
-    return (double)(z >> 11) * 0x1.0p-53;
-}
-
-static double trng_range(trng *g, double lo, double hi) { return lo + (hi - lo) * trng_next(g); }
-
-static rd_vec3 trng_unit(trng *g)
-{
-    for (;;) {
-        rd_vec3 v = v3(trng_range(g, -1, 1), trng_range(g, -1, 1), trng_range(g, -1, 1));
-        double l2 = v3_dot(v, v);
-        if (l2 > 1e-4 && l2 <= 1)
-            return v3_normalize(v);
-    }
-}
-
-static rd_vec3 trng_box(trng *g, double half)
-{
-    return v3(trng_range(g, -half, half), trng_range(g, -half, half), trng_range(g, -half, half));
-}
+#include "support/assert.h"
+#include "support/rng.h"
 
 /* A unit direction d with d·n = sign·c (c in (0, 1]), otherwise random. */
-static rd_vec3 dir_with_cos(trng *g, rd_vec3 n, double c)
+static rd_vec3 dir_with_cos(test_rng *g, rd_vec3 n, double c)
 {
     rd_vec3 t;
     do {
-        rd_vec3 r = trng_unit(g);
+        rd_vec3 r = rng_unit(g);
         t = v3_sub(r, v3_scale(n, v3_dot(r, n)));
     } while (v3_len(t) < 1e-3);
     t = v3_normalize(t);
@@ -73,11 +34,11 @@ static rd_vec3 dir_with_cos(trng *g, rd_vec3 n, double c)
 
 /* A random direction on the side of n: mostly uniform, one in four grazing
  * with cos down to 1e-16 (the hard case for self-intersection). */
-static rd_vec3 outward_dir(trng *g, rd_vec3 n)
+static rd_vec3 outward_dir(test_rng *g, rd_vec3 n)
 {
-    if (trng_next(g) < 0.25)
-        return dir_with_cos(g, n, pow(10, trng_range(g, -16, -1)));
-    rd_vec3 d = trng_unit(g);
+    if (rng_uniform(g) < 0.25)
+        return dir_with_cos(g, n, pow(10, rng_range(g, -16, -1)));
+    rd_vec3 d = rng_unit(g);
     double dn = v3_dot(d, n);
     if (dn == 0)
         return n;
@@ -420,11 +381,11 @@ Test(triangle, watertight_shared_edge)
      * either side aimed at points of the shared edge must hit at least one
      * triangle: the edge test of Woop et al. evaluates the same expression
      * (up to sign) for both triangles, so no ray slips between them. */
-    trng g = {12345};
+    test_rng g = {12345};
     int misses = 0, n = 0;
     char first[300] = "";
     for (int quad = 0; quad < 200; quad++) {
-        rd_vec3 v0 = trng_box(&g, 10), v1 = trng_box(&g, 10), v2 = trng_box(&g, 10);
+        rd_vec3 v0 = rng_point(&g, -10, 10), v1 = rng_point(&g, -10, 10), v2 = rng_point(&g, -10, 10);
         rd_vec3 v3p = v3_add(v0, v3_sub(v2, v1));
         if (v3_len(v3_cross(v3_sub(v1, v0), v3_sub(v2, v0))) < 1) /* skip slivers */
             continue;
@@ -433,9 +394,9 @@ Test(triangle, watertight_shared_edge)
         rd_triangle t1 = quad % 2 ? tri_of(v0, v1, v2) : tri_of(v1, v2, v0);
         rd_triangle t2 = quad % 3 ? tri_of(v2, v3p, v0) : tri_of(v0, v2, v3p);
         for (int k = 0; k < 500; k++) {
-            double s = trng_range(&g, 0.001, 0.999);
+            double s = rng_range(&g, 0.001, 0.999);
             rd_vec3 target = v3_add(v0, v3_scale(v3_sub(v2, v0), s));
-            rd_vec3 o = v3_add(target, v3_scale(trng_unit(&g), trng_range(&g, 0.5, 50)));
+            rd_vec3 o = v3_add(target, v3_scale(rng_unit(&g), rng_range(&g, 0.5, 50)));
             rd_vec3 d = v3_sub(target, o);
             if (k % 2)
                 d = v3_normalize(d);
@@ -459,29 +420,29 @@ Test(triangle, watertight_shared_vertex)
 {
     /* A fan of 7 triangles around an interior vertex C: every ray aimed at C
      * must hit at least one of them. */
-    trng g = {777};
+    test_rng g = {777};
     int misses = 0, n = 0;
     for (int fan = 0; fan < 100; fan++) {
-        rd_vec3 c = trng_box(&g, 5);
-        rd_vec3 nrm = trng_unit(&g);
-        rd_vec3 a = v3_normalize(v3_cross(nrm, trng_unit(&g)));
+        rd_vec3 c = rng_point(&g, -5, 5);
+        rd_vec3 nrm = rng_unit(&g);
+        rd_vec3 a = v3_normalize(v3_cross(nrm, rng_unit(&g)));
         rd_vec3 bb = v3_cross(nrm, a);
         rd_triangle tr[7];
         rd_vec3 ring[7];
         for (int i = 0; i < 7; i++) {
-            double ang = 2 * M_PI * (i + 0.3 * trng_next(&g)) / 7;
-            double rad = trng_range(&g, 0.5, 3);
+            double ang = 2 * M_PI * (i + 0.3 * rng_uniform(&g)) / 7;
+            double rad = rng_range(&g, 0.5, 3);
             /* A bit off-plane: a gently curved fan. */
             ring[i] = v3_add(c, v3_add(v3_add(v3_scale(a, rad * cos(ang)), v3_scale(bb, rad * sin(ang))),
-                                       v3_scale(nrm, trng_range(&g, -0.05, 0.05))));
+                                       v3_scale(nrm, rng_range(&g, -0.05, 0.05))));
         }
         for (int i = 0; i < 7; i++)
             tr[i] = tri_of(c, ring[i], ring[(i + 1) % 7]);
         for (int k = 0; k < 200; k++) {
-            rd_vec3 dir0 = trng_unit(&g);
+            rd_vec3 dir0 = rng_unit(&g);
             if (fabs(v3_dot(dir0, nrm)) < 0.2) /* stay off the fan's own plane */
                 continue;
-            rd_vec3 o = v3_add(c, v3_scale(dir0, trng_range(&g, 1, 30)));
+            rd_vec3 o = v3_add(c, v3_scale(dir0, rng_range(&g, 1, 30)));
             rd_vec3 d = v3_normalize(v3_sub(c, o));
             int hit = 0;
             double b[3];
@@ -510,7 +471,7 @@ Test(triangle, zero_area_never_hits)
         tri_of(v3(1, 1, 1), v3(2, 3, 4), v3(2, 3, 4)),
         tri_of(v3(2, 3, 4), v3(2, 3, 4), v3(2, 3, 4)),
     };
-    trng g = {99};
+    test_rng g = {99};
     for (int i = 0; i < 4; i++) {
         int hits = 0;
         char first[300] = "";
@@ -518,8 +479,8 @@ Test(triangle, zero_area_never_hits)
         if (i == 2)
             e = v3_sub(deg[i].v1, deg[i].v0);
         for (int k = 0; k < 20000; k++) {
-            rd_vec3 target = v3_add(a, v3_scale(e, trng_next(&g)));
-            rd_vec3 o = trng_box(&g, 20);
+            rd_vec3 target = v3_add(a, v3_scale(e, rng_uniform(&g)));
+            rd_vec3 o = rng_point(&g, -20, 20);
             rd_vec3 d = v3_normalize(v3_sub(target, o));
             double b[3];
             double t = rd_triangle_intersect(&deg[i], ray_of(o, d), INFINITY, b);
@@ -549,15 +510,15 @@ Test(triangle, zero_area_never_hits)
  * length 2r·cos. */
 static void sphere_offset_at_scale(double scale, uint64_t seed)
 {
-    trng g = {seed};
+    test_rng g = {seed};
     int rehits = 0, bad_chords = 0, tested = 0;
     char first[400] = "";
     for (int i = 0; i < 4000; i++) {
-        rd_sphere s = {v3_scale(trng_box(&g, 50), scale), scale * exp(trng_range(&g, log(0.01), log(10)))};
-        rd_vec3 nstar = trng_unit(&g);
+        rd_sphere s = {v3_scale(rng_point(&g, -50, 50), scale), scale * exp(rng_range(&g, log(0.01), log(10)))};
+        rd_vec3 nstar = rng_unit(&g);
         rd_vec3 pstar = v3_add(s.c, v3_scale(nstar, s.r));
-        rd_vec3 o = v3_add(pstar, v3_scale(dir_with_cos(&g, nstar, trng_range(&g, 0.05, 1)),
-                                           scale * trng_range(&g, 0.1, 200)));
+        rd_vec3 o = v3_add(pstar, v3_scale(dir_with_cos(&g, nstar, rng_range(&g, 0.05, 1)),
+                                           scale * rng_range(&g, 0.1, 200)));
         rd_ray r = ray_of(o, v3_normalize(v3_sub(pstar, o)));
         rd_hit h;
         memset(&h, 0, sizeof h);
@@ -582,7 +543,7 @@ static void sphere_offset_at_scale(double scale, uint64_t seed)
             }
         }
         /* Continued into the sphere (refraction-like), not too grazing. */
-        double c = trng_range(&g, 0.01, 1);
+        double c = rng_range(&g, 0.01, 1);
         rd_vec3 d3 = dir_with_cos(&g, v3_neg(h.ng), c);
         rd_ray r3 = ray_of(rd_offset_origin(&h, d3), d3);
         double t3 = rd_sphere_intersect(&s, r3, INFINITY);
@@ -608,16 +569,16 @@ Test(offset, sphere_scale_1e9) { sphere_offset_at_scale(1e9, 3); }
  * four grazing) must never meet the plane again. */
 static void plane_offset_at_scale(double scale, uint64_t seed)
 {
-    trng g = {seed};
+    test_rng g = {seed};
     int rehits = 0, tested = 0;
     char first[400] = "";
     for (int i = 0; i < 4000; i++) {
-        rd_plane pl = plane_of(v3_scale(trng_box(&g, 50), scale), trng_unit(&g));
-        rd_vec3 pstar = v3_add(pl.q, v3_add(v3_scale(pl.tu, scale * trng_range(&g, -100, 100)),
-                                            v3_scale(pl.tv, scale * trng_range(&g, -100, 100))));
-        rd_vec3 side = trng_next(&g) < 0.5 ? pl.n : v3_neg(pl.n);
-        rd_vec3 o = v3_add(pstar, v3_scale(dir_with_cos(&g, side, trng_range(&g, 0.05, 1)),
-                                           scale * trng_range(&g, 0.1, 200)));
+        rd_plane pl = plane_of(v3_scale(rng_point(&g, -50, 50), scale), rng_unit(&g));
+        rd_vec3 pstar = v3_add(pl.q, v3_add(v3_scale(pl.tu, scale * rng_range(&g, -100, 100)),
+                                            v3_scale(pl.tv, scale * rng_range(&g, -100, 100))));
+        rd_vec3 side = rng_uniform(&g) < 0.5 ? pl.n : v3_neg(pl.n);
+        rd_vec3 o = v3_add(pstar, v3_scale(dir_with_cos(&g, side, rng_range(&g, 0.05, 1)),
+                                           scale * rng_range(&g, 0.1, 200)));
         rd_ray r = ray_of(o, v3_normalize(v3_sub(pstar, o)));
         rd_hit h;
         memset(&h, 0, sizeof h);
@@ -633,7 +594,7 @@ static void plane_offset_at_scale(double scale, uint64_t seed)
             else if (k == 1)
                 d2 = r.d; /* straight through */
             else
-                d2 = outward_dir(&g, trng_next(&g) < 0.5 ? h.ng : v3_neg(h.ng));
+                d2 = outward_dir(&g, rng_uniform(&g) < 0.5 ? h.ng : v3_neg(h.ng));
             rd_ray r2 = ray_of(rd_offset_origin(&h, d2), d2);
             double t2 = rd_plane_intersect(&pl, r2, INFINITY);
             if (t2 != 0) {

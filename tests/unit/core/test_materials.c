@@ -21,17 +21,8 @@
 #include <string.h>
 
 #include "material.h"
-
-#define assert_near(a, b, tol) \
-    cr_assert(fabs((double)(a) - (double)(b)) <= (tol), "%s = %.17g, expected %.17g (tol %g)", #a, (double)(a), (double)(b), (double)(tol))
-
-#define assert_rgb_near(c, ex, ey, ez, tol) \
-    do {                                     \
-        rd_rgb c_ = (c);                     \
-        assert_near(c_.x, ex, tol);          \
-        assert_near(c_.y, ey, tol);          \
-        assert_near(c_.z, ez, tol);          \
-    } while (0)
+#include "support/assert.h"
+#include "support/rng.h"
 
 static double rad(double deg) { return deg * M_PI / 180.0; }
 
@@ -66,15 +57,15 @@ Test(diffuse, lambert_cosine)
     m.kd = v3(0.8, 0.4, 0.2);
     rd_hit h = hit_up();
     /* Light overhead: cos α = 1 -> kd. */
-    assert_rgb_near(rd_calc_reflected_light(&m, &h, light_at(0), view_at(0)), 0.8, 0.4, 0.2, 1e-15);
+    assert_vec_near(rd_calc_reflected_light(&m, &h, light_at(0), view_at(0)), 0.8, 0.4, 0.2, 1e-15);
     /* Light at 60°: cos α = cos 60° = 0.5 -> kd·0.5 = (0.4, 0.2, 0.1), whatever V is. */
-    assert_rgb_near(rd_calc_reflected_light(&m, &h, light_at(60), view_at(-45)), 0.4, 0.2, 0.1, 1e-15);
-    assert_rgb_near(rd_calc_reflected_light(&m, &h, light_at(60), view_at(80)), 0.4, 0.2, 0.1, 1e-15);
+    assert_vec_near(rd_calc_reflected_light(&m, &h, light_at(60), view_at(-45)), 0.4, 0.2, 0.1, 1e-15);
+    assert_vec_near(rd_calc_reflected_light(&m, &h, light_at(60), view_at(80)), 0.4, 0.2, 0.1, 1e-15);
     /* Light at 45°: cos α = √2/2 = 0.70710678 -> 0.8·0.70710678 = 0.56568542. */
-    assert_rgb_near(rd_calc_reflected_light(&m, &h, light_at(45), view_at(0)), 0.565685424949238, 0.282842712474619,
+    assert_vec_near(rd_calc_reflected_light(&m, &h, light_at(45), view_at(0)), 0.565685424949238, 0.282842712474619,
                     0.141421356237310, 1e-14);
     /* The direct entry point agrees with the dispatcher. */
-    assert_rgb_near(rd_diffuse_reflected(&m, &h, light_at(60), view_at(0)), 0.4, 0.2, 0.1, 1e-15);
+    assert_vec_near(rd_diffuse_reflected(&m, &h, light_at(60), view_at(0)), 0.4, 0.2, 0.1, 1e-15);
 }
 
 /* ---- phong ------------------------------------------------------------- */
@@ -90,11 +81,11 @@ Test(phong, highlight_by_hand)
      * the mirror direction at -60°. Viewer at -30°: R·V = cos(60° - 30°) = √3/2,
      * spec = (√3/2)² = 0.75. Result = kd·0.5 + ks·0.75
      *   = (0.25 + 0.1875, 0.25 + 0.375, 0.25 + 0.75) = (0.4375, 0.625, 1.0). */
-    assert_rgb_near(rd_calc_reflected_light(&m, &h, light_at(60), view_at(-30)), 0.4375, 0.625, 1.0, 1e-14);
+    assert_vec_near(rd_calc_reflected_light(&m, &h, light_at(60), view_at(-30)), 0.4375, 0.625, 1.0, 1e-14);
     /* Viewer exactly at the mirror direction (-60°): spec = 1 -> kd·0.5 + ks. */
-    assert_rgb_near(rd_calc_reflected_light(&m, &h, light_at(60), view_at(-60)), 0.5, 0.75, 1.25, 1e-14);
+    assert_vec_near(rd_calc_reflected_light(&m, &h, light_at(60), view_at(-60)), 0.5, 0.75, 1.25, 1e-14);
     /* Viewer on the light's side at +60°: R·V = cos 120° = -0.5 -> max(·,0) = 0 -> kd·0.5. */
-    assert_rgb_near(rd_calc_reflected_light(&m, &h, light_at(60), view_at(60)), 0.25, 0.25, 0.25, 1e-15);
+    assert_vec_near(rd_calc_reflected_light(&m, &h, light_at(60), view_at(60)), 0.25, 0.25, 0.25, 1e-15);
 }
 
 Test(phong, shininess_50)
@@ -106,7 +97,7 @@ Test(phong, shininess_50)
     rd_hit h = hit_up();
     /* Light at 30° -> R at -30°; viewer at -20°: angle 10°,
      * cos(10°)^50 = 0.98480775^50 = exp(50·ln 0.98480775) = exp(-0.765442) = 0.46512850. */
-    assert_rgb_near(rd_calc_reflected_light(&m, &h, light_at(30), view_at(-20)), 0.465128497295494,
+    assert_vec_near(rd_calc_reflected_light(&m, &h, light_at(30), view_at(-20)), 0.465128497295494,
                     0.465128497295494, 0.465128497295494, 1e-13);
     /* And it is Phong, not Blinn: Blinn would give cos(5°)^50 = 0.8264. */
 }
@@ -124,10 +115,10 @@ Test(blinn_phong, half_vector_by_hand)
      * directions to the viewer (-30°) and to the light (+60°): H at 15°.
      * N·H = cos 15°, spec = cos⁴15° = ((1 + cos 30°)/2)² = (0.93301270)² = 0.87051270.
      * Result = kd·0.5 + ks·0.87051270 = (1.12051270, 0.68525635, 0.25). */
-    assert_rgb_near(rd_calc_reflected_light(&m, &h, light_at(60), view_at(-30)), 1.120512701892219,
+    assert_vec_near(rd_calc_reflected_light(&m, &h, light_at(60), view_at(-30)), 1.120512701892219,
                     0.685256350946110, 0.25, 1e-14);
     /* Viewer at the mirror direction: H = N, spec = 1. */
-    assert_rgb_near(rd_calc_reflected_light(&m, &h, light_at(60), view_at(-60)), 1.25, 0.75, 0.25, 1e-14);
+    assert_vec_near(rd_calc_reflected_light(&m, &h, light_at(60), view_at(-60)), 1.25, 0.75, 0.25, 1e-14);
 }
 
 /* ---- cook_torrance ------------------------------------------------------ */
@@ -148,7 +139,7 @@ Test(cook_torrance, viewer_overhead_light_60)
     m.roughness = 0.5;
     rd_hit h = hit_up();
     rd_rgb c = rd_calc_reflected_light(&m, &h, light_at(60), view_at(0));
-    assert_rgb_near(c, 0.25597279957023830, 0.25597279957023830, 0.25597279957023830, 1e-13);
+    assert_vec_near(c, 0.25597279957023830, 0.25597279957023830, 0.25597279957023830, 1e-13);
 }
 
 Test(cook_torrance, mirror_configuration_schlick)
@@ -166,7 +157,7 @@ Test(cook_torrance, mirror_configuration_schlick)
     m.roughness = 0.5;
     rd_hit h = hit_up();
     rd_rgb c = rd_calc_reflected_light(&m, &h, light_at(60), view_at(-60));
-    assert_rgb_near(c, 0.0445633840657307, 0.636619772367581, 0.636619772367581 / 32, 1e-13);
+    assert_vec_near(c, 0.0445633840657307, 0.636619772367581, 0.636619772367581 / 32, 1e-13);
 }
 
 Test(cook_torrance, masking_term_limits)
@@ -185,7 +176,7 @@ Test(cook_torrance, masking_term_limits)
     m.roughness = 0.5;
     rd_hit h = hit_up();
     rd_rgb c = rd_calc_reflected_light(&m, &h, light_at(0), view_at(80));
-    assert_rgb_near(c, 0.50449824105298784, 0.50449824105298784, 0.50449824105298784, 1e-13);
+    assert_vec_near(c, 0.50449824105298784, 0.50449824105298784, 0.50449824105298784, 1e-13);
 }
 
 Test(cook_torrance, viewer_below_surface_no_specular)
@@ -197,8 +188,8 @@ Test(cook_torrance, viewer_below_surface_no_specular)
     m.ks = v3(1, 1, 1);
     m.roughness = 0.1;
     rd_hit h = hit_up();
-    assert_rgb_near(rd_calc_reflected_light(&m, &h, light_at(60), view_at(100)), 0.25, 0.125, 0.5, 1e-15);
-    assert_rgb_near(rd_calc_reflected_light(&m, &h, light_at(60), view_at(90)), 0.25, 0.125, 0.5, 1e-15);
+    assert_vec_near(rd_calc_reflected_light(&m, &h, light_at(60), view_at(100)), 0.25, 0.125, 0.5, 1e-15);
+    assert_vec_near(rd_calc_reflected_light(&m, &h, light_at(60), view_at(90)), 0.25, 0.125, 0.5, 1e-15);
 }
 
 static int finite_nonneg(rd_rgb c) { return v3_is_finite(c) && c.x >= 0 && c.y >= 0 && c.z >= 0; }
@@ -304,49 +295,29 @@ Test(all_materials, mirror_and_glass_reflect_nothing_directly)
     cr_assert(!rd_material_is_recursive(&d));
 }
 
-/* A small generator for the randomized test below. */
-static double rnd(uint64_t *s)
-{
-    uint64_t z = (*s += 0x9e3779b97f4a7c15ULL);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    z ^= z >> 31;
-    return (double)(z >> 11) * 0x1.0p-53;
-}
-
-static rd_vec3 rnd_unit(uint64_t *s)
-{
-    for (;;) {
-        rd_vec3 v = v3(2 * rnd(s) - 1, 2 * rnd(s) - 1, 2 * rnd(s) - 1);
-        double l2 = v3_dot(v, v);
-        if (l2 > 1e-4 && l2 <= 1)
-            return v3_normalize(v);
-    }
-}
-
 Test(all_materials, finite_nonnegative_and_bounded_by_kd_when_no_ks)
 {
     /* Random unit N, L, V and parameters: every value finite and >= 0, 0 when
      * -N·L <= 0, and equal to kd·cos α when ks = 0 (no specular term at all). */
-    uint64_t s = 42;
+    test_rng g = {42};
     rd_material_type ts[] = {RD_MAT_DIFFUSE, RD_MAT_PHONG, RD_MAT_BLINN_PHONG, RD_MAT_COOK_TORRANCE};
     for (int i = 0; i < 200000; i++) {
         rd_material m = mat(ts[i % 4]);
-        m.kd = v3(rnd(&s), rnd(&s), rnd(&s));
+        m.kd = v3(rng_uniform(&g), rng_uniform(&g), rng_uniform(&g));
         int zero_ks = (i / 4) % 3 == 0;
-        m.ks = zero_ks ? v3(0, 0, 0) : v3(rnd(&s), rnd(&s), rnd(&s));
-        m.shininess = pow(10, 9 * rnd(&s));     /* 1 .. 1e9 */
-        m.roughness = pow(10, -6 * rnd(&s));    /* 1e-6 .. 1 */
+        m.ks = zero_ks ? v3(0, 0, 0) : v3(rng_uniform(&g), rng_uniform(&g), rng_uniform(&g));
+        m.shininess = pow(10, 9 * rng_uniform(&g));     /* 1 .. 1e9 */
+        m.roughness = pow(10, -6 * rng_uniform(&g));    /* 1e-6 .. 1 */
         rd_hit h = hit_up();
-        h.n = rnd_unit(&s);
-        rd_vec3 L = rnd_unit(&s), V = rnd_unit(&s);
+        h.n = rng_unit(&g);
+        rd_vec3 L = rng_unit(&g), V = rng_unit(&g);
         rd_rgb c = rd_calc_reflected_light(&m, &h, L, V);
         cr_assert(finite_nonneg(c), "%s: (%g,%g,%g)", rd_material_type_name(m.type), c.x, c.y, c.z);
         double cosa = -v3_dot(h.n, L);
         if (!(cosa > 0))
             cr_assert(c.x == 0 && c.y == 0 && c.z == 0);
         else if (zero_ks && m.type != RD_MAT_COOK_TORRANCE) /* CT's Fresnel is not 0 at ks = F0 = 0 */
-            assert_rgb_near(c, m.kd.x * cosa, m.kd.y * cosa, m.kd.z * cosa, 1e-15);
+            assert_vec_near(c, m.kd.x * cosa, m.kd.y * cosa, m.kd.z * cosa, 1e-15);
     }
 }
 

@@ -7,18 +7,7 @@
 #include <math.h>
 
 #include "rayd/vec3.h"
-
-/* |a - b| <= tol, with a message naming both values. */
-#define assert_near(a, b, tol) \
-    cr_assert(fabs((double)(a) - (double)(b)) <= (tol), "%s = %.17g, expected %.17g (tol %g)", #a, (double)(a), (double)(b), (double)(tol))
-
-#define assert_vec_near(v, ex, ey, ez, tol) \
-    do {                                     \
-        rd_vec3 v_ = (v);                    \
-        assert_near(v_.x, ex, tol);          \
-        assert_near(v_.y, ey, tol);          \
-        assert_near(v_.z, ez, tol);          \
-    } while (0)
+#include "support/assert.h"
 
 /* A few ulps of 1: the result of a normalisation is a unit vector rounded
  * in two divisions, a multiplication and a square root. */
