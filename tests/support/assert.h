@@ -19,13 +19,15 @@
     cr_assert(fabs((double)(a) - (double)(b)) <= (rel) * fabs((double)(b)),                                    \
               "%s = %.17g, expected %.17g (relative tol %g)", #a, (double)(a), (double)(b), (double)(rel))
 
-/* Each component of the vector (or colour) v within tol of ex, ey, ez. */
-#define assert_vec_near(v, ex, ey, ez, tol) \
-    do {                                    \
-        rd_vec3 v_ = (v);                   \
-        assert_near(v_.x, ex, tol);         \
-        assert_near(v_.y, ey, tol);         \
-        assert_near(v_.z, ez, tol);         \
+/* Each component of the vector (or colour) v within tol of ex, ey, ez; the
+ * message names v and the component. */
+#define assert_vec_near(v, ex, ey, ez, tol)                                                                    \
+    do {                                                                                                       \
+        rd_vec3 v_ = (v);                                                                                      \
+        const double got_[3] = {v_.x, v_.y, v_.z}, want_[3] = {(ex), (ey), (ez)};                              \
+        for (int k_ = 0; k_ < 3; k_++)                                                                         \
+            cr_assert(fabs(got_[k_] - want_[k_]) <= (tol), "%s.%c = %.17g, expected %.17g (tol %g)", #v,       \
+                      "xyz"[k_], got_[k_], want_[k_], (double)(tol));                                          \
     } while (0)
 
 #endif
