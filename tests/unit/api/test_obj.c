@@ -19,6 +19,7 @@
 #include "rayd/scene.h"
 #include "scene_assets.h"
 #include "scene_load.h"
+#include "support/scene_fixture.h"
 
 /* ---- parsing ----------------------------------------------------------------- */
 
@@ -426,48 +427,20 @@ static rd_vec3 cube_corner(int i, rd_vec3 scale, rd_vec3 t)
 
 static void cube_common(rd_scene *s)
 {
-    rd_scene_init(s);
-    s->render.width = 40;
-    s->render.height = 30;
+    fixture_scene(s, 40, 30);
     s->render.background = v3(0.1, 0.1, 0.2);
     s->camera.eye = v3(2, 1.6, 3);
-    s->camera.target = v3(0, 0, 0);
     s->camera.fov_deg = 40;
-    rd_material *m = rd_scene_add_material(s);
-    cr_assert(m);
-    rd_material_defaults(m, RD_MAT_PHONG);
-    m->name = strdup("m");
-    m->kd = v3(0.7, 0.4, 0.2);
-    m->ks = v3(0.3, 0.3, 0.3);
-    m->shininess = 12;
-    m->ambient = v3(0.05, 0.05, 0.05);
-    rd_material *f = rd_scene_add_material(s);
-    cr_assert(f);
-    rd_material_defaults(f, RD_MAT_DIFFUSE);
-    f->name = strdup("floor");
-    rd_object *o = rd_scene_add_object(s);
-    cr_assert(o);
-    o->type = RD_OBJ_PLANE;
-    o->point = v3(0, -0.75, 0);
-    o->normal = v3(0, 1, 0);
-    o->material = 1;
-    rd_light *l = rd_scene_add_light(s);
-    cr_assert(l);
-    l->position = v3(3, 4, 2);
-}
-
-static uint8_t *render_rgb8(const rd_scene *s)
-{
-    rd_image img;
-    rd_render_stats st;
-    rd_error err = {0};
-    rd_error_code rc = rd_render(s, NULL, &img, &st, &err);
-    cr_assert_eq(rc, RD_OK, "%s", err.message);
-    uint8_t *b = malloc((size_t)img.width * img.height * 3);
-    cr_assert(b);
-    rd_image_to_rgb8(&img, s->render.gamma, b);
-    rd_image_free(&img);
-    return b;
+    int m = add_material(s, RD_MAT_PHONG);
+    s->materials[m].name = strdup("m");
+    s->materials[m].kd = v3(0.7, 0.4, 0.2);
+    s->materials[m].ks = v3(0.3, 0.3, 0.3);
+    s->materials[m].shininess = 12;
+    s->materials[m].ambient = v3(0.05, 0.05, 0.05);
+    int f = add_material(s, RD_MAT_DIFFUSE);
+    s->materials[f].name = strdup("floor");
+    add_plane(s, v3(0, -0.75, 0), v3(0, 1, 0), f);
+    add_point_light(s, v3(3, 4, 2), v3(1, 1, 1));
 }
 
 static size_t count_not(const uint8_t *b, size_t n, const uint8_t *other)
@@ -505,19 +478,15 @@ Test(obj_render, cube_mesh_equals_twelve_triangles)
     rd_scene b;
     cube_common(&b);
     for (int q = 0; q < 6; q++)
-        for (int k = 1; k <= 2; k++) {
-            rd_object *tri = rd_scene_add_object(&b);
-            cr_assert(tri);
-            tri->type = RD_OBJ_TRIANGLE;
-            tri->material = 0;
-            tri->v[0] = cube_corner(cube_quads[q][0], scale, t);
-            tri->v[1] = cube_corner(cube_quads[q][k], scale, t);
-            tri->v[2] = cube_corner(cube_quads[q][k + 1], scale, t);
-        }
+        for (int k = 1; k <= 2; k++)
+            add_triangle(&b, cube_corner(cube_quads[q][0], scale, t), cube_corner(cube_quads[q][k], scale, t),
+                         cube_corner(cube_quads[q][k + 1], scale, t), 0);
     /* And the floor alone, to show the cube is in view. */
     rd_scene c;
     cube_common(&c);
-    uint8_t *ba = render_rgb8(&a), *bb = render_rgb8(&b), *bc = render_rgb8(&c);
+    uint8_t *ba = render_bytes(&a, NULL, NULL, NULL);
+    uint8_t *bb = render_bytes(&b, NULL, NULL, NULL);
+    uint8_t *bc = render_bytes(&c, NULL, NULL, NULL);
     size_t n = 40 * 30 * 3;
     cr_assert_eq(count_not(ba, n, bb), 0, "%zu pixels differ between the OBJ cube and 12 triangles",
                  count_not(ba, n, bb));
@@ -568,7 +537,7 @@ static uint8_t *load_and_render(const char *dir, const char *name)
     rd_warnings w = {0};
     cr_assert_eq(rd_scene_load_assets(&s, &src, &lim, &w, &err), RD_OK, "%s", err.message);
     cr_assert_eq(w.count, 0, "%s", w.text);
-    uint8_t *b = render_rgb8(&s);
+    uint8_t *b = render_bytes(&s, NULL, NULL, NULL);
     rd_scene_free(&s);
     return b;
 }

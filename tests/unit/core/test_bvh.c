@@ -27,47 +27,28 @@
 #include "triangle.h"
 #include "world.h"
 #include "support/rng.h"
+#include "support/scene_fixture.h"
 
 /* ---- scenes -------------------------------------------------------------------- */
 
+/* Every primitive of these scenes uses material 0, the one diffuse material. */
 static void bv_scene(rd_scene *s)
 {
-    rd_scene_init(s);
+    fixture_scene(s, 64, 48);
     /* The world is relative to the eye: put it off the origin so the
      * arrays really are moved. Every value stays exact (dyadic). */
     s->camera.eye = v3(0.5, -0.25, 0.125);
-    rd_material *m = rd_scene_add_material(s);
-    cr_assert(m);
-    rd_material_defaults(m, RD_MAT_DIFFUSE);
-}
-
-static void add_tri(rd_scene *s, rd_vec3 a, rd_vec3 b, rd_vec3 c)
-{
-    rd_object *o = rd_scene_add_object(s);
-    cr_assert(o);
-    o->type = RD_OBJ_TRIANGLE;
-    o->v[0] = a;
-    o->v[1] = b;
-    o->v[2] = c;
-    o->material = 0;
-}
-
-static void add_sphere(rd_scene *s, rd_vec3 c, double r)
-{
-    rd_object *o = rd_scene_add_object(s);
-    cr_assert(o);
-    o->type = RD_OBJ_SPHERE;
-    o->center = c;
-    o->radius = r;
-    o->material = 0;
+    add_material(s, RD_MAT_DIFFUSE);
 }
 
 static void random_tri(rd_scene *s, test_rng *r, double extent, double size)
 {
     rd_vec3 c = rng_point(r, -extent, extent);
     double sz = size * rng_range(r, 0.05, 1);
-    add_tri(s, v3_add(c, v3_scale(rng_unit(r), sz)), v3_add(c, v3_scale(rng_unit(r), sz)),
-            v3_add(c, v3_scale(rng_unit(r), sz)));
+    rd_vec3 a = v3_add(c, v3_scale(rng_unit(r), sz));
+    rd_vec3 b = v3_add(c, v3_scale(rng_unit(r), sz));
+    rd_vec3 d = v3_add(c, v3_scale(rng_unit(r), sz));
+    add_triangle(s, a, b, d, 0);
 }
 
 /* ---- brute force ----------------------------------------------------------------- */
@@ -474,11 +455,11 @@ Test(bvh_world, random_spheres)
     rd_scene s;
     bv_scene(&s);
     for (int i = 0; i < 2500; i++)
-        add_sphere(&s, rng_point(&rng, -10, 10), rng_range(&rng, 0.02, 0.6));
+        add_sphere(&s, rng_point(&rng, -10, 10), rng_range(&rng, 0.02, 0.6), 0);
     /* Some overlapping clusters and one big sphere enclosing many. */
     for (int i = 0; i < 200; i++)
-        add_sphere(&s, v3_add(v3(3, 3, 3), v3_scale(rng_unit(&rng), 0.1)), rng_range(&rng, 0.1, 0.3));
-    add_sphere(&s, v3(-4, 2, 1), 3);
+        add_sphere(&s, v3_add(v3(3, 3, 3), v3_scale(rng_unit(&rng), 0.1)), rng_range(&rng, 0.1, 0.3), 0);
+    add_sphere(&s, v3(-4, 2, 1), 3, 0);
     rd_world w;
     build(&w, &s);
     check_invariants(&w);
@@ -500,16 +481,16 @@ Test(bvh_world, degenerate_and_flat_triangles_with_spheres)
         /* Zero area: collinear corners, two equal, all three equal. */
         rd_vec3 a = rng_point(&rng, -8, 8), d = v3_scale(rng_unit(&rng), rng_range(&rng, 0.1, 2));
         switch (i % 3) {
-        case 0: add_tri(&s, a, v3_add(a, d), v3_add(a, v3_scale(d, 2))); break;
-        case 1: add_tri(&s, a, a, v3_add(a, d)); break;
-        default: add_tri(&s, a, a, a); break;
+        case 0: add_triangle(&s, a, v3_add(a, d), v3_add(a, v3_scale(d, 2)), 0); break;
+        case 1: add_triangle(&s, a, a, v3_add(a, d), 0); break;
+        default: add_triangle(&s, a, a, a, 0); break;
         }
     }
     for (int i = 0; i < 300; i++) {
         /* Needles: long, and 1e-9 .. 1e-4 wide. */
         rd_vec3 a = rng_point(&rng, -8, 8), d = v3_scale(rng_unit(&rng), rng_range(&rng, 2, 8));
         rd_vec3 e = v3_scale(rng_unit(&rng), pow(10, rng_range(&rng, -9, -4)));
-        add_tri(&s, a, v3_add(a, d), v3_add(v3_add(a, d), e));
+        add_triangle(&s, a, v3_add(a, d), v3_add(v3_add(a, d), e), 0);
     }
     for (int i = 0; i < 600; i++) {
         /* Axis-aligned flat: all z equal (a few shared planes), and some
@@ -520,12 +501,14 @@ Test(bvh_world, degenerate_and_flat_triangles_with_spheres)
         for (int k = 0; k < 6; k++)
             q[k] = rng_range(&rng, -1, 1);
         if (i % 4 == 3)
-            add_tri(&s, v3(z, c.y + q[0], c.z + q[1]), v3(z, c.y + q[2], c.z + q[3]), v3(z, c.y + q[4], c.z + q[5]));
+            add_triangle(&s, v3(z, c.y + q[0], c.z + q[1]), v3(z, c.y + q[2], c.z + q[3]),
+                         v3(z, c.y + q[4], c.z + q[5]), 0);
         else
-            add_tri(&s, v3(c.x + q[0], c.y + q[1], z), v3(c.x + q[2], c.y + q[3], z), v3(c.x + q[4], c.y + q[5], z));
+            add_triangle(&s, v3(c.x + q[0], c.y + q[1], z), v3(c.x + q[2], c.y + q[3], z),
+                         v3(c.x + q[4], c.y + q[5], z), 0);
     }
     for (int i = 0; i < 500; i++)
-        add_sphere(&s, rng_point(&rng, -8, 8), rng_range(&rng, 0.05, 0.5));
+        add_sphere(&s, rng_point(&rng, -8, 8), rng_range(&rng, 0.05, 0.5), 0);
     rd_world w;
     build(&w, &s);
     check_invariants(&w);
@@ -565,7 +548,7 @@ Test(bvh_world, ten_thousand_identical_centroids)
             b[k] = a[k] * (double)(rng_int(&rng, 257) - 128) / 128.0;
         }
         rd_vec3 A = v3(a[0], a[1], a[2]), B = v3(b[0], b[1], b[2]);
-        add_tri(&s, v3_add(c, A), v3_sub(c, A), v3_add(c, B));
+        add_triangle(&s, v3_add(c, A), v3_sub(c, A), v3_add(c, B), 0);
     }
     rd_world w;
     build(&w, &s);
@@ -616,7 +599,7 @@ Test(bvh_world, grid_aligned_triangles_and_axis_rays)
         for (int c = 0; c < 3; c++)
             p[c] = v3(base[0] + (double)rng_int(&rng, 9) / 4.0, base[1] + (double)rng_int(&rng, 9) / 4.0,
                       base[2] + (double)rng_int(&rng, 9) / 4.0);
-        add_tri(&s, p[0], p[1], p[2]);
+        add_triangle(&s, p[0], p[1], p[2], 0);
     }
     rd_world w;
     build(&w, &s);
@@ -637,7 +620,7 @@ Test(bvh_world, ray_in_a_box_face_plane)
     bv_scene(&s);
     s.camera.eye = v3(0, 0, 0);
     for (int i = 0; i < 12; i++)
-        add_sphere(&s, v3(4.0 * i, 0, 0), 1);
+        add_sphere(&s, v3(4.0 * i, 0, 0), 1, 0);
     rd_world w;
     build(&w, &s);
     bsphere *bs = bounding_spheres(&w);
@@ -666,7 +649,7 @@ Test(bvh_world, ray_in_a_box_face_plane)
     bv_scene(&s);
     s.camera.eye = v3(0, 0, 0);
     for (int i = 0; i < 10; i++)
-        add_tri(&s, v3(0, 2.0 * i, 0), v3(1, 2.0 * i, 0), v3(1, 2.0 * i + 1, 0));
+        add_triangle(&s, v3(0, 2.0 * i, 0), v3(1, 2.0 * i, 0), v3(1, 2.0 * i + 1, 0), 0);
     build(&w, &s);
     bs = bounding_spheres(&w);
     for (int sgn = 0; sgn < 2; sgn++) {
