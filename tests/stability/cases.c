@@ -1,5 +1,6 @@
 /* The numerical-stability cases (cases.h). Each case loads its scenes with
- * rd_scene_load_file + rd_scene_load_assets, transforms them in code where
+ * load_scene (tests/support/load.h: rd_scene_load_file, then
+ * rd_scene_load_assets from the scene's folder), transforms them in code where
  * the case is parametric, renders with rd_render, and measures.
  *
  * Reference values come from a small long-double tracer (lref_*, below):
@@ -37,6 +38,7 @@
 #include "scene_limits.h"
 #include "scene_load.h"
 #include "file_io.h"
+#include "support/load.h"
 
 const char *rd_stability_scene_dir = "scenes/extreme";
 int rd_stability_threads = 1;
@@ -74,22 +76,11 @@ static int load(rd_case_result *r, const char *name, rd_scene *s)
 {
     char path[1024];
     snprintf(path, sizeof path, "%s/%s", rd_stability_scene_dir, name);
-    rd_scene_init(s);
     rd_error err = {0};
-    rd_scene_limits lim = rd_scene_limits_default();
-    if (rd_scene_load_file(path, &lim, s, &err) != RD_OK) {
+    rd_warnings w = {0};
+    if (load_scene(path, s, &w, &err) != RD_OK) {
         r->error = 1;
         note(r, "load %s: %s. ", path, err.message);
-        return 0;
-    }
-    char *dir = rd_dirname(path);
-    rd_asset_source src = rd_asset_folder(dir ? dir : ".");
-    rd_warnings w = {0};
-    rd_error_code rc = rd_scene_load_assets(s, &src, &lim, &w, &err);
-    free(dir);
-    if (rc != RD_OK) {
-        r->error = 1;
-        note(r, "assets of %s: %s. ", path, err.message);
         return 0;
     }
     return 1;

@@ -19,6 +19,7 @@
 #include "rayd/scene.h"
 #include "scene_assets.h"
 #include "scene_load.h"
+#include "support/load.h"
 #include "support/scene_fixture.h"
 
 /* ---- parsing ----------------------------------------------------------------- */
@@ -529,13 +530,9 @@ static uint8_t *load_and_render(const char *dir, const char *name)
     char path[512];
     snprintf(path, sizeof path, "%s/%s", dir, name);
     rd_scene s;
-    rd_scene_init(&s);
-    rd_error err = {0};
-    rd_scene_limits lim = rd_scene_limits_default();
-    cr_assert_eq(rd_scene_load_file(path, &lim, &s, &err), RD_OK, "%s", err.message);
-    rd_asset_source src = rd_asset_folder(dir);
     rd_warnings w = {0};
-    cr_assert_eq(rd_scene_load_assets(&s, &src, &lim, &w, &err), RD_OK, "%s", err.message);
+    rd_error err = {0};
+    cr_assert_eq(load_scene(path, &s, &w, &err), RD_OK, "%s: %s", path, err.message);
     cr_assert_eq(w.count, 0, "%s", w.text);
     uint8_t *b = render_bytes(&s, NULL, NULL, NULL);
     rd_scene_free(&s);

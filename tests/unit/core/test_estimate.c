@@ -25,71 +25,13 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "asset_source.h"
 #include "rayd/render.h"
 #include "rayd/scene.h"
-#include "scene_assets.h"
-#include "scene_limits.h"
-#include "scene_load.h"
-#include "file_io.h"
+#include "support/load.h"
+#include "support/scene_fixture.h"
+#include "support/true_error.h"
 
 /* ---- helpers -------------------------------------------------------------------- */
-
-static void load_cfg(const char *path, rd_scene *s)
-{
-    rd_scene_init(s);
-    rd_error err = {0};
-    rd_scene_limits lim = rd_scene_limits_default();
-    rd_error_code rc = rd_scene_load_file(path, &lim, s, &err);
-    cr_assert_eq(rc, RD_OK, "%s: %s", path, err.message);
-    char *dir = rd_dirname(path);
-    cr_assert(dir);
-    rd_asset_source src = rd_asset_folder(dir);
-    rc = rd_scene_load_assets(s, &src, &lim, NULL, &err);
-    free(dir);
-    cr_assert_eq(rc, RD_OK, "%s: %s", path, err.message);
-}
-
-static void render_ok(const rd_scene *s, const rd_render_options *o, rd_image *img, rd_render_stats *st)
-{
-    rd_error err = {0};
-    rd_error_code rc = rd_render(s, o, img, st, &err);
-    cr_assert_eq(rc, RD_OK, "rd_render: %s", err.message);
-    cr_assert_eq(st->nonfinite, 0);
-    cr_assert(isfinite(st->error_estimate) && st->error_estimate >= 0, "estimate %g", st->error_estimate);
-}
-
-/* Display values of an image (malloc'ed). */
-static double *display_values(const rd_image *img, double gamma)
-{
-    size_t n = (size_t)img->width * (size_t)img->height * 3;
-    double *d = malloc(n * sizeof *d);
-    cr_assert(d);
-    for (size_t i = 0; i < n; i++)
-        d[i] = rd_display(img->rgb[i], gamma);
-    return d;
-}
-
-/* RMSE of an image's display values against reference display values. */
-static double rmse_display(const rd_image *img, const double *ref, double gamma)
-{
-    size_t n = (size_t)img->width * (size_t)img->height * 3;
-    double sum = 0;
-    for (size_t i = 0; i < n; i++) {
-        double d = rd_display(img->rgb[i], gamma) - ref[i];
-        sum += d * d;
-    }
-    return sqrt(sum / (double)n);
-}
-
-/* cmd_converge.c's true error: the RMSE with the reference's own error
- * taken out in quadrature. */
-static double true_error(const rd_image *img, const double *ref, double ref_estimate, double gamma)
-{
-    double r = rmse_display(img, ref, gamma);
-    double t = r * r - ref_estimate * ref_estimate;
-    return t > 0 ? sqrt(t) : 0;
-}
 
 /* Least-squares slope of log y against log x. */
 static double loglog_slope(const double *x, const double *y, int n)
@@ -151,48 +93,20 @@ static double bernoulli_cos(double p)
 static void bernoulli_scene(rd_scene *s, double p, rd_rgb kd, rd_rgb ambient, double gamma, int samples,
                             uint64_t seed)
 {
-    rd_scene_init(s);
-    s->render.width = BW;
-    s->render.height = BH;
+    fixture_scene(s, BW, BH);
     s->render.samples = samples;
     s->render.gamma = gamma;
     s->render.seed = seed;
-    s->render.background = v3(0, 0, 0);
     s->camera.eye = v3(0, 5, 0);
     s->camera.target = v3(0, 0, 0);
     s->camera.up = v3(0, 0, -1);
     s->camera.fov_deg = 30;
-
-    rd_material *m = rd_scene_add_material(s);
-    cr_assert(m);
-    rd_material_defaults(m, RD_MAT_DIFFUSE);
-    m->kd = kd;
-    m->ambient = ambient;
-    m = rd_scene_add_material(s);
-    cr_assert(m);
-    rd_material_defaults(m, RD_MAT_DIFFUSE);
-
-    rd_object *o = rd_scene_add_object(s);
-    cr_assert(o);
-    o->type = RD_OBJ_PLANE;
-    o->point = v3(0, 0, 0);
-    o->normal = v3(0, 1, 0);
-    o->material = 0;
-    o = rd_scene_add_object(s);
-    cr_assert(o);
-    o->type = RD_OBJ_PLANE; /* the blocker: x = 50 */
-    o->point = v3(50, 0, 0);
-    o->normal = v3(1, 0, 0);
-    o->material = 1;
-
-    rd_light *l = rd_scene_add_light(s);
-    cr_assert(l);
-    l->type = RD_LIGHT_AREA;
-    l->corner = v3(50 - 16 * p, 1e4, 0); /* u < p: x < 50, visible */
-    l->edge1 = v3(16, 0, 0);
-    l->edge2 = v3(0, 0, 0);
-    l->samples = 1;
-    l->color = v3(1, 1, 1);
+    int floor_m = add_diffuse(s, kd, ambient);
+    int blocker_m = add_material(s, RD_MAT_DIFFUSE);
+    add_plane(s, v3(0, 0, 0), v3(0, 1, 0), floor_m);
+    add_plane(s, v3(50, 0, 0), v3(1, 0, 0), blocker_m); /* the blocker: x = 50 */
+    /* u < p: x < 50, visible */
+    add_area_light(s, v3(50 - 16 * p, 1e4, 0), v3(16, 0, 0), v3(0, 0, 0), 1, v3(1, 1, 1));
 }
 
 /* The exact mean and variance, over one pixel, of that pixel's term in the
@@ -393,16 +307,8 @@ static void check_scene(rd_scene *s, const char *name)
     s->render.height = SH;
     rd_render_options o = {0};
     o.threads = 2;
-    uint64_t seed = s->render.seed;
-
-    rd_image ref;
     rd_render_stats rst;
-    s->render.samples = 1024;
-    s->render.seed = seed + 0x5eed;
-    render_ok(s, &o, &ref, &rst);
-    double *refd = display_values(&ref, s->render.gamma);
-    rd_image_free(&ref);
-    s->render.seed = seed;
+    double *refd = render_reference(s, 1024, &rst);
 
     int ns[] = {4, 8, 16, 32};
     double x[4], tr[4], es[4];
@@ -545,27 +451,13 @@ Test(estimate, converged_image_does_not_depend_on_sample_count)
     for (size_t t = 0; t < sizeof ns / sizeof ns[0]; t++) {
         int n = ns[t];
         rd_scene s;
-        rd_scene_init(&s);
-        s.render.width = 1024;
-        s.render.height = 1;
+        fixture_scene(&s, 1024, 1);
         s.render.samples = n;
         s.render.seed = 42 + (uint64_t)n;
-        s.camera.eye = v3(0, 0, 5);
-        s.camera.target = v3(0, 0, 0);
-        s.camera.up = v3(0, 1, 0);
         s.camera.fov_deg = 0.05; /* the row spans |x| < 2.8 at z = 0 */
-        rd_material *m = rd_scene_add_material(&s);
-        cr_assert(m);
-        rd_material_defaults(m, RD_MAT_DIFFUSE);
-        m->kd = v3(0, 0, 0);
-        m->ambient = v3(1, 1, 1);
-        rd_object *o = rd_scene_add_object(&s);
-        cr_assert(o);
-        o->type = RD_OBJ_TRIANGLE; /* edge on y = 0, the half-plane y > 0 */
-        o->v[0] = v3(-100, 0, 0);
-        o->v[1] = v3(100, 0, 0);
-        o->v[2] = v3(0, 100, 0);
-        o->material = 0;
+        int m = add_diffuse(&s, v3(0, 0, 0), v3(1, 1, 1));
+        /* edge on y = 0, the half-plane y > 0 */
+        add_triangle(&s, v3(-100, 0, 0), v3(100, 0, 0), v3(0, 100, 0), m);
         rd_render_options opt = {0};
         opt.threads = 2;
         rd_image img;

@@ -15,13 +15,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "asset_source.h"
 #include "rayd/render.h"
 #include "rayd/scene.h"
-#include "scene_assets.h"
-#include "scene_limits.h"
-#include "scene_load.h"
-#include "file_io.h"
+#include "support/load.h"
+#include "support/scene_fixture.h"
+#include "support/true_error.h"
 
 #define W 48
 #define H 36
@@ -30,37 +28,12 @@
  * passes (the estimate, the final image copy) on a loaded machine. */
 #define SLACK_MS 25.0
 
-static void load_cfg(const char *path, rd_scene *s, int w, int h)
+/* A scene file at W x H. */
+static void load_small(const char *path, rd_scene *s)
 {
-    rd_scene_init(s);
-    rd_error err = {0};
-    rd_scene_limits lim = rd_scene_limits_default();
-    rd_error_code rc = rd_scene_load_file(path, &lim, s, &err);
-    cr_assert_eq(rc, RD_OK, "%s: %s", path, err.message);
-    char *dir = rd_dirname(path);
-    cr_assert(dir);
-    rd_asset_source src = rd_asset_folder(dir);
-    rc = rd_scene_load_assets(s, &src, &lim, NULL, &err);
-    free(dir);
-    cr_assert_eq(rc, RD_OK, "%s: %s", path, err.message);
-    s->render.width = w;
-    s->render.height = h;
-}
-
-static void render_ok(const rd_scene *s, const rd_render_options *o, rd_image *img, rd_render_stats *st)
-{
-    rd_error err = {0};
-    rd_error_code rc = rd_render(s, o, img, st, &err);
-    cr_assert_eq(rc, RD_OK, "rd_render: %s", err.message);
-    cr_assert_eq(st->nonfinite, 0);
-}
-
-static uint8_t *bytes_of(const rd_image *img, double gamma)
-{
-    uint8_t *b = malloc((size_t)img->width * img->height * 3);
-    cr_assert(b);
-    rd_image_to_rgb8(img, gamma, b);
-    return b;
+    load_cfg(path, s);
+    s->render.width = W;
+    s->render.height = H;
 }
 
 /* The curve: one point per pass, ms and samples increasing, errors finite,
@@ -109,7 +82,7 @@ static void check_curve(const rd_render_stats *st, int cap, int adaptive, int pr
 static void check_budget(double budget)
 {
     rd_scene s;
-    load_cfg("scenes/area_light.cfg", &s, W, H);
+    load_small("scenes/area_light.cfg", &s);
     int cap = 1 << 16;
     s.render.samples = cap;
     rd_render_options o = {0};
@@ -176,7 +149,7 @@ Test(progressive, time_budget_800ms, .timeout = 60)
 Test(progressive, time_budget_samples_run_out_first)
 {
     rd_scene s;
-    load_cfg("scenes/area_light.cfg", &s, W, H);
+    load_small("scenes/area_light.cfg", &s);
     s.render.samples = 8;
     rd_render_options o = {0};
     o.threads = 2;
@@ -200,7 +173,7 @@ Test(progressive, target_error_is_met, .timeout = 60)
     int cap = 4096;
     for (size_t i = 0; i < sizeof targets / sizeof targets[0]; i++) {
         rd_scene s;
-        load_cfg("scenes/area_light.cfg", &s, W, H);
+        load_small("scenes/area_light.cfg", &s);
         s.render.samples = cap;
         rd_render_options o = {0};
         o.threads = 2;
@@ -228,7 +201,7 @@ Test(progressive, target_error_is_met, .timeout = 60)
 Test(progressive, target_met_after_first_pass_stops_there)
 {
     rd_scene s;
-    load_cfg("scenes/area_light.cfg", &s, W, H);
+    load_small("scenes/area_light.cfg", &s);
     s.render.samples = 4096;
     rd_render_options o = {0};
     o.threads = 2;
@@ -254,7 +227,7 @@ Test(progressive, samples_cap_reached)
     for (size_t i = 0; i < sizeof caps / sizeof caps[0]; i++) {
         for (int adaptive = 0; adaptive < 2; adaptive++) {
             rd_scene s;
-            load_cfg("scenes/phong.cfg", &s, W, H);
+            load_small("scenes/phong.cfg", &s);
             s.render.samples = caps[i];
             rd_render_options o = {0};
             o.threads = 2;
@@ -298,7 +271,7 @@ Test(progressive, adaptive_takes_the_scenes_samples_on_average, .timeout = 60)
     for (int p = 0; p < 2; p++)
         for (size_t i = 0; i < sizeof caps / sizeof caps[0]; i++) {
             rd_scene s;
-            load_cfg(paths[p], &s, W, H);
+            load_small(paths[p], &s);
             s.render.samples = caps[i];
             rd_render_options o = {0};
             o.threads = 2;
@@ -324,7 +297,7 @@ Test(progressive, adaptive_takes_the_scenes_samples_on_average, .timeout = 60)
 Test(progressive, fixed_render_is_one_pass)
 {
     rd_scene s;
-    load_cfg("scenes/area_light.cfg", &s, W, H);
+    load_small("scenes/area_light.cfg", &s);
     s.render.samples = 6;
     rd_image img;
     rd_render_stats st;
@@ -359,7 +332,7 @@ static const mode modes[] = {
 static uint8_t *render_mode(const mode *m, uint64_t seed, int threads, int tile, rd_render_stats *st)
 {
     rd_scene s;
-    load_cfg("scenes/area_light.cfg", &s, W, H);
+    load_small("scenes/area_light.cfg", &s);
     s.render.samples = m->samples;
     s.render.seed = seed;
     rd_render_options o = {0};
@@ -369,7 +342,7 @@ static uint8_t *render_mode(const mode *m, uint64_t seed, int threads, int tile,
     o.adaptive = m->adaptive;
     rd_image img;
     render_ok(&s, &o, &img, st);
-    uint8_t *b = bytes_of(&img, s.render.gamma);
+    uint8_t *b = image_bytes(&img, s.render.gamma);
     rd_image_free(&img);
     rd_scene_free(&s);
     return b;
@@ -424,18 +397,6 @@ Test(progressive, same_seed_same_bytes_any_threads_and_tiles, .timeout = 120)
  * time_budget_ms) is printed, not asserted: on a busy machine two timed
  * renders do not get the same CPU. */
 
-static double true_error(const rd_image *img, const double *ref, double ref_est, double gamma)
-{
-    size_t n = (size_t)img->width * img->height * 3;
-    double sum = 0;
-    for (size_t i = 0; i < n; i++) {
-        double d = rd_display(img->rgb[i], gamma) - ref[i];
-        sum += d * d;
-    }
-    double t = sum / (double)n - ref_est * ref_est;
-    return t > 0 ? sqrt(t) : 0;
-}
-
 static double run_true(rd_scene *s, const rd_render_options *o, const double *ref, double ref_est,
                        rd_render_stats *st)
 {
@@ -446,26 +407,13 @@ static double run_true(rd_scene *s, const rd_render_options *o, const double *re
     return t;
 }
 
-/* Loads a scene at W x H and renders its 1024-sample reference with another
- * seed; returns the reference's display values (malloc'ed). */
+/* Loads a scene at W x H and renders its 1024-sample reference; returns
+ * the reference's display values (malloc'ed). */
 static double *reference(const char *path, rd_scene *s, double *ref_est)
 {
-    load_cfg(path, s, W, H);
-    uint64_t seed = s->render.seed;
-    rd_render_options o = {0};
-    o.threads = 2;
-    s->render.samples = 1024;
-    s->render.seed = seed + 0x5eed;
-    rd_image ref;
+    load_small(path, s);
     rd_render_stats rst;
-    render_ok(s, &o, &ref, &rst);
-    size_t n = (size_t)W * H * 3;
-    double *refd = malloc(n * sizeof *refd);
-    cr_assert(refd);
-    for (size_t i = 0; i < n; i++)
-        refd[i] = rd_display(ref.rgb[i], s->render.gamma);
-    rd_image_free(&ref);
-    s->render.seed = seed;
+    double *refd = render_reference(s, 1024, &rst);
     *ref_est = rst.error_estimate;
     printf("%s %dx%d: reference 1024 samples, own estimate %.6f\n", path, W, H, rst.error_estimate);
     return refd;
