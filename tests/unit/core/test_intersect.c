@@ -1,5 +1,7 @@
-/* Unit tests for ray-primitive intersection (core/geometry/sphere.h, plane.h,
- * triangle.h), their fill_hit (and uv) functions, and rd_offset_origin
+/* Unit tests for ray-primitive intersection: spheres and planes
+ * (core/geometry/sphere.h, plane.h) with their fill_hit and uv functions,
+ * triangles through the world the renderer traces (world.h:
+ * rd_world_closest, rd_world_hit_uv, rd_world_any), and rd_offset_origin
  * (ray.h).
  *
  * Exact t values come from geometry chosen so that the arithmetic is exact
@@ -11,14 +13,16 @@
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "plane.h"
 #include "ray.h"
 #include "sphere.h"
-#include "triangle.h"
+#include "world.h"
 #include "support/assert.h"
 #include "support/rng.h"
+#include "support/scene_fixture.h"
 
 /* A unit direction d with d·n = sign·c (c in (0, 1]), otherwise random. */
 static rd_vec3 dir_with_cos(test_rng *g, rd_vec3 n, double c)
@@ -287,130 +291,281 @@ Test(plane, fill_hit_values)
 }
 
 /* ======================================================================= */
-/* Triangle                                                                */
+/* Triangle, through the world                                             */
 /* ======================================================================= */
 
-static rd_triangle tri_of(rd_vec3 a, rd_vec3 b, rd_vec3 c)
+/* Triangles reach the tracer only through the world (core/geometry/world.h):
+ * rd_plan_build prepares the scene with rd_world_build, rd_trace asks
+ * rd_world_closest for the nearest hit (which fills it with fill_tri) and
+ * rd_world_hit_uv for its texture coordinates, and shadow rays ask
+ * rd_world_any. The tests below build scenes, let rd_world_build prepare
+ * them and look at what those functions return, for mesh faces (as
+ * rd_scene_load_assets leaves an OBJ file in the scene) and for [triangle]
+ * objects. The eye sits at the origin: the world is camera-relative, so its
+ * coordinates are then the scene's. */
+
+typedef struct {
+    rd_scene s;
+    rd_world w;
+} tri_world;
+
+static void tri_world_build(tri_world *tw)
 {
-    rd_triangle t;
-    memset(&t, 0, sizeof t);
-    t.v0 = a;
-    t.v1 = b;
-    t.v2 = c;
-    return t;
+    rd_error err = {0};
+    cr_assert_eq(rd_world_build(&tw->w, &tw->s, &err), RD_OK, "rd_world_build: %s", err.message);
+}
+
+static void tri_world_scene(tri_world *tw)
+{
+    fixture_scene(&tw->s, 1, 1);
+    tw->s.camera.eye = v3(0, 0, 0);
+    tw->s.camera.target = v3(0, 0, -1);
+    add_material(&tw->s, RD_MAT_DIFFUSE);
+}
+
+/* A world of one mesh: corners pos[0 .. npos-1], faces of three corner
+ * indices. Normals and uvs, when given, are per corner (a face's corner k
+ * uses normal and uv k), as an OBJ "f a/a/a" line gives them. */
+static void mesh_world(tri_world *tw, const rd_vec3 *pos, size_t npos, const uint32_t (*faces)[3], size_t nfaces,
+                       const rd_vec3 *normals, const double (*uvs)[2])
+{
+    tri_world_scene(tw);
+    rd_mesh *m = calloc(1, sizeof *m);
+    cr_assert(m);
+    m->positions = malloc(npos * sizeof *m->positions);
+    m->faces = malloc(nfaces * sizeof *m->faces);
+    cr_assert(m->positions && m->faces);
+    memcpy(m->positions, pos, npos * sizeof *pos);
+    m->npositions = npos;
+    if (normals) {
+        m->normals = malloc(npos * sizeof *m->normals);
+        cr_assert(m->normals);
+        memcpy(m->normals, normals, npos * sizeof *normals);
+        m->nnormals = npos;
+    }
+    if (uvs) {
+        m->uvs = malloc(npos * sizeof *m->uvs);
+        cr_assert(m->uvs);
+        memcpy(m->uvs, uvs, npos * sizeof *uvs);
+        m->nuvs = npos;
+    }
+    for (size_t f = 0; f < nfaces; f++)
+        for (int c = 0; c < 3; c++) {
+            m->faces[f].v[c] = faces[f][c];
+            m->faces[f].n[c] = normals ? (int32_t)faces[f][c] : -1;
+            m->faces[f].t[c] = uvs ? (int32_t)faces[f][c] : -1;
+        }
+    m->nfaces = nfaces;
+    tw->s.meshes = m;
+    tw->s.mesh_count = 1;
+    rd_object *o = rd_scene_add_object(&tw->s);
+    cr_assert(o);
+    o->type = RD_OBJ_MESH;
+    o->mesh = 0;
+    o->material = 0;
+    tri_world_build(tw);
+}
+
+/* A world of the one-triangle mesh (a, b, c). */
+static void tri_mesh_world(tri_world *tw, rd_vec3 a, rd_vec3 b, rd_vec3 c, const rd_vec3 *normals,
+                           const double (*uvs)[2])
+{
+    rd_vec3 pos[3] = {a, b, c};
+    static const uint32_t face[1][3] = {{0, 1, 2}};
+    mesh_world(tw, pos, 3, face, 1, normals, uvs);
+}
+
+/* A world of the [triangle] object (a, b, c). */
+static void tri_object_world(tri_world *tw, rd_vec3 a, rd_vec3 b, rd_vec3 c, const rd_vec3 *normals,
+                             const double (*uvs)[2])
+{
+    tri_world_scene(tw);
+    rd_object *o = add_triangle(&tw->s, a, b, c, 0);
+    if (normals) {
+        o->has_normals = 1;
+        memcpy(o->n, normals, sizeof o->n);
+    }
+    if (uvs) {
+        o->has_uv = 1;
+        memcpy(o->uv, uvs, sizeof o->uv);
+    }
+    tri_world_build(tw);
+}
+
+static void tri_world_free(tri_world *tw)
+{
+    rd_world_free(&tw->w);
+    rd_scene_free(&tw->s);
+}
+
+/* The nearest hit's t, or 0 on a miss; h (may be NULL) as the tracer sees
+ * it, texture coordinates included. rd_world_any must agree on whether
+ * there is a hit. */
+static double world_hit(const tri_world *tw, rd_ray r, double tmax, rd_hit *h)
+{
+    rd_hit local;
+    if (!h)
+        h = &local;
+    memset(h, 0, sizeof *h);
+    int hit = rd_world_closest(&tw->w, r, tmax, h);
+    int any = rd_world_any(&tw->w, r, tmax);
+    cr_assert_eq(any, hit, "rd_world_any says %d, rd_world_closest %d", any, hit);
+    if (!hit)
+        return 0;
+    rd_world_hit_uv(&tw->w, h);
+    return h->t;
 }
 
 Test(triangle, head_on_exact_t_and_barycentrics)
 {
     /* v0 = (0,0,-2), v1 = (1,0,-2), v2 = (0,1,-2). The point (0.25, 0.5) is
      * 0.25·v0 + 0.25·v1 + 0.5·v2 (b1 = x, b2 = y, b0 = 1 - x - y). */
-    rd_triangle t = tri_of(v3(0, 0, -2), v3(1, 0, -2), v3(0, 1, -2));
-    double b[3] = {-1, -1, -1};
-    double th = rd_triangle_intersect(&t, ray_of(v3(0.25, 0.5, 0), v3(0, 0, -1)), INFINITY, b);
-    cr_assert_eq(th, 2.0);
-    assert_near(b[0], 0.25, 1e-15);
-    assert_near(b[1], 0.25, 1e-15);
-    assert_near(b[2], 0.5, 1e-15);
+    tri_world tw;
+    tri_mesh_world(&tw, v3(0, 0, -2), v3(1, 0, -2), v3(0, 1, -2), NULL, NULL);
+    rd_hit h;
+    cr_assert_eq(world_hit(&tw, ray_of(v3(0.25, 0.5, 0), v3(0, 0, -1)), INFINITY, &h), 2.0);
+    assert_near(h.bary[0], 0.25, 1e-15);
+    assert_near(h.bary[1], 0.25, 1e-15);
+    assert_near(h.bary[2], 0.5, 1e-15);
     /* An oblique ray to the centroid from (1,1,0): t = |(1,1,0) - (1/3,1/3,-2)|. */
     rd_vec3 cen = v3(1.0 / 3, 1.0 / 3, -2);
     rd_vec3 o = v3(1, 1, 0);
     rd_vec3 d = v3_normalize(v3_sub(cen, o));
-    th = rd_triangle_intersect(&t, ray_of(o, d), INFINITY, b);
-    assert_near(th, v3_len(v3_sub(cen, o)), 1e-14);
-    assert_near(b[0], 1.0 / 3, 1e-14);
-    assert_near(b[1], 1.0 / 3, 1e-14);
-    assert_near(b[2], 1.0 / 3, 1e-14);
+    assert_near(world_hit(&tw, ray_of(o, d), INFINITY, &h), v3_len(v3_sub(cen, o)), 1e-14);
+    assert_near(h.bary[0], 1.0 / 3, 1e-14);
+    assert_near(h.bary[1], 1.0 / 3, 1e-14);
+    assert_near(h.bary[2], 1.0 / 3, 1e-14);
+    tri_world_free(&tw);
 }
 
 Test(triangle, both_sides_outside_behind_tmax)
 {
-    rd_triangle t = tri_of(v3(0, 0, -2), v3(1, 0, -2), v3(0, 1, -2));
-    double b[3];
-    /* From behind (the other face): same point, t = 3. */
-    cr_assert_eq(rd_triangle_intersect(&t, ray_of(v3(0.25, 0.5, -5), v3(0, 0, 1)), INFINITY, b), 3.0);
+    tri_world tw;
+    tri_mesh_world(&tw, v3(0, 0, -2), v3(1, 0, -2), v3(0, 1, -2), NULL, NULL);
+    rd_hit h;
+    /* From behind (the other face): same point, t = 3. The geometric normal
+     * stays the triangle's own (+z, against the ray: not the front), the
+     * shading normal turns to face the ray. */
+    cr_assert_eq(world_hit(&tw, ray_of(v3(0.25, 0.5, -5), v3(0, 0, 1)), INFINITY, &h), 3.0);
+    cr_assert_eq(h.front, 0);
+    assert_vec_near(h.ng, 0, 0, 1, 0);
+    assert_vec_near(h.n, 0, 0, -1, 0);
+    /* From the front: the front, both normals +z. */
+    cr_assert_eq(world_hit(&tw, ray_of(v3(0.25, 0.5, 0), v3(0, 0, -1)), INFINITY, &h), 2.0);
+    cr_assert_eq(h.front, 1);
+    assert_vec_near(h.n, 0, 0, 1, 0);
     /* x + y = 1.2 > 1: outside. */
-    cr_assert_eq(rd_triangle_intersect(&t, ray_of(v3(0.6, 0.6, 0), v3(0, 0, -1)), INFINITY, b), 0.0);
-    cr_assert_eq(rd_triangle_intersect(&t, ray_of(v3(-0.1, 0.5, 0), v3(0, 0, -1)), INFINITY, b), 0.0);
+    cr_assert_eq(world_hit(&tw, ray_of(v3(0.6, 0.6, 0), v3(0, 0, -1)), INFINITY, NULL), 0.0);
+    cr_assert_eq(world_hit(&tw, ray_of(v3(-0.1, 0.5, 0), v3(0, 0, -1)), INFINITY, NULL), 0.0);
     /* Behind the origin. */
-    cr_assert_eq(rd_triangle_intersect(&t, ray_of(v3(0.25, 0.5, 0), v3(0, 0, 1)), INFINITY, b), 0.0);
+    cr_assert_eq(world_hit(&tw, ray_of(v3(0.25, 0.5, 0), v3(0, 0, 1)), INFINITY, NULL), 0.0);
     /* tmax: open interval. */
-    cr_assert_eq(rd_triangle_intersect(&t, ray_of(v3(0.25, 0.5, 0), v3(0, 0, -1)), 2.0, b), 0.0);
-    cr_assert_eq(rd_triangle_intersect(&t, ray_of(v3(0.25, 0.5, 0), v3(0, 0, -1)), 2.5, b), 2.0);
+    cr_assert_eq(world_hit(&tw, ray_of(v3(0.25, 0.5, 0), v3(0, 0, -1)), 2.0, NULL), 0.0);
+    cr_assert_eq(world_hit(&tw, ray_of(v3(0.25, 0.5, 0), v3(0, 0, -1)), 2.5, NULL), 2.0);
     /* Parallel to the triangle's plane. */
-    cr_assert_eq(rd_triangle_intersect(&t, ray_of(v3(-1, 0.2, -2), v3(1, 0, 0)), INFINITY, b), 0.0);
+    cr_assert_eq(world_hit(&tw, ray_of(v3(-1, 0.2, -2), v3(1, 0, 0)), INFINITY, NULL), 0.0);
+    tri_world_free(&tw);
 }
 
 Test(triangle, fill_hit_values)
 {
-    rd_triangle t = tri_of(v3(0, 0, -2), v3(1, 0, -2), v3(0, 1, -2));
-    double b[3];
-    rd_hit h = {0};
-    h.t = rd_triangle_intersect(&t, ray_of(v3(0.25, 0.5, 0), v3(0, 0, -1)), INFINITY, b);
-    rd_triangle_fill_hit(&t, b, &h);
-    assert_vec_near(h.p, 0.25, 0.5, -2, 1e-15);
-    /* ng = normalize((v1-v0)×(v2-v0)) = x×y = +z. */
-    assert_vec_near(h.ng, 0, 0, 1, 0);
-    assert_vec_near(h.n, 0, 0, 1, 0);
-    /* Without uv the coordinates are (b1, b2). */
-    assert_near(h.u, 0.25, 1e-15);
-    assert_near(h.v, 0.5, 1e-15);
-    cr_assert(h.perr > 0 && h.perr < 1e-14);
+    /* Both ways a triangle enters a scene: a mesh face and a [triangle]. */
+    for (int object = 0; object < 2; object++) {
+        const char *kind = object ? "[triangle]" : "mesh face";
+        void (*make)(tri_world *, rd_vec3, rd_vec3, rd_vec3, const rd_vec3 *, const double (*)[2]) =
+            object ? tri_object_world : tri_mesh_world;
+        rd_vec3 a = v3(0, 0, -2), b = v3(1, 0, -2), c = v3(0, 1, -2);
+        rd_ray r = ray_of(v3(0.25, 0.5, 0), v3(0, 0, -1));
+        tri_world tw;
+        make(&tw, a, b, c, NULL, NULL);
+        rd_hit h;
+        cr_assert_eq(world_hit(&tw, r, INFINITY, &h), 2.0, "%s", kind);
+        assert_vec_near(h.p, 0.25, 0.5, -2, 1e-15);
+        /* ng = normalize((v1-v0)×(v2-v0)) = x×y = +z. */
+        assert_vec_near(h.ng, 0, 0, 1, 0);
+        assert_vec_near(h.n, 0, 0, 1, 0);
+        /* Without uv the coordinates are (b1, b2). */
+        assert_near(h.u, 0.25, 1e-15);
+        assert_near(h.v, 0.5, 1e-15);
+        cr_assert(h.perr > 0 && h.perr < 1e-14, "%s: perr %g", kind, h.perr);
+        cr_assert_eq(h.material, 0, "%s", kind);
+        cr_assert_eq(h.object, 0, "%s", kind);
+        tri_world_free(&tw);
 
-    /* With uv and shading normals: both interpolated with (0.25, 0.25, 0.5). */
-    t.has_uv = 1;
-    t.uv[0][0] = 0, t.uv[0][1] = 0;
-    t.uv[1][0] = 4, t.uv[1][1] = 0;
-    t.uv[2][0] = 0, t.uv[2][1] = 2;
-    t.has_normals = 1;
-    t.n0 = v3(0, 0, 1);
-    t.n1 = v3(1, 0, 0);
-    t.n2 = v3(0, 1, 0);
-    rd_triangle_fill_hit(&t, b, &h);
-    assert_near(h.u, 0.25 * 4, 1e-15);
-    assert_near(h.v, 0.5 * 2, 1e-15);
-    /* 0.25·z + 0.25·x + 0.5·y = (0.25, 0.5, 0.25), normalised by sqrt(0.375). */
-    double l = sqrt(0.375);
-    assert_vec_near(h.n, 0.25 / l, 0.5 / l, 0.25 / l, 1e-15);
-    assert_vec_near(h.ng, 0, 0, 1, 0);
+        /* With uv and shading normals: both interpolated with (0.25, 0.25, 0.5).
+         * The normals are normalised before they are interpolated, so
+         * lengths 5, 2 and 0.5 change nothing. */
+        const double uv[3][2] = {{0, 0}, {4, 0}, {0, 2}};
+        const rd_vec3 n[3] = {v3(0, 0, 5), v3(2, 0, 0), v3(0, 0.5, 0)};
+        make(&tw, a, b, c, n, uv);
+        cr_assert_eq(world_hit(&tw, r, INFINITY, &h), 2.0, "%s", kind);
+        assert_near(h.u, 0.25 * 4, 1e-15);
+        assert_near(h.v, 0.5 * 2, 1e-15);
+        /* 0.25·z + 0.25·x + 0.5·y = (0.25, 0.5, 0.25), normalised by sqrt(0.375). */
+        double l = sqrt(0.375);
+        assert_vec_near(h.n, 0.25 / l, 0.5 / l, 0.25 / l, 1e-15);
+        assert_vec_near(h.ng, 0, 0, 1, 0);
+        /* From behind, the interpolated normal turns to face the ray. */
+        cr_assert_eq(world_hit(&tw, ray_of(v3(0.25, 0.5, -5), v3(0, 0, 1)), INFINITY, &h), 3.0, "%s", kind);
+        assert_vec_near(h.n, -0.25 / l, -0.5 / l, -0.25 / l, 1e-15);
+        tri_world_free(&tw);
+
+        /* Normals that cancel where the ray hits fall back to the geometric
+         * one: n0 = +z and n1 = -z at the midpoint of the edge v0-v1, which
+         * the watertight test counts as inside. */
+        const rd_vec3 cancel[3] = {v3(0, 0, 1), v3(0, 0, -1), v3(0, 1, 0)};
+        make(&tw, a, b, c, cancel, NULL);
+        cr_assert_eq(world_hit(&tw, ray_of(v3(0.5, 0, 0), v3(0, 0, -1)), INFINITY, &h), 2.0, "%s", kind);
+        assert_near(h.bary[2], 0, 0);
+        assert_vec_near(h.n, 0, 0, 1, 0);
+        tri_world_free(&tw);
+    }
 }
 
 Test(triangle, watertight_shared_edge)
 {
-    /* Random parallelograms split along a diagonal v0-v2 into
-     * T1 = (v0, v1, v2) and T2 = (v2, v3, v0). Rays from random origins on
-     * either side aimed at points of the shared edge must hit at least one
-     * triangle: the edge test of Woop et al. evaluates the same expression
-     * (up to sign) for both triangles, so no ray slips between them. */
+    /* Random parallelograms split along a diagonal v0-v2 into two faces of
+     * one mesh, T1 = (v0, v1, v2) and T2 = (v2, v3, v0). Rays from random
+     * origins on either side aimed at points of the shared edge must hit:
+     * the edge test of Woop et al. evaluates the same expression (up to
+     * sign) for both triangles, so no ray slips between them. */
     test_rng g = {12345};
     int misses = 0, n = 0;
     char first[300] = "";
     for (int quad = 0; quad < 200; quad++) {
-        rd_vec3 v0 = rng_point(&g, -10, 10), v1 = rng_point(&g, -10, 10), v2 = rng_point(&g, -10, 10);
-        rd_vec3 v3p = v3_add(v0, v3_sub(v2, v1));
-        if (v3_len(v3_cross(v3_sub(v1, v0), v3_sub(v2, v0))) < 1) /* skip slivers */
+        rd_vec3 pos[4];
+        pos[0] = rng_point(&g, -10, 10);
+        pos[1] = rng_point(&g, -10, 10);
+        pos[2] = rng_point(&g, -10, 10);
+        pos[3] = v3_add(pos[0], v3_sub(pos[2], pos[1]));
+        if (v3_len(v3_cross(v3_sub(pos[1], pos[0]), v3_sub(pos[2], pos[0]))) < 1) /* skip slivers */
             continue;
-        /* Vary the vertex order of both triangles (the shared edge is walked
+        /* Vary the corner order of both faces (the shared edge is walked
          * in opposite directions or the same one). */
-        rd_triangle t1 = quad % 2 ? tri_of(v0, v1, v2) : tri_of(v1, v2, v0);
-        rd_triangle t2 = quad % 3 ? tri_of(v2, v3p, v0) : tri_of(v0, v2, v3p);
+        uint32_t faces[2][3] = {{0, 1, 2}, {2, 3, 0}};
+        if (!(quad % 2))
+            memcpy(faces[0], (uint32_t[3]){1, 2, 0}, sizeof faces[0]);
+        if (!(quad % 3))
+            memcpy(faces[1], (uint32_t[3]){0, 2, 3}, sizeof faces[1]);
+        tri_world tw;
+        mesh_world(&tw, pos, 4, faces, 2, NULL, NULL);
         for (int k = 0; k < 500; k++) {
             double s = rng_range(&g, 0.001, 0.999);
-            rd_vec3 target = v3_add(v0, v3_scale(v3_sub(v2, v0), s));
-            rd_vec3 o = v3_add(target, v3_scale(rng_unit(&g), rng_range(&g, 0.5, 50)));
+            rd_vec3 target = v3_add(pos[0], v3_scale(v3_sub(pos[2], pos[0]), s));
+            rd_vec3 dir0 = rng_unit(&g);
+            rd_vec3 o = v3_add(target, v3_scale(dir0, rng_range(&g, 0.5, 50)));
             rd_vec3 d = v3_sub(target, o);
             if (k % 2)
                 d = v3_normalize(d);
-            double b[3];
-            double ta = rd_triangle_intersect(&t1, ray_of(o, d), INFINITY, b);
-            double tb = rd_triangle_intersect(&t2, ray_of(o, d), INFINITY, b);
             n++;
-            if (!(ta > 0) && !(tb > 0)) {
+            if (!(world_hit(&tw, ray_of(o, d), INFINITY, NULL) > 0)) {
                 if (!misses)
                     snprintf(first, sizeof first, "o=(%.17g,%.17g,%.17g) d=(%.17g,%.17g,%.17g)", o.x, o.y, o.z, d.x,
                              d.y, d.z);
                 misses++;
             }
         }
+        tri_world_free(&tw);
     }
     cr_assert(n > 50000, "too few rays generated (%d)", n);
     cr_assert_eq(misses, 0, "%d of %d rays through a shared edge missed both triangles, e.g. %s", misses, n, first);
@@ -418,39 +573,42 @@ Test(triangle, watertight_shared_edge)
 
 Test(triangle, watertight_shared_vertex)
 {
-    /* A fan of 7 triangles around an interior vertex C: every ray aimed at C
-     * must hit at least one of them. */
+    /* A fan of 7 faces around an interior vertex C: every ray aimed at C
+     * must hit one of them. */
     test_rng g = {777};
     int misses = 0, n = 0;
     for (int fan = 0; fan < 100; fan++) {
-        rd_vec3 c = rng_point(&g, -5, 5);
+        rd_vec3 pos[8];
+        pos[0] = rng_point(&g, -5, 5);
         rd_vec3 nrm = rng_unit(&g);
         rd_vec3 a = v3_normalize(v3_cross(nrm, rng_unit(&g)));
         rd_vec3 bb = v3_cross(nrm, a);
-        rd_triangle tr[7];
-        rd_vec3 ring[7];
         for (int i = 0; i < 7; i++) {
             double ang = 2 * M_PI * (i + 0.3 * rng_uniform(&g)) / 7;
             double rad = rng_range(&g, 0.5, 3);
             /* A bit off-plane: a gently curved fan. */
-            ring[i] = v3_add(c, v3_add(v3_add(v3_scale(a, rad * cos(ang)), v3_scale(bb, rad * sin(ang))),
-                                       v3_scale(nrm, rng_range(&g, -0.05, 0.05))));
+            double off = rng_range(&g, -0.05, 0.05);
+            pos[1 + i] = v3_add(pos[0], v3_add(v3_add(v3_scale(a, rad * cos(ang)), v3_scale(bb, rad * sin(ang))),
+                                               v3_scale(nrm, off)));
         }
-        for (int i = 0; i < 7; i++)
-            tr[i] = tri_of(c, ring[i], ring[(i + 1) % 7]);
+        uint32_t faces[7][3];
+        for (uint32_t i = 0; i < 7; i++) {
+            faces[i][0] = 0;
+            faces[i][1] = 1 + i;
+            faces[i][2] = 1 + (i + 1) % 7;
+        }
+        tri_world tw;
+        mesh_world(&tw, pos, 8, faces, 7, NULL, NULL);
         for (int k = 0; k < 200; k++) {
             rd_vec3 dir0 = rng_unit(&g);
             if (fabs(v3_dot(dir0, nrm)) < 0.2) /* stay off the fan's own plane */
                 continue;
-            rd_vec3 o = v3_add(c, v3_scale(dir0, rng_range(&g, 1, 30)));
-            rd_vec3 d = v3_normalize(v3_sub(c, o));
-            int hit = 0;
-            double b[3];
-            for (int i = 0; i < 7; i++)
-                hit |= rd_triangle_intersect(&tr[i], ray_of(o, d), INFINITY, b) > 0;
+            rd_vec3 o = v3_add(pos[0], v3_scale(dir0, rng_range(&g, 1, 30)));
+            rd_vec3 d = v3_normalize(v3_sub(pos[0], o));
             n++;
-            misses += !hit;
+            misses += !(world_hit(&tw, ray_of(o, d), INFINITY, NULL) > 0);
         }
+        tri_world_free(&tw);
     }
     cr_assert(n > 10000);
     cr_assert_eq(misses, 0, "%d of %d rays aimed at a shared vertex missed every triangle", misses, n);
@@ -461,40 +619,45 @@ Test(triangle, zero_area_never_hits)
     /* Exactly degenerate triangles (exact integer coordinates):
      *  - three collinear points, v2 - v0 = 3·(v1 - v0);
      *  - two equal vertices; all three equal.
-     * Rays from random origins aimed at points of the segment: the header
-     * promises such triangles never hit. After the shear into the ray's
-     * frame the three points are collinear only up to rounding, so a test
-     * that rejects only det == 0 lets some of these rays through. */
-    rd_triangle deg[4] = {
-        tri_of(v3(1, 1, 1), v3(2, 3, 4), v3(4, 7, 10)),
-        tri_of(v3(4, 7, 10), v3(1, 1, 1), v3(2, 3, 4)),
-        tri_of(v3(1, 1, 1), v3(2, 3, 4), v3(2, 3, 4)),
-        tri_of(v3(2, 3, 4), v3(2, 3, 4), v3(2, 3, 4)),
+     * Rays from random origins aimed at points of the segment: the world
+     * must never report a hit on such a triangle (it has no normal). After
+     * the shear into the ray's frame the three points are collinear only up
+     * to rounding, so a test that rejects only det == 0 lets some of these
+     * rays through. */
+    const rd_vec3 deg[4][3] = {
+        {{1, 1, 1}, {2, 3, 4}, {4, 7, 10}},
+        {{4, 7, 10}, {1, 1, 1}, {2, 3, 4}},
+        {{1, 1, 1}, {2, 3, 4}, {2, 3, 4}},
+        {{2, 3, 4}, {2, 3, 4}, {2, 3, 4}},
     };
     test_rng g = {99};
     for (int i = 0; i < 4; i++) {
+        tri_world tw;
+        tri_mesh_world(&tw, deg[i][0], deg[i][1], deg[i][2], NULL, NULL);
         int hits = 0;
         char first[300] = "";
-        rd_vec3 a = deg[i].v0, e = v3_sub(deg[i].v2, deg[i].v0);
+        rd_vec3 a = deg[i][0], e = v3_sub(deg[i][2], deg[i][0]);
         if (i == 2)
-            e = v3_sub(deg[i].v1, deg[i].v0);
+            e = v3_sub(deg[i][1], deg[i][0]);
         for (int k = 0; k < 20000; k++) {
             rd_vec3 target = v3_add(a, v3_scale(e, rng_uniform(&g)));
             rd_vec3 o = rng_point(&g, -20, 20);
             rd_vec3 d = v3_normalize(v3_sub(target, o));
-            double b[3];
-            double t = rd_triangle_intersect(&deg[i], ray_of(o, d), INFINITY, b);
+            rd_hit h;
+            double t = world_hit(&tw, ray_of(o, d), INFINITY, &h);
             if (t != 0) {
                 if (!hits)
-                    snprintf(first, sizeof first,
-                             "o=(%.17g,%.17g,%.17g) d=(%.17g,%.17g,%.17g) t=%g b=(%g,%g,%g)", o.x, o.y, o.z, d.x,
-                             d.y, d.z, t, b[0], b[1], b[2]);
+                    snprintf(first, sizeof first, "o=(%.17g,%.17g,%.17g) d=(%.17g,%.17g,%.17g) t=%g b=(%g,%g,%g)",
+                             o.x, o.y, o.z, d.x, d.y, d.z, t, h.bary[0], h.bary[1], h.bary[2]);
                 hits++;
             }
         }
-        cr_expect_eq(hits, 0, "degenerate triangle %d (v0=(%g,%g,%g) v1=(%g,%g,%g) v2=(%g,%g,%g)) was hit by %d of 20000 rays, e.g. %s",
-                     i, deg[i].v0.x, deg[i].v0.y, deg[i].v0.z, deg[i].v1.x, deg[i].v1.y, deg[i].v1.z, deg[i].v2.x,
-                     deg[i].v2.y, deg[i].v2.z, hits, first);
+        cr_expect_eq(hits, 0,
+                     "degenerate triangle %d (v0=(%g,%g,%g) v1=(%g,%g,%g) v2=(%g,%g,%g)) was hit by %d of 20000 rays, "
+                     "e.g. %s",
+                     i, deg[i][0].x, deg[i][0].y, deg[i][0].z, deg[i][1].x, deg[i][1].y, deg[i][1].z, deg[i][2].x,
+                     deg[i][2].y, deg[i][2].z, hits, first);
+        tri_world_free(&tw);
     }
 }
 
