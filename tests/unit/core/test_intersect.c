@@ -467,60 +467,61 @@ Test(triangle, both_sides_outside_behind_tmax)
     tri_world_free(&tw);
 }
 
-Test(triangle, fill_hit_values)
+typedef void (*tri_world_maker)(tri_world *, rd_vec3, rd_vec3, rd_vec3, const rd_vec3 *, const double (*)[2]);
+
+static void check_fill_hit(tri_world_maker make, const char *kind)
 {
-    /* Both ways a triangle enters a scene: a mesh face and a [triangle]. */
-    for (int object = 0; object < 2; object++) {
-        const char *kind = object ? "[triangle]" : "mesh face";
-        void (*make)(tri_world *, rd_vec3, rd_vec3, rd_vec3, const rd_vec3 *, const double (*)[2]) =
-            object ? tri_object_world : tri_mesh_world;
-        rd_vec3 a = v3(0, 0, -2), b = v3(1, 0, -2), c = v3(0, 1, -2);
-        rd_ray r = ray_of(v3(0.25, 0.5, 0), v3(0, 0, -1));
-        tri_world tw;
-        make(&tw, a, b, c, NULL, NULL);
-        rd_hit h;
-        cr_assert_eq(world_hit(&tw, r, INFINITY, &h), 2.0, "%s", kind);
-        assert_vec_near(h.p, 0.25, 0.5, -2, 1e-15);
-        /* ng = normalize((v1-v0)×(v2-v0)) = x×y = +z. */
-        assert_vec_near(h.ng, 0, 0, 1, 0);
-        assert_vec_near(h.n, 0, 0, 1, 0);
-        /* Without uv the coordinates are (b1, b2). */
-        assert_near(h.u, 0.25, 1e-15);
-        assert_near(h.v, 0.5, 1e-15);
-        cr_assert(h.perr > 0 && h.perr < 1e-14, "%s: perr %g", kind, h.perr);
-        cr_assert_eq(h.material, 0, "%s", kind);
-        cr_assert_eq(h.object, 0, "%s", kind);
-        tri_world_free(&tw);
+    rd_vec3 a = v3(0, 0, -2), b = v3(1, 0, -2), c = v3(0, 1, -2);
+    rd_ray r = ray_of(v3(0.25, 0.5, 0), v3(0, 0, -1));
+    tri_world tw;
+    make(&tw, a, b, c, NULL, NULL);
+    rd_hit h;
+    cr_assert_eq(world_hit(&tw, r, INFINITY, &h), 2.0, "%s", kind);
+    assert_vec_near(h.p, 0.25, 0.5, -2, 1e-15);
+    /* ng = normalize((v1-v0)×(v2-v0)) = x×y = +z. */
+    assert_vec_near(h.ng, 0, 0, 1, 0);
+    assert_vec_near(h.n, 0, 0, 1, 0);
+    /* Without uv the coordinates are (b1, b2). */
+    assert_near(h.u, 0.25, 1e-15);
+    assert_near(h.v, 0.5, 1e-15);
+    cr_assert(h.perr > 0 && h.perr < 1e-14, "%s: perr %g", kind, h.perr);
+    cr_assert_eq(h.material, 0, "%s", kind);
+    cr_assert_eq(h.object, 0, "%s", kind);
+    tri_world_free(&tw);
 
-        /* With uv and shading normals: both interpolated with (0.25, 0.25, 0.5).
-         * The normals are normalised before they are interpolated, so
-         * lengths 5, 2 and 0.5 change nothing. */
-        const double uv[3][2] = {{0, 0}, {4, 0}, {0, 2}};
-        const rd_vec3 n[3] = {v3(0, 0, 5), v3(2, 0, 0), v3(0, 0.5, 0)};
-        make(&tw, a, b, c, n, uv);
-        cr_assert_eq(world_hit(&tw, r, INFINITY, &h), 2.0, "%s", kind);
-        assert_near(h.u, 0.25 * 4, 1e-15);
-        assert_near(h.v, 0.5 * 2, 1e-15);
-        /* 0.25·z + 0.25·x + 0.5·y = (0.25, 0.5, 0.25), normalised by sqrt(0.375). */
-        double l = sqrt(0.375);
-        assert_vec_near(h.n, 0.25 / l, 0.5 / l, 0.25 / l, 1e-15);
-        assert_vec_near(h.ng, 0, 0, 1, 0);
-        /* From behind, the interpolated normal turns to face the ray. */
-        cr_assert_eq(world_hit(&tw, ray_of(v3(0.25, 0.5, -5), v3(0, 0, 1)), INFINITY, &h), 3.0, "%s", kind);
-        assert_vec_near(h.n, -0.25 / l, -0.5 / l, -0.25 / l, 1e-15);
-        tri_world_free(&tw);
+    /* With uv and shading normals: both interpolated with (0.25, 0.25, 0.5):
+     * u = 0.25·0.5 + 0.25·4 + 0.5·1 = 1.625, v = 0.25·0.25 + 0.25·1 + 0.5·2
+     * = 1.3125 (exact in binary). The normals are normalised before they
+     * are interpolated, so lengths 5, 2 and 0.5 change nothing. */
+    const double uv[3][2] = {{0.5, 0.25}, {4, 1}, {1, 2}};
+    const rd_vec3 n[3] = {v3(0, 0, 5), v3(2, 0, 0), v3(0, 0.5, 0)};
+    make(&tw, a, b, c, n, uv);
+    cr_assert_eq(world_hit(&tw, r, INFINITY, &h), 2.0, "%s", kind);
+    assert_near(h.u, 1.625, 1e-15);
+    assert_near(h.v, 1.3125, 1e-15);
+    /* 0.25·z + 0.25·x + 0.5·y = (0.25, 0.5, 0.25), normalised by sqrt(0.375). */
+    double l = sqrt(0.375);
+    assert_vec_near(h.n, 0.25 / l, 0.5 / l, 0.25 / l, 1e-15);
+    assert_vec_near(h.ng, 0, 0, 1, 0);
+    /* From behind, the interpolated normal turns to face the ray. */
+    cr_assert_eq(world_hit(&tw, ray_of(v3(0.25, 0.5, -5), v3(0, 0, 1)), INFINITY, &h), 3.0, "%s", kind);
+    assert_vec_near(h.n, -0.25 / l, -0.5 / l, -0.25 / l, 1e-15);
+    tri_world_free(&tw);
 
-        /* Normals that cancel where the ray hits fall back to the geometric
-         * one: n0 = +z and n1 = -z at the midpoint of the edge v0-v1, which
-         * the watertight test counts as inside. */
-        const rd_vec3 cancel[3] = {v3(0, 0, 1), v3(0, 0, -1), v3(0, 1, 0)};
-        make(&tw, a, b, c, cancel, NULL);
-        cr_assert_eq(world_hit(&tw, ray_of(v3(0.5, 0, 0), v3(0, 0, -1)), INFINITY, &h), 2.0, "%s", kind);
-        assert_near(h.bary[2], 0, 0);
-        assert_vec_near(h.n, 0, 0, 1, 0);
-        tri_world_free(&tw);
-    }
+    /* Normals that cancel where the ray hits fall back to the geometric
+     * one: n0 = +z and n1 = -z at the midpoint of the edge v0-v1, which
+     * the watertight test counts as inside. */
+    const rd_vec3 cancel[3] = {v3(0, 0, 1), v3(0, 0, -1), v3(0, 1, 0)};
+    make(&tw, a, b, c, cancel, NULL);
+    cr_assert_eq(world_hit(&tw, ray_of(v3(0.5, 0, 0), v3(0, 0, -1)), INFINITY, &h), 2.0, "%s", kind);
+    assert_near(h.bary[2], 0, 0);
+    assert_vec_near(h.n, 0, 0, 1, 0);
+    tri_world_free(&tw);
 }
+
+/* The two ways a triangle enters a scene shade the same. */
+Test(triangle, fill_hit_values_mesh_face) { check_fill_hit(tri_mesh_world, "mesh face"); }
+Test(triangle, fill_hit_values_triangle_object) { check_fill_hit(tri_object_world, "[triangle]"); }
 
 Test(triangle, watertight_shared_edge)
 {
