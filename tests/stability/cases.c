@@ -2396,10 +2396,10 @@ const rd_case rd_cases[] = {
      "Zero-area triangles are never hit and duplicated ones change nothing (same bytes without them, BVH and plain "
      "loop), and needles 1e-9 and 1e-12 wide render as in long double.",
      "differing bytes + mismatched pixels", 0, "exact: removal must not change a byte",
-     "Cause: rd_tri_intersect (core/geometry/triangle.c:37-44) decides inside/outside from the signs of U, V, W. When the ray "
+     "Cause: rd_tri_intersect (core/geometry/triangle.c:31-38) decides inside/outside from the signs of U, V, W. When the ray "
      "lies, up to rounding, in the plane of the triangle, the sheared 2D corners are collinear with the origin and "
-     "U, V, W are pure rounding noise; the sign test (line 40) accepts U = W = 0, V > 0, and det = V != 0 passes "
-     "line 43. The zero-area guard (line 60) only catches corners that are exactly collinear. So the sliver with "
+     "U, V, W are pure rounding noise; the sign test (line 34) accepts U = W = 0, V > 0, and det = V != 0 passes "
+     "line 37. The zero-area guard (line 61) only catches corners that are exactly collinear. So the sliver with "
      "decimal corners 0.1 0.2 -3.3, 0.2 0.4 -3.6, 0.3 0.6 -3.9 (collinear in decimal, a 1e-17-wide sliver in binary) "
      "is reported hit by the camera rays of pixels (30,27) and (24,39), which lie in the plane through the eye and "
      "its line (x = y/2), at t = 3.61 and 3.87, i.e. at points like (-0.13, -0.25, -3.6), far from the triangle "
