@@ -2534,7 +2534,7 @@ const rd_case rd_cases[] = {
      "Cause: the radiance sums in rd_trace (core/render/trace.c:125 per light, :135 mirror, :151 glass) are unbounded. Two "
      "lights of 1e308 sum to inf, Cook-Torrance's capped 1e200 times a colour of 1e308 is inf, a mirror of ks 1e10 "
      "after 64 bounces is inf, and a light of -1e308 then gives inf - inf = NaN. 1566 samples (every pixel of the "
-     "48x32 image and more) were non-finite. job.c's finite_or_zero (core/render/job.c:128) replaces them and counts them in "
+     "48x32 image and more) were non-finite. job.c's finite_or_zero (core/render/job.c:164) replaces them and counts them in "
      "stats.nonfinite, so the PNG is right, but shading.md promises no NaN or infinite value whatever the scene, and "
      "the scene format accepts these colours (any finite number). Fix (F): saturate each term and each sum to "
      "±1e300 in rd_trace (a clamp after the products at lines 125, 135 and 151 and after each addition). Display "

@@ -47,7 +47,6 @@ void rd_job_free(rd_job *j);
 int rd_job_tile_count(const rd_job *j);
 int rd_job_width(const rd_job *j);
 int rd_job_height(const rd_job *j);
-const rd_scene *rd_job_scene(const rd_job *j);
 
 /* Starts pass `pass` of `samples` samples per pixel (on average, when
  * adaptive). Call it once, between passes, with no tile being rendered:
@@ -75,13 +74,10 @@ void rd_job_set_cancel(rd_job *j, const atomic_int *cancel);
 /* Mean samples per pixel so far. */
 double rd_job_mean_samples(const rd_job *j);
 
-
-/* The mean colours as an image (out->rgb malloc'ed; free with
- * rd_image_free). Pixels with no sample yet are black. */
-rd_error_code rd_job_image(const rd_job *j, rd_image *out, rd_error *err);
-
-/* Moves the mean colours out as the image (no copy); the job keeps
- * answering everything but rd_job_image and rd_job_rgb8 afterwards. */
+/* Moves the mean colours out as the image (no copy; free it with
+ * rd_image_free). Pixels with no sample yet are black. The job then has no
+ * pixels left: it still answers its size, samples, estimate and statistics,
+ * but must not render tiles or give bytes (rd_job_rgb8, rd_job_tile_rgb8). */
 void rd_job_take_image(rd_job *j, rd_image *out);
 
 /* 8-bit RGB of the image so far, without a linear copy: width·height·3 bytes. */
