@@ -21,6 +21,7 @@
 #include <string.h>
 
 #include "material.h"
+#include "scene_keys.h"
 #include "support/assert.h"
 #include "support/rng.h"
 
@@ -264,7 +265,7 @@ Test(all_materials, light_behind_gives_exact_zero)
                     rd_rgb c = rd_calc_reflected_light(&m, &h, L, V);
                     cr_assert(c.x == 0 && c.y == 0 && c.z == 0,
                               "%s, shininess %g: L=(%g,%g,%g) V=(%g,%g,%g) gave (%g,%g,%g), expected exactly 0",
-                              rd_material_type_name((rd_material_type)t), shin[si], L.x, L.y, L.z, V.x, V.y, V.z,
+                              rd_material_type_words[t], shin[si], L.x, L.y, L.z, V.x, V.y, V.z,
                               c.x, c.y, c.z);
                 }
             }
@@ -286,7 +287,7 @@ Test(all_materials, mirror_and_glass_reflect_nothing_directly)
         double ang[] = {0, 30, 60, 89};
         for (int a = 0; a < 4; a++) {
             rd_rgb c = rd_calc_reflected_light(&m, &h, light_at(ang[a]), view_at(-ang[a]));
-            cr_assert(c.x == 0 && c.y == 0 && c.z == 0, "%s gave (%g,%g,%g)", rd_material_type_name(ts[i]), c.x, c.y,
+            cr_assert(c.x == 0 && c.y == 0 && c.z == 0, "%s gave (%g,%g,%g)", rd_material_type_words[ts[i]], c.x, c.y,
                       c.z);
         }
         cr_assert(rd_material_is_recursive(&m));
@@ -312,7 +313,7 @@ Test(all_materials, finite_nonnegative_and_bounded_by_kd_when_no_ks)
         h.n = rng_unit(&g);
         rd_vec3 L = rng_unit(&g), V = rng_unit(&g);
         rd_rgb c = rd_calc_reflected_light(&m, &h, L, V);
-        cr_assert(finite_nonneg(c), "%s: (%g,%g,%g)", rd_material_type_name(m.type), c.x, c.y, c.z);
+        cr_assert(finite_nonneg(c), "%s: (%g,%g,%g)", rd_material_type_words[m.type], c.x, c.y, c.z);
         double cosa = -v3_dot(h.n, L);
         if (!(cosa > 0))
             cr_assert(c.x == 0 && c.y == 0 && c.z == 0);
