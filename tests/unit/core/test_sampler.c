@@ -3,9 +3,9 @@
  *
  * CMJ with n = m² samples puts exactly one point in each cell of the m×m
  * grid AND one point in each of the n columns of width 1/n and each of the
- * n rows of height 1/n (the n-rooks property). For n = m·k not square it
- * uses an m×k grid and the fine strata have width 1/(m·k): every one of
- * them holds at most one point. */
+ * n rows of height 1/n (the n-rooks property). Any other n uses an m×k grid
+ * with m·k = n (m the largest divisor of n up to √n): one point in each of
+ * its cells, and still one in each of the n fine columns and rows. */
 #include <criterion/criterion.h>
 #include <math.h>
 #include <stdint.h>
@@ -77,40 +77,67 @@ Test(cmj, stratified_perfect_squares)
             check_square(ns[i], rd_pattern(7, p));
 }
 
-Test(cmj, non_square_counts_fine_strata_once)
+/* The grid core/render/sampler.c uses for n samples: m×k with m·k = n and
+ * m the largest divisor of n up to √n (a prime n gives 1×n). */
+static void cmj_grid(uint32_t n, uint32_t *m, uint32_t *k)
 {
-    /* n = 8 uses a 2x4 grid, n = 12 a 3x4, n = 5 (prime) a 1x5: always
-     * m·k = n with m the largest divisor up to sqrt(n), so no cell is left
-     * empty (an empty cell would bias the pixel mean). Each of the n fine
-     * columns and rows of width 1/n holds exactly one point, and each of
-     * the m×k cells exactly one. */
+    *m = (uint32_t)floor(sqrt((double)n));
+    while (*m > 1 && n % *m)
+        (*m)--;
+    *k = n / *m;
+}
+
+Test(cmj, non_square_counts_fill_every_cell)
+{
+    /* n = 8 uses a 2x4 grid, n = 12 a 3x4, n = 5 (prime) a 1x5. Each of the
+     * n fine columns and rows of width 1/n holds exactly one point, and each
+     * of the m×k cells exactly one: no cell is left empty (an empty cell
+     * would bias the pixel mean). */
     uint32_t ns[] = {2, 3, 5, 6, 7, 8, 10, 12, 20, 50, 97, 1000};
     for (size_t i = 0; i < sizeof ns / sizeof ns[0]; i++) {
-        uint32_t n = ns[i];
-        uint32_t m = (uint32_t)floor(sqrt((double)n));
-        while (m > 1 && n % m)
-            m--;
-        uint32_t k = n / m, mk = m * k;
-        cr_assert_eq(mk, n);
+        uint32_t n = ns[i], m, k;
+        cmj_grid(n, &m, &k);
         for (uint32_t p = 0; p < 20; p++) {
             double xs[1000], ys[1000];
-            int col[1024] = {0}, row[1024] = {0};
+            int col[1000] = {0}, row[1000] = {0}, cell[1000] = {0};
             cmj_points(n, rd_pattern(3, p), xs, ys);
             for (uint32_t s = 0; s < n; s++) {
-                col[(uint32_t)floor(xs[s] * mk)]++;
-                row[(uint32_t)floor(ys[s] * mk)]++;
+                uint32_t cx = (uint32_t)floor(xs[s] * n), cy = (uint32_t)floor(ys[s] * n);
+                cr_assert(cx < n && cy < n, "n=%u: point %u at (%.17g, %.17g)", n, s, xs[s], ys[s]);
+                col[cx]++;
+                row[cy]++;
+                cell[(uint32_t)floor(ys[s] * k) * m + (uint32_t)floor(xs[s] * m)]++;
             }
-            for (uint32_t j = 0; j < mk; j++) {
-                cr_assert(col[j] == 1, "n=%u: fine column %u of %u holds %d points", n, j, mk, col[j]);
-                cr_assert(row[j] == 1, "n=%u: fine row %u of %u holds %d points", n, j, mk, row[j]);
-            }
-            int cell[1024] = {0};
-            for (uint32_t s2 = 0; s2 < n; s2++)
-                cell[(uint32_t)floor(ys[s2] * k) * m + (uint32_t)floor(xs[s2] * m)]++;
-            for (uint32_t j = 0; j < n; j++)
+            for (uint32_t j = 0; j < n; j++) {
+                cr_assert(col[j] == 1, "n=%u: fine column %u of %u holds %d points", n, j, n, col[j]);
+                cr_assert(row[j] == 1, "n=%u: fine row %u of %u holds %d points", n, j, n, row[j]);
                 cr_assert(cell[j] == 1, "n=%u: cell %u of the %ux%u grid holds %d points", n, j, m, k, cell[j]);
+            }
         }
     }
+}
+
+Test(cmj, every_count_up_to_512_is_n_rooks)
+{
+    /* Whatever n, the n points fill the n columns [j/n, (j+1)/n) and the n
+     * rows once each, so in either axis the point set is as even as n
+     * points can be: the fraction below any stratum boundary j/n is exactly
+     * j/n. */
+    for (uint32_t n = 1; n <= 512; n++)
+        for (uint32_t p = 0; p < 4; p++) {
+            double xs[512], ys[512];
+            int col[512] = {0}, row[512] = {0};
+            cmj_points(n, rd_pattern(11, p), xs, ys);
+            for (uint32_t s = 0; s < n; s++) {
+                uint32_t cx = (uint32_t)floor(xs[s] * n), cy = (uint32_t)floor(ys[s] * n);
+                cr_assert(cx < n && cy < n, "n=%u: point %u at (%.17g, %.17g)", n, s, xs[s], ys[s]);
+                col[cx]++;
+                row[cy]++;
+            }
+            for (uint32_t j = 0; j < n; j++)
+                cr_assert(col[j] == 1 && row[j] == 1, "n=%u pattern %u: column %u holds %d points, row %u holds %d", n,
+                          p, j, col[j], j, row[j]);
+        }
 }
 
 Test(cmj, deterministic_and_pattern_dependent)
