@@ -392,10 +392,10 @@ Test(progressive, same_seed_same_bytes_any_threads_and_tiles, .timeout = 120)
  *
  * The true error (RMSE of display values against a 1024-sample reference of
  * another seed, its own estimate taken out in quadrature, as in
- * daemon/cli/cmd_converge.c). Primary assertion: at the same mean samples per
- * pixel, adaptive gives the lower true error. Equal time (the same
- * time_budget_ms) is printed, not asserted: on a busy machine two timed
- * renders do not get the same CPU. */
+ * daemon/cli/cmd_converge.c). The assertion: at the same mean samples per
+ * pixel, adaptive gives the lower true error. Comparisons at equal time
+ * belong to the benchmark (bench/), which measures time on a quiet machine;
+ * here two timed renders would not get the same CPU. */
 
 static double run_true(rd_scene *s, const rd_render_options *o, const double *ref, double ref_est,
                        rd_render_stats *st)
@@ -453,18 +453,6 @@ static void compare_adaptive(const char *path)
                      ta_eq, tn);
         }
     }
-    /* Equal time: printed only. */
-    s.render.samples = 1 << 16;
-    o.target_error = 0;
-    o.time_budget_ms = 300;
-    rd_render_stats sn, sa;
-    o.adaptive = 0;
-    double tn = run_true(&s, &o, refd, ref_est, &sn);
-    o.adaptive = 1;
-    double ta = run_true(&s, &o, refd, ref_est, &sa);
-    printf("  %s, equal time 300 ms: uniform %.1f spp in %.0f ms, true %.6f | adaptive %.1f spp in %.0f ms, true "
-           "%.6f\n",
-           path, sn.mean_samples, sn.wall_ms, tn, sa.mean_samples, sa.wall_ms, ta);
     cr_expect_eq(worse, 0, "%s: adaptive sampling is not better than uniform at equal samples:%s", path, msg);
     free(refd);
     rd_scene_free(&s);
