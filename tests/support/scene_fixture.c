@@ -103,6 +103,22 @@ rd_light *add_area_light(rd_scene *s, rd_vec3 corner, rd_vec3 edge1, rd_vec3 edg
     return l;
 }
 
+void soft_shadow_scene(rd_scene *s, int samples)
+{
+    fixture_scene(s, 32, 24);
+    s->render.samples = samples;
+    s->render.seed = 3;
+    s->camera.eye = v3(0, 3, 6);
+    s->camera.target = v3(0, 0, 0);
+    int floor_m = add_material(s, RD_MAT_DIFFUSE);
+    int ball = add_material(s, RD_MAT_PHONG);
+    s->materials[ball].ks = v3(0.3, 0.3, 0.3);
+    s->materials[ball].shininess = 30;
+    add_plane(s, v3(0, 0, 0), v3(0, 1, 0), floor_m);
+    add_sphere(s, v3(0, 1, 0), 1, ball);
+    add_area_light(s, v3(-2, 4, -2), v3(4, 0, 0), v3(0, 0, 4), 2, v3(1, 1, 1));
+}
+
 void render_ok(const rd_scene *s, const rd_render_options *opt, rd_image *img, rd_render_stats *st)
 {
     rd_render_options two = {.threads = 2, .tile = 8};

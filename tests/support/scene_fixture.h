@@ -33,6 +33,11 @@ rd_light *add_point_light(rd_scene *s, rd_vec3 position, rd_rgb color);
 rd_light *add_directional_light(rd_scene *s, rd_vec3 direction, rd_rgb color);
 rd_light *add_area_light(rd_scene *s, rd_vec3 corner, rd_vec3 edge1, rd_vec3 edge2, int samples, rd_rgb color);
 
+/* A 32x24 Phong ball on a diffuse floor under a 4x4 area light sampled at
+ * 2x2 points: strong per-sample noise, for the error estimate and for
+ * renders that take a while. Seed 3. */
+void soft_shadow_scene(rd_scene *s, int samples);
+
 /* Renders s and fails the test unless rd_render succeeds with an image of
  * the scene's size, no non-finite sample (stats.nonfinite == 0) and a
  * finite, non-negative error estimate. opt NULL: two threads, 8-pixel

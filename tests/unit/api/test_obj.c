@@ -44,7 +44,7 @@ static void parse(parsed *p, const char *text) { parse_n(p, text, strlen(text), 
               "face %d = (%u, %u, %u), expected (%d, %d, %d)", (int)(i), (m).faces[i].v[0], (m).faces[i].v[1], \
               (m).faces[i].v[2], (int)(a), (int)(b), (int)(c))
 
-Test(obj_parse, elements_and_the_four_corner_forms)
+Test(obj, parse_elements_and_the_four_corner_forms)
 {
     const char *text = "# a comment line\n"
                        "v 0 0 0\n"
@@ -94,7 +94,7 @@ Test(obj_parse, elements_and_the_four_corner_forms)
     rd_mesh_free(&p.m);
 }
 
-Test(obj_parse, polygons_are_fanned)
+Test(obj, parse_polygons_are_fanned)
 {
     parsed p;
     parse(&p, "v 0 0 0\nv 1 0 0\nv 2 1 0\nv 1 2 0\nv 0 1 0\nv 9 9 9\nf 1 2 3 4 5\nf 6/1 1/1 2/1 3/1\n"
@@ -117,7 +117,7 @@ Test(obj_parse, polygons_are_fanned)
     rd_mesh_free(&p.m);
 }
 
-Test(obj_parse, negative_indices_count_back)
+Test(obj, parse_negative_indices_count_back)
 {
     /* -1 is the last element defined so far, at the face's own line. */
     parsed p;
@@ -132,7 +132,7 @@ Test(obj_parse, negative_indices_count_back)
     rd_mesh_free(&p.m);
 }
 
-Test(obj_parse, crlf_and_comments)
+Test(obj, parse_crlf_and_comments)
 {
     const char *lf = "# cube corner\nv 0 0 0\nv 1 0 0 # x\nv 0 1 0\n\n# end\nf 1 2 3 # tri\n";
     const char *crlf = "# cube corner\r\nv 0 0 0\r\nv 1 0 0 # x\r\nv 0 1 0\r\n\r\n# end\r\nf 1 2 3 # tri\r\n";
@@ -155,7 +155,7 @@ Test(obj_parse, crlf_and_comments)
     rd_mesh_free(&c.m);
 }
 
-Test(obj_parse, material_statements_warn_and_groups_are_silent)
+Test(obj, parse_material_statements_warn_and_groups_are_silent)
 {
     const char *tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
     char buf[256];
@@ -210,7 +210,7 @@ static void expect_error(const char *text, size_t len, size_t max_tris, rd_error
 
 #define E(text, code, line, col, needle) expect_error(text, strlen(text), 1000000, code, line, col, needle)
 
-Test(obj_parse, bad_numbers)
+Test(obj, parse_bad_numbers)
 {
     E("v 0 0 0\nv 1 2x 3\n", RD_ERR_SYNTAX, 2, 5, NULL);
     E("v 0 0 0\nv 1 2 3\nvt 0.5 zz\n", RD_ERR_SYNTAX, 3, 8, NULL);
@@ -218,7 +218,7 @@ Test(obj_parse, bad_numbers)
     E("v 1 2\n", RD_ERR_SYNTAX, 1, 1, "3");
 }
 
-Test(obj_parse, non_finite_numbers)
+Test(obj, parse_non_finite_numbers)
 {
     E("v 0 0 0\nv 1 nan 3\n", RD_ERR_SYNTAX, 2, 5, "finite");
     E("v 1 2 inf\n", RD_ERR_SYNTAX, 1, 7, "finite");
@@ -226,7 +226,7 @@ Test(obj_parse, non_finite_numbers)
     E("\n\nvt NaN 0\n", RD_ERR_SYNTAX, 3, 4, "finite");
 }
 
-Test(obj_parse, too_few_corners)
+Test(obj, parse_too_few_corners)
 {
     /* Reported where the corners ran out. */
     E("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n", RD_ERR_SYNTAX, 4, 6, "3 corners");
@@ -234,13 +234,13 @@ Test(obj_parse, too_few_corners)
     E("v 0 0 0\nf\n", RD_ERR_SYNTAX, 2, 2, NULL);
 }
 
-Test(obj_parse, index_zero)
+Test(obj, parse_index_zero)
 {
     E("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 0 2\n", RD_ERR_SYNTAX, 4, 5, NULL);
     E("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/0 2/1 3/1\n", RD_ERR_SYNTAX, 5, 3, NULL);
 }
 
-Test(obj_parse, index_out_of_range)
+Test(obj, parse_index_out_of_range)
 {
     /* Positive past the end, negative before the start, for v, vt, vn. */
     E("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", RD_ERR_SYNTAX, 4, 7, "out of range");
@@ -253,7 +253,7 @@ Test(obj_parse, index_out_of_range)
     E("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4294967297\n", RD_ERR_SYNTAX, 4, 7, NULL);
 }
 
-Test(obj_parse, bad_corner_syntax)
+Test(obj, parse_bad_corner_syntax)
 {
     const char *pre = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n";
     char buf[256];
@@ -273,7 +273,7 @@ Test(obj_parse, bad_corner_syntax)
     }
 }
 
-Test(obj_parse, invalid_utf8)
+Test(obj, parse_invalid_utf8)
 {
     /* The column counts characters: "é" is one. */
     E("v 0 0 0\n# caf\xc3\xa9 \xff\n", RD_ERR_SYNTAX, 2, 8, "UTF-8");
@@ -283,7 +283,7 @@ Test(obj_parse, invalid_utf8)
     E("o a\xed\xa0\x80\n", RD_ERR_SYNTAX, 1, 4, "UTF-8");
 }
 
-Test(obj_parse, triangle_limit)
+Test(obj, parse_triangle_limit)
 {
     const char *text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 3 4 5\n";
     /* 1 + 3 triangles: a limit of 4 passes, 3 does not, at the pentagon. */
@@ -314,7 +314,7 @@ static void one_point_mesh(rd_mesh *m, rd_vec3 p, rd_vec3 n)
     cr_assert(fabs((a).x - (b).x) <= (tol) && fabs((a).y - (b).y) <= (tol) && fabs((a).z - (b).z) <= (tol), \
               "(%.17g, %.17g, %.17g), expected (%.17g, %.17g, %.17g)", (a).x, (a).y, (a).z, (b).x, (b).y, (b).z)
 
-Test(mesh_transform, scale_then_rotate_xyz_then_translate)
+Test(obj, mesh_transform_scale_then_rotate_xyz_then_translate)
 {
     /* p = (1,2,3), scale (2,3,4) -> (2,6,12)
      *   rotate x +90° (y -> z):  (x, y cos - z sin, y sin + z cos) = (2, -12, 6)
@@ -345,7 +345,7 @@ Test(mesh_transform, scale_then_rotate_xyz_then_translate)
     rd_mesh_free(&m);
 }
 
-Test(mesh_transform, normals_by_inverse_transpose)
+Test(obj, mesh_transform_normals_by_inverse_transpose)
 {
     /* The plane x + y = 1 has normal (1,1,0). Scaled by (2,1,1) it becomes
      * x/2 + y = 1, normal ∝ (1/2, 1, 0): the inverse transpose, not the
@@ -389,7 +389,7 @@ Test(mesh_transform, normals_by_inverse_transpose)
     }
 }
 
-Test(mesh_transform, zero_or_non_finite_scale_is_an_error)
+Test(obj, mesh_transform_zero_or_non_finite_scale_is_an_error)
 {
     rd_vec3 bad[] = {v3(0, 1, 1), v3(1, 0, 1), v3(1, 1, 0), v3(-0.0, 1, 1), v3(NAN, 1, 1), v3(1, INFINITY, 1)};
     for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
@@ -452,7 +452,7 @@ static size_t count_not(const uint8_t *b, size_t n, const uint8_t *other)
     return d;
 }
 
-Test(obj_render, cube_mesh_equals_twelve_triangles)
+Test(obj, render_cube_mesh_equals_twelve_triangles)
 {
     rd_vec3 scale = v3(1.5, 1, 0.75), t = v3(0.25, -0.25, 0);
     /* The mesh, as rd_scene_load_assets puts it in a scene. */
@@ -547,7 +547,7 @@ static const char cube_cfg_head[] = "[render]\nwidth = 40\nheight = 30\nbackgrou
                                     "[material floor]\ntype = diffuse\n"
                                     "[plane]\npoint = 0 -0.75 0\nnormal = 0 1 0\nmaterial = floor\n";
 
-Test(obj_render, cube_file_through_the_loader_equals_twelve_triangles)
+Test(obj, render_cube_file_through_the_loader_equals_twelve_triangles)
 {
     char *dir = make_tmpdir();
     char sub[600];
@@ -589,7 +589,7 @@ Test(obj_render, cube_file_through_the_loader_equals_twelve_triangles)
 
 /* ---- the asset folder --------------------------------------------------------- */
 
-Test(asset_folder, names_that_could_leave_the_folder_are_refused)
+Test(obj, asset_folder_names_that_could_leave_the_folder_are_refused)
 {
     const char *bad[] = {"../x", "/etc/passwd", "a/../../b", "a\\b", "", "..", ".", "a/./b", "a//b",
                          "./a", "a/..", "x/../y", "\\x"};
@@ -610,7 +610,7 @@ static rd_error_code folder_read(const char *dir, const char *name, rd_error *er
     return rc;
 }
 
-Test(asset_folder, symlinks_leading_outside_are_refused)
+Test(obj, asset_folder_symlinks_leading_outside_are_refused)
 {
     char *root = make_tmpdir();
     char scene[600], outside[600], link[700];

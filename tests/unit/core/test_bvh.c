@@ -432,7 +432,7 @@ static void build(rd_world *w, const rd_scene *s)
 
 /* ---- tests ---------------------------------------------------------------------------- */
 
-Test(bvh_world, random_triangle_soup)
+Test(bvh, random_triangle_soup)
 {
     test_rng rng = {12345};
     rd_scene s;
@@ -449,7 +449,7 @@ Test(bvh_world, random_triangle_soup)
     rd_scene_free(&s);
 }
 
-Test(bvh_world, random_spheres)
+Test(bvh, random_spheres)
 {
     test_rng rng = {777};
     rd_scene s;
@@ -470,7 +470,7 @@ Test(bvh_world, random_spheres)
     rd_scene_free(&s);
 }
 
-Test(bvh_world, degenerate_and_flat_triangles_with_spheres)
+Test(bvh, degenerate_and_flat_triangles_with_spheres)
 {
     test_rng rng = {4242};
     rd_scene s;
@@ -532,7 +532,7 @@ static rd_ray cluster_ray(const rd_world *w, test_rng *r, long i)
     return ray;
 }
 
-Test(bvh_world, ten_thousand_identical_centroids)
+Test(bvh, ten_thousand_identical_centroids)
 {
     /* Triangles c + a, c - a, c + b with |b| <= |a| per component: every
      * bounding box is centred on c = (1,2,3) exactly (dyadic values), so no
@@ -585,7 +585,7 @@ static rd_ray grid_ray(const rd_world *w, test_rng *r, long i)
     return ray;
 }
 
-Test(bvh_world, grid_aligned_triangles_and_axis_rays)
+Test(bvh, grid_aligned_triangles_and_axis_rays)
 {
     test_rng rng = {2024};
     rd_scene s;
@@ -614,7 +614,7 @@ Test(bvh_world, grid_aligned_triangles_and_axis_rays)
  * tangent ray (tangent rays count as hits, core/geometry/sphere.h) and a ray across
  * a triangle's edge, both along an axis, in worlds big enough for a BVH.
  * bvh.h: "a ray lying in a box's face counts as inside it". */
-Test(bvh_world, ray_in_a_box_face_plane)
+Test(bvh, ray_in_a_box_face_plane)
 {
     rd_scene s;
     bv_scene(&s);

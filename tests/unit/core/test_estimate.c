@@ -15,6 +15,8 @@
  * (e) The converged image does not depend on the sample count (an unbiased
  *     pixel estimate: otherwise no variance estimate can predict the error
  *     against a converged render).
+ * (f) The same on a noisy scene built in code (soft_shadow_scene): 0 with
+ *     one sample, 1/√n, the RMSE against a converged render at 4 samples.
  *
  * Every test runs from the repository root. Images are small (the machine
  * is shared); the tolerances are derived below, never tuned to pass. */
@@ -478,4 +480,59 @@ Test(estimate, converged_image_does_not_depend_on_sample_count)
         rd_scene_free(&s);
     }
     cr_expect_eq(bad, 0, "pixel means are biased (coverage of a half-covered pixel, expected 0.5):%s", msg);
+}
+
+/* ---- (f) a noisy scene built in code ----------------------------------------------------
+ *
+ * soft_shadow_scene (tests/support/scene_fixture.h): the estimate is 0 with
+ * one sample, falls like 1/√n, and is within a factor 2 of the RMSE
+ * against a 1024-sample reference at 4 samples. */
+
+static double error_estimate_for(int samples)
+{
+    rd_scene s;
+    soft_shadow_scene(&s, samples);
+    rd_image img;
+    rd_render_stats st;
+    render_ok(&s, NULL, &img, &st);
+    cr_assert_eq(st.samples, samples);
+    rd_image_free(&img);
+    rd_scene_free(&s);
+    return st.error_estimate;
+}
+
+Test(estimate, soft_shadow_zero_with_one_sample)
+{
+    cr_assert_eq(error_estimate_for(1), 0.0);
+}
+
+Test(estimate, soft_shadow_falls_as_one_over_root_samples)
+{
+    /* The standard error of a mean falls like 1/√n: ×4 samples ≈ ×0.5 error. */
+    double e4 = error_estimate_for(4), e16 = error_estimate_for(16), e64 = error_estimate_for(64);
+    cr_log_info("error estimates: 4 -> %g, 16 -> %g, 64 -> %g", e4, e16, e64);
+    cr_assert(e4 > 1e-3, "e4 = %g: the scene should be noisy", e4);
+    cr_assert(e16 < e4 && e64 < e16, "not decreasing: %g, %g, %g", e4, e16, e64);
+    cr_assert(e16 / e4 > 0.3 && e16 / e4 < 0.7, "e16/e4 = %g, expected about 0.5", e16 / e4);
+    cr_assert(e64 / e16 > 0.3 && e64 / e16 < 0.7, "e64/e16 = %g, expected about 0.5", e64 / e16);
+}
+
+Test(estimate, soft_shadow_predicts_rmse_against_converged)
+{
+    /* The estimate predicts the RMSE (display units) of the image against a
+     * converged one: check it to within a factor of two at 4 samples,
+     * using 1024 samples as the reference. */
+    rd_scene s;
+    soft_shadow_scene(&s, 4);
+    rd_image img4;
+    rd_render_stats st4, stref;
+    render_ok(&s, NULL, &img4, &st4);
+    double *refd = render_reference(&s, 1024, &stref);
+    double rmse = rmse_display(&img4, refd, s.render.gamma);
+    cr_log_info("4 samples: estimate %g, RMSE against 1024 samples %g", st4.error_estimate, rmse);
+    cr_assert(st4.error_estimate > 0.5 * rmse && st4.error_estimate < 2 * rmse, "estimate %g, measured RMSE %g",
+              st4.error_estimate, rmse);
+    rd_image_free(&img4);
+    free(refd);
+    rd_scene_free(&s);
 }

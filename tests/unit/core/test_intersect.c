@@ -61,7 +61,7 @@ static rd_ray ray_of(rd_vec3 o, rd_vec3 d)
 /* Sphere                                                                  */
 /* ======================================================================= */
 
-Test(sphere, head_on_exact_t)
+Test(intersect, sphere_head_on_exact_t)
 {
     /* Unit sphere at (0,0,-5), ray from the origin along -z: enters at z=-4. */
     rd_sphere s = {v3(0, 0, -5), 1};
@@ -75,7 +75,7 @@ Test(sphere, head_on_exact_t)
     cr_assert_eq(rd_sphere_intersect(&s3, ray_of(v3(0, 0, 0), v3(1, 0, 0)), INFINITY), 1.0);
 }
 
-Test(sphere, fill_hit_values)
+Test(intersect, sphere_fill_hit_values)
 {
     rd_sphere s = {v3(0, 0, -5), 1};
     rd_ray r = ray_of(v3(0.6, 0, 0), v3(0, 0, -1));
@@ -109,7 +109,7 @@ Test(sphere, fill_hit_values)
     assert_near(h.v, 0, 0);
 }
 
-Test(sphere, tangent_ray_counts_as_hit)
+Test(intersect, sphere_tangent_ray_counts_as_hit)
 {
     /* The line x = 1 touches the unit sphere at (1, 0, -5): one hit at t = 5. */
     rd_sphere s = {v3(0, 0, -5), 1};
@@ -123,7 +123,7 @@ Test(sphere, tangent_ray_counts_as_hit)
     cr_assert(rd_sphere_intersect(&s, ray_of(v3(nextafter(1, 0), 0, 0), v3(0, 0, -1)), INFINITY) > 0);
 }
 
-Test(sphere, ray_inside_returns_exit)
+Test(intersect, sphere_ray_inside_returns_exit)
 {
     /* From the centre of a radius-2 sphere: exit at t = 2 in any direction. */
     rd_sphere s = {v3(0, 0, 0), 2};
@@ -136,7 +136,7 @@ Test(sphere, ray_inside_returns_exit)
     assert_near(rd_sphere_intersect(&s, ray_of(v3(1, 0, 0), v3(0, 1, 0)), INFINITY), sqrt(3.0), 4 * DBL_EPSILON);
 }
 
-Test(sphere, behind_ray_misses)
+Test(intersect, sphere_behind_ray_misses)
 {
     rd_sphere s = {v3(0, 0, 5), 1};
     cr_assert_eq(rd_sphere_intersect(&s, ray_of(v3(0, 0, 0), v3(0, 0, -1)), INFINITY), 0.0);
@@ -147,7 +147,7 @@ Test(sphere, behind_ray_misses)
     cr_assert_eq(rd_sphere_intersect(&s, ray_of(v3(0, 0, 0), v3(1, 0, 0)), INFINITY), 0.0);
 }
 
-Test(sphere, tmax_is_respected)
+Test(intersect, sphere_tmax_is_respected)
 {
     rd_sphere s = {v3(0, 0, -5), 1};
     rd_ray r = ray_of(v3(0, 0, 0), v3(0, 0, -1));
@@ -162,7 +162,7 @@ Test(sphere, tmax_is_respected)
     cr_assert_eq(rd_sphere_intersect(&b, ray_of(v3(0, 0, 0), v3(1, 0, 0)), 1.5), 0.0);
 }
 
-Test(sphere, tiny_sphere_far_away)
+Test(intersect, sphere_tiny_sphere_far_away)
 {
     /* r = 1e-6 at distance 1e6: b² and a·c are both ~1e12 and differ by
      * 1e-12, far below their rounding (~1e-4), so the textbook
@@ -203,7 +203,7 @@ static rd_plane plane_of(rd_vec3 q, rd_vec3 n)
     return p;
 }
 
-Test(plane, make_basis)
+Test(intersect, plane_make_basis)
 {
     rd_plane p = plane_of(v3(1, 2, 3), v3(0, 0, 7));
     assert_vec_near(p.n, 0, 0, 1, 0);
@@ -215,7 +215,7 @@ Test(plane, make_basis)
     assert_near(v3_dot(p.tu, p.tv), 0, 4 * DBL_EPSILON);
 }
 
-Test(plane, head_on_and_oblique)
+Test(intersect, plane_head_on_and_oblique)
 {
     /* y = -1, normal +y. Straight down from the origin: t = 1. */
     rd_plane p = plane_of(v3(0, -1, 0), v3(0, 1, 0));
@@ -228,7 +228,7 @@ Test(plane, head_on_and_oblique)
     assert_near(rd_plane_intersect(&q, ray_of(v3(0, 0, 0), v3(1, 0, 0)), INFINITY), 3.0, 8 * DBL_EPSILON);
 }
 
-Test(plane, two_sided)
+Test(intersect, plane_two_sided)
 {
     /* Same plane hit from below (against the normal's side) at t = 2. */
     rd_plane p = plane_of(v3(0, -1, 0), v3(0, 1, 0));
@@ -239,7 +239,7 @@ Test(plane, two_sided)
     cr_assert_eq(rd_plane_intersect(&f, ray_of(v3(0, -3, 0), v3(0, 1, 0)), INFINITY), 2.0);
 }
 
-Test(plane, parallel_ray_misses)
+Test(intersect, plane_parallel_ray_misses)
 {
     rd_plane p = plane_of(v3(0, -1, 0), v3(0, 1, 0));
     cr_assert_eq(rd_plane_intersect(&p, ray_of(v3(0, 0, 0), v3(1, 0, 0)), INFINITY), 0.0);
@@ -253,7 +253,7 @@ Test(plane, parallel_ray_misses)
     cr_assert_eq(rd_plane_intersect(&q, ray_of(v3(0, 0, 0), v3(1, 1, -2)), INFINITY), 0.0);
 }
 
-Test(plane, behind_and_tmax)
+Test(intersect, plane_behind_and_tmax)
 {
     rd_plane p = plane_of(v3(0, -1, 0), v3(0, 1, 0));
     /* Moving away from the plane. */
@@ -265,7 +265,7 @@ Test(plane, behind_and_tmax)
     cr_assert_eq(rd_plane_intersect(&p, r, nextafter(1.0, 2)), 1.0);
 }
 
-Test(plane, fill_hit_values)
+Test(intersect, plane_fill_hit_values)
 {
     rd_plane p = plane_of(v3(2, -1, 3), v3(0, 1, 0));
     rd_ray r = ray_of(v3(5, 4, -1), v3(0, -1, 0));
@@ -416,7 +416,7 @@ static double world_hit(const tri_world *tw, rd_ray r, double tmax, rd_hit *h)
     return h->t;
 }
 
-Test(triangle, head_on_exact_t_and_barycentrics)
+Test(intersect, triangle_head_on_exact_t_and_barycentrics)
 {
     /* v0 = (0,0,-2), v1 = (1,0,-2), v2 = (0,1,-2). The point (0.25, 0.5) is
      * 0.25·v0 + 0.25·v1 + 0.5·v2 (b1 = x, b2 = y, b0 = 1 - x - y). */
@@ -438,7 +438,7 @@ Test(triangle, head_on_exact_t_and_barycentrics)
     tri_world_free(&tw);
 }
 
-Test(triangle, both_sides_outside_behind_tmax)
+Test(intersect, triangle_both_sides_outside_behind_tmax)
 {
     tri_world tw;
     tri_mesh_world(&tw, v3(0, 0, -2), v3(1, 0, -2), v3(0, 1, -2), NULL, NULL);
@@ -520,10 +520,10 @@ static void check_fill_hit(tri_world_maker make, const char *kind)
 }
 
 /* The two ways a triangle enters a scene shade the same. */
-Test(triangle, fill_hit_values_mesh_face) { check_fill_hit(tri_mesh_world, "mesh face"); }
-Test(triangle, fill_hit_values_triangle_object) { check_fill_hit(tri_object_world, "[triangle]"); }
+Test(intersect, triangle_fill_hit_values_mesh_face) { check_fill_hit(tri_mesh_world, "mesh face"); }
+Test(intersect, triangle_fill_hit_values_triangle_object) { check_fill_hit(tri_object_world, "[triangle]"); }
 
-Test(triangle, watertight_shared_edge)
+Test(intersect, triangle_watertight_shared_edge)
 {
     /* Random parallelograms split along a diagonal v0-v2 into two faces of
      * one mesh, T1 = (v0, v1, v2) and T2 = (v2, v3, v0). Rays from random
@@ -572,7 +572,7 @@ Test(triangle, watertight_shared_edge)
     cr_assert_eq(misses, 0, "%d of %d rays through a shared edge missed both triangles, e.g. %s", misses, n, first);
 }
 
-Test(triangle, watertight_shared_vertex)
+Test(intersect, triangle_watertight_shared_vertex)
 {
     /* A fan of 7 faces around an interior vertex C: every ray aimed at C
      * must hit one of them. */
@@ -615,7 +615,7 @@ Test(triangle, watertight_shared_vertex)
     cr_assert_eq(misses, 0, "%d of %d rays aimed at a shared vertex missed every triangle", misses, n);
 }
 
-Test(triangle, zero_area_never_hits)
+Test(intersect, triangle_zero_area_never_hits)
 {
     /* Exactly degenerate triangles (exact integer coordinates):
      *  - three collinear points, v2 - v0 = 3·(v1 - v0);
@@ -723,9 +723,9 @@ static void sphere_offset_at_scale(double scale, uint64_t seed)
                  scale, rehits, bad_chords, tested, first);
 }
 
-Test(offset, sphere_scale_1e_minus9) { sphere_offset_at_scale(1e-9, 1); }
-Test(offset, sphere_scale_1) { sphere_offset_at_scale(1, 2); }
-Test(offset, sphere_scale_1e9) { sphere_offset_at_scale(1e9, 3); }
+Test(intersect, offset_sphere_scale_1e_minus9) { sphere_offset_at_scale(1e-9, 1); }
+Test(intersect, offset_sphere_scale_1) { sphere_offset_at_scale(1, 2); }
+Test(intersect, offset_sphere_scale_1e9) { sphere_offset_at_scale(1e9, 3); }
 
 /* Random planes (point up to 50·scale away, random normal), hit at random
  * points up to 100·scale from their point by rays from either side. A ray
@@ -776,11 +776,11 @@ static void plane_offset_at_scale(double scale, uint64_t seed)
     cr_assert_eq(rehits, 0, "scale %g: %d self-hits from %d plane hits; first: %s", scale, rehits, tested, first);
 }
 
-Test(offset, plane_scale_1e_minus9) { plane_offset_at_scale(1e-9, 11); }
-Test(offset, plane_scale_1) { plane_offset_at_scale(1, 12); }
-Test(offset, plane_scale_1e9) { plane_offset_at_scale(1e9, 13); }
+Test(intersect, offset_plane_scale_1e_minus9) { plane_offset_at_scale(1e-9, 11); }
+Test(intersect, offset_plane_scale_1) { plane_offset_at_scale(1, 12); }
+Test(intersect, offset_plane_scale_1e9) { plane_offset_at_scale(1e9, 13); }
 
-Test(offset, pushes_to_the_side_of_dir)
+Test(intersect, offset_pushes_to_the_side_of_dir)
 {
     /* Hit on the plane y = 0 at the origin of the plane's frame: the origin
      * moves up for an upward ray and down for a downward one, by a distance

@@ -62,7 +62,7 @@ static void area_vs_point_scene(rd_scene *s, int area)
     }
 }
 
-Test(light_models, tiny_area_light_matches_point_light)
+Test(lights, tiny_area_light_matches_point_light)
 {
     /* Its 16 points lie within 1.5e-9 of the corner and carry colour/16
      * each: the sum is the point light's value up to ~1e-9 relative, so
@@ -113,7 +113,7 @@ static void spot_scene(rd_scene *s, double falloff)
     l->falloff = falloff;
 }
 
-Test(light_models, spot_cutoff_is_exact)
+Test(lights, spot_cutoff_is_exact)
 {
     rd_scene s;
     spot_scene(&s, 0);
@@ -139,7 +139,7 @@ Test(light_models, spot_cutoff_is_exact)
     rd_scene_free(&s);
 }
 
-Test(light_models, spot_cutoff_at_the_light_level)
+Test(lights, spot_cutoff_at_the_light_level)
 {
     /* The same at rd_light_sample_at, with exact directions: at 29.999° the
      * sample exists, at 30.001° it does not. Axis tilted off the
@@ -168,7 +168,7 @@ Test(light_models, spot_cutoff_at_the_light_level)
     }
 }
 
-Test(light_models, spot_falloff_by_hand)
+Test(lights, spot_falloff_by_hand)
 {
     /* Spot at S = (0,0,2), axis (1,0,-2)/√5, colour (0.8,0.6,1), falloff 3;
      * floor z = 0 with kd (0.5,0.25,0.75); hit X = (1.5,0.5,0).
@@ -212,7 +212,7 @@ static void dark_scene(rd_scene *s)
     add_plane(s, v3(0, -1, 0), v3(0, 1, 0), m);
 }
 
-Test(light_models, zero_colour_light_sends_no_shadow_rays)
+Test(lights, zero_colour_light_sends_no_shadow_rays)
 {
     rd_scene s, ref;
     dark_scene(&s);
@@ -256,7 +256,7 @@ Test(light_models, zero_colour_light_sends_no_shadow_rays)
     rd_scene_free(&ref2);
 }
 
-Test(light_models, light_behind_every_surface_sends_no_shadow_rays)
+Test(lights, light_behind_every_surface_sends_no_shadow_rays)
 {
     /* Every surface faces the camera (+z); every light is on the -z side of
      * all of them, so cos α <= 0 at every hit: no contribution, no shadow
@@ -293,7 +293,7 @@ Test(light_models, light_behind_every_surface_sends_no_shadow_rays)
 
 /* ---- directional lights ------------------------------------------------------ */
 
-Test(light_models, directional_light_has_no_distance_falloff)
+Test(lights, directional_light_has_no_distance_falloff)
 {
     /* Plane facing the camera at distance 5, 15 and 1005; light travelling
      * along (1,-1,-2)/√6: cos α = 2/√6 everywhere on the plane, and every

@@ -8,7 +8,8 @@
  * rounding ambiguity (shading.md, Output).
  *
  * The other tests check properties that must hold bit for bit: thread and
- * tile independence, scale invariance, the error estimate, cancellation. */
+ * tile independence, scale invariance, cancellation. The error estimate has
+ * its own file, test_estimate.c. */
 #include <criterion/criterion.h>
 #include <math.h>
 #include <stdatomic.h>
@@ -30,7 +31,7 @@
 
 /* ---- (1) exact pixel values -------------------------------------------------- */
 
-Test(render_exact, diffuse_light_at_eye_1x1)
+Test(render, exact_diffuse_light_at_eye_1x1)
 {
     /* kd = (0.25, 0.5, 0.75), ambient = (0.125, 0.0625, 0.5), light colour 1:
      *   c = kd·1 + ambient = (0.375, 0.5625, 1.25)
@@ -59,7 +60,7 @@ Test(render_exact, diffuse_light_at_eye_1x1)
     rd_scene_free(&s);
 }
 
-Test(render_exact, centre_hit_and_background_3x3)
+Test(render, exact_centre_hit_and_background_3x3)
 {
     /* 3x3 at fov 45°: only the centre pixel sees the sphere. The edge
      * pixels' rays are at tan = (2/3)·tan 22.5° = 0.276 off axis, outside
@@ -86,7 +87,7 @@ Test(render_exact, centre_hit_and_background_3x3)
     rd_scene_free(&s);
 }
 
-Test(render_exact, phong_centre_highlight_is_kd_plus_ks)
+Test(render, exact_phong_centre_highlight_is_kd_plus_ks)
 {
     /* R = reflect((0,0,-1), (0,0,1)) = (0,0,1) = V: max(R·V,0)^20 = 1.
      *   c = kd + ks = (0.25 + 0.5, 0.25 + 0.375, 0.25 + 0.125) = (0.75, 0.625, 0.375)
@@ -105,7 +106,7 @@ Test(render_exact, phong_centre_highlight_is_kd_plus_ks)
     rd_scene_free(&s);
 }
 
-Test(render_exact, directional_light_at_60_degrees)
+Test(render, exact_directional_light_at_60_degrees)
 {
     /* Light travelling along (0, -sin 60°, -cos 60°): cos α = -N·L = cos 60° = 0.5
      * at the centre hit. kd = (0.75, 0.5, 0.25) -> (0.375, 0.25, 0.125)
@@ -125,7 +126,7 @@ Test(render_exact, directional_light_at_60_degrees)
     rd_scene_free(&s);
 }
 
-Test(render_exact, shadowed_hit_gets_ambient_only)
+Test(render, exact_shadowed_hit_gets_ambient_only)
 {
     /* Same directional light, but a small sphere at (0,0,1) + 2·(0, sin 60°, cos 60°)
      * sits on the shadow ray (and off the camera ray). Only the ambient
@@ -144,7 +145,7 @@ Test(render_exact, shadowed_hit_gets_ambient_only)
     rd_scene_free(&s);
 }
 
-Test(render_exact, gamma_2)
+Test(render, exact_gamma_2)
 {
     /* kd = (0.5, 0.125, 0.0625), ambient = (0.0625, 0.015625, 0.078125):
      *   linear c = (0.5625, 0.140625, 0.140625)
@@ -174,7 +175,7 @@ Test(render_exact, gamma_2)
     rd_scene_free(&s);
 }
 
-Test(render_exact, display_function)
+Test(render, exact_display_function)
 {
     /* clamp to [0,1], then ^(1/gamma). */
     cr_assert_eq(rd_display(-0.5, 1), 0.0);
@@ -194,7 +195,7 @@ Test(render_exact, display_function)
         cr_assert_eq(b[i], want[i], "byte %d = %d, expected %d", i, b[i], want[i]);
 }
 
-Test(render_exact, background_for_misses)
+Test(render, exact_background_for_misses)
 {
     /* An empty scene, and a scene whose only sphere is behind the camera:
      * every pixel is the background (0.5, 0.75, 0.125) -> 128 (127.5+0.5),
@@ -216,7 +217,7 @@ Test(render_exact, background_for_misses)
     }
 }
 
-Test(render_exact, mirror_reflects_background)
+Test(render, exact_mirror_reflects_background)
 {
     /* perfect_specular, ks = 0.5: the centre ray reflects straight back to +z
      * and misses -> ks·background = 0.5·(0.5, 0.25, 0.75) = (0.25, 0.125, 0.375)
@@ -238,7 +239,7 @@ Test(render_exact, mirror_reflects_background)
     rd_scene_free(&s);
 }
 
-Test(render_exact, glass_sphere_fresnel_normal_incidence)
+Test(render, exact_glass_sphere_fresnel_normal_incidence)
 {
     /* specular_refraction, ior 1.5, ks 1, max_depth 2, background b.
      * Normal incidence: F = ((1.5 - 1)/(1.5 + 1))² = 0.04 entering and leaving.
@@ -267,7 +268,7 @@ Test(render_exact, glass_sphere_fresnel_normal_incidence)
     rd_scene_free(&s);
 }
 
-Test(render_exact, pseudo_normal_color)
+Test(render, exact_pseudo_normal_color)
 {
     /* (N + 1)/2 with N = (0,0,1): (0.5, 0.5, 1) -> 128 (127.5+0.5), 128, 255;
      * lights and ambient play no part. */
@@ -285,7 +286,7 @@ Test(render_exact, pseudo_normal_color)
 
 /* ---- (6) perfect_specular with ks = 0 ------------------------------------- */
 
-Test(render_exact, perfect_specular_ks0_is_ambient_alone)
+Test(render, exact_perfect_specular_ks0_is_ambient_alone)
 {
     /* ks = 0: no reflection and no direct light, whatever the lights and the
      * background: only ambient (0.125, 0.25, 0.0625) -> 32, 64, 16. */
@@ -362,7 +363,7 @@ static void all_materials_scene(rd_scene *s, int w, int h)
 
 /* ---- (2) no NaN or infinity anywhere ---------------------------------------- */
 
-Test(render_robust, every_material_finite)
+Test(render, every_material_finite)
 {
     rd_scene s;
     all_materials_scene(&s, 96, 64);
@@ -391,7 +392,7 @@ Test(render_robust, every_material_finite)
 
 /* ---- (3) thread and tile independence ----------------------------------------- */
 
-Test(render_determinism, threads_and_tiles_byte_identical)
+Test(render, threads_and_tiles_byte_identical)
 {
     rd_scene s;
     all_materials_scene(&s, 53, 37); /* sizes that no tile divides */
@@ -480,7 +481,7 @@ static void scaled_scene(rd_scene *s, double f)
     sp->falloff = 2;
 }
 
-Test(render_scale, power_of_two_scaling_is_invisible)
+Test(render, power_of_two_scaling_is_invisible)
 {
     /* Scaling every position by 2^k about the eye multiplies every length by
      * an exact power of two; directions, cosines and colours are unchanged.
@@ -514,87 +515,9 @@ Test(render_scale, power_of_two_scaling_is_invisible)
     rd_scene_free(&s);
 }
 
-/* ---- (5) the error estimate ------------------------------------------------------ */
-
-static void soft_shadow_scene(rd_scene *s, int samples)
-{
-    fixture_scene(s, 32, 24);
-    s->render.samples = samples;
-    s->render.seed = 3;
-    s->camera.eye = v3(0, 3, 6);
-    s->camera.target = v3(0, 0, 0);
-    int floor_m = add_material(s, RD_MAT_DIFFUSE);
-    int ball = add_material(s, RD_MAT_PHONG);
-    s->materials[ball].ks = v3(0.3, 0.3, 0.3);
-    s->materials[ball].shininess = 30;
-    add_plane(s, v3(0, 0, 0), v3(0, 1, 0), floor_m);
-    add_sphere(s, v3(0, 1, 0), 1, ball);
-    /* A big area light sampled coarsely (2² points): strong per-sample noise. */
-    add_area_light(s, v3(-2, 4, -2), v3(4, 0, 0), v3(0, 0, 4), 2, v3(1, 1, 1));
-}
-
-static double error_estimate_for(int samples)
-{
-    rd_scene s;
-    soft_shadow_scene(&s, samples);
-    rd_render_stats st;
-    uint8_t *b = render_bytes(&s, NULL, NULL, &st);
-    cr_assert_eq(st.samples, samples);
-    cr_assert(isfinite(st.error_estimate) && st.error_estimate >= 0);
-    free(b);
-    rd_scene_free(&s);
-    return st.error_estimate;
-}
-
-Test(render_error, zero_with_one_sample)
-{
-    cr_assert_eq(error_estimate_for(1), 0.0);
-}
-
-Test(render_error, decreases_with_samples)
-{
-    /* The standard error of a mean falls like 1/√n: ×4 samples ≈ ×0.5 error. */
-    double e4 = error_estimate_for(4), e16 = error_estimate_for(16), e64 = error_estimate_for(64);
-    cr_log_info("error estimates: 4 -> %g, 16 -> %g, 64 -> %g", e4, e16, e64);
-    cr_assert(e4 > 1e-3, "e4 = %g: the scene should be noisy", e4);
-    cr_assert(e16 < e4 && e64 < e16, "not decreasing: %g, %g, %g", e4, e16, e64);
-    cr_assert(e16 / e4 > 0.3 && e16 / e4 < 0.7, "e16/e4 = %g, expected about 0.5", e16 / e4);
-    cr_assert(e64 / e16 > 0.3 && e64 / e16 < 0.7, "e64/e16 = %g, expected about 0.5", e64 / e16);
-}
-
-Test(render_error, predicts_rmse_against_converged)
-{
-    /* The estimate predicts the RMSE (display units) of the image against a
-     * converged one: check it to within a factor of two at 4 samples,
-     * using 1024 samples as the reference. */
-    rd_scene s;
-    soft_shadow_scene(&s, 4);
-    rd_image img4, ref;
-    rd_render_stats st4, stref;
-    uint8_t *b4 = render_bytes(&s, NULL, &img4, &st4);
-    s.render.samples = 1024;
-    s.render.seed = 99;
-    uint8_t *bref = render_bytes(&s, NULL, &ref, &stref);
-    double sum = 0;
-    size_t n = (size_t)32 * 24 * 3;
-    for (size_t i = 0; i < n; i++) {
-        double d = rd_display(img4.rgb[i], 1) - rd_display(ref.rgb[i], 1);
-        sum += d * d;
-    }
-    double rmse = sqrt(sum / n);
-    cr_log_info("4 samples: estimate %g, RMSE against 1024 samples %g", st4.error_estimate, rmse);
-    cr_assert(st4.error_estimate > 0.5 * rmse && st4.error_estimate < 2 * rmse, "estimate %g, measured RMSE %g",
-              st4.error_estimate, rmse);
-    rd_image_free(&img4);
-    rd_image_free(&ref);
-    free(b4);
-    free(bref);
-    rd_scene_free(&s);
-}
-
 /* ---- (7) cancellation --------------------------------------------------------------- */
 
-Test(render_cancel, flag_set_before_render)
+Test(render, cancel_flag_set_before_render)
 {
     rd_scene s;
     soft_shadow_scene(&s, 4);
@@ -622,7 +545,7 @@ static void count_progress(void *user, int done, int total)
         ;
 }
 
-Test(render_cancel, unset_flag_renders_and_progress_completes)
+Test(render, cancel_unset_flag_renders_and_progress_completes)
 {
     /* The same options with the flag clear render normally; progress
      * reaches tiles_total = ceil(32/8)·ceil(24/8) = 12. */
@@ -643,7 +566,7 @@ Test(render_cancel, unset_flag_renders_and_progress_completes)
     rd_scene_free(&s);
 }
 
-Test(render_errors, invalid_camera_leaves_image_empty)
+Test(render, invalid_camera_leaves_image_empty)
 {
     rd_scene s;
     fixture_scene(&s, 4, 4);

@@ -19,7 +19,7 @@ static void cmj_points(uint32_t n, uint32_t p, double *xs, double *ys)
         rd_cmj(s, n, p, &xs[s], &ys[s]);
 }
 
-Test(cmj, points_in_unit_square)
+Test(sampler, cmj_points_in_unit_square)
 {
     double xs[1024], ys[1024];
     uint32_t ns[] = {1, 2, 3, 4, 5, 7, 16, 17, 64, 100, 1000, 1024};
@@ -63,13 +63,13 @@ static void check_square(uint32_t n, uint32_t pat)
     free(cell);
 }
 
-Test(cmj, stratified_n16)
+Test(sampler, cmj_stratified_n16)
 {
     for (uint32_t p = 0; p < 1000; p++)
         check_square(16, p * 0x9e3779b9u + 1);
 }
 
-Test(cmj, stratified_perfect_squares)
+Test(sampler, cmj_stratified_perfect_squares)
 {
     uint32_t ns[] = {1, 4, 9, 25, 64, 256, 1024, 4096};
     for (size_t i = 0; i < sizeof ns / sizeof ns[0]; i++)
@@ -87,7 +87,7 @@ static void cmj_grid(uint32_t n, uint32_t *m, uint32_t *k)
     *k = n / *m;
 }
 
-Test(cmj, non_square_counts_fill_every_cell)
+Test(sampler, cmj_non_square_counts_fill_every_cell)
 {
     /* n = 8 uses a 2x4 grid, n = 12 a 3x4, n = 5 (prime) a 1x5. Each of the
      * n fine columns and rows of width 1/n holds exactly one point, and each
@@ -117,7 +117,7 @@ Test(cmj, non_square_counts_fill_every_cell)
     }
 }
 
-Test(cmj, every_count_up_to_512_is_n_rooks)
+Test(sampler, cmj_every_count_up_to_512_is_n_rooks)
 {
     /* Whatever n, the n points fill the n columns [j/n, (j+1)/n) and the n
      * rows once each, so in either axis the point set is as even as n
@@ -140,7 +140,7 @@ Test(cmj, every_count_up_to_512_is_n_rooks)
         }
 }
 
-Test(cmj, deterministic_and_pattern_dependent)
+Test(sampler, cmj_deterministic_and_pattern_dependent)
 {
     /* Same (s, n, p) -> the same bits; another pattern -> another point set. */
     double x1, y1, x2, y2;
@@ -158,7 +158,7 @@ Test(cmj, deterministic_and_pattern_dependent)
     cr_assert_neq(rd_pattern(1, 2), rd_pattern(2, 2));
 }
 
-Test(cmj, mean_is_centred)
+Test(sampler, cmj_mean_is_centred)
 {
     /* A stratified set of 1024 points has a mean within 1/(2·32) of 0.5 per
      * axis (one point per 1/1024 column, so much closer in fact). */
@@ -174,7 +174,7 @@ Test(cmj, mean_is_centred)
     cr_assert(fabs(mx - 0.5) < 1.0 / 1024 && fabs(my - 0.5) < 1.0 / 1024, "mean (%g, %g)", mx, my);
 }
 
-Test(rng, range_and_determinism)
+Test(sampler, rng_range_and_determinism)
 {
     rd_rng a = rd_rng_make(1, 2, 3), b = rd_rng_make(1, 2, 3);
     double lo = 1, hi = 0, sum = 0;
@@ -192,7 +192,7 @@ Test(rng, range_and_determinism)
     cr_assert(lo < 1e-4 && hi > 1 - 1e-4, "range [%g, %g]", lo, hi);
 }
 
-Test(rng, histogram_is_flat)
+Test(sampler, rng_histogram_is_flat)
 {
     /* 16 bins of 1e5 draws: each 6250 ± 77 (1 σ); allow 6 σ. */
     rd_rng r = rd_rng_make(0, 0, 0);
@@ -203,7 +203,7 @@ Test(rng, histogram_is_flat)
         cr_assert(abs(bins[b] - 6250) < 470, "bin %d holds %d of 100000", b, bins[b]);
 }
 
-Test(rng, keys_give_independent_streams)
+Test(sampler, rng_keys_give_independent_streams)
 {
     /* Changing any key changes the stream. */
     rd_rng base = rd_rng_make(5, 6, 7);
