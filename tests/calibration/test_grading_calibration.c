@@ -51,10 +51,9 @@
 #include "assignment.h"
 #include "grade.h"
 #include "reference.h"
-#include "scene_assets.h"
-#include "scene_load.h"
 #include "oracles/student_float.h"
-#include "file_io.h"
+#include "support/load.h"
+#include "support/scene_fixture.h"
 
 #define CAL_DIR "scenes/assignments"
 
@@ -106,24 +105,11 @@ static void cal_load(const cal_case *c, rd_scene *s, rd_grade_thresholds *own, u
     rd_error err = {0};
     cr_assert_eq(rd_assignment_load(CAL_DIR, c->base, &a, &err), RD_OK, "%s: %s", c->base, err.message);
     *own = c->extra ? rd_grade_thresholds_default() : a.thresholds;
-    rd_scene_limits lim = rd_scene_limits_default();
-    rd_scene_init(s);
-    cr_assert_eq(rd_scene_load_file(a.scene_path, &lim, s, &err), RD_OK, "%s", err.message);
-    char *dir = rd_dirname(a.scene_path);
-    cr_assert(dir);
-    rd_asset_source src = rd_asset_folder(dir);
-    rd_warnings warn;
-    memset(&warn, 0, sizeof warn);
-    cr_assert_eq(rd_scene_load_assets(s, &src, &lim, &warn, &err), RD_OK, "%s", err.message);
-    free(dir);
+    load_cfg(a.scene_path, s);
     if (strcmp(c->name, "phong@gamma2.2") == 0) {
         s->render.gamma = 2.2;
     } else if (strcmp(c->name, "diffuse+light_below") == 0) {
-        rd_light *l = rd_scene_add_light(s);
-        cr_assert(l);
-        l->type = RD_LIGHT_POINT;
-        l->position = v3(0, -3, 3);
-        l->color = v3(0.6, 0.6, 0.6);
+        add_point_light(s, v3(0, -3, 3), v3(0.6, 0.6, 0.6));
     }
     int from_cache = 1;
     cr_assert_eq(rd_reference_get(s, NULL, 2, ref, w, h, &from_cache, &err), RD_OK, "%s: %s", c->name,

@@ -19,6 +19,7 @@
 #include "rayd/scene.h"
 #include "scene_assets.h"
 #include "scene_load.h"
+#include "support/assert.h"
 #include "support/load.h"
 #include "support/scene_fixture.h"
 
@@ -310,10 +311,6 @@ static void one_point_mesh(rd_mesh *m, rd_vec3 p, rd_vec3 n)
     m->nnormals = 1;
 }
 
-#define assert_near3(a, b, tol)                                                                             \
-    cr_assert(fabs((a).x - (b).x) <= (tol) && fabs((a).y - (b).y) <= (tol) && fabs((a).z - (b).z) <= (tol), \
-              "(%.17g, %.17g, %.17g), expected (%.17g, %.17g, %.17g)", (a).x, (a).y, (a).z, (b).x, (b).y, (b).z)
-
 Test(obj, mesh_transform_scale_then_rotate_xyz_then_translate)
 {
     /* p = (1,2,3), scale (2,3,4) -> (2,6,12)
@@ -327,15 +324,15 @@ Test(obj, mesh_transform_scale_then_rotate_xyz_then_translate)
     one_point_mesh(&m, v3(1, 2, 3), v3(0, 0, 1));
     rd_error err = {0};
     cr_assert_eq(rd_mesh_transform(&m, v3(10, 20, 30), v3(2, 3, 4), v3(90, 90, 90), &err), RD_OK);
-    assert_near3(m.positions[0], v3(22, 26, 28), 1e-14);
+    assert_vec_near(m.positions[0], 22, 26, 28, 1e-14);
     rd_mesh_free(&m);
 
     /* A single rotation by a non-right angle, for the sign convention:
      * +30° about z takes (1,0,0) to (cos 30°, sin 30°, 0). */
     one_point_mesh(&m, v3(1, 0, 0), v3(1, 0, 0));
     cr_assert_eq(rd_mesh_transform(&m, v3(0, 0, 0), v3(1, 1, 1), v3(0, 0, 30), &err), RD_OK);
-    assert_near3(m.positions[0], v3(sqrt(3) / 2, 0.5, 0), 1e-15);
-    assert_near3(m.normals[0], v3(sqrt(3) / 2, 0.5, 0), 1e-15);
+    assert_vec_near(m.positions[0], sqrt(3) / 2, 0.5, 0, 1e-15);
+    assert_vec_near(m.normals[0], sqrt(3) / 2, 0.5, 0, 1e-15);
     rd_mesh_free(&m);
 
     /* Identity leaves points bit for bit. */
@@ -355,7 +352,7 @@ Test(obj, mesh_transform_normals_by_inverse_transpose)
     rd_error err = {0};
     cr_assert_eq(rd_mesh_transform(&m, v3(0, 0, 0), v3(2, 1, 1), v3(0, 0, 0), &err), RD_OK);
     rd_vec3 n = v3_normalize(m.normals[0]), want = v3_normalize(v3(0.5, 1, 0));
-    assert_near3(n, want, 1e-15);
+    assert_vec_near(n, want.x, want.y, want.z, 1e-15);
     rd_mesh_free(&m);
 
     /* In general: for any triangle, the transformed normal stays
