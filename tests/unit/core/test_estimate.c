@@ -231,13 +231,12 @@ Test(estimate, bernoulli_progressive_matches_known_variance)
  * the image against a converged one; (b) below allows a factor 1.5 either
  * way, and so does this test.
  *
- * FINDING (this test fails): job.c estimates the variance of the mean of the
- * samples' display values, g applied to each sample, E[est²] =
- * g(c)² p(1-p)/n, while the image is g of the mean of the linear values.
- * For p = 3/4 the estimate is 1.8 times the true error at 16 samples, for
- * p = 1/8 half of it, and the ratio does not tend to 1 as n grows (it tends
- * to g(c)/(c·g'(pc)), the delta method). Taking g of the two linear
- * half-means, instead of means of g, would fix it. */
+ * What it tells apart: job.c compares the two half-sets' linear means as
+ * displayed, g(mean A) - g(mean B), as the image is g of the mean. An
+ * estimate from the samples' own display values (g of each sample) would
+ * have E[est²] = g(c)² p(1-p)/n: 1.8 times the true error for p = 3/4 at 16
+ * samples, half of it for p = 1/8, and a ratio that does not tend to 1 as n
+ * grows (it tends to g(c)/(c·g'(pc)), the delta method). */
 Test(estimate, bernoulli_gamma_predicts_image_rmse)
 {
     double ps[] = {0.75, 0.5, 0.25, 0.125};
@@ -294,11 +293,9 @@ Test(estimate, bernoulli_gamma_predicts_image_rmse)
  * render and its reference share the area-light jitter of sample k; the
  * true errors measured both ways differ by under 1% on these scenes.
  *
- * The 1024-sample reference has half-sets of 512, a count rd_cmj samples
- * unevenly (see (e)): its bias puts a floor of about 0.002 under the true
- * errors here, which is why the 32-sample ratios sit near 0.85 rather than
- * 1. The 4..32-sample renders themselves use even counts (halves of 2, 4,
- * 8, 16). */
+ * rd_cmj fills every stratum for any count (see (e)), so the reference has
+ * no bias of its own to put a floor under the true errors; its estimated
+ * error is taken out in quadrature. */
 
 #define SW 64
 #define SH 48
@@ -433,18 +430,16 @@ Test(estimate, one_sample_is_exactly_zero)
  * samples, 0.5/√n, so the mean over 1024 independent pixels is within
  * 5·0.5/√(1024 n) of 1/2 (< 1e-6 false failures).
  *
- * FINDING (this test fails): rd_cmj (core/render/sampler.c) with a count n that is
- * not m·k (m = ⌊√n⌋, k = ⌈n/m⌉) leaves its last row of strata, the bottom
- * band [(k-1)/k, 1) of the pixel, with fewer points than the others: the
- * point set is not uniform, and the pixel mean is biased toward the top.
- * job.c draws each half-set with its own count, so a fixed render of 2h
- * samples is biased whenever h is not m·k: 10 samples (h = 5, 2x3 with one
- * empty cell: 3/5 on top, bias 0.1), 20 (h = 10), 64 (h = 32: 5x7 with 3
- * empty: 17.5/32 on top, bias 0.047), 256 (h = 128), 1024 (h = 512). The
- * error estimate cannot see a bias, so scenes rendered with such counts
- * (or against such references) have a true error well above the estimate:
- * `rayd converge scenes/phong.cfg --width 64 --height 48` shows est/true
- * 0.54 at 64 samples, and 0.39 with --reference-samples 1296. */
+ * What it guards: rd_cmj (core/render/sampler.c) uses an m×k grid with
+ * m·k = n exactly. A grid of m = ⌊√n⌋, k = ⌈n/m⌉ instead leaves its last
+ * row of strata, the bottom band [(k-1)/k, 1) of the pixel, with fewer
+ * points than the others whenever m·k > n: the pixel mean is then biased
+ * toward the top. job.c draws each half-set with its own count, so a fixed
+ * render of 2h samples would be biased whenever h is not m·k: 10 samples
+ * (h = 5, 2x3 with one empty cell: 3/5 on top, bias 0.1), 20 (h = 10), 64
+ * (h = 32: 5x7 with 3 empty: 17.5/32 on top, bias 0.047), 256, 1024. The
+ * error estimate cannot see a bias, so the true error of such renders
+ * would be well above the estimate. */
 Test(estimate, converged_image_does_not_depend_on_sample_count)
 {
     int ns[] = {2, 4, 6, 8, 10, 12, 16, 20, 32, 64, 128, 256};

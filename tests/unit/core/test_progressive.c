@@ -378,18 +378,18 @@ Test(progressive, samples_cap_reached)
     }
 }
 
-/* An adaptive pass of n samples gives pixel i about n(1/4 + 3/4 w_i/mean w)
- * samples, "n samples per pixel on average" (job.h), so an adaptive render
- * stopped by its samples has taken the scene's samples per pixel on
- * average, give or take the random rounding of the shares (a mean over
- * 1728 pixels: well under 10%).
+/* An adaptive pass of n samples gives pixel i about n(1/2 + 1/2 w_i/mean w)
+ * samples, at most 64n, "n samples per pixel on average" (job.h), so an
+ * adaptive render stopped by its samples has taken the scene's samples per
+ * pixel on average, give or take the random rounding of the shares (a mean
+ * over 1728 pixels: well under 10%).
  *
- * FINDING (this test fails): job.c caps a pixel's share at 8n and drops the
- * excess instead of giving it to the other pixels (the random rounding of
- * the shares is unbiased; the cap is what loses samples). In images where
- * a few pixels hold the noise (edges, penumbrae: w_i above about 10x the
- * mean), an adaptive render of 32 samples per pixel ends with about half of
- * them, and still reports stopped_by = samples. */
+ * What it guards: a cap on a pixel's share that drops the excess loses
+ * samples (the random rounding of the shares is unbiased; the cap is what
+ * would lose them). With a cap of 8n, in images where a few pixels hold the
+ * noise (edges, penumbrae: w_i above about 10x the mean), an adaptive
+ * render of 32 samples per pixel ended with about half of them and still
+ * reported stopped_by = samples. */
 Test(progressive, adaptive_takes_the_scenes_samples_on_average, .timeout = 60)
 {
     const char *paths[] = {"scenes/phong.cfg", "scenes/area_light.cfg"};
@@ -558,7 +558,7 @@ static void compare_adaptive(const char *path)
     int worse = 0;
     char msg[512] = "";
     for (int c = 0; c < 2; c++) {
-        /* The adaptive render first: it takes fewer samples than its cap
+        /* The adaptive render first: it meets its cap only on average
          * (see adaptive_takes_the_scenes_samples_on_average), so the uniform
          * render it is compared with is capped at its mean. */
         rd_render_stats sn, sa;
