@@ -150,7 +150,8 @@ FUZZ_SECONDS ?= 300
 stability: deps
 	@$(MAKE) --no-print-directory $(BUILD)/librayd.a
 	@$(CC) $(CPPFLAGS) $(INC_ALL) $(PKG_CFLAGS) $(filter-out -O% -g -MMD -MP,$(CFLAGS)) -O2 \
-	    tests/stability/report.c tests/stability/cases.c $(BUILD)/librayd.a $(PKG_LIBS) -o $(BUILD)/stability-report
+	    tests/stability/report.c tests/stability/cases.c tests/support/load.c $(BUILD)/librayd.a $(PKG_LIBS) \
+	    -o $(BUILD)/stability-report
 	@$(BUILD)/stability-report --threads 2
 
 # Coverage-guided fuzzing (libFuzzer) of every reader (tests/fuzz/README.md).

@@ -8,10 +8,9 @@
 #include "rayd/scene.h"
 #include "scene_limits.h"
 
+/* RD_FMT_AUTO sniffs: the first non-space byte (after a UTF-8 BOM) '{'
+ * means JSON, anything else cfg. */
 typedef enum { RD_FMT_AUTO, RD_FMT_CFG, RD_FMT_JSON } rd_scene_format;
-
-/* RD_FMT_AUTO sniffs: the first non-space byte '{' means JSON. */
-rd_scene_format rd_scene_sniff(const char *text, size_t len);
 
 /* Parses text into s (rd_scene_init'ed by the caller, who frees it either
  * way). source names the input in messages. */

@@ -115,7 +115,10 @@ int rd_parse_u64(const rd_token *t, unsigned long long *out)
     return 0;
 }
 
-const char *rd_token_show(const rd_token *t, char *buf, size_t size)
+/* The token as it should be quoted in a message: at most 40 characters
+ * (never a split one), control bytes shown as '?', "..." when cut, and its
+ * quotes (after 'the string ') when it was one. buf holds at least 192 bytes. */
+static const char *token_show(const rd_token *t, char *buf, size_t size)
 {
     /* At most 40 characters, never a split one; quoted tokens keep their
      * quotes, so '"45"' does not read like the number 45. */
@@ -145,7 +148,7 @@ const char *rd_token_what(const rd_token *t, char *buf, size_t size)
     if (t->other)
         return t->text; /* "true", "null", "[...]", "{...}" */
     char inner[176];
-    rd_token_show(t, inner, sizeof inner);
+    token_show(t, inner, sizeof inner);
     snprintf(buf, size, t->quoted ? "%s" : "'%s'", inner);
     return buf;
 }

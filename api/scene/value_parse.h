@@ -16,11 +16,6 @@ int rd_parse_int(const rd_token *t, long long lo, long long hi, long long *out);
 /* 0: an unsigned 64-bit integer; 1: otherwise. */
 int rd_parse_u64(const rd_token *t, unsigned long long *out);
 
-/* The token as it should be quoted in a message: at most 40 characters
- * (never a split one), control bytes shown as '?', "..." when cut, and its
- * quotes (after 'the string ') when it was one. buf holds at least 192 bytes. */
-const char *rd_token_show(const rd_token *t, char *buf, size_t size);
-
 /* How a message names what was found: 'word' for a cfg word or JSON
  * number, the string "..." for a string, true/null/[...]/{...} as such.
  * buf holds at least 200 bytes. */

@@ -4,7 +4,8 @@
 
 #include <string.h>
 
-int rd_edit_distance(const char *a, size_t alen, const char *b, size_t blen)
+/* Damerau-Levenshtein (optimal string alignment) distance, capped at 255. */
+static int edit_distance(const char *a, size_t alen, const char *b, size_t blen)
 {
     enum { MAXL = 64 };
     if (alen > MAXL || blen > MAXL)
@@ -39,7 +40,7 @@ void rd_suggest_init(rd_suggestion *s)
 
 void rd_suggest_offer(rd_suggestion *s, const char *typed, size_t len, const char *candidate)
 {
-    int d = rd_edit_distance(typed, len, candidate, strlen(candidate));
+    int d = edit_distance(typed, len, candidate, strlen(candidate));
     if (d < s->dist) {
         s->dist = d;
         s->best = candidate;

@@ -4,9 +4,6 @@
 
 #include <stddef.h>
 
-/* Damerau-Levenshtein (optimal string alignment) distance, capped at 255. */
-int rd_edit_distance(const char *a, size_t alen, const char *b, size_t blen);
-
 /* Tracks the best candidate seen so far. */
 typedef struct {
     const char *best;

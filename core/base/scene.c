@@ -112,22 +112,6 @@ rd_object *rd_scene_add_object(rd_scene *s)
     return o;
 }
 
-static const char *const material_names[RD_MAT_COUNT] = {
-    [RD_MAT_DIFFUSE] = "diffuse",
-    [RD_MAT_PHONG] = "phong",
-    [RD_MAT_BLINN_PHONG] = "blinn_phong",
-    [RD_MAT_COOK_TORRANCE] = "cook_torrance",
-    [RD_MAT_PERFECT_SPECULAR] = "perfect_specular",
-    [RD_MAT_SPECULAR_REFRACTION] = "specular_refraction",
-    [RD_MAT_PSEUDO_NORMAL_COLOR] = "pseudo_normal_color",
-    [RD_MAT_TEXTURED_PHONG] = "textured_phong",
-};
-
-const char *rd_material_type_name(rd_material_type t)
-{
-    return (unsigned)t < RD_MAT_COUNT ? material_names[t] : NULL;
-}
-
 void rd_mesh_free(rd_mesh *m)
 {
     free(m->positions);

@@ -4,12 +4,6 @@
 
 static double comp(rd_vec3 v, int k) { return k == 0 ? v.x : (k == 1 ? v.y : v.z); }
 
-double rd_triangle_intersect(const rd_triangle *tr, rd_ray r, double tmax, double bary[3])
-{
-    rd_vec3 v[3] = {tr->v0, tr->v1, tr->v2};
-    return rd_tri_intersect(v, r, tmax, bary);
-}
-
 double rd_tri_intersect(const rd_vec3 v[3], rd_ray r, double tmax, double bary[3])
 {
     /* Permute so that z is the ray's dominant axis, then shear the
@@ -75,31 +69,4 @@ double rd_tri_intersect(const rd_vec3 v[3], rd_ray r, double tmax, double bary[3
     bary[1] = V * inv;
     bary[2] = W * inv;
     return t;
-}
-
-void rd_triangle_fill_hit(const rd_triangle *tr, const double b[3], rd_hit *h)
-{
-    /* The barycentric point lies on the triangle up to rounding, whatever
-     * the ray's length. */
-    h->p = v3_add(v3_add(v3_scale(tr->v0, b[0]), v3_scale(tr->v1, b[1])), v3_scale(tr->v2, b[2]));
-    h->ng = v3_normalize(v3_cross(v3_sub(tr->v1, tr->v0), v3_sub(tr->v2, tr->v0)));
-    h->perr = 8 * DBL_EPSILON *
-              fmax(v3_max_abs(tr->v0), fmax(v3_max_abs(tr->v1), v3_max_abs(tr->v2)));
-    h->n = h->ng;
-    if (tr->has_normals) {
-        rd_vec3 n = v3_add(v3_add(v3_scale(v3_normalize(tr->n0), b[0]), v3_scale(v3_normalize(tr->n1), b[1])),
-                           v3_scale(v3_normalize(tr->n2), b[2]));
-        n = v3_normalize(n);
-        /* Normals that cancel fall back to the geometric one. */
-        if (!(v3_max_abs(n) > 0))
-            n = h->ng;
-        h->n = n;
-    }
-    if (tr->has_uv) {
-        h->u = b[0] * tr->uv[0][0] + b[1] * tr->uv[1][0] + b[2] * tr->uv[2][0];
-        h->v = b[0] * tr->uv[0][1] + b[1] * tr->uv[1][1] + b[2] * tr->uv[2][1];
-    } else {
-        h->u = b[1];
-        h->v = b[2];
-    }
 }

@@ -137,7 +137,6 @@ void rd_job_free(rd_job *j)
 int rd_job_tile_count(const rd_job *j) { return j->tiles_total; }
 int rd_job_width(const rd_job *j) { return j->scene->render.width; }
 int rd_job_height(const rd_job *j) { return j->scene->render.height; }
-const rd_scene *rd_job_scene(const rd_job *j) { return j->scene; }
 
 /* s²/n² of pixel i: how much one more sample lowers its variance of the
  * mean. Adaptive renders only. */
@@ -345,20 +344,6 @@ int rd_job_render_tile(rd_job *j, int t, rd_job_counts *c)
     c->shadow += rc.shadow;
     c->secondary += rc.secondary;
     return !rc.stopped;
-}
-
-rd_error_code rd_job_image(const rd_job *j, rd_image *out, rd_error *err)
-{
-    size_t npix = (size_t)j->scene->render.width * (size_t)j->scene->render.height;
-    out->width = j->scene->render.width;
-    out->height = j->scene->render.height;
-    out->rgb = malloc(npix * 3 * sizeof(double));
-    if (!out->rgb) {
-        out->width = out->height = 0;
-        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory for the image");
-    }
-    memcpy(out->rgb, j->mean, npix * 3 * sizeof(double));
-    return RD_OK;
 }
 
 void rd_job_take_image(rd_job *j, rd_image *out)

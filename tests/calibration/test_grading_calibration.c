@@ -52,7 +52,8 @@
 #include "assignment.h"
 #include "grade.h"
 #include "oracles/student_float.h"
-#include "scene_open.h"
+#include "support/load.h"
+#include "support/scene_fixture.h"
 
 #define CAL_DIR "scenes/assignments"
 
@@ -104,17 +105,11 @@ static void cal_load(const cal_case *c, rd_scene *s, rd_grade_thresholds *own, u
     rd_error err = {0};
     cr_assert_eq(rd_assignment_load(CAL_DIR, c->base, &a, &err), RD_OK, "%s: %s", c->base, err.message);
     *own = c->extra ? rd_grade_thresholds_default() : a.thresholds;
-    rd_scene_init(s);
-    rd_scene_source src = {.path = a.scene_path};
-    cr_assert_eq(rd_scene_open(&src, NULL, NULL, s, NULL, &err), RD_OK, "%s", err.message);
+    load_cfg(a.scene_path, s);
     if (strcmp(c->name, "phong@gamma2.2") == 0) {
         s->render.gamma = 2.2;
     } else if (strcmp(c->name, "diffuse+light_below") == 0) {
-        rd_light *l = rd_scene_add_light(s);
-        cr_assert(l);
-        l->type = RD_LIGHT_POINT;
-        l->position = v3(0, -3, 3);
-        l->color = v3(0.6, 0.6, 0.6);
+        add_point_light(s, v3(0, -3, 3), v3(0.6, 0.6, 0.6));
     }
     /* rayd's reference is its render, as grading makes it. */
     rd_render_options ro = {.threads = 2};

@@ -1,7 +1,8 @@
 /* The numerical-stability suite of rayd: a table of cases, each a scene (or
  * a few) under scenes/extreme/, a property in one sentence, and a function
  * that renders, measures the worst error against that property and decides
- * pass or fail against a stated tolerance.
+ * pass or fail against a stated tolerance. The cases are listed once, in
+ * tests/stability/case_list.h; rd_cases is that list as a table.
  *
  * Used by tests/stability/test_stability.c (one Criterion test per case) and by
  * tests/stability/report.c (`make stability`: writes docs/stability.md).

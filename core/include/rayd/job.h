@@ -56,7 +56,6 @@ void rd_job_free(rd_job *j);
 int rd_job_tile_count(const rd_job *j);
 int rd_job_width(const rd_job *j);
 int rd_job_height(const rd_job *j);
-const rd_scene *rd_job_scene(const rd_job *j);
 
 /* The passes, for every caller that schedules tiles (rd_render's threads,
  * the daemon's pool): rd_job_first_pass starts the first and returns its
@@ -103,13 +102,10 @@ void rd_job_set_cancel(rd_job *j, const atomic_int *cancel);
 /* Mean samples per pixel so far. */
 double rd_job_mean_samples(const rd_job *j);
 
-
-/* The mean colours as an image (out->rgb malloc'ed; free with
- * rd_image_free). Pixels with no sample yet are black. */
-rd_error_code rd_job_image(const rd_job *j, rd_image *out, rd_error *err);
-
-/* Moves the mean colours out as the image (no copy); the job keeps
- * answering everything but rd_job_image and rd_job_rgb8 afterwards. */
+/* Moves the mean colours out as the image (no copy; free it with
+ * rd_image_free). Pixels with no sample yet are black. The job then has no
+ * pixels left: it still answers its size, samples, estimate and statistics,
+ * but must not render tiles or give bytes (rd_job_rgb8, rd_job_tile_rgb8). */
 void rd_job_take_image(rd_job *j, rd_image *out);
 
 /* 8-bit RGB of the image so far, without a linear copy: width·height·3 bytes. */

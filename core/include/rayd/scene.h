@@ -156,9 +156,6 @@ rd_object *rd_scene_add_object(rd_scene *s);
 /* Default values for a material of the given type (kd 0.8, ks by type ...). */
 void rd_material_defaults(rd_material *m, rd_material_type type);
 
-/* The scene-format name of a material type ("phong"), or NULL. */
-const char *rd_material_type_name(rd_material_type t);
-
 /* Releases a mesh's arrays (not the struct itself). */
 void rd_mesh_free(rd_mesh *m);
 

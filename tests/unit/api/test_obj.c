@@ -19,6 +19,9 @@
 #include "rayd/scene.h"
 #include "scene_assets.h"
 #include "scene_load.h"
+#include "support/assert.h"
+#include "support/load.h"
+#include "support/scene_fixture.h"
 
 /* ---- parsing ----------------------------------------------------------------- */
 
@@ -42,7 +45,7 @@ static void parse(parsed *p, const char *text) { parse_n(p, text, strlen(text), 
               "face %d = (%u, %u, %u), expected (%d, %d, %d)", (int)(i), (m).faces[i].v[0], (m).faces[i].v[1], \
               (m).faces[i].v[2], (int)(a), (int)(b), (int)(c))
 
-Test(obj_parse, elements_and_the_four_corner_forms)
+Test(obj, parse_elements_and_the_four_corner_forms)
 {
     const char *text = "# a comment line\n"
                        "v 0 0 0\n"
@@ -92,7 +95,7 @@ Test(obj_parse, elements_and_the_four_corner_forms)
     rd_mesh_free(&p.m);
 }
 
-Test(obj_parse, polygons_are_fanned)
+Test(obj, parse_polygons_are_fanned)
 {
     parsed p;
     parse(&p, "v 0 0 0\nv 1 0 0\nv 2 1 0\nv 1 2 0\nv 0 1 0\nv 9 9 9\nf 1 2 3 4 5\nf 6/1 1/1 2/1 3/1\n"
@@ -115,7 +118,7 @@ Test(obj_parse, polygons_are_fanned)
     rd_mesh_free(&p.m);
 }
 
-Test(obj_parse, negative_indices_count_back)
+Test(obj, parse_negative_indices_count_back)
 {
     /* -1 is the last element defined so far, at the face's own line. */
     parsed p;
@@ -130,7 +133,7 @@ Test(obj_parse, negative_indices_count_back)
     rd_mesh_free(&p.m);
 }
 
-Test(obj_parse, crlf_and_comments)
+Test(obj, parse_crlf_and_comments)
 {
     const char *lf = "# cube corner\nv 0 0 0\nv 1 0 0 # x\nv 0 1 0\n\n# end\nf 1 2 3 # tri\n";
     const char *crlf = "# cube corner\r\nv 0 0 0\r\nv 1 0 0 # x\r\nv 0 1 0\r\n\r\n# end\r\nf 1 2 3 # tri\r\n";
@@ -153,7 +156,7 @@ Test(obj_parse, crlf_and_comments)
     rd_mesh_free(&c.m);
 }
 
-Test(obj_parse, material_statements_warn_and_groups_are_silent)
+Test(obj, parse_material_statements_warn_and_groups_are_silent)
 {
     const char *tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
     char buf[256];
@@ -208,7 +211,7 @@ static void expect_error(const char *text, size_t len, size_t max_tris, rd_error
 
 #define E(text, code, line, col, needle) expect_error(text, strlen(text), 1000000, code, line, col, needle)
 
-Test(obj_parse, bad_numbers)
+Test(obj, parse_bad_numbers)
 {
     E("v 0 0 0\nv 1 2x 3\n", RD_ERR_SYNTAX, 2, 5, NULL);
     E("v 0 0 0\nv 1 2 3\nvt 0.5 zz\n", RD_ERR_SYNTAX, 3, 8, NULL);
@@ -216,7 +219,7 @@ Test(obj_parse, bad_numbers)
     E("v 1 2\n", RD_ERR_SYNTAX, 1, 1, "3");
 }
 
-Test(obj_parse, non_finite_numbers)
+Test(obj, parse_non_finite_numbers)
 {
     E("v 0 0 0\nv 1 nan 3\n", RD_ERR_SYNTAX, 2, 5, "finite");
     E("v 1 2 inf\n", RD_ERR_SYNTAX, 1, 7, "finite");
@@ -224,7 +227,7 @@ Test(obj_parse, non_finite_numbers)
     E("\n\nvt NaN 0\n", RD_ERR_SYNTAX, 3, 4, "finite");
 }
 
-Test(obj_parse, too_few_corners)
+Test(obj, parse_too_few_corners)
 {
     /* Reported where the corners ran out. */
     E("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n", RD_ERR_SYNTAX, 4, 6, "3 corners");
@@ -232,13 +235,13 @@ Test(obj_parse, too_few_corners)
     E("v 0 0 0\nf\n", RD_ERR_SYNTAX, 2, 2, NULL);
 }
 
-Test(obj_parse, index_zero)
+Test(obj, parse_index_zero)
 {
     E("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 0 2\n", RD_ERR_SYNTAX, 4, 5, NULL);
     E("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/0 2/1 3/1\n", RD_ERR_SYNTAX, 5, 3, NULL);
 }
 
-Test(obj_parse, index_out_of_range)
+Test(obj, parse_index_out_of_range)
 {
     /* Positive past the end, negative before the start, for v, vt, vn. */
     E("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", RD_ERR_SYNTAX, 4, 7, "out of range");
@@ -251,7 +254,7 @@ Test(obj_parse, index_out_of_range)
     E("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4294967297\n", RD_ERR_SYNTAX, 4, 7, NULL);
 }
 
-Test(obj_parse, bad_corner_syntax)
+Test(obj, parse_bad_corner_syntax)
 {
     const char *pre = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n";
     char buf[256];
@@ -271,7 +274,7 @@ Test(obj_parse, bad_corner_syntax)
     }
 }
 
-Test(obj_parse, invalid_utf8)
+Test(obj, parse_invalid_utf8)
 {
     /* The column counts characters: "é" is one. */
     E("v 0 0 0\n# caf\xc3\xa9 \xff\n", RD_ERR_SYNTAX, 2, 8, "UTF-8");
@@ -281,7 +284,7 @@ Test(obj_parse, invalid_utf8)
     E("o a\xed\xa0\x80\n", RD_ERR_SYNTAX, 1, 4, "UTF-8");
 }
 
-Test(obj_parse, triangle_limit)
+Test(obj, parse_triangle_limit)
 {
     const char *text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 3 4 5\n";
     /* 1 + 3 triangles: a limit of 4 passes, 3 does not, at the pentagon. */
@@ -308,11 +311,7 @@ static void one_point_mesh(rd_mesh *m, rd_vec3 p, rd_vec3 n)
     m->nnormals = 1;
 }
 
-#define assert_near3(a, b, tol)                                                                             \
-    cr_assert(fabs((a).x - (b).x) <= (tol) && fabs((a).y - (b).y) <= (tol) && fabs((a).z - (b).z) <= (tol), \
-              "(%.17g, %.17g, %.17g), expected (%.17g, %.17g, %.17g)", (a).x, (a).y, (a).z, (b).x, (b).y, (b).z)
-
-Test(mesh_transform, scale_then_rotate_xyz_then_translate)
+Test(obj, mesh_transform_scale_then_rotate_xyz_then_translate)
 {
     /* p = (1,2,3), scale (2,3,4) -> (2,6,12)
      *   rotate x +90° (y -> z):  (x, y cos - z sin, y sin + z cos) = (2, -12, 6)
@@ -325,15 +324,15 @@ Test(mesh_transform, scale_then_rotate_xyz_then_translate)
     one_point_mesh(&m, v3(1, 2, 3), v3(0, 0, 1));
     rd_error err = {0};
     cr_assert_eq(rd_mesh_transform(&m, v3(10, 20, 30), v3(2, 3, 4), v3(90, 90, 90), &err), RD_OK);
-    assert_near3(m.positions[0], v3(22, 26, 28), 1e-14);
+    assert_vec_near(m.positions[0], 22, 26, 28, 1e-14);
     rd_mesh_free(&m);
 
     /* A single rotation by a non-right angle, for the sign convention:
      * +30° about z takes (1,0,0) to (cos 30°, sin 30°, 0). */
     one_point_mesh(&m, v3(1, 0, 0), v3(1, 0, 0));
     cr_assert_eq(rd_mesh_transform(&m, v3(0, 0, 0), v3(1, 1, 1), v3(0, 0, 30), &err), RD_OK);
-    assert_near3(m.positions[0], v3(sqrt(3) / 2, 0.5, 0), 1e-15);
-    assert_near3(m.normals[0], v3(sqrt(3) / 2, 0.5, 0), 1e-15);
+    assert_vec_near(m.positions[0], sqrt(3) / 2, 0.5, 0, 1e-15);
+    assert_vec_near(m.normals[0], sqrt(3) / 2, 0.5, 0, 1e-15);
     rd_mesh_free(&m);
 
     /* Identity leaves points bit for bit. */
@@ -343,7 +342,7 @@ Test(mesh_transform, scale_then_rotate_xyz_then_translate)
     rd_mesh_free(&m);
 }
 
-Test(mesh_transform, normals_by_inverse_transpose)
+Test(obj, mesh_transform_normals_by_inverse_transpose)
 {
     /* The plane x + y = 1 has normal (1,1,0). Scaled by (2,1,1) it becomes
      * x/2 + y = 1, normal ∝ (1/2, 1, 0): the inverse transpose, not the
@@ -353,7 +352,7 @@ Test(mesh_transform, normals_by_inverse_transpose)
     rd_error err = {0};
     cr_assert_eq(rd_mesh_transform(&m, v3(0, 0, 0), v3(2, 1, 1), v3(0, 0, 0), &err), RD_OK);
     rd_vec3 n = v3_normalize(m.normals[0]), want = v3_normalize(v3(0.5, 1, 0));
-    assert_near3(n, want, 1e-15);
+    assert_vec_near(n, want.x, want.y, want.z, 1e-15);
     rd_mesh_free(&m);
 
     /* In general: for any triangle, the transformed normal stays
@@ -387,7 +386,7 @@ Test(mesh_transform, normals_by_inverse_transpose)
     }
 }
 
-Test(mesh_transform, zero_or_non_finite_scale_is_an_error)
+Test(obj, mesh_transform_zero_or_non_finite_scale_is_an_error)
 {
     rd_vec3 bad[] = {v3(0, 1, 1), v3(1, 0, 1), v3(1, 1, 0), v3(-0.0, 1, 1), v3(NAN, 1, 1), v3(1, INFINITY, 1)};
     for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
@@ -426,48 +425,20 @@ static rd_vec3 cube_corner(int i, rd_vec3 scale, rd_vec3 t)
 
 static void cube_common(rd_scene *s)
 {
-    rd_scene_init(s);
-    s->render.width = 40;
-    s->render.height = 30;
+    fixture_scene(s, 40, 30);
     s->render.background = v3(0.1, 0.1, 0.2);
     s->camera.eye = v3(2, 1.6, 3);
-    s->camera.target = v3(0, 0, 0);
     s->camera.fov_deg = 40;
-    rd_material *m = rd_scene_add_material(s);
-    cr_assert(m);
-    rd_material_defaults(m, RD_MAT_PHONG);
-    m->name = strdup("m");
-    m->kd = v3(0.7, 0.4, 0.2);
-    m->ks = v3(0.3, 0.3, 0.3);
-    m->shininess = 12;
-    m->ambient = v3(0.05, 0.05, 0.05);
-    rd_material *f = rd_scene_add_material(s);
-    cr_assert(f);
-    rd_material_defaults(f, RD_MAT_DIFFUSE);
-    f->name = strdup("floor");
-    rd_object *o = rd_scene_add_object(s);
-    cr_assert(o);
-    o->type = RD_OBJ_PLANE;
-    o->point = v3(0, -0.75, 0);
-    o->normal = v3(0, 1, 0);
-    o->material = 1;
-    rd_light *l = rd_scene_add_light(s);
-    cr_assert(l);
-    l->position = v3(3, 4, 2);
-}
-
-static uint8_t *render_rgb8(const rd_scene *s)
-{
-    rd_image img;
-    rd_render_stats st;
-    rd_error err = {0};
-    rd_error_code rc = rd_render(s, NULL, &img, &st, &err);
-    cr_assert_eq(rc, RD_OK, "%s", err.message);
-    uint8_t *b = malloc((size_t)img.width * img.height * 3);
-    cr_assert(b);
-    rd_image_to_rgb8(&img, s->render.gamma, b);
-    rd_image_free(&img);
-    return b;
+    int m = add_material(s, RD_MAT_PHONG);
+    s->materials[m].name = strdup("m");
+    s->materials[m].kd = v3(0.7, 0.4, 0.2);
+    s->materials[m].ks = v3(0.3, 0.3, 0.3);
+    s->materials[m].shininess = 12;
+    s->materials[m].ambient = v3(0.05, 0.05, 0.05);
+    int f = add_material(s, RD_MAT_DIFFUSE);
+    s->materials[f].name = strdup("floor");
+    add_plane(s, v3(0, -0.75, 0), v3(0, 1, 0), f);
+    add_point_light(s, v3(3, 4, 2), v3(1, 1, 1));
 }
 
 static size_t count_not(const uint8_t *b, size_t n, const uint8_t *other)
@@ -478,7 +449,7 @@ static size_t count_not(const uint8_t *b, size_t n, const uint8_t *other)
     return d;
 }
 
-Test(obj_render, cube_mesh_equals_twelve_triangles)
+Test(obj, render_cube_mesh_equals_twelve_triangles)
 {
     rd_vec3 scale = v3(1.5, 1, 0.75), t = v3(0.25, -0.25, 0);
     /* The mesh, as rd_scene_load_assets puts it in a scene. */
@@ -505,19 +476,15 @@ Test(obj_render, cube_mesh_equals_twelve_triangles)
     rd_scene b;
     cube_common(&b);
     for (int q = 0; q < 6; q++)
-        for (int k = 1; k <= 2; k++) {
-            rd_object *tri = rd_scene_add_object(&b);
-            cr_assert(tri);
-            tri->type = RD_OBJ_TRIANGLE;
-            tri->material = 0;
-            tri->v[0] = cube_corner(cube_quads[q][0], scale, t);
-            tri->v[1] = cube_corner(cube_quads[q][k], scale, t);
-            tri->v[2] = cube_corner(cube_quads[q][k + 1], scale, t);
-        }
+        for (int k = 1; k <= 2; k++)
+            add_triangle(&b, cube_corner(cube_quads[q][0], scale, t), cube_corner(cube_quads[q][k], scale, t),
+                         cube_corner(cube_quads[q][k + 1], scale, t), 0);
     /* And the floor alone, to show the cube is in view. */
     rd_scene c;
     cube_common(&c);
-    uint8_t *ba = render_rgb8(&a), *bb = render_rgb8(&b), *bc = render_rgb8(&c);
+    uint8_t *ba = render_bytes(&a, NULL, NULL, NULL);
+    uint8_t *bb = render_bytes(&b, NULL, NULL, NULL);
+    uint8_t *bc = render_bytes(&c, NULL, NULL, NULL);
     size_t n = 40 * 30 * 3;
     cr_assert_eq(count_not(ba, n, bb), 0, "%zu pixels differ between the OBJ cube and 12 triangles",
                  count_not(ba, n, bb));
@@ -560,15 +527,11 @@ static uint8_t *load_and_render(const char *dir, const char *name)
     char path[512];
     snprintf(path, sizeof path, "%s/%s", dir, name);
     rd_scene s;
-    rd_scene_init(&s);
-    rd_error err = {0};
-    rd_scene_limits lim = rd_scene_limits_default();
-    cr_assert_eq(rd_scene_load_file(path, &lim, &s, &err), RD_OK, "%s", err.message);
-    rd_asset_source src = rd_asset_folder(dir);
     rd_warnings w = {0};
-    cr_assert_eq(rd_scene_load_assets(&s, &src, &lim, &w, &err), RD_OK, "%s", err.message);
+    rd_error err = {0};
+    cr_assert_eq(load_scene(path, &s, &w, &err), RD_OK, "%s: %s", path, err.message);
     cr_assert_eq(w.count, 0, "%s", w.text);
-    uint8_t *b = render_rgb8(&s);
+    uint8_t *b = render_bytes(&s, NULL, NULL, NULL);
     rd_scene_free(&s);
     return b;
 }
@@ -581,7 +544,7 @@ static const char cube_cfg_head[] = "[render]\nwidth = 40\nheight = 30\nbackgrou
                                     "[material floor]\ntype = diffuse\n"
                                     "[plane]\npoint = 0 -0.75 0\nnormal = 0 1 0\nmaterial = floor\n";
 
-Test(obj_render, cube_file_through_the_loader_equals_twelve_triangles)
+Test(obj, render_cube_file_through_the_loader_equals_twelve_triangles)
 {
     char *dir = make_tmpdir();
     char sub[600];
@@ -623,7 +586,7 @@ Test(obj_render, cube_file_through_the_loader_equals_twelve_triangles)
 
 /* ---- the asset folder --------------------------------------------------------- */
 
-Test(asset_folder, names_that_could_leave_the_folder_are_refused)
+Test(obj, asset_folder_names_that_could_leave_the_folder_are_refused)
 {
     const char *bad[] = {"../x", "/etc/passwd", "a/../../b", "a\\b", "", "..", ".", "a/./b", "a//b",
                          "./a", "a/..", "x/../y", "\\x"};
@@ -644,7 +607,7 @@ static rd_error_code folder_read(const char *dir, const char *name, rd_error *er
     return rc;
 }
 
-Test(asset_folder, symlinks_leading_outside_are_refused)
+Test(obj, asset_folder_symlinks_leading_outside_are_refused)
 {
     char *root = make_tmpdir();
     char scene[600], outside[600], link[700];

@@ -26,81 +26,29 @@
 #include "sphere.h"
 #include "triangle.h"
 #include "world.h"
-
-/* ---- a seeded generator (SplitMix64) --------------------------------------- */
-
-typedef struct {
-    uint64_t s;
-} bv_rng;
-
-static uint64_t bv_next(bv_rng *r)
-{
-    uint64_t z = (r->s += 0x9e3779b97f4a7c15ull);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return z ^ (z >> 31);
-}
-
-/* Uniform in [0, 1). */
-static double bv_u(bv_rng *r) { return (double)(bv_next(r) >> 11) * 0x1.0p-53; }
-static double bv_range(bv_rng *r, double a, double b) { return a + (b - a) * bv_u(r); }
-static int bv_int(bv_rng *r, int n) { return (int)(bv_next(r) % (uint64_t)n); }
-
-static rd_vec3 bv_dir(bv_rng *r)
-{
-    for (;;) {
-        rd_vec3 d = v3(bv_range(r, -1, 1), bv_range(r, -1, 1), bv_range(r, -1, 1));
-        double l = v3_dot(d, d);
-        if (l > 1e-4 && l <= 1)
-            return v3_normalize(d);
-    }
-}
-
-static rd_vec3 bv_point(bv_rng *r, double lo, double hi)
-{
-    return v3(bv_range(r, lo, hi), bv_range(r, lo, hi), bv_range(r, lo, hi));
-}
+#include "support/rng.h"
+#include "support/scene_fixture.h"
 
 /* ---- scenes -------------------------------------------------------------------- */
 
+/* Every primitive of these scenes uses material 0, the one diffuse material. */
 static void bv_scene(rd_scene *s)
 {
-    rd_scene_init(s);
+    fixture_scene(s, 64, 48);
     /* The world is relative to the eye: put it off the origin so the
      * arrays really are moved. Every value stays exact (dyadic). */
     s->camera.eye = v3(0.5, -0.25, 0.125);
-    rd_material *m = rd_scene_add_material(s);
-    cr_assert(m);
-    rd_material_defaults(m, RD_MAT_DIFFUSE);
+    add_material(s, RD_MAT_DIFFUSE);
 }
 
-static void add_tri(rd_scene *s, rd_vec3 a, rd_vec3 b, rd_vec3 c)
+static void random_tri(rd_scene *s, test_rng *r, double extent, double size)
 {
-    rd_object *o = rd_scene_add_object(s);
-    cr_assert(o);
-    o->type = RD_OBJ_TRIANGLE;
-    o->v[0] = a;
-    o->v[1] = b;
-    o->v[2] = c;
-    o->material = 0;
-}
-
-static void add_sphere(rd_scene *s, rd_vec3 c, double r)
-{
-    rd_object *o = rd_scene_add_object(s);
-    cr_assert(o);
-    o->type = RD_OBJ_SPHERE;
-    o->center = c;
-    o->radius = r;
-    o->material = 0;
-}
-
-static void random_tri(rd_scene *s, bv_rng *r, double extent, double size)
-{
-    rd_vec3 c = bv_point(r, -extent, extent);
-    double sz = size * bv_range(r, 0.05, 1);
-    add_tri(s, v3_add(c, v3_scale(bv_dir(r), sz)), v3_add(c, v3_scale(bv_dir(r), sz)),
-            v3_add(c, v3_scale(bv_dir(r), sz)));
+    rd_vec3 c = rng_point(r, -extent, extent);
+    double sz = size * rng_range(r, 0.05, 1);
+    rd_vec3 a = v3_add(c, v3_scale(rng_unit(r), sz));
+    rd_vec3 b = v3_add(c, v3_scale(rng_unit(r), sz));
+    rd_vec3 d = v3_add(c, v3_scale(rng_unit(r), sz));
+    add_triangle(s, a, b, d, 0);
 }
 
 /* ---- brute force ----------------------------------------------------------------- */
@@ -338,17 +286,17 @@ static int check_invariants(const rd_world *w)
 static const rd_vec3 axis_dirs[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
 
 /* A direction with some components exactly zero (of either sign). */
-static rd_vec3 zeroed_dir(bv_rng *r)
+static rd_vec3 zeroed_dir(test_rng *r)
 {
-    int kind = bv_int(r, 3);
+    int kind = rng_int(r, 3);
     if (kind == 0)
-        return axis_dirs[bv_int(r, 6)];
-    rd_vec3 d = bv_dir(r);
+        return axis_dirs[rng_int(r, 6)];
+    rd_vec3 d = rng_unit(r);
     double c[3] = {d.x, d.y, d.z};
-    int k = bv_int(r, 3);
-    c[k] = bv_int(r, 2) ? 0.0 : -0.0;
+    int k = rng_int(r, 3);
+    c[k] = rng_int(r, 2) ? 0.0 : -0.0;
     if (kind == 2) /* two zeros, but not a unit axis: a scaled axis */
-        c[(k + 1) % 3] = bv_int(r, 2) ? 0.0 : -0.0;
+        c[(k + 1) % 3] = rng_int(r, 2) ? 0.0 : -0.0;
     if (c[0] == 0 && c[1] == 0 && c[2] == 0)
         c[(k + 2) % 3] = 1;
     return v3_normalize(v3(c[0], c[1], c[2]));
@@ -360,26 +308,26 @@ typedef struct {
     int axis_share; /* percent with zero direction components */
 } ray_mix;
 
-static rd_ray make_ray(const rd_world *w, bv_rng *r, const ray_mix *mix)
+static rd_ray make_ray(const rd_world *w, test_rng *r, const ray_mix *mix)
 {
     rd_ray ray;
-    int roll = bv_int(r, 100);
+    int roll = rng_int(r, 100);
     if (roll < mix->face_share && w->bvh.nnodes > 0) {
         /* On a face of a random node's box: one coordinate exactly lo or hi
          * of the float bounds, the others inside (or on) the box. */
-        const rd_bvh_node *nd = &w->bvh.nodes[bv_int(r, (int)w->bvh.nnodes)];
-        int k = bv_int(r, 3);
+        const rd_bvh_node *nd = &w->bvh.nodes[rng_int(r, (int)w->bvh.nnodes)];
+        int k = rng_int(r, 3);
         double o[3];
         for (int j = 0; j < 3; j++) {
-            int edge = bv_int(r, 8);
-            o[j] = edge == 0 ? nd->lo[j] : (edge == 1 ? nd->hi[j] : bv_range(r, nd->lo[j], nd->hi[j]));
+            int edge = rng_int(r, 8);
+            o[j] = edge == 0 ? nd->lo[j] : (edge == 1 ? nd->hi[j] : rng_range(r, nd->lo[j], nd->hi[j]));
         }
-        o[k] = bv_int(r, 2) ? nd->lo[k] : nd->hi[k];
+        o[k] = rng_int(r, 2) ? nd->lo[k] : nd->hi[k];
         ray.o = v3(o[0], o[1], o[2]);
-        ray.d = bv_int(r, 2) ? zeroed_dir(r) : bv_dir(r);
+        ray.d = rng_int(r, 2) ? zeroed_dir(r) : rng_unit(r);
     } else {
-        ray.o = bv_point(r, mix->lo, mix->hi);
-        ray.d = roll < mix->face_share + mix->axis_share ? zeroed_dir(r) : bv_dir(r);
+        ray.o = rng_point(r, mix->lo, mix->hi);
+        ray.d = roll < mix->face_share + mix->axis_share ? zeroed_dir(r) : rng_unit(r);
     }
     return ray;
 }
@@ -407,8 +355,8 @@ static void report(const char *what, long i, rd_ray r, const char *msg)
  * overlapping triangles: a tie in exact arithmetic). Such a result is
  * accepted only when t1 <= t0 + 4 ulps and that triangle, tested with
  * tmax = t1, really is refused. Everything else must match exactly. */
-static cmp_stats compare(const char *what, const rd_scene *s, const rd_world *w, bv_rng *rng, long nrays,
-                         const ray_mix *mix, rd_ray (*custom)(const rd_world *, bv_rng *, long))
+static cmp_stats compare(const char *what, const rd_scene *s, const rd_world *w, test_rng *rng, long nrays,
+                         const ray_mix *mix, rd_ray (*custom)(const rd_world *, test_rng *, long))
 {
     cmp_stats st = {0, 0, 0, 0, 0, 0};
     prim_ref *map = object_map(w, s->object_count);
@@ -416,7 +364,7 @@ static cmp_stats compare(const char *what, const rd_scene *s, const rd_world *w,
     char msg[400];
     for (long i = 0; i < nrays; i++) {
         rd_ray r = custom ? custom(w, rng, i) : make_ray(w, rng, mix);
-        double tmax = bv_int(rng, 4) == 0 ? bv_range(rng, 0.5, 30) : INFINITY;
+        double tmax = rng_int(rng, 4) == 0 ? rng_range(rng, 0.5, 30) : INFINITY;
         st.rays++;
         bf_hit bf = brute_closest(w, bs, r, tmax);
         rd_hit h;
@@ -484,9 +432,9 @@ static void build(rd_world *w, const rd_scene *s)
 
 /* ---- tests ---------------------------------------------------------------------------- */
 
-Test(bvh_world, random_triangle_soup)
+Test(bvh, random_triangle_soup)
 {
-    bv_rng rng = {12345};
+    test_rng rng = {12345};
     rd_scene s;
     bv_scene(&s);
     for (int i = 0; i < 3000; i++)
@@ -501,17 +449,17 @@ Test(bvh_world, random_triangle_soup)
     rd_scene_free(&s);
 }
 
-Test(bvh_world, random_spheres)
+Test(bvh, random_spheres)
 {
-    bv_rng rng = {777};
+    test_rng rng = {777};
     rd_scene s;
     bv_scene(&s);
     for (int i = 0; i < 2500; i++)
-        add_sphere(&s, bv_point(&rng, -10, 10), bv_range(&rng, 0.02, 0.6));
+        add_sphere(&s, rng_point(&rng, -10, 10), rng_range(&rng, 0.02, 0.6), 0);
     /* Some overlapping clusters and one big sphere enclosing many. */
     for (int i = 0; i < 200; i++)
-        add_sphere(&s, v3_add(v3(3, 3, 3), v3_scale(bv_dir(&rng), 0.1)), bv_range(&rng, 0.1, 0.3));
-    add_sphere(&s, v3(-4, 2, 1), 3);
+        add_sphere(&s, v3_add(v3(3, 3, 3), v3_scale(rng_unit(&rng), 0.1)), rng_range(&rng, 0.1, 0.3), 0);
+    add_sphere(&s, v3(-4, 2, 1), 3, 0);
     rd_world w;
     build(&w, &s);
     check_invariants(&w);
@@ -522,43 +470,45 @@ Test(bvh_world, random_spheres)
     rd_scene_free(&s);
 }
 
-Test(bvh_world, degenerate_and_flat_triangles_with_spheres)
+Test(bvh, degenerate_and_flat_triangles_with_spheres)
 {
-    bv_rng rng = {4242};
+    test_rng rng = {4242};
     rd_scene s;
     bv_scene(&s);
     for (int i = 0; i < 800; i++)
         random_tri(&s, &rng, 8, 1.0);
     for (int i = 0; i < 300; i++) {
         /* Zero area: collinear corners, two equal, all three equal. */
-        rd_vec3 a = bv_point(&rng, -8, 8), d = v3_scale(bv_dir(&rng), bv_range(&rng, 0.1, 2));
+        rd_vec3 a = rng_point(&rng, -8, 8), d = v3_scale(rng_unit(&rng), rng_range(&rng, 0.1, 2));
         switch (i % 3) {
-        case 0: add_tri(&s, a, v3_add(a, d), v3_add(a, v3_scale(d, 2))); break;
-        case 1: add_tri(&s, a, a, v3_add(a, d)); break;
-        default: add_tri(&s, a, a, a); break;
+        case 0: add_triangle(&s, a, v3_add(a, d), v3_add(a, v3_scale(d, 2)), 0); break;
+        case 1: add_triangle(&s, a, a, v3_add(a, d), 0); break;
+        default: add_triangle(&s, a, a, a, 0); break;
         }
     }
     for (int i = 0; i < 300; i++) {
         /* Needles: long, and 1e-9 .. 1e-4 wide. */
-        rd_vec3 a = bv_point(&rng, -8, 8), d = v3_scale(bv_dir(&rng), bv_range(&rng, 2, 8));
-        rd_vec3 e = v3_scale(bv_dir(&rng), pow(10, bv_range(&rng, -9, -4)));
-        add_tri(&s, a, v3_add(a, d), v3_add(v3_add(a, d), e));
+        rd_vec3 a = rng_point(&rng, -8, 8), d = v3_scale(rng_unit(&rng), rng_range(&rng, 2, 8));
+        rd_vec3 e = v3_scale(rng_unit(&rng), pow(10, rng_range(&rng, -9, -4)));
+        add_triangle(&s, a, v3_add(a, d), v3_add(v3_add(a, d), e), 0);
     }
     for (int i = 0; i < 600; i++) {
         /* Axis-aligned flat: all z equal (a few shared planes), and some
          * with all x equal. */
-        double z = (double)(bv_int(&rng, 9) - 4);
-        rd_vec3 c = bv_point(&rng, -8, 8);
+        double z = (double)(rng_int(&rng, 9) - 4);
+        rd_vec3 c = rng_point(&rng, -8, 8);
         double q[6];
         for (int k = 0; k < 6; k++)
-            q[k] = bv_range(&rng, -1, 1);
+            q[k] = rng_range(&rng, -1, 1);
         if (i % 4 == 3)
-            add_tri(&s, v3(z, c.y + q[0], c.z + q[1]), v3(z, c.y + q[2], c.z + q[3]), v3(z, c.y + q[4], c.z + q[5]));
+            add_triangle(&s, v3(z, c.y + q[0], c.z + q[1]), v3(z, c.y + q[2], c.z + q[3]),
+                         v3(z, c.y + q[4], c.z + q[5]), 0);
         else
-            add_tri(&s, v3(c.x + q[0], c.y + q[1], z), v3(c.x + q[2], c.y + q[3], z), v3(c.x + q[4], c.y + q[5], z));
+            add_triangle(&s, v3(c.x + q[0], c.y + q[1], z), v3(c.x + q[2], c.y + q[3], z),
+                         v3(c.x + q[4], c.y + q[5], z), 0);
     }
     for (int i = 0; i < 500; i++)
-        add_sphere(&s, bv_point(&rng, -8, 8), bv_range(&rng, 0.05, 0.5));
+        add_sphere(&s, rng_point(&rng, -8, 8), rng_range(&rng, 0.05, 0.5), 0);
     rd_world w;
     build(&w, &s);
     check_invariants(&w);
@@ -571,34 +521,34 @@ Test(bvh_world, degenerate_and_flat_triangles_with_spheres)
 }
 
 /* Rays through the cluster of identical-centroid triangles. */
-static rd_ray cluster_ray(const rd_world *w, bv_rng *r, long i)
+static rd_ray cluster_ray(const rd_world *w, test_rng *r, long i)
 {
     (void)i;
     rd_vec3 c = rd_world_local(w, v3(1, 2, 3));
-    rd_vec3 target = v3_add(c, v3_scale(bv_point(r, -1, 1), 0.5));
+    rd_vec3 target = v3_add(c, v3_scale(rng_point(r, -1, 1), 0.5));
     rd_ray ray;
-    ray.o = v3_add(c, v3_scale(bv_dir(r), bv_range(r, 0.2, 5)));
-    ray.d = bv_int(r, 5) == 0 ? zeroed_dir(r) : v3_normalize(v3_sub(target, ray.o));
+    ray.o = v3_add(c, v3_scale(rng_unit(r), rng_range(r, 0.2, 5)));
+    ray.d = rng_int(r, 5) == 0 ? zeroed_dir(r) : v3_normalize(v3_sub(target, ray.o));
     return ray;
 }
 
-Test(bvh_world, ten_thousand_identical_centroids)
+Test(bvh, ten_thousand_identical_centroids)
 {
     /* Triangles c + a, c - a, c + b with |b| <= |a| per component: every
      * bounding box is centred on c = (1,2,3) exactly (dyadic values), so no
      * SAH split can separate them. */
-    bv_rng rng = {99};
+    test_rng rng = {99};
     rd_scene s;
     bv_scene(&s);
     rd_vec3 c = v3(1, 2, 3);
     for (int i = 0; i < 10000; i++) {
         double a[3], b[3];
         for (int k = 0; k < 3; k++) {
-            a[k] = (double)(bv_int(&rng, 2048) + 1) / 1024.0; /* (0, 2] in steps of 2^-10 */
-            b[k] = a[k] * (double)(bv_int(&rng, 257) - 128) / 128.0;
+            a[k] = (double)(rng_int(&rng, 2048) + 1) / 1024.0; /* (0, 2] in steps of 2^-10 */
+            b[k] = a[k] * (double)(rng_int(&rng, 257) - 128) / 128.0;
         }
         rd_vec3 A = v3(a[0], a[1], a[2]), B = v3(b[0], b[1], b[2]);
-        add_tri(&s, v3_add(c, A), v3_sub(c, A), v3_add(c, B));
+        add_triangle(&s, v3_add(c, A), v3_sub(c, A), v3_add(c, B), 0);
     }
     rd_world w;
     build(&w, &s);
@@ -622,22 +572,22 @@ Test(bvh_world, ten_thousand_identical_centroids)
  * whose origins lie on grid planes, i.e. in box faces. This is the common
  * case of modelled meshes (cubes, voxels, floors) seen by axis-aligned
  * camera rays. */
-static rd_ray grid_ray(const rd_world *w, bv_rng *r, long i)
+static rd_ray grid_ray(const rd_world *w, test_rng *r, long i)
 {
     (void)w;
     (void)i;
     rd_ray ray;
     double o[3];
     for (int k = 0; k < 3; k++)
-        o[k] = bv_int(r, 2) ? (double)(bv_int(r, 81) - 40) / 4.0 : bv_range(r, -10, 10);
+        o[k] = rng_int(r, 2) ? (double)(rng_int(r, 81) - 40) / 4.0 : rng_range(r, -10, 10);
     ray.o = v3(o[0], o[1], o[2]);
     ray.d = zeroed_dir(r);
     return ray;
 }
 
-Test(bvh_world, grid_aligned_triangles_and_axis_rays)
+Test(bvh, grid_aligned_triangles_and_axis_rays)
 {
-    bv_rng rng = {2024};
+    test_rng rng = {2024};
     rd_scene s;
     bv_scene(&s);
     s.camera.eye = v3(0, 0, 0); /* keep the grid on exact values in the world's frame */
@@ -645,11 +595,11 @@ Test(bvh_world, grid_aligned_triangles_and_axis_rays)
         rd_vec3 p[3];
         double base[3];
         for (int k = 0; k < 3; k++)
-            base[k] = (double)(bv_int(&rng, 73) - 36) / 4.0;
+            base[k] = (double)(rng_int(&rng, 73) - 36) / 4.0;
         for (int c = 0; c < 3; c++)
-            p[c] = v3(base[0] + (double)bv_int(&rng, 9) / 4.0, base[1] + (double)bv_int(&rng, 9) / 4.0,
-                      base[2] + (double)bv_int(&rng, 9) / 4.0);
-        add_tri(&s, p[0], p[1], p[2]);
+            p[c] = v3(base[0] + (double)rng_int(&rng, 9) / 4.0, base[1] + (double)rng_int(&rng, 9) / 4.0,
+                      base[2] + (double)rng_int(&rng, 9) / 4.0);
+        add_triangle(&s, p[0], p[1], p[2], 0);
     }
     rd_world w;
     build(&w, &s);
@@ -664,13 +614,13 @@ Test(bvh_world, grid_aligned_triangles_and_axis_rays)
  * tangent ray (tangent rays count as hits, core/geometry/sphere.h) and a ray across
  * a triangle's edge, both along an axis, in worlds big enough for a BVH.
  * bvh.h: "a ray lying in a box's face counts as inside it". */
-Test(bvh_world, ray_in_a_box_face_plane)
+Test(bvh, ray_in_a_box_face_plane)
 {
     rd_scene s;
     bv_scene(&s);
     s.camera.eye = v3(0, 0, 0);
     for (int i = 0; i < 12; i++)
-        add_sphere(&s, v3(4.0 * i, 0, 0), 1);
+        add_sphere(&s, v3(4.0 * i, 0, 0), 1, 0);
     rd_world w;
     build(&w, &s);
     bsphere *bs = bounding_spheres(&w);
@@ -699,7 +649,7 @@ Test(bvh_world, ray_in_a_box_face_plane)
     bv_scene(&s);
     s.camera.eye = v3(0, 0, 0);
     for (int i = 0; i < 10; i++)
-        add_tri(&s, v3(0, 2.0 * i, 0), v3(1, 2.0 * i, 0), v3(1, 2.0 * i + 1, 0));
+        add_triangle(&s, v3(0, 2.0 * i, 0), v3(1, 2.0 * i, 0), v3(1, 2.0 * i + 1, 0), 0);
     build(&w, &s);
     bs = bounding_spheres(&w);
     for (int sgn = 0; sgn < 2; sgn++) {

@@ -9,17 +9,7 @@
 #include <stdio.h>
 
 #include "camera.h"
-
-#define assert_near(a, b, tol) \
-    cr_assert(fabs((double)(a) - (double)(b)) <= (tol), "%s = %.17g, expected %.17g (tol %g)", #a, (double)(a), (double)(b), (double)(tol))
-
-#define assert_vec_near(v, ex, ey, ez, tol) \
-    do {                                     \
-        rd_vec3 v_ = (v);                    \
-        assert_near(v_.x, ex, tol);          \
-        assert_near(v_.y, ey, tol);          \
-        assert_near(v_.z, ez, tol);          \
-    } while (0)
+#include "support/assert.h"
 
 #define TOL (8 * DBL_EPSILON)
 

@@ -15,6 +15,8 @@
  * (e) The converged image does not depend on the sample count (an unbiased
  *     pixel estimate: otherwise no variance estimate can predict the error
  *     against a converged render).
+ * (f) The same on a noisy scene built in code (soft_shadow_scene): 0 with
+ *     one sample, 1/√n, the RMSE against a converged render at 4 samples.
  *
  * Every test runs from the repository root. Images are small (the machine
  * is shared); the tolerances are derived below, never tuned to pass. */
@@ -25,71 +27,13 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "asset_source.h"
 #include "rayd/render.h"
 #include "rayd/scene.h"
-#include "scene_assets.h"
-#include "scene_limits.h"
-#include "scene_load.h"
-#include "file_io.h"
+#include "support/load.h"
+#include "support/scene_fixture.h"
+#include "support/true_error.h"
 
 /* ---- helpers -------------------------------------------------------------------- */
-
-static void load_cfg(const char *path, rd_scene *s)
-{
-    rd_scene_init(s);
-    rd_error err = {0};
-    rd_scene_limits lim = rd_scene_limits_default();
-    rd_error_code rc = rd_scene_load_file(path, &lim, s, &err);
-    cr_assert_eq(rc, RD_OK, "%s: %s", path, err.message);
-    char *dir = rd_dirname(path);
-    cr_assert(dir);
-    rd_asset_source src = rd_asset_folder(dir);
-    rc = rd_scene_load_assets(s, &src, &lim, NULL, &err);
-    free(dir);
-    cr_assert_eq(rc, RD_OK, "%s: %s", path, err.message);
-}
-
-static void render_ok(const rd_scene *s, const rd_render_options *o, rd_image *img, rd_render_stats *st)
-{
-    rd_error err = {0};
-    rd_error_code rc = rd_render(s, o, img, st, &err);
-    cr_assert_eq(rc, RD_OK, "rd_render: %s", err.message);
-    cr_assert_eq(st->nonfinite, 0);
-    cr_assert(isfinite(st->error_estimate) && st->error_estimate >= 0, "estimate %g", st->error_estimate);
-}
-
-/* Display values of an image (malloc'ed). */
-static double *display_values(const rd_image *img, double gamma)
-{
-    size_t n = (size_t)img->width * (size_t)img->height * 3;
-    double *d = malloc(n * sizeof *d);
-    cr_assert(d);
-    for (size_t i = 0; i < n; i++)
-        d[i] = rd_display(img->rgb[i], gamma);
-    return d;
-}
-
-/* RMSE of an image's display values against reference display values. */
-static double rmse_display(const rd_image *img, const double *ref, double gamma)
-{
-    size_t n = (size_t)img->width * (size_t)img->height * 3;
-    double sum = 0;
-    for (size_t i = 0; i < n; i++) {
-        double d = rd_display(img->rgb[i], gamma) - ref[i];
-        sum += d * d;
-    }
-    return sqrt(sum / (double)n);
-}
-
-/* cmd_converge.c's true error: the RMSE with the reference's own error
- * taken out in quadrature. */
-static double true_error(const rd_image *img, const double *ref, double ref_estimate, double gamma)
-{
-    double r = rmse_display(img, ref, gamma);
-    double t = r * r - ref_estimate * ref_estimate;
-    return t > 0 ? sqrt(t) : 0;
-}
 
 /* Least-squares slope of log y against log x. */
 static double loglog_slope(const double *x, const double *y, int n)
@@ -151,48 +95,20 @@ static double bernoulli_cos(double p)
 static void bernoulli_scene(rd_scene *s, double p, rd_rgb kd, rd_rgb ambient, double gamma, int samples,
                             uint64_t seed)
 {
-    rd_scene_init(s);
-    s->render.width = BW;
-    s->render.height = BH;
+    fixture_scene(s, BW, BH);
     s->render.samples = samples;
     s->render.gamma = gamma;
     s->render.seed = seed;
-    s->render.background = v3(0, 0, 0);
     s->camera.eye = v3(0, 5, 0);
     s->camera.target = v3(0, 0, 0);
     s->camera.up = v3(0, 0, -1);
     s->camera.fov_deg = 30;
-
-    rd_material *m = rd_scene_add_material(s);
-    cr_assert(m);
-    rd_material_defaults(m, RD_MAT_DIFFUSE);
-    m->kd = kd;
-    m->ambient = ambient;
-    m = rd_scene_add_material(s);
-    cr_assert(m);
-    rd_material_defaults(m, RD_MAT_DIFFUSE);
-
-    rd_object *o = rd_scene_add_object(s);
-    cr_assert(o);
-    o->type = RD_OBJ_PLANE;
-    o->point = v3(0, 0, 0);
-    o->normal = v3(0, 1, 0);
-    o->material = 0;
-    o = rd_scene_add_object(s);
-    cr_assert(o);
-    o->type = RD_OBJ_PLANE; /* the blocker: x = 50 */
-    o->point = v3(50, 0, 0);
-    o->normal = v3(1, 0, 0);
-    o->material = 1;
-
-    rd_light *l = rd_scene_add_light(s);
-    cr_assert(l);
-    l->type = RD_LIGHT_AREA;
-    l->corner = v3(50 - 16 * p, 1e4, 0); /* u < p: x < 50, visible */
-    l->edge1 = v3(16, 0, 0);
-    l->edge2 = v3(0, 0, 0);
-    l->samples = 1;
-    l->color = v3(1, 1, 1);
+    int floor_m = add_diffuse(s, kd, ambient);
+    int blocker_m = add_material(s, RD_MAT_DIFFUSE);
+    add_plane(s, v3(0, 0, 0), v3(0, 1, 0), floor_m);
+    add_plane(s, v3(50, 0, 0), v3(1, 0, 0), blocker_m); /* the blocker: x = 50 */
+    /* u < p: x < 50, visible */
+    add_area_light(s, v3(50 - 16 * p, 1e4, 0), v3(16, 0, 0), v3(0, 0, 0), 1, v3(1, 1, 1));
 }
 
 /* The exact mean and variance, over one pixel, of that pixel's term in the
@@ -315,13 +231,12 @@ Test(estimate, bernoulli_progressive_matches_known_variance)
  * the image against a converged one; (b) below allows a factor 1.5 either
  * way, and so does this test.
  *
- * FINDING (this test fails): job.c estimates the variance of the mean of the
- * samples' display values, g applied to each sample, E[est²] =
- * g(c)² p(1-p)/n, while the image is g of the mean of the linear values.
- * For p = 3/4 the estimate is 1.8 times the true error at 16 samples, for
- * p = 1/8 half of it, and the ratio does not tend to 1 as n grows (it tends
- * to g(c)/(c·g'(pc)), the delta method). Taking g of the two linear
- * half-means, instead of means of g, would fix it. */
+ * What it tells apart: job.c compares the two half-sets' linear means as
+ * displayed, g(mean A) - g(mean B), as the image is g of the mean. An
+ * estimate from the samples' own display values (g of each sample) would
+ * have E[est²] = g(c)² p(1-p)/n: 1.8 times the true error for p = 3/4 at 16
+ * samples, half of it for p = 1/8, and a ratio that does not tend to 1 as n
+ * grows (it tends to g(c)/(c·g'(pc)), the delta method). */
 Test(estimate, bernoulli_gamma_predicts_image_rmse)
 {
     double ps[] = {0.75, 0.5, 0.25, 0.125};
@@ -378,11 +293,9 @@ Test(estimate, bernoulli_gamma_predicts_image_rmse)
  * render and its reference share the area-light jitter of sample k; the
  * true errors measured both ways differ by under 1% on these scenes.
  *
- * The 1024-sample reference has half-sets of 512, a count rd_cmj samples
- * unevenly (see (e)): its bias puts a floor of about 0.002 under the true
- * errors here, which is why the 32-sample ratios sit near 0.85 rather than
- * 1. The 4..32-sample renders themselves use even counts (halves of 2, 4,
- * 8, 16). */
+ * rd_cmj fills every stratum for any count (see (e)), so the reference has
+ * no bias of its own to put a floor under the true errors; its estimated
+ * error is taken out in quadrature. */
 
 #define SW 64
 #define SH 48
@@ -393,16 +306,8 @@ static void check_scene(rd_scene *s, const char *name)
     s->render.height = SH;
     rd_render_options o = {0};
     o.threads = 2;
-    uint64_t seed = s->render.seed;
-
-    rd_image ref;
     rd_render_stats rst;
-    s->render.samples = 1024;
-    s->render.seed = seed + 0x5eed;
-    render_ok(s, &o, &ref, &rst);
-    double *refd = display_values(&ref, s->render.gamma);
-    rd_image_free(&ref);
-    s->render.seed = seed;
+    double *refd = render_reference(s, 1024, &rst);
 
     int ns[] = {4, 8, 16, 32};
     double x[4], tr[4], es[4];
@@ -525,18 +430,16 @@ Test(estimate, one_sample_is_exactly_zero)
  * samples, 0.5/√n, so the mean over 1024 independent pixels is within
  * 5·0.5/√(1024 n) of 1/2 (< 1e-6 false failures).
  *
- * FINDING (this test fails): rd_cmj (core/render/sampler.c) with a count n that is
- * not m·k (m = ⌊√n⌋, k = ⌈n/m⌉) leaves its last row of strata, the bottom
- * band [(k-1)/k, 1) of the pixel, with fewer points than the others: the
- * point set is not uniform, and the pixel mean is biased toward the top.
- * job.c draws each half-set with its own count, so a fixed render of 2h
- * samples is biased whenever h is not m·k: 10 samples (h = 5, 2x3 with one
- * empty cell: 3/5 on top, bias 0.1), 20 (h = 10), 64 (h = 32: 5x7 with 3
- * empty: 17.5/32 on top, bias 0.047), 256 (h = 128), 1024 (h = 512). The
- * error estimate cannot see a bias, so scenes rendered with such counts
- * (or against such references) have a true error well above the estimate:
- * `rayd converge scenes/phong.cfg --width 64 --height 48` shows est/true
- * 0.54 at 64 samples, and 0.39 with --reference-samples 1296. */
+ * What it guards: rd_cmj (core/render/sampler.c) uses an m×k grid with
+ * m·k = n exactly. A grid of m = ⌊√n⌋, k = ⌈n/m⌉ instead leaves its last
+ * row of strata, the bottom band [(k-1)/k, 1) of the pixel, with fewer
+ * points than the others whenever m·k > n: the pixel mean is then biased
+ * toward the top. job.c draws each half-set with its own count, so a fixed
+ * render of 2h samples would be biased whenever h is not m·k: 10 samples
+ * (h = 5, 2x3 with one empty cell: 3/5 on top, bias 0.1), 20 (h = 10), 64
+ * (h = 32: 5x7 with 3 empty: 17.5/32 on top, bias 0.047), 256, 1024. The
+ * error estimate cannot see a bias, so the true error of such renders
+ * would be well above the estimate. */
 Test(estimate, converged_image_does_not_depend_on_sample_count)
 {
     int ns[] = {2, 4, 6, 8, 10, 12, 16, 20, 32, 64, 128, 256};
@@ -545,27 +448,13 @@ Test(estimate, converged_image_does_not_depend_on_sample_count)
     for (size_t t = 0; t < sizeof ns / sizeof ns[0]; t++) {
         int n = ns[t];
         rd_scene s;
-        rd_scene_init(&s);
-        s.render.width = 1024;
-        s.render.height = 1;
+        fixture_scene(&s, 1024, 1);
         s.render.samples = n;
         s.render.seed = 42 + (uint64_t)n;
-        s.camera.eye = v3(0, 0, 5);
-        s.camera.target = v3(0, 0, 0);
-        s.camera.up = v3(0, 1, 0);
         s.camera.fov_deg = 0.05; /* the row spans |x| < 2.8 at z = 0 */
-        rd_material *m = rd_scene_add_material(&s);
-        cr_assert(m);
-        rd_material_defaults(m, RD_MAT_DIFFUSE);
-        m->kd = v3(0, 0, 0);
-        m->ambient = v3(1, 1, 1);
-        rd_object *o = rd_scene_add_object(&s);
-        cr_assert(o);
-        o->type = RD_OBJ_TRIANGLE; /* edge on y = 0, the half-plane y > 0 */
-        o->v[0] = v3(-100, 0, 0);
-        o->v[1] = v3(100, 0, 0);
-        o->v[2] = v3(0, 100, 0);
-        o->material = 0;
+        int m = add_diffuse(&s, v3(0, 0, 0), v3(1, 1, 1));
+        /* edge on y = 0, the half-plane y > 0 */
+        add_triangle(&s, v3(-100, 0, 0), v3(100, 0, 0), v3(0, 100, 0), m);
         rd_render_options opt = {0};
         opt.threads = 2;
         rd_image img;
@@ -586,4 +475,59 @@ Test(estimate, converged_image_does_not_depend_on_sample_count)
         rd_scene_free(&s);
     }
     cr_expect_eq(bad, 0, "pixel means are biased (coverage of a half-covered pixel, expected 0.5):%s", msg);
+}
+
+/* ---- (f) a noisy scene built in code ----------------------------------------------------
+ *
+ * soft_shadow_scene (tests/support/scene_fixture.h): the estimate is 0 with
+ * one sample, falls like 1/√n, and is within a factor 2 of the RMSE
+ * against a 1024-sample reference at 4 samples. */
+
+static double error_estimate_for(int samples)
+{
+    rd_scene s;
+    soft_shadow_scene(&s, samples);
+    rd_image img;
+    rd_render_stats st;
+    render_ok(&s, NULL, &img, &st);
+    cr_assert_eq(st.samples, samples);
+    rd_image_free(&img);
+    rd_scene_free(&s);
+    return st.error_estimate;
+}
+
+Test(estimate, soft_shadow_zero_with_one_sample)
+{
+    cr_assert_eq(error_estimate_for(1), 0.0);
+}
+
+Test(estimate, soft_shadow_falls_as_one_over_root_samples)
+{
+    /* The standard error of a mean falls like 1/√n: ×4 samples ≈ ×0.5 error. */
+    double e4 = error_estimate_for(4), e16 = error_estimate_for(16), e64 = error_estimate_for(64);
+    cr_log_info("error estimates: 4 -> %g, 16 -> %g, 64 -> %g", e4, e16, e64);
+    cr_assert(e4 > 1e-3, "e4 = %g: the scene should be noisy", e4);
+    cr_assert(e16 < e4 && e64 < e16, "not decreasing: %g, %g, %g", e4, e16, e64);
+    cr_assert(e16 / e4 > 0.3 && e16 / e4 < 0.7, "e16/e4 = %g, expected about 0.5", e16 / e4);
+    cr_assert(e64 / e16 > 0.3 && e64 / e16 < 0.7, "e64/e16 = %g, expected about 0.5", e64 / e16);
+}
+
+Test(estimate, soft_shadow_predicts_rmse_against_converged)
+{
+    /* The estimate predicts the RMSE (display units) of the image against a
+     * converged one: check it to within a factor of two at 4 samples,
+     * using 1024 samples as the reference. */
+    rd_scene s;
+    soft_shadow_scene(&s, 4);
+    rd_image img4;
+    rd_render_stats st4, stref;
+    render_ok(&s, NULL, &img4, &st4);
+    double *refd = render_reference(&s, 1024, &stref);
+    double rmse = rmse_display(&img4, refd, s.render.gamma);
+    cr_log_info("4 samples: estimate %g, RMSE against 1024 samples %g", st4.error_estimate, rmse);
+    cr_assert(st4.error_estimate > 0.5 * rmse && st4.error_estimate < 2 * rmse, "estimate %g, measured RMSE %g",
+              st4.error_estimate, rmse);
+    rd_image_free(&img4);
+    free(refd);
+    rd_scene_free(&s);
 }

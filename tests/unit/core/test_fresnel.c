@@ -34,7 +34,7 @@ static double ref_fresnel(double thi, double n1, double n2, double *cost)
     return 0.5 * (rs * rs + rp * rp);
 }
 
-Test(fresnel_dielectric, normal_incidence_is_0_04)
+Test(fresnel, normal_incidence_is_0_04)
 {
     double cost = -1;
     double R = rd_fresnel_dielectric(1.0, 1.0, 1.5, &cost);
@@ -46,7 +46,7 @@ Test(fresnel_dielectric, normal_incidence_is_0_04)
     cr_assert(fabs(R - 0.04) <= 1e-12, "R(0°, 1.5 -> 1) = %.17g, expected 0.04", R);
 }
 
-Test(fresnel_dielectric, matches_snell_formula_air_to_glass)
+Test(fresnel, matches_snell_formula_air_to_glass)
 {
     /* 0.0°, 0.1°, ..., 89.9° */
     for (int i = 0; i < 900; i++) {
@@ -62,7 +62,7 @@ Test(fresnel_dielectric, matches_snell_formula_air_to_glass)
     }
 }
 
-Test(fresnel_dielectric, matches_snell_formula_glass_to_air_below_critical)
+Test(fresnel, matches_snell_formula_glass_to_air_below_critical)
 {
     double crit = asin(1 / 1.5); /* 41.81° */
     /* Up to 41.0°: 0.8° short of the critical angle, where the reference is
@@ -80,7 +80,7 @@ Test(fresnel_dielectric, matches_snell_formula_glass_to_air_below_critical)
     }
 }
 
-Test(fresnel_dielectric, total_internal_reflection_past_critical_angle)
+Test(fresnel, total_internal_reflection_past_critical_angle)
 {
     double crit = asin(1 / 1.5);
     /* Just past the critical angle, then on to grazing. */
@@ -103,7 +103,7 @@ Test(fresnel_dielectric, total_internal_reflection_past_critical_angle)
     }
 }
 
-Test(fresnel_dielectric, monotone_toward_one_at_critical_angle)
+Test(fresnel, monotone_toward_one_at_critical_angle)
 {
     double crit = asin(1 / 1.5);
     /* Over the last 10° before the critical angle R rises strictly (the
@@ -131,7 +131,7 @@ Test(fresnel_dielectric, monotone_toward_one_at_critical_angle)
     }
 }
 
-Test(fresnel_dielectric, index_one_reflects_nothing)
+Test(fresnel, index_one_reflects_nothing)
 {
     /* Matched media: no boundary, R = 0 and the ray goes straight on. */
     for (int i = 0; i < 900; i++) {
@@ -150,7 +150,7 @@ Test(fresnel_dielectric, index_one_reflects_nothing)
  * 1 - cos² rounds to 1), which turns a matched interface into a mirror;
  * cos²θt = (1 - η²) + η²cos²θi has no such cancellation and gives R = 0
  * exactly at η = 1. */
-Test(fresnel_dielectric, index_one_reflects_nothing_near_grazing)
+Test(fresnel, index_one_reflects_nothing_near_grazing)
 {
     double cs[] = {1e-4, 1e-6, 1e-8, 1e-9, 1e-12, 0.0};
     for (size_t i = 0; i < sizeof cs / sizeof *cs; i++) {
@@ -160,7 +160,7 @@ Test(fresnel_dielectric, index_one_reflects_nothing_near_grazing)
     }
 }
 
-Test(fresnel_dielectric, cosine_outside_unit_range_is_clamped)
+Test(fresnel, cosine_outside_unit_range_is_clamped)
 {
     double cost;
     /* Slightly above 1: treated as 1 (normal incidence). */

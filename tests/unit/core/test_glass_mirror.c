@@ -18,63 +18,7 @@
 
 #include "rayd/render.h"
 #include "rayd/scene.h"
-
-static void gm_scene(rd_scene *s, int w, int h)
-{
-    rd_scene_init(s);
-    s->render.width = w;
-    s->render.height = h;
-    s->render.samples = 1;
-    s->render.gamma = 1;
-    s->camera.eye = v3(0, 0, 5);
-    s->camera.target = v3(0, 0, 0);
-    s->camera.up = v3(0, 1, 0);
-    s->camera.fov_deg = 45;
-}
-
-static int gm_mat(rd_scene *s, rd_material_type t, rd_rgb ambient)
-{
-    rd_material *m = rd_scene_add_material(s);
-    cr_assert(m);
-    rd_material_defaults(m, t);
-    m->ambient = ambient;
-    return (int)s->material_count - 1;
-}
-
-static void gm_sphere(rd_scene *s, rd_vec3 c, double r, int mat)
-{
-    rd_object *o = rd_scene_add_object(s);
-    cr_assert(o);
-    o->type = RD_OBJ_SPHERE;
-    o->center = c;
-    o->radius = r;
-    o->material = mat;
-}
-
-static void gm_plane(rd_scene *s, rd_vec3 p, rd_vec3 n, int mat)
-{
-    rd_object *o = rd_scene_add_object(s);
-    cr_assert(o);
-    o->type = RD_OBJ_PLANE;
-    o->point = p;
-    o->normal = n;
-    o->material = mat;
-}
-
-static void gm_render(const rd_scene *s, rd_image *img, uint8_t **bytes, rd_render_stats *st)
-{
-    rd_error err = {0};
-    rd_render_stats local;
-    rd_render_options opt = {.threads = 2, .tile = 8};
-    rd_error_code rc = rd_render(s, &opt, img, st ? st : &local, &err);
-    cr_assert_eq(rc, RD_OK, "rd_render: %s", err.message);
-    cr_assert_eq((st ? st : &local)->nonfinite, 0);
-    if (bytes) {
-        *bytes = malloc((size_t)img->width * img->height * 3);
-        cr_assert(*bytes);
-        rd_image_to_rgb8(img, s->render.gamma, *bytes);
-    }
-}
+#include "support/scene_fixture.h"
 
 static uint8_t expect_byte(double c)
 {
@@ -86,18 +30,20 @@ static uint8_t expect_byte(double c)
  * ambient terms only, and (with_glass) a glass sphere in front of both. */
 static void glass_scene(rd_scene *s, int with_glass, int max_depth)
 {
-    gm_scene(s, 64, 48);
+    fixture_scene(s, 64, 48);
     s->render.max_depth = max_depth;
     s->render.background = v3(0.05, 0.05, 0.05); /* never seen: the wall fills the view */
-    int wall = gm_mat(s, RD_MAT_DIFFUSE, v3(0.2, 0.4, 0.6));
-    int ball = gm_mat(s, RD_MAT_PHONG, v3(0.9, 0.1, 0.3));
-    gm_plane(s, v3(0, 0, -3), v3(0, 0, 1), wall);
-    gm_sphere(s, v3(0.5, 0.3, -1.5), 0.8, ball);
+    int wall = add_material(s, RD_MAT_DIFFUSE);
+    s->materials[wall].ambient = v3(0.2, 0.4, 0.6);
+    int ball = add_material(s, RD_MAT_PHONG);
+    s->materials[ball].ambient = v3(0.9, 0.1, 0.3);
+    add_plane(s, v3(0, 0, -3), v3(0, 0, 1), wall);
+    add_sphere(s, v3(0.5, 0.3, -1.5), 0.8, ball);
     if (with_glass) {
-        int glass = gm_mat(s, RD_MAT_SPECULAR_REFRACTION, v3(0, 0, 0));
+        int glass = add_material(s, RD_MAT_SPECULAR_REFRACTION);
         s->materials[glass].ior = 1.0;
         s->materials[glass].ks = v3(1, 1, 1);
-        gm_sphere(s, v3(-0.2, 0, 1), 1.0, glass);
+        add_sphere(s, v3(-0.2, 0, 1), 1.0, glass);
     }
 }
 
@@ -109,8 +55,8 @@ Test(glass_mirror, ior_one_glass_is_invisible_under_ambient_light)
     rd_image ia, ib;
     uint8_t *ba, *bb;
     rd_render_stats sb;
-    gm_render(&a, &ia, &ba, NULL);
-    gm_render(&b, &ib, &bb, &sb);
+    ba = render_bytes(&a, NULL, &ia, NULL);
+    bb = render_bytes(&b, NULL, &ib, &sb);
     /* The glass is really in view: it sent secondary rays. */
     cr_assert_gt(sb.secondary_rays, 500);
     size_t n = (size_t)ia.width * ia.height * 3;
@@ -137,9 +83,9 @@ Test(glass_mirror, ior_one_glass_needs_depth_to_be_seen_through)
     glass_scene(&c, 1, 2);
     rd_image ia, ib, ic;
     uint8_t *ba, *bb, *bc;
-    gm_render(&a, &ia, &ba, NULL);
-    gm_render(&b, &ib, &bb, NULL);
-    gm_render(&c, &ic, &bc, NULL);
+    ba = render_bytes(&a, NULL, &ia, NULL);
+    bb = render_bytes(&b, NULL, &ib, NULL);
+    bc = render_bytes(&c, NULL, &ic, NULL);
     size_t n = (size_t)ia.width * ia.height, black = 0, diff2 = 0;
     for (size_t i = 0; i < n; i++) {
         if (memcmp(&ba[3 * i], &bb[3 * i], 3) != 0) {
@@ -170,22 +116,19 @@ Test(glass_mirror, ior_one_glass_needs_depth_to_be_seen_through)
  * its centre by 0.98). 33x33 so the centre pixel's ray goes exactly at the target. */
 static void shadow_scene(rd_scene *s, int with_glass)
 {
-    gm_scene(s, 33, 33);
+    fixture_scene(s, 33, 33);
     s->render.max_depth = 8;
     s->camera.eye = v3(0, 0.2, 6);
     s->camera.target = v3(0, -1, 0);
-    int floor_m = gm_mat(s, RD_MAT_DIFFUSE, v3(0.125, 0.125, 0.125));
+    int floor_m = add_material(s, RD_MAT_DIFFUSE);
+    s->materials[floor_m].ambient = v3(0.125, 0.125, 0.125);
     s->materials[floor_m].kd = v3(0.5, 0.5, 0.5);
-    gm_plane(s, v3(0, -1, 0), v3(0, 1, 0), floor_m);
-    rd_light *l = rd_scene_add_light(s);
-    cr_assert(l);
-    l->type = RD_LIGHT_POINT;
-    l->position = v3(0, 10, 0);
-    l->color = v3(1, 1, 1);
+    add_plane(s, v3(0, -1, 0), v3(0, 1, 0), floor_m);
+    add_point_light(s, v3(0, 10, 0), v3(1, 1, 1));
     if (with_glass) {
-        int glass = gm_mat(s, RD_MAT_SPECULAR_REFRACTION, v3(0, 0, 0));
+        int glass = add_material(s, RD_MAT_SPECULAR_REFRACTION);
         s->materials[glass].ior = 1.0;
-        gm_sphere(s, v3(0, 0, 0), 0.5, glass);
+        add_sphere(s, v3(0, 0, 0), 0.5, glass);
     }
 }
 
@@ -196,8 +139,8 @@ Test(glass_mirror, ior_one_glass_still_casts_a_shadow)
     shadow_scene(&b, 1);
     rd_image ia, ib;
     uint8_t *ba, *bb;
-    gm_render(&a, &ia, &ba, NULL);
-    gm_render(&b, &ib, &bb, NULL);
+    ba = render_bytes(&a, NULL, &ia, NULL);
+    bb = render_bytes(&b, NULL, &ib, NULL);
     size_t c = (16 * 33 + 16) * 3;
     /* Without the sphere: kd·cos α + ambient = 0.5·1 + 0.125 (the light is
      * straight above the hit, up to the rounding of the camera ray). */
@@ -223,23 +166,22 @@ Test(glass_mirror, mirror_with_zero_ks_is_its_ambient)
      * at the centre lies within the sphere (tan 0.092 < tan(asin(1/5)) =
      * 0.204). */
     rd_scene s;
-    gm_scene(&s, 9, 9);
+    fixture_scene(&s, 9, 9);
     s.render.max_depth = 5;
     rd_rgb amb = v3(0.3, 0.55, 0.7);
-    int mirror = gm_mat(&s, RD_MAT_PERFECT_SPECULAR, amb);
+    int mirror = add_material(&s, RD_MAT_PERFECT_SPECULAR);
+    s.materials[mirror].ambient = amb;
     s.materials[mirror].ks = v3(0, 0, 0);
-    int wall = gm_mat(&s, RD_MAT_DIFFUSE, v3(0.1, 0.1, 0.1));
-    gm_sphere(&s, v3(0, 0, 0), 1, mirror);
-    gm_plane(&s, v3(0, 0, 6), v3(0, 0, -1), wall); /* behind the camera: what a mirror would show */
-    gm_plane(&s, v3(0, 0, -4), v3(0, 0, 1), wall);
-    rd_light *l = rd_scene_add_light(&s);
-    cr_assert(l);
-    l->position = v3(0, 0, 4);
-    l->color = v3(1, 1, 1);
+    int wall = add_material(&s, RD_MAT_DIFFUSE);
+    s.materials[wall].ambient = v3(0.1, 0.1, 0.1);
+    add_sphere(&s, v3(0, 0, 0), 1, mirror);
+    add_plane(&s, v3(0, 0, 6), v3(0, 0, -1), wall); /* behind the camera: what a mirror would show */
+    add_plane(&s, v3(0, 0, -4), v3(0, 0, 1), wall);
+    add_point_light(&s, v3(0, 0, 4), v3(1, 1, 1));
     rd_image img;
     uint8_t *b;
     rd_render_stats st;
-    gm_render(&s, &img, &b, &st);
+    b = render_bytes(&s, NULL, &img, &st);
     for (int y = 3; y <= 5; y++)
         for (int x = 3; x <= 5; x++) {
             const double *p = &img.rgb[(y * 9 + x) * 3];
@@ -259,19 +201,18 @@ Test(glass_mirror, mirror_with_zero_ks_is_its_ambient)
  * (any direction with a z component) bounces between them for ever. */
 static void mirrors_scene(rd_scene *s, int depth, rd_rgb ks, rd_rgb amb)
 {
-    gm_scene(s, 3, 3);
+    fixture_scene(s, 3, 3);
     s->camera.eye = v3(0, 0, 0);
     s->camera.target = v3(0, 0, -1);
     s->render.max_depth = depth;
     s->render.background = v3(1, 1, 1);
-    int m = gm_mat(s, RD_MAT_PERFECT_SPECULAR, amb);
+    int m = add_material(s, RD_MAT_PERFECT_SPECULAR);
+    s->materials[m].ambient = amb;
     s->materials[m].ks = ks;
-    gm_plane(s, v3(0, 0, -1), v3(0, 0, 1), m);
-    gm_plane(s, v3(0, 0, 1), v3(0, 0, -1), m);
+    add_plane(s, v3(0, 0, -1), v3(0, 0, 1), m);
+    add_plane(s, v3(0, 0, 1), v3(0, 0, -1), m);
     /* A light, which mirrors ignore (they are lit only by recursion). */
-    rd_light *l = rd_scene_add_light(s);
-    cr_assert(l);
-    l->position = v3(0.1, 0.2, 0.3);
+    add_point_light(s, v3(0.1, 0.2, 0.3), v3(1, 1, 1));
 }
 
 static double series(double ks, double amb, int D)
@@ -297,7 +238,7 @@ Test(glass_mirror, facing_mirrors_give_the_geometric_series)
         rd_image img;
         uint8_t *b;
         rd_render_stats st;
-        gm_render(&s, &img, &b, &st);
+        b = render_bytes(&s, NULL, &img, &st);
         double want[3] = {series(ks.x, amb.x, D), series(ks.y, amb.y, D), series(ks.z, amb.z, D)};
         for (int px = 0; px < 9; px++)
             for (int ch = 0; ch < 3; ch++) {

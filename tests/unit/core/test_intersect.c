@@ -1,70 +1,35 @@
-/* Unit tests for ray-primitive intersection (core/geometry/sphere.h, plane.h,
- * triangle.h), their fill_hit (and uv) functions, and rd_offset_origin
+/* Unit tests for ray-primitive intersection: spheres and planes
+ * (core/geometry/sphere.h, plane.h) with their fill_hit and uv functions,
+ * triangles through the world the renderer traces (world.h:
+ * rd_world_closest, rd_world_hit_uv, rd_world_any), and rd_offset_origin
  * (ray.h).
  *
  * Exact t values come from geometry chosen so that the arithmetic is exact
- * (integers, halves, Pythagorean triples). The randomized tests use their
- * own fixed-seed generator, so they are reproducible and do not depend on
- * the core's sampler. */
+ * (integers, halves, Pythagorean triples). The randomized tests draw from
+ * the fixed-seed generator of tests/support/rng.h, so they are reproducible
+ * and do not depend on the core's sampler. */
 #include <criterion/criterion.h>
 #include <float.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "plane.h"
 #include "ray.h"
 #include "sphere.h"
-#include "triangle.h"
-
-#define assert_near(a, b, tol) \
-    cr_assert(fabs((double)(a) - (double)(b)) <= (tol), "%s = %.17g, expected %.17g (tol %g)", #a, (double)(a), (double)(b), (double)(tol))
-
-#define assert_vec_near(v, ex, ey, ez, tol) \
-    do {                                     \
-        rd_vec3 v_ = (v);                    \
-        assert_near(v_.x, ex, tol);          \
-        assert_near(v_.y, ey, tol);          \
-        assert_near(v_.z, ez, tol);          \
-    } while (0)
-
-/* ---- a small deterministic generator for the randomized tests ---------- */
-
-typedef struct { uint64_t s; } trng;
-
-static double trng_next(trng *g) /* uniform in [0, 1) */
-{
-    uint64_t z = (g->s += 0x9e3779b97f4a7c15ULL);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    z ^= z >> 31;
-    return (double)(z >> 11) * 0x1.0p-53;
-}
-
-static double trng_range(trng *g, double lo, double hi) { return lo + (hi - lo) * trng_next(g); }
-
-static rd_vec3 trng_unit(trng *g)
-{
-    for (;;) {
-        rd_vec3 v = v3(trng_range(g, -1, 1), trng_range(g, -1, 1), trng_range(g, -1, 1));
-        double l2 = v3_dot(v, v);
-        if (l2 > 1e-4 && l2 <= 1)
-            return v3_normalize(v);
-    }
-}
-
-static rd_vec3 trng_box(trng *g, double half)
-{
-    return v3(trng_range(g, -half, half), trng_range(g, -half, half), trng_range(g, -half, half));
-}
+#include "world.h"
+#include "support/assert.h"
+#include "support/rng.h"
+#include "support/scene_fixture.h"
 
 /* A unit direction d with d·n = sign·c (c in (0, 1]), otherwise random. */
-static rd_vec3 dir_with_cos(trng *g, rd_vec3 n, double c)
+static rd_vec3 dir_with_cos(test_rng *g, rd_vec3 n, double c)
 {
     rd_vec3 t;
     do {
-        rd_vec3 r = trng_unit(g);
+        rd_vec3 r = rng_unit(g);
         t = v3_sub(r, v3_scale(n, v3_dot(r, n)));
     } while (v3_len(t) < 1e-3);
     t = v3_normalize(t);
@@ -73,11 +38,11 @@ static rd_vec3 dir_with_cos(trng *g, rd_vec3 n, double c)
 
 /* A random direction on the side of n: mostly uniform, one in four grazing
  * with cos down to 1e-16 (the hard case for self-intersection). */
-static rd_vec3 outward_dir(trng *g, rd_vec3 n)
+static rd_vec3 outward_dir(test_rng *g, rd_vec3 n)
 {
-    if (trng_next(g) < 0.25)
-        return dir_with_cos(g, n, pow(10, trng_range(g, -16, -1)));
-    rd_vec3 d = trng_unit(g);
+    if (rng_uniform(g) < 0.25)
+        return dir_with_cos(g, n, pow(10, rng_range(g, -16, -1)));
+    rd_vec3 d = rng_unit(g);
     double dn = v3_dot(d, n);
     if (dn == 0)
         return n;
@@ -96,7 +61,7 @@ static rd_ray ray_of(rd_vec3 o, rd_vec3 d)
 /* Sphere                                                                  */
 /* ======================================================================= */
 
-Test(sphere, head_on_exact_t)
+Test(intersect, sphere_head_on_exact_t)
 {
     /* Unit sphere at (0,0,-5), ray from the origin along -z: enters at z=-4. */
     rd_sphere s = {v3(0, 0, -5), 1};
@@ -110,7 +75,7 @@ Test(sphere, head_on_exact_t)
     cr_assert_eq(rd_sphere_intersect(&s3, ray_of(v3(0, 0, 0), v3(1, 0, 0)), INFINITY), 1.0);
 }
 
-Test(sphere, fill_hit_values)
+Test(intersect, sphere_fill_hit_values)
 {
     rd_sphere s = {v3(0, 0, -5), 1};
     rd_ray r = ray_of(v3(0.6, 0, 0), v3(0, 0, -1));
@@ -144,7 +109,7 @@ Test(sphere, fill_hit_values)
     assert_near(h.v, 0, 0);
 }
 
-Test(sphere, tangent_ray_counts_as_hit)
+Test(intersect, sphere_tangent_ray_counts_as_hit)
 {
     /* The line x = 1 touches the unit sphere at (1, 0, -5): one hit at t = 5. */
     rd_sphere s = {v3(0, 0, -5), 1};
@@ -158,7 +123,7 @@ Test(sphere, tangent_ray_counts_as_hit)
     cr_assert(rd_sphere_intersect(&s, ray_of(v3(nextafter(1, 0), 0, 0), v3(0, 0, -1)), INFINITY) > 0);
 }
 
-Test(sphere, ray_inside_returns_exit)
+Test(intersect, sphere_ray_inside_returns_exit)
 {
     /* From the centre of a radius-2 sphere: exit at t = 2 in any direction. */
     rd_sphere s = {v3(0, 0, 0), 2};
@@ -171,7 +136,7 @@ Test(sphere, ray_inside_returns_exit)
     assert_near(rd_sphere_intersect(&s, ray_of(v3(1, 0, 0), v3(0, 1, 0)), INFINITY), sqrt(3.0), 4 * DBL_EPSILON);
 }
 
-Test(sphere, behind_ray_misses)
+Test(intersect, sphere_behind_ray_misses)
 {
     rd_sphere s = {v3(0, 0, 5), 1};
     cr_assert_eq(rd_sphere_intersect(&s, ray_of(v3(0, 0, 0), v3(0, 0, -1)), INFINITY), 0.0);
@@ -182,7 +147,7 @@ Test(sphere, behind_ray_misses)
     cr_assert_eq(rd_sphere_intersect(&s, ray_of(v3(0, 0, 0), v3(1, 0, 0)), INFINITY), 0.0);
 }
 
-Test(sphere, tmax_is_respected)
+Test(intersect, sphere_tmax_is_respected)
 {
     rd_sphere s = {v3(0, 0, -5), 1};
     rd_ray r = ray_of(v3(0, 0, 0), v3(0, 0, -1));
@@ -197,7 +162,7 @@ Test(sphere, tmax_is_respected)
     cr_assert_eq(rd_sphere_intersect(&b, ray_of(v3(0, 0, 0), v3(1, 0, 0)), 1.5), 0.0);
 }
 
-Test(sphere, tiny_sphere_far_away)
+Test(intersect, sphere_tiny_sphere_far_away)
 {
     /* r = 1e-6 at distance 1e6: b² and a·c are both ~1e12 and differ by
      * 1e-12, far below their rounding (~1e-4), so the textbook
@@ -238,7 +203,7 @@ static rd_plane plane_of(rd_vec3 q, rd_vec3 n)
     return p;
 }
 
-Test(plane, make_basis)
+Test(intersect, plane_make_basis)
 {
     rd_plane p = plane_of(v3(1, 2, 3), v3(0, 0, 7));
     assert_vec_near(p.n, 0, 0, 1, 0);
@@ -250,7 +215,7 @@ Test(plane, make_basis)
     assert_near(v3_dot(p.tu, p.tv), 0, 4 * DBL_EPSILON);
 }
 
-Test(plane, head_on_and_oblique)
+Test(intersect, plane_head_on_and_oblique)
 {
     /* y = -1, normal +y. Straight down from the origin: t = 1. */
     rd_plane p = plane_of(v3(0, -1, 0), v3(0, 1, 0));
@@ -263,7 +228,7 @@ Test(plane, head_on_and_oblique)
     assert_near(rd_plane_intersect(&q, ray_of(v3(0, 0, 0), v3(1, 0, 0)), INFINITY), 3.0, 8 * DBL_EPSILON);
 }
 
-Test(plane, two_sided)
+Test(intersect, plane_two_sided)
 {
     /* Same plane hit from below (against the normal's side) at t = 2. */
     rd_plane p = plane_of(v3(0, -1, 0), v3(0, 1, 0));
@@ -274,7 +239,7 @@ Test(plane, two_sided)
     cr_assert_eq(rd_plane_intersect(&f, ray_of(v3(0, -3, 0), v3(0, 1, 0)), INFINITY), 2.0);
 }
 
-Test(plane, parallel_ray_misses)
+Test(intersect, plane_parallel_ray_misses)
 {
     rd_plane p = plane_of(v3(0, -1, 0), v3(0, 1, 0));
     cr_assert_eq(rd_plane_intersect(&p, ray_of(v3(0, 0, 0), v3(1, 0, 0)), INFINITY), 0.0);
@@ -288,7 +253,7 @@ Test(plane, parallel_ray_misses)
     cr_assert_eq(rd_plane_intersect(&q, ray_of(v3(0, 0, 0), v3(1, 1, -2)), INFINITY), 0.0);
 }
 
-Test(plane, behind_and_tmax)
+Test(intersect, plane_behind_and_tmax)
 {
     rd_plane p = plane_of(v3(0, -1, 0), v3(0, 1, 0));
     /* Moving away from the plane. */
@@ -300,7 +265,7 @@ Test(plane, behind_and_tmax)
     cr_assert_eq(rd_plane_intersect(&p, r, nextafter(1.0, 2)), 1.0);
 }
 
-Test(plane, fill_hit_values)
+Test(intersect, plane_fill_hit_values)
 {
     rd_plane p = plane_of(v3(2, -1, 3), v3(0, 1, 0));
     rd_ray r = ray_of(v3(5, 4, -1), v3(0, -1, 0));
@@ -326,66 +291,192 @@ Test(plane, fill_hit_values)
 }
 
 /* ======================================================================= */
-/* Triangle                                                                */
+/* Triangle, through the world                                             */
 /* ======================================================================= */
 
-static rd_triangle tri_of(rd_vec3 a, rd_vec3 b, rd_vec3 c)
+/* Triangles reach the tracer only through the world (core/geometry/world.h):
+ * rd_plan_build prepares the scene with rd_world_build, rd_trace asks
+ * rd_world_closest for the nearest hit (which fills it with fill_tri) and
+ * rd_world_hit_uv for its texture coordinates, and shadow rays ask
+ * rd_world_any. The tests below build scenes, let rd_world_build prepare
+ * them and look at what those functions return, for mesh faces (as
+ * rd_scene_load_assets leaves an OBJ file in the scene) and for [triangle]
+ * objects. The eye sits at the origin: the world is camera-relative, so its
+ * coordinates are then the scene's. */
+
+typedef struct {
+    rd_scene s;
+    rd_world w;
+} tri_world;
+
+static void tri_world_build(tri_world *tw)
 {
-    rd_triangle t;
-    memset(&t, 0, sizeof t);
-    t.v0 = a;
-    t.v1 = b;
-    t.v2 = c;
-    return t;
+    rd_error err = {0};
+    cr_assert_eq(rd_world_build(&tw->w, &tw->s, &err), RD_OK, "rd_world_build: %s", err.message);
 }
 
-Test(triangle, head_on_exact_t_and_barycentrics)
+static void tri_world_scene(tri_world *tw)
+{
+    fixture_scene(&tw->s, 1, 1);
+    tw->s.camera.eye = v3(0, 0, 0);
+    tw->s.camera.target = v3(0, 0, -1);
+    add_material(&tw->s, RD_MAT_DIFFUSE);
+}
+
+/* A world of one mesh: corners pos[0 .. npos-1], faces of three corner
+ * indices. Normals and uvs, when given, are per corner (a face's corner k
+ * uses normal and uv k), as an OBJ "f a/a/a" line gives them. */
+static void mesh_world(tri_world *tw, const rd_vec3 *pos, size_t npos, const uint32_t (*faces)[3], size_t nfaces,
+                       const rd_vec3 *normals, const double (*uvs)[2])
+{
+    tri_world_scene(tw);
+    rd_mesh *m = calloc(1, sizeof *m);
+    cr_assert(m);
+    m->positions = malloc(npos * sizeof *m->positions);
+    m->faces = malloc(nfaces * sizeof *m->faces);
+    cr_assert(m->positions && m->faces);
+    memcpy(m->positions, pos, npos * sizeof *pos);
+    m->npositions = npos;
+    if (normals) {
+        m->normals = malloc(npos * sizeof *m->normals);
+        cr_assert(m->normals);
+        memcpy(m->normals, normals, npos * sizeof *normals);
+        m->nnormals = npos;
+    }
+    if (uvs) {
+        m->uvs = malloc(npos * sizeof *m->uvs);
+        cr_assert(m->uvs);
+        memcpy(m->uvs, uvs, npos * sizeof *uvs);
+        m->nuvs = npos;
+    }
+    for (size_t f = 0; f < nfaces; f++)
+        for (int c = 0; c < 3; c++) {
+            m->faces[f].v[c] = faces[f][c];
+            m->faces[f].n[c] = normals ? (int32_t)faces[f][c] : -1;
+            m->faces[f].t[c] = uvs ? (int32_t)faces[f][c] : -1;
+        }
+    m->nfaces = nfaces;
+    tw->s.meshes = m;
+    tw->s.mesh_count = 1;
+    rd_object *o = rd_scene_add_object(&tw->s);
+    cr_assert(o);
+    o->type = RD_OBJ_MESH;
+    o->mesh = 0;
+    o->material = 0;
+    tri_world_build(tw);
+}
+
+/* A world of the one-triangle mesh (a, b, c). */
+static void tri_mesh_world(tri_world *tw, rd_vec3 a, rd_vec3 b, rd_vec3 c, const rd_vec3 *normals,
+                           const double (*uvs)[2])
+{
+    rd_vec3 pos[3] = {a, b, c};
+    static const uint32_t face[1][3] = {{0, 1, 2}};
+    mesh_world(tw, pos, 3, face, 1, normals, uvs);
+}
+
+/* A world of the [triangle] object (a, b, c). */
+static void tri_object_world(tri_world *tw, rd_vec3 a, rd_vec3 b, rd_vec3 c, const rd_vec3 *normals,
+                             const double (*uvs)[2])
+{
+    tri_world_scene(tw);
+    rd_object *o = add_triangle(&tw->s, a, b, c, 0);
+    if (normals) {
+        o->has_normals = 1;
+        memcpy(o->n, normals, sizeof o->n);
+    }
+    if (uvs) {
+        o->has_uv = 1;
+        memcpy(o->uv, uvs, sizeof o->uv);
+    }
+    tri_world_build(tw);
+}
+
+static void tri_world_free(tri_world *tw)
+{
+    rd_world_free(&tw->w);
+    rd_scene_free(&tw->s);
+}
+
+/* The nearest hit's t, or 0 on a miss; h (may be NULL) as the tracer sees
+ * it, texture coordinates included. rd_world_any must agree on whether
+ * there is a hit. */
+static double world_hit(const tri_world *tw, rd_ray r, double tmax, rd_hit *h)
+{
+    rd_hit local;
+    if (!h)
+        h = &local;
+    memset(h, 0, sizeof *h);
+    int hit = rd_world_closest(&tw->w, r, tmax, h);
+    int any = rd_world_any(&tw->w, r, tmax);
+    cr_assert_eq(any, hit, "rd_world_any says %d, rd_world_closest %d", any, hit);
+    if (!hit)
+        return 0;
+    rd_world_hit_uv(&tw->w, h);
+    return h->t;
+}
+
+Test(intersect, triangle_head_on_exact_t_and_barycentrics)
 {
     /* v0 = (0,0,-2), v1 = (1,0,-2), v2 = (0,1,-2). The point (0.25, 0.5) is
      * 0.25·v0 + 0.25·v1 + 0.5·v2 (b1 = x, b2 = y, b0 = 1 - x - y). */
-    rd_triangle t = tri_of(v3(0, 0, -2), v3(1, 0, -2), v3(0, 1, -2));
-    double b[3] = {-1, -1, -1};
-    double th = rd_triangle_intersect(&t, ray_of(v3(0.25, 0.5, 0), v3(0, 0, -1)), INFINITY, b);
-    cr_assert_eq(th, 2.0);
-    assert_near(b[0], 0.25, 1e-15);
-    assert_near(b[1], 0.25, 1e-15);
-    assert_near(b[2], 0.5, 1e-15);
+    tri_world tw;
+    tri_mesh_world(&tw, v3(0, 0, -2), v3(1, 0, -2), v3(0, 1, -2), NULL, NULL);
+    rd_hit h;
+    cr_assert_eq(world_hit(&tw, ray_of(v3(0.25, 0.5, 0), v3(0, 0, -1)), INFINITY, &h), 2.0);
+    assert_near(h.bary[0], 0.25, 1e-15);
+    assert_near(h.bary[1], 0.25, 1e-15);
+    assert_near(h.bary[2], 0.5, 1e-15);
     /* An oblique ray to the centroid from (1,1,0): t = |(1,1,0) - (1/3,1/3,-2)|. */
     rd_vec3 cen = v3(1.0 / 3, 1.0 / 3, -2);
     rd_vec3 o = v3(1, 1, 0);
     rd_vec3 d = v3_normalize(v3_sub(cen, o));
-    th = rd_triangle_intersect(&t, ray_of(o, d), INFINITY, b);
-    assert_near(th, v3_len(v3_sub(cen, o)), 1e-14);
-    assert_near(b[0], 1.0 / 3, 1e-14);
-    assert_near(b[1], 1.0 / 3, 1e-14);
-    assert_near(b[2], 1.0 / 3, 1e-14);
+    assert_near(world_hit(&tw, ray_of(o, d), INFINITY, &h), v3_len(v3_sub(cen, o)), 1e-14);
+    assert_near(h.bary[0], 1.0 / 3, 1e-14);
+    assert_near(h.bary[1], 1.0 / 3, 1e-14);
+    assert_near(h.bary[2], 1.0 / 3, 1e-14);
+    tri_world_free(&tw);
 }
 
-Test(triangle, both_sides_outside_behind_tmax)
+Test(intersect, triangle_both_sides_outside_behind_tmax)
 {
-    rd_triangle t = tri_of(v3(0, 0, -2), v3(1, 0, -2), v3(0, 1, -2));
-    double b[3];
-    /* From behind (the other face): same point, t = 3. */
-    cr_assert_eq(rd_triangle_intersect(&t, ray_of(v3(0.25, 0.5, -5), v3(0, 0, 1)), INFINITY, b), 3.0);
+    tri_world tw;
+    tri_mesh_world(&tw, v3(0, 0, -2), v3(1, 0, -2), v3(0, 1, -2), NULL, NULL);
+    rd_hit h;
+    /* From behind (the other face): same point, t = 3. The geometric normal
+     * stays the triangle's own (+z, against the ray: not the front), the
+     * shading normal turns to face the ray. */
+    cr_assert_eq(world_hit(&tw, ray_of(v3(0.25, 0.5, -5), v3(0, 0, 1)), INFINITY, &h), 3.0);
+    cr_assert_eq(h.front, 0);
+    assert_vec_near(h.ng, 0, 0, 1, 0);
+    assert_vec_near(h.n, 0, 0, -1, 0);
+    /* From the front: the front, both normals +z. */
+    cr_assert_eq(world_hit(&tw, ray_of(v3(0.25, 0.5, 0), v3(0, 0, -1)), INFINITY, &h), 2.0);
+    cr_assert_eq(h.front, 1);
+    assert_vec_near(h.n, 0, 0, 1, 0);
     /* x + y = 1.2 > 1: outside. */
-    cr_assert_eq(rd_triangle_intersect(&t, ray_of(v3(0.6, 0.6, 0), v3(0, 0, -1)), INFINITY, b), 0.0);
-    cr_assert_eq(rd_triangle_intersect(&t, ray_of(v3(-0.1, 0.5, 0), v3(0, 0, -1)), INFINITY, b), 0.0);
+    cr_assert_eq(world_hit(&tw, ray_of(v3(0.6, 0.6, 0), v3(0, 0, -1)), INFINITY, NULL), 0.0);
+    cr_assert_eq(world_hit(&tw, ray_of(v3(-0.1, 0.5, 0), v3(0, 0, -1)), INFINITY, NULL), 0.0);
     /* Behind the origin. */
-    cr_assert_eq(rd_triangle_intersect(&t, ray_of(v3(0.25, 0.5, 0), v3(0, 0, 1)), INFINITY, b), 0.0);
+    cr_assert_eq(world_hit(&tw, ray_of(v3(0.25, 0.5, 0), v3(0, 0, 1)), INFINITY, NULL), 0.0);
     /* tmax: open interval. */
-    cr_assert_eq(rd_triangle_intersect(&t, ray_of(v3(0.25, 0.5, 0), v3(0, 0, -1)), 2.0, b), 0.0);
-    cr_assert_eq(rd_triangle_intersect(&t, ray_of(v3(0.25, 0.5, 0), v3(0, 0, -1)), 2.5, b), 2.0);
+    cr_assert_eq(world_hit(&tw, ray_of(v3(0.25, 0.5, 0), v3(0, 0, -1)), 2.0, NULL), 0.0);
+    cr_assert_eq(world_hit(&tw, ray_of(v3(0.25, 0.5, 0), v3(0, 0, -1)), 2.5, NULL), 2.0);
     /* Parallel to the triangle's plane. */
-    cr_assert_eq(rd_triangle_intersect(&t, ray_of(v3(-1, 0.2, -2), v3(1, 0, 0)), INFINITY, b), 0.0);
+    cr_assert_eq(world_hit(&tw, ray_of(v3(-1, 0.2, -2), v3(1, 0, 0)), INFINITY, NULL), 0.0);
+    tri_world_free(&tw);
 }
 
-Test(triangle, fill_hit_values)
+typedef void (*tri_world_maker)(tri_world *, rd_vec3, rd_vec3, rd_vec3, const rd_vec3 *, const double (*)[2]);
+
+static void check_fill_hit(tri_world_maker make, const char *kind)
 {
-    rd_triangle t = tri_of(v3(0, 0, -2), v3(1, 0, -2), v3(0, 1, -2));
-    double b[3];
-    rd_hit h = {0};
-    h.t = rd_triangle_intersect(&t, ray_of(v3(0.25, 0.5, 0), v3(0, 0, -1)), INFINITY, b);
-    rd_triangle_fill_hit(&t, b, &h);
+    rd_vec3 a = v3(0, 0, -2), b = v3(1, 0, -2), c = v3(0, 1, -2);
+    rd_ray r = ray_of(v3(0.25, 0.5, 0), v3(0, 0, -1));
+    tri_world tw;
+    make(&tw, a, b, c, NULL, NULL);
+    rd_hit h;
+    cr_assert_eq(world_hit(&tw, r, INFINITY, &h), 2.0, "%s", kind);
     assert_vec_near(h.p, 0.25, 0.5, -2, 1e-15);
     /* ng = normalize((v1-v0)×(v2-v0)) = x×y = +z. */
     assert_vec_near(h.ng, 0, 0, 1, 0);
@@ -393,147 +484,181 @@ Test(triangle, fill_hit_values)
     /* Without uv the coordinates are (b1, b2). */
     assert_near(h.u, 0.25, 1e-15);
     assert_near(h.v, 0.5, 1e-15);
-    cr_assert(h.perr > 0 && h.perr < 1e-14);
+    cr_assert(h.perr > 0 && h.perr < 1e-14, "%s: perr %g", kind, h.perr);
+    cr_assert_eq(h.material, 0, "%s", kind);
+    cr_assert_eq(h.object, 0, "%s", kind);
+    tri_world_free(&tw);
 
-    /* With uv and shading normals: both interpolated with (0.25, 0.25, 0.5). */
-    t.has_uv = 1;
-    t.uv[0][0] = 0, t.uv[0][1] = 0;
-    t.uv[1][0] = 4, t.uv[1][1] = 0;
-    t.uv[2][0] = 0, t.uv[2][1] = 2;
-    t.has_normals = 1;
-    t.n0 = v3(0, 0, 1);
-    t.n1 = v3(1, 0, 0);
-    t.n2 = v3(0, 1, 0);
-    rd_triangle_fill_hit(&t, b, &h);
-    assert_near(h.u, 0.25 * 4, 1e-15);
-    assert_near(h.v, 0.5 * 2, 1e-15);
+    /* With uv and shading normals: both interpolated with (0.25, 0.25, 0.5):
+     * u = 0.25·0.5 + 0.25·4 + 0.5·1 = 1.625, v = 0.25·0.25 + 0.25·1 + 0.5·2
+     * = 1.3125 (exact in binary). The normals are normalised before they
+     * are interpolated, so lengths 5, 2 and 0.5 change nothing. */
+    const double uv[3][2] = {{0.5, 0.25}, {4, 1}, {1, 2}};
+    const rd_vec3 n[3] = {v3(0, 0, 5), v3(2, 0, 0), v3(0, 0.5, 0)};
+    make(&tw, a, b, c, n, uv);
+    cr_assert_eq(world_hit(&tw, r, INFINITY, &h), 2.0, "%s", kind);
+    assert_near(h.u, 1.625, 1e-15);
+    assert_near(h.v, 1.3125, 1e-15);
     /* 0.25·z + 0.25·x + 0.5·y = (0.25, 0.5, 0.25), normalised by sqrt(0.375). */
     double l = sqrt(0.375);
     assert_vec_near(h.n, 0.25 / l, 0.5 / l, 0.25 / l, 1e-15);
     assert_vec_near(h.ng, 0, 0, 1, 0);
+    /* From behind, the interpolated normal turns to face the ray. */
+    cr_assert_eq(world_hit(&tw, ray_of(v3(0.25, 0.5, -5), v3(0, 0, 1)), INFINITY, &h), 3.0, "%s", kind);
+    assert_vec_near(h.n, -0.25 / l, -0.5 / l, -0.25 / l, 1e-15);
+    tri_world_free(&tw);
+
+    /* Normals that cancel where the ray hits fall back to the geometric
+     * one: n0 = +z and n1 = -z at the midpoint of the edge v0-v1, which
+     * the watertight test counts as inside. */
+    const rd_vec3 cancel[3] = {v3(0, 0, 1), v3(0, 0, -1), v3(0, 1, 0)};
+    make(&tw, a, b, c, cancel, NULL);
+    cr_assert_eq(world_hit(&tw, ray_of(v3(0.5, 0, 0), v3(0, 0, -1)), INFINITY, &h), 2.0, "%s", kind);
+    assert_near(h.bary[2], 0, 0);
+    assert_vec_near(h.n, 0, 0, 1, 0);
+    tri_world_free(&tw);
 }
 
-Test(triangle, watertight_shared_edge)
+/* The two ways a triangle enters a scene shade the same. */
+Test(intersect, triangle_fill_hit_values_mesh_face) { check_fill_hit(tri_mesh_world, "mesh face"); }
+Test(intersect, triangle_fill_hit_values_triangle_object) { check_fill_hit(tri_object_world, "[triangle]"); }
+
+Test(intersect, triangle_watertight_shared_edge)
 {
-    /* Random parallelograms split along a diagonal v0-v2 into
-     * T1 = (v0, v1, v2) and T2 = (v2, v3, v0). Rays from random origins on
-     * either side aimed at points of the shared edge must hit at least one
-     * triangle: the edge test of Woop et al. evaluates the same expression
-     * (up to sign) for both triangles, so no ray slips between them. */
-    trng g = {12345};
+    /* Random parallelograms split along a diagonal v0-v2 into two faces of
+     * one mesh, T1 = (v0, v1, v2) and T2 = (v2, v3, v0). Rays from random
+     * origins on either side aimed at points of the shared edge must hit:
+     * the edge test of Woop et al. evaluates the same expression (up to
+     * sign) for both triangles, so no ray slips between them. */
+    test_rng g = {12345};
     int misses = 0, n = 0;
     char first[300] = "";
     for (int quad = 0; quad < 200; quad++) {
-        rd_vec3 v0 = trng_box(&g, 10), v1 = trng_box(&g, 10), v2 = trng_box(&g, 10);
-        rd_vec3 v3p = v3_add(v0, v3_sub(v2, v1));
-        if (v3_len(v3_cross(v3_sub(v1, v0), v3_sub(v2, v0))) < 1) /* skip slivers */
+        rd_vec3 pos[4];
+        pos[0] = rng_point(&g, -10, 10);
+        pos[1] = rng_point(&g, -10, 10);
+        pos[2] = rng_point(&g, -10, 10);
+        pos[3] = v3_add(pos[0], v3_sub(pos[2], pos[1]));
+        if (v3_len(v3_cross(v3_sub(pos[1], pos[0]), v3_sub(pos[2], pos[0]))) < 1) /* skip slivers */
             continue;
-        /* Vary the vertex order of both triangles (the shared edge is walked
+        /* Vary the corner order of both faces (the shared edge is walked
          * in opposite directions or the same one). */
-        rd_triangle t1 = quad % 2 ? tri_of(v0, v1, v2) : tri_of(v1, v2, v0);
-        rd_triangle t2 = quad % 3 ? tri_of(v2, v3p, v0) : tri_of(v0, v2, v3p);
+        uint32_t faces[2][3] = {{0, 1, 2}, {2, 3, 0}};
+        if (!(quad % 2))
+            memcpy(faces[0], (uint32_t[3]){1, 2, 0}, sizeof faces[0]);
+        if (!(quad % 3))
+            memcpy(faces[1], (uint32_t[3]){0, 2, 3}, sizeof faces[1]);
+        tri_world tw;
+        mesh_world(&tw, pos, 4, faces, 2, NULL, NULL);
         for (int k = 0; k < 500; k++) {
-            double s = trng_range(&g, 0.001, 0.999);
-            rd_vec3 target = v3_add(v0, v3_scale(v3_sub(v2, v0), s));
-            rd_vec3 o = v3_add(target, v3_scale(trng_unit(&g), trng_range(&g, 0.5, 50)));
+            double s = rng_range(&g, 0.001, 0.999);
+            rd_vec3 target = v3_add(pos[0], v3_scale(v3_sub(pos[2], pos[0]), s));
+            rd_vec3 dir0 = rng_unit(&g);
+            rd_vec3 o = v3_add(target, v3_scale(dir0, rng_range(&g, 0.5, 50)));
             rd_vec3 d = v3_sub(target, o);
             if (k % 2)
                 d = v3_normalize(d);
-            double b[3];
-            double ta = rd_triangle_intersect(&t1, ray_of(o, d), INFINITY, b);
-            double tb = rd_triangle_intersect(&t2, ray_of(o, d), INFINITY, b);
             n++;
-            if (!(ta > 0) && !(tb > 0)) {
+            if (!(world_hit(&tw, ray_of(o, d), INFINITY, NULL) > 0)) {
                 if (!misses)
                     snprintf(first, sizeof first, "o=(%.17g,%.17g,%.17g) d=(%.17g,%.17g,%.17g)", o.x, o.y, o.z, d.x,
                              d.y, d.z);
                 misses++;
             }
         }
+        tri_world_free(&tw);
     }
     cr_assert(n > 50000, "too few rays generated (%d)", n);
     cr_assert_eq(misses, 0, "%d of %d rays through a shared edge missed both triangles, e.g. %s", misses, n, first);
 }
 
-Test(triangle, watertight_shared_vertex)
+Test(intersect, triangle_watertight_shared_vertex)
 {
-    /* A fan of 7 triangles around an interior vertex C: every ray aimed at C
-     * must hit at least one of them. */
-    trng g = {777};
+    /* A fan of 7 faces around an interior vertex C: every ray aimed at C
+     * must hit one of them. */
+    test_rng g = {777};
     int misses = 0, n = 0;
     for (int fan = 0; fan < 100; fan++) {
-        rd_vec3 c = trng_box(&g, 5);
-        rd_vec3 nrm = trng_unit(&g);
-        rd_vec3 a = v3_normalize(v3_cross(nrm, trng_unit(&g)));
+        rd_vec3 pos[8];
+        pos[0] = rng_point(&g, -5, 5);
+        rd_vec3 nrm = rng_unit(&g);
+        rd_vec3 a = v3_normalize(v3_cross(nrm, rng_unit(&g)));
         rd_vec3 bb = v3_cross(nrm, a);
-        rd_triangle tr[7];
-        rd_vec3 ring[7];
         for (int i = 0; i < 7; i++) {
-            double ang = 2 * M_PI * (i + 0.3 * trng_next(&g)) / 7;
-            double rad = trng_range(&g, 0.5, 3);
+            double ang = 2 * M_PI * (i + 0.3 * rng_uniform(&g)) / 7;
+            double rad = rng_range(&g, 0.5, 3);
             /* A bit off-plane: a gently curved fan. */
-            ring[i] = v3_add(c, v3_add(v3_add(v3_scale(a, rad * cos(ang)), v3_scale(bb, rad * sin(ang))),
-                                       v3_scale(nrm, trng_range(&g, -0.05, 0.05))));
+            double off = rng_range(&g, -0.05, 0.05);
+            pos[1 + i] = v3_add(pos[0], v3_add(v3_add(v3_scale(a, rad * cos(ang)), v3_scale(bb, rad * sin(ang))),
+                                               v3_scale(nrm, off)));
         }
-        for (int i = 0; i < 7; i++)
-            tr[i] = tri_of(c, ring[i], ring[(i + 1) % 7]);
+        uint32_t faces[7][3];
+        for (uint32_t i = 0; i < 7; i++) {
+            faces[i][0] = 0;
+            faces[i][1] = 1 + i;
+            faces[i][2] = 1 + (i + 1) % 7;
+        }
+        tri_world tw;
+        mesh_world(&tw, pos, 8, faces, 7, NULL, NULL);
         for (int k = 0; k < 200; k++) {
-            rd_vec3 dir0 = trng_unit(&g);
+            rd_vec3 dir0 = rng_unit(&g);
             if (fabs(v3_dot(dir0, nrm)) < 0.2) /* stay off the fan's own plane */
                 continue;
-            rd_vec3 o = v3_add(c, v3_scale(dir0, trng_range(&g, 1, 30)));
-            rd_vec3 d = v3_normalize(v3_sub(c, o));
-            int hit = 0;
-            double b[3];
-            for (int i = 0; i < 7; i++)
-                hit |= rd_triangle_intersect(&tr[i], ray_of(o, d), INFINITY, b) > 0;
+            rd_vec3 o = v3_add(pos[0], v3_scale(dir0, rng_range(&g, 1, 30)));
+            rd_vec3 d = v3_normalize(v3_sub(pos[0], o));
             n++;
-            misses += !hit;
+            misses += !(world_hit(&tw, ray_of(o, d), INFINITY, NULL) > 0);
         }
+        tri_world_free(&tw);
     }
     cr_assert(n > 10000);
     cr_assert_eq(misses, 0, "%d of %d rays aimed at a shared vertex missed every triangle", misses, n);
 }
 
-Test(triangle, zero_area_never_hits)
+Test(intersect, triangle_zero_area_never_hits)
 {
     /* Exactly degenerate triangles (exact integer coordinates):
      *  - three collinear points, v2 - v0 = 3·(v1 - v0);
      *  - two equal vertices; all three equal.
-     * Rays from random origins aimed at points of the segment: the header
-     * promises such triangles never hit. After the shear into the ray's
-     * frame the three points are collinear only up to rounding, so a test
-     * that rejects only det == 0 lets some of these rays through. */
-    rd_triangle deg[4] = {
-        tri_of(v3(1, 1, 1), v3(2, 3, 4), v3(4, 7, 10)),
-        tri_of(v3(4, 7, 10), v3(1, 1, 1), v3(2, 3, 4)),
-        tri_of(v3(1, 1, 1), v3(2, 3, 4), v3(2, 3, 4)),
-        tri_of(v3(2, 3, 4), v3(2, 3, 4), v3(2, 3, 4)),
+     * Rays from random origins aimed at points of the segment: the world
+     * must never report a hit on such a triangle (it has no normal). After
+     * the shear into the ray's frame the three points are collinear only up
+     * to rounding, so a test that rejects only det == 0 lets some of these
+     * rays through. */
+    const rd_vec3 deg[4][3] = {
+        {{1, 1, 1}, {2, 3, 4}, {4, 7, 10}},
+        {{4, 7, 10}, {1, 1, 1}, {2, 3, 4}},
+        {{1, 1, 1}, {2, 3, 4}, {2, 3, 4}},
+        {{2, 3, 4}, {2, 3, 4}, {2, 3, 4}},
     };
-    trng g = {99};
+    test_rng g = {99};
     for (int i = 0; i < 4; i++) {
+        tri_world tw;
+        tri_mesh_world(&tw, deg[i][0], deg[i][1], deg[i][2], NULL, NULL);
         int hits = 0;
         char first[300] = "";
-        rd_vec3 a = deg[i].v0, e = v3_sub(deg[i].v2, deg[i].v0);
+        rd_vec3 a = deg[i][0], e = v3_sub(deg[i][2], deg[i][0]);
         if (i == 2)
-            e = v3_sub(deg[i].v1, deg[i].v0);
+            e = v3_sub(deg[i][1], deg[i][0]);
         for (int k = 0; k < 20000; k++) {
-            rd_vec3 target = v3_add(a, v3_scale(e, trng_next(&g)));
-            rd_vec3 o = trng_box(&g, 20);
+            rd_vec3 target = v3_add(a, v3_scale(e, rng_uniform(&g)));
+            rd_vec3 o = rng_point(&g, -20, 20);
             rd_vec3 d = v3_normalize(v3_sub(target, o));
-            double b[3];
-            double t = rd_triangle_intersect(&deg[i], ray_of(o, d), INFINITY, b);
+            rd_hit h;
+            double t = world_hit(&tw, ray_of(o, d), INFINITY, &h);
             if (t != 0) {
                 if (!hits)
-                    snprintf(first, sizeof first,
-                             "o=(%.17g,%.17g,%.17g) d=(%.17g,%.17g,%.17g) t=%g b=(%g,%g,%g)", o.x, o.y, o.z, d.x,
-                             d.y, d.z, t, b[0], b[1], b[2]);
+                    snprintf(first, sizeof first, "o=(%.17g,%.17g,%.17g) d=(%.17g,%.17g,%.17g) t=%g b=(%g,%g,%g)",
+                             o.x, o.y, o.z, d.x, d.y, d.z, t, h.bary[0], h.bary[1], h.bary[2]);
                 hits++;
             }
         }
-        cr_expect_eq(hits, 0, "degenerate triangle %d (v0=(%g,%g,%g) v1=(%g,%g,%g) v2=(%g,%g,%g)) was hit by %d of 20000 rays, e.g. %s",
-                     i, deg[i].v0.x, deg[i].v0.y, deg[i].v0.z, deg[i].v1.x, deg[i].v1.y, deg[i].v1.z, deg[i].v2.x,
-                     deg[i].v2.y, deg[i].v2.z, hits, first);
+        cr_expect_eq(hits, 0,
+                     "degenerate triangle %d (v0=(%g,%g,%g) v1=(%g,%g,%g) v2=(%g,%g,%g)) was hit by %d of 20000 rays, "
+                     "e.g. %s",
+                     i, deg[i][0].x, deg[i][0].y, deg[i][0].z, deg[i][1].x, deg[i][1].y, deg[i][1].z, deg[i][2].x,
+                     deg[i][2].y, deg[i][2].z, hits, first);
+        tri_world_free(&tw);
     }
 }
 
@@ -549,15 +674,15 @@ Test(triangle, zero_area_never_hits)
  * length 2r·cos. */
 static void sphere_offset_at_scale(double scale, uint64_t seed)
 {
-    trng g = {seed};
+    test_rng g = {seed};
     int rehits = 0, bad_chords = 0, tested = 0;
     char first[400] = "";
     for (int i = 0; i < 4000; i++) {
-        rd_sphere s = {v3_scale(trng_box(&g, 50), scale), scale * exp(trng_range(&g, log(0.01), log(10)))};
-        rd_vec3 nstar = trng_unit(&g);
+        rd_sphere s = {v3_scale(rng_point(&g, -50, 50), scale), scale * exp(rng_range(&g, log(0.01), log(10)))};
+        rd_vec3 nstar = rng_unit(&g);
         rd_vec3 pstar = v3_add(s.c, v3_scale(nstar, s.r));
-        rd_vec3 o = v3_add(pstar, v3_scale(dir_with_cos(&g, nstar, trng_range(&g, 0.05, 1)),
-                                           scale * trng_range(&g, 0.1, 200)));
+        rd_vec3 o = v3_add(pstar, v3_scale(dir_with_cos(&g, nstar, rng_range(&g, 0.05, 1)),
+                                           scale * rng_range(&g, 0.1, 200)));
         rd_ray r = ray_of(o, v3_normalize(v3_sub(pstar, o)));
         rd_hit h;
         memset(&h, 0, sizeof h);
@@ -582,7 +707,7 @@ static void sphere_offset_at_scale(double scale, uint64_t seed)
             }
         }
         /* Continued into the sphere (refraction-like), not too grazing. */
-        double c = trng_range(&g, 0.01, 1);
+        double c = rng_range(&g, 0.01, 1);
         rd_vec3 d3 = dir_with_cos(&g, v3_neg(h.ng), c);
         rd_ray r3 = ray_of(rd_offset_origin(&h, d3), d3);
         double t3 = rd_sphere_intersect(&s, r3, INFINITY);
@@ -598,9 +723,9 @@ static void sphere_offset_at_scale(double scale, uint64_t seed)
                  scale, rehits, bad_chords, tested, first);
 }
 
-Test(offset, sphere_scale_1e_minus9) { sphere_offset_at_scale(1e-9, 1); }
-Test(offset, sphere_scale_1) { sphere_offset_at_scale(1, 2); }
-Test(offset, sphere_scale_1e9) { sphere_offset_at_scale(1e9, 3); }
+Test(intersect, offset_sphere_scale_1e_minus9) { sphere_offset_at_scale(1e-9, 1); }
+Test(intersect, offset_sphere_scale_1) { sphere_offset_at_scale(1, 2); }
+Test(intersect, offset_sphere_scale_1e9) { sphere_offset_at_scale(1e9, 3); }
 
 /* Random planes (point up to 50·scale away, random normal), hit at random
  * points up to 100·scale from their point by rays from either side. A ray
@@ -608,16 +733,16 @@ Test(offset, sphere_scale_1e9) { sphere_offset_at_scale(1e9, 3); }
  * four grazing) must never meet the plane again. */
 static void plane_offset_at_scale(double scale, uint64_t seed)
 {
-    trng g = {seed};
+    test_rng g = {seed};
     int rehits = 0, tested = 0;
     char first[400] = "";
     for (int i = 0; i < 4000; i++) {
-        rd_plane pl = plane_of(v3_scale(trng_box(&g, 50), scale), trng_unit(&g));
-        rd_vec3 pstar = v3_add(pl.q, v3_add(v3_scale(pl.tu, scale * trng_range(&g, -100, 100)),
-                                            v3_scale(pl.tv, scale * trng_range(&g, -100, 100))));
-        rd_vec3 side = trng_next(&g) < 0.5 ? pl.n : v3_neg(pl.n);
-        rd_vec3 o = v3_add(pstar, v3_scale(dir_with_cos(&g, side, trng_range(&g, 0.05, 1)),
-                                           scale * trng_range(&g, 0.1, 200)));
+        rd_plane pl = plane_of(v3_scale(rng_point(&g, -50, 50), scale), rng_unit(&g));
+        rd_vec3 pstar = v3_add(pl.q, v3_add(v3_scale(pl.tu, scale * rng_range(&g, -100, 100)),
+                                            v3_scale(pl.tv, scale * rng_range(&g, -100, 100))));
+        rd_vec3 side = rng_uniform(&g) < 0.5 ? pl.n : v3_neg(pl.n);
+        rd_vec3 o = v3_add(pstar, v3_scale(dir_with_cos(&g, side, rng_range(&g, 0.05, 1)),
+                                           scale * rng_range(&g, 0.1, 200)));
         rd_ray r = ray_of(o, v3_normalize(v3_sub(pstar, o)));
         rd_hit h;
         memset(&h, 0, sizeof h);
@@ -633,7 +758,7 @@ static void plane_offset_at_scale(double scale, uint64_t seed)
             else if (k == 1)
                 d2 = r.d; /* straight through */
             else
-                d2 = outward_dir(&g, trng_next(&g) < 0.5 ? h.ng : v3_neg(h.ng));
+                d2 = outward_dir(&g, rng_uniform(&g) < 0.5 ? h.ng : v3_neg(h.ng));
             rd_ray r2 = ray_of(rd_offset_origin(&h, d2), d2);
             double t2 = rd_plane_intersect(&pl, r2, INFINITY);
             if (t2 != 0) {
@@ -651,11 +776,11 @@ static void plane_offset_at_scale(double scale, uint64_t seed)
     cr_assert_eq(rehits, 0, "scale %g: %d self-hits from %d plane hits; first: %s", scale, rehits, tested, first);
 }
 
-Test(offset, plane_scale_1e_minus9) { plane_offset_at_scale(1e-9, 11); }
-Test(offset, plane_scale_1) { plane_offset_at_scale(1, 12); }
-Test(offset, plane_scale_1e9) { plane_offset_at_scale(1e9, 13); }
+Test(intersect, offset_plane_scale_1e_minus9) { plane_offset_at_scale(1e-9, 11); }
+Test(intersect, offset_plane_scale_1) { plane_offset_at_scale(1, 12); }
+Test(intersect, offset_plane_scale_1e9) { plane_offset_at_scale(1e9, 13); }
 
-Test(offset, pushes_to_the_side_of_dir)
+Test(intersect, offset_pushes_to_the_side_of_dir)
 {
     /* Hit on the plane y = 0 at the origin of the plane's frame: the origin
      * moves up for an upward ray and down for a downward one, by a distance

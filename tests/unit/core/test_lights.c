@@ -18,83 +18,7 @@
 #include "rayd/render.h"
 #include "rayd/scene.h"
 #include "trace.h"
-
-static void lt_scene(rd_scene *s, int w, int h)
-{
-    rd_scene_init(s);
-    s->render.width = w;
-    s->render.height = h;
-    s->render.samples = 1;
-    s->render.gamma = 1;
-    s->render.max_depth = 5;
-    s->camera.eye = v3(0, 0, 5);
-    s->camera.target = v3(0, 0, 0);
-    s->camera.fov_deg = 45;
-}
-
-static int lt_mat(rd_scene *s, rd_rgb kd, rd_rgb ambient)
-{
-    rd_material *m = rd_scene_add_material(s);
-    cr_assert(m);
-    rd_material_defaults(m, RD_MAT_DIFFUSE);
-    m->kd = kd;
-    m->ambient = ambient;
-    return (int)s->material_count - 1;
-}
-
-static void lt_plane(rd_scene *s, rd_vec3 p, rd_vec3 n, int mat)
-{
-    rd_object *o = rd_scene_add_object(s);
-    cr_assert(o);
-    o->type = RD_OBJ_PLANE;
-    o->point = p;
-    o->normal = n;
-    o->material = mat;
-}
-
-static void lt_sphere(rd_scene *s, rd_vec3 c, double r, int mat)
-{
-    rd_object *o = rd_scene_add_object(s);
-    cr_assert(o);
-    o->type = RD_OBJ_SPHERE;
-    o->center = c;
-    o->radius = r;
-    o->material = mat;
-}
-
-static void lt_tri(rd_scene *s, rd_vec3 a, rd_vec3 b, rd_vec3 c, int mat)
-{
-    rd_object *o = rd_scene_add_object(s);
-    cr_assert(o);
-    o->type = RD_OBJ_TRIANGLE;
-    o->v[0] = a;
-    o->v[1] = b;
-    o->v[2] = c;
-    o->material = mat;
-}
-
-static rd_light *lt_light(rd_scene *s, rd_light_type t, rd_rgb color)
-{
-    rd_light *l = rd_scene_add_light(s);
-    cr_assert(l);
-    l->type = t;
-    l->color = color;
-    return l;
-}
-
-static void lt_render(const rd_scene *s, rd_image *img, uint8_t **bytes, rd_render_stats *st)
-{
-    rd_error err = {0};
-    rd_render_stats local;
-    rd_render_options opt = {.threads = 2, .tile = 8};
-    rd_error_code rc = rd_render(s, &opt, img, st ? st : &local, &err);
-    cr_assert_eq(rc, RD_OK, "rd_render: %s", err.message);
-    if (bytes) {
-        *bytes = malloc((size_t)img->width * img->height * 3);
-        cr_assert(*bytes);
-        rd_image_to_rgb8(img, s->render.gamma, *bytes);
-    }
-}
+#include "support/scene_fixture.h"
 
 /* Radiance along the ray from the eye through world point x, and the ray
  * counts it took. */
@@ -117,28 +41,28 @@ static rd_rgb trace_to(const rd_scene *s, rd_vec3 x, rd_ray_counts *counts)
 
 static void area_vs_point_scene(rd_scene *s, int area)
 {
-    lt_scene(s, 48, 36);
-    int red = lt_mat(s, v3(0.7, 0.2, 0.1), v3(0.02, 0.02, 0.02));
-    int grey = lt_mat(s, v3(0.6, 0.6, 0.6), v3(0.02, 0.02, 0.02));
+    fixture_scene(s, 48, 36);
+    int red = add_diffuse(s, v3(0.7, 0.2, 0.1), v3(0.02, 0.02, 0.02));
+    int grey = add_diffuse(s, v3(0.6, 0.6, 0.6), v3(0.02, 0.02, 0.02));
     s->materials[red].type = RD_MAT_PHONG;
     s->materials[red].ks = v3(0.3, 0.3, 0.3);
     s->materials[red].shininess = 20;
-    lt_sphere(s, v3(0, 0, 0), 1, red);
-    lt_plane(s, v3(0, -1, 0), v3(0, 1, 0), grey);
+    add_sphere(s, v3(0, 0, 0), 1, red);
+    add_plane(s, v3(0, -1, 0), v3(0, 1, 0), grey);
     rd_vec3 corner = v3(2, 3, 3);
     if (area) {
-        rd_light *l = lt_light(s, RD_LIGHT_AREA, v3(1, 0.9, 0.8));
+        rd_light *l = add_light(s, RD_LIGHT_AREA, v3(1, 0.9, 0.8));
         l->corner = corner;
         l->edge1 = v3(1e-9, 0, 0);
         l->edge2 = v3(0, 0, 1e-9);
         l->samples = 4;
     } else {
-        rd_light *l = lt_light(s, RD_LIGHT_POINT, v3(1, 0.9, 0.8));
+        rd_light *l = add_light(s, RD_LIGHT_POINT, v3(1, 0.9, 0.8));
         l->position = corner;
     }
 }
 
-Test(light_models, tiny_area_light_matches_point_light)
+Test(lights, tiny_area_light_matches_point_light)
 {
     /* Its 16 points lie within 1.5e-9 of the corner and carry colour/16
      * each: the sum is the point light's value up to ~1e-9 relative, so
@@ -151,8 +75,8 @@ Test(light_models, tiny_area_light_matches_point_light)
     rd_image ia, ip;
     uint8_t *ba, *bp;
     rd_render_stats sa, sp;
-    lt_render(&a, &ia, &ba, &sa);
-    lt_render(&p, &ip, &bp, &sp);
+    ba = render_bytes(&a, NULL, &ia, &sa);
+    bp = render_bytes(&p, NULL, &ip, &sp);
     size_t n = (size_t)ia.width * ia.height * 3;
     int lit = 0;
     for (size_t i = 0; i < n; i++) {
@@ -178,18 +102,18 @@ Test(light_models, tiny_area_light_matches_point_light)
  * at distance tan θ from the foot is θ off axis. */
 static void spot_scene(rd_scene *s, double falloff)
 {
-    lt_scene(s, 8, 8);
+    fixture_scene(s, 8, 8);
     s->camera.eye = v3(0.25, -0.5, 6);
-    int m = lt_mat(s, v3(0.5, 0.25, 0.75), v3(0, 0, 0));
-    lt_plane(s, v3(0, 0, 0), v3(0, 0, 1), m);
-    rd_light *l = lt_light(s, RD_LIGHT_SPOT, v3(1, 1, 1));
+    int m = add_diffuse(s, v3(0.5, 0.25, 0.75), v3(0, 0, 0));
+    add_plane(s, v3(0, 0, 0), v3(0, 0, 1), m);
+    rd_light *l = add_light(s, RD_LIGHT_SPOT, v3(1, 1, 1));
     l->position = v3(0, 0, 1);
     l->direction = v3(0, 0, -1);
     l->angle_deg = 30;
     l->falloff = falloff;
 }
 
-Test(light_models, spot_cutoff_is_exact)
+Test(lights, spot_cutoff_is_exact)
 {
     rd_scene s;
     spot_scene(&s, 0);
@@ -215,7 +139,7 @@ Test(light_models, spot_cutoff_is_exact)
     rd_scene_free(&s);
 }
 
-Test(light_models, spot_cutoff_at_the_light_level)
+Test(lights, spot_cutoff_at_the_light_level)
 {
     /* The same at rd_light_sample_at, with exact directions: at 29.999° the
      * sample exists, at 30.001° it does not. Axis tilted off the
@@ -244,7 +168,7 @@ Test(light_models, spot_cutoff_at_the_light_level)
     }
 }
 
-Test(light_models, spot_falloff_by_hand)
+Test(lights, spot_falloff_by_hand)
 {
     /* Spot at S = (0,0,2), axis (1,0,-2)/√5, colour (0.8,0.6,1), falloff 3;
      * floor z = 0 with kd (0.5,0.25,0.75); hit X = (1.5,0.5,0).
@@ -254,10 +178,10 @@ Test(light_models, spot_falloff_by_hand)
      *   cos α = -N·L = 2/√6.5 = 0.78446...
      *   value = colour · c³ · kd · cos α. */
     rd_scene s;
-    lt_scene(&s, 8, 8);
-    int m = lt_mat(&s, v3(0.5, 0.25, 0.75), v3(0, 0, 0));
-    lt_plane(&s, v3(0, 0, 0), v3(0, 0, 1), m);
-    rd_light *l = lt_light(&s, RD_LIGHT_SPOT, v3(0.8, 0.6, 1.0));
+    fixture_scene(&s, 8, 8);
+    int m = add_diffuse(&s, v3(0.5, 0.25, 0.75), v3(0, 0, 0));
+    add_plane(&s, v3(0, 0, 0), v3(0, 0, 1), m);
+    rd_light *l = add_light(&s, RD_LIGHT_SPOT, v3(0.8, 0.6, 1.0));
     l->position = v3(0, 0, 2);
     l->direction = v3(1, 0, -2);
     l->angle_deg = 30;
@@ -282,29 +206,29 @@ Test(light_models, spot_falloff_by_hand)
 
 static void dark_scene(rd_scene *s)
 {
-    lt_scene(s, 16, 12);
-    int m = lt_mat(s, v3(0.6, 0.5, 0.4), v3(0.0625, 0.125, 0.25));
-    lt_sphere(s, v3(0, 0, 0), 1, m);
-    lt_plane(s, v3(0, -1, 0), v3(0, 1, 0), m);
+    fixture_scene(s, 16, 12);
+    int m = add_diffuse(s, v3(0.6, 0.5, 0.4), v3(0.0625, 0.125, 0.25));
+    add_sphere(s, v3(0, 0, 0), 1, m);
+    add_plane(s, v3(0, -1, 0), v3(0, 1, 0), m);
 }
 
-Test(light_models, zero_colour_light_sends_no_shadow_rays)
+Test(lights, zero_colour_light_sends_no_shadow_rays)
 {
     rd_scene s, ref;
     dark_scene(&s);
     dark_scene(&ref);
-    rd_light *l = lt_light(&s, RD_LIGHT_POINT, v3(0, 0, 0));
+    rd_light *l = add_light(&s, RD_LIGHT_POINT, v3(0, 0, 0));
     l->position = v3(2, 3, 4);
-    l = lt_light(&s, RD_LIGHT_AREA, v3(0, 0, 0));
+    l = add_light(&s, RD_LIGHT_AREA, v3(0, 0, 0));
     l->corner = v3(-2, 3, 1);
     l->edge1 = v3(1, 0, 0);
     l->edge2 = v3(0, 0, 1);
-    l = lt_light(&s, RD_LIGHT_DIRECTIONAL, v3(0, 0, 0));
+    l = add_light(&s, RD_LIGHT_DIRECTIONAL, v3(0, 0, 0));
     l->direction = v3(0, -1, -1);
     rd_image i1, i2;
     rd_render_stats st, st2;
-    lt_render(&s, &i1, NULL, &st);
-    lt_render(&ref, &i2, NULL, &st2);
+    render_ok(&s, NULL, &i1, &st);
+    render_ok(&ref, NULL, &i2, &st2);
     cr_assert_eq(st.shadow_rays, 0, "black lights sent %llu shadow rays", (unsigned long long)st.shadow_rays);
     /* And contribute nothing: the image is the one without them, bit for bit. */
     cr_assert(memcmp(i1.rgb, i2.rgb, sizeof(double) * 3 * 16 * 12) == 0);
@@ -312,13 +236,13 @@ Test(light_models, zero_colour_light_sends_no_shadow_rays)
     rd_scene s2, ref2;
     dark_scene(&s2);
     dark_scene(&ref2);
-    lt_light(&s2, RD_LIGHT_POINT, v3(0, 0, 0))->position = v3(2, 3, 4);
-    lt_light(&s2, RD_LIGHT_POINT, v3(1, 1, 1))->position = v3(-2, 3, 4);
-    lt_light(&ref2, RD_LIGHT_POINT, v3(1, 1, 1))->position = v3(-2, 3, 4);
+    add_light(&s2, RD_LIGHT_POINT, v3(0, 0, 0))->position = v3(2, 3, 4);
+    add_light(&s2, RD_LIGHT_POINT, v3(1, 1, 1))->position = v3(-2, 3, 4);
+    add_light(&ref2, RD_LIGHT_POINT, v3(1, 1, 1))->position = v3(-2, 3, 4);
     rd_image i3, i4;
     rd_render_stats st3, st4;
-    lt_render(&s2, &i3, NULL, &st3);
-    lt_render(&ref2, &i4, NULL, &st4);
+    render_ok(&s2, NULL, &i3, &st3);
+    render_ok(&ref2, NULL, &i4, &st4);
     cr_assert_gt(st4.shadow_rays, 0);
     cr_assert_eq(st3.shadow_rays, st4.shadow_rays);
     cr_assert(memcmp(i3.rgb, i4.rgb, sizeof(double) * 3 * 16 * 12) == 0);
@@ -332,31 +256,31 @@ Test(light_models, zero_colour_light_sends_no_shadow_rays)
     rd_scene_free(&ref2);
 }
 
-Test(light_models, light_behind_every_surface_sends_no_shadow_rays)
+Test(lights, light_behind_every_surface_sends_no_shadow_rays)
 {
     /* Every surface faces the camera (+z); every light is on the -z side of
      * all of them, so cos α <= 0 at every hit: no contribution, no shadow
      * ray, and each pixel is exactly the ambient. */
     rd_scene s;
-    lt_scene(&s, 16, 12);
+    fixture_scene(&s, 16, 12);
     rd_rgb amb = v3(0.0625, 0.125, 0.25);
-    int m = lt_mat(&s, v3(0.6, 0.5, 0.4), amb);
-    lt_plane(&s, v3(0, 0, 0), v3(0, 0, 1), m);
-    lt_tri(&s, v3(-1, -1, 0.5), v3(1, -1, 0.5), v3(0, 1, 0.5), m);
-    lt_tri(&s, v3(-0.5, 0.2, 1), v3(0.5, 0.2, 1), v3(0, 0.8, 1), m);
-    lt_light(&s, RD_LIGHT_POINT, v3(1, 1, 1))->position = v3(0.5, 0.5, -5);
-    lt_light(&s, RD_LIGHT_DIRECTIONAL, v3(1, 1, 1))->direction = v3(0.1, 0.2, 1);
-    rd_light *sp = lt_light(&s, RD_LIGHT_SPOT, v3(1, 1, 1));
+    int m = add_diffuse(&s, v3(0.6, 0.5, 0.4), amb);
+    add_plane(&s, v3(0, 0, 0), v3(0, 0, 1), m);
+    add_triangle(&s, v3(-1, -1, 0.5), v3(1, -1, 0.5), v3(0, 1, 0.5), m);
+    add_triangle(&s, v3(-0.5, 0.2, 1), v3(0.5, 0.2, 1), v3(0, 0.8, 1), m);
+    add_light(&s, RD_LIGHT_POINT, v3(1, 1, 1))->position = v3(0.5, 0.5, -5);
+    add_light(&s, RD_LIGHT_DIRECTIONAL, v3(1, 1, 1))->direction = v3(0.1, 0.2, 1);
+    rd_light *sp = add_light(&s, RD_LIGHT_SPOT, v3(1, 1, 1));
     sp->position = v3(0, 0, -2);
     sp->direction = v3(0, 0, 1);
     sp->angle_deg = 80;
-    rd_light *ar = lt_light(&s, RD_LIGHT_AREA, v3(1, 1, 1));
+    rd_light *ar = add_light(&s, RD_LIGHT_AREA, v3(1, 1, 1));
     ar->corner = v3(-1, -1, -3);
     ar->edge1 = v3(2, 0, 0);
     ar->edge2 = v3(0, 2, 0);
     rd_image img;
     rd_render_stats st;
-    lt_render(&s, &img, NULL, &st);
+    render_ok(&s, NULL, &img, &st);
     cr_assert_eq(st.shadow_rays, 0, "lights behind every surface sent %llu shadow rays",
                  (unsigned long long)st.shadow_rays);
     for (int i = 0; i < 16 * 12; i++)
@@ -369,7 +293,7 @@ Test(light_models, light_behind_every_surface_sends_no_shadow_rays)
 
 /* ---- directional lights ------------------------------------------------------ */
 
-Test(light_models, directional_light_has_no_distance_falloff)
+Test(lights, directional_light_has_no_distance_falloff)
 {
     /* Plane facing the camera at distance 5, 15 and 1005; light travelling
      * along (1,-1,-2)/√6: cos α = 2/√6 everywhere on the plane, and every
@@ -379,13 +303,13 @@ Test(light_models, directional_light_has_no_distance_falloff)
     double zs[] = {0, -10, -1000};
     for (int k = 0; k < 3; k++) {
         rd_scene s;
-        lt_scene(&s, 9, 7);
-        int m = lt_mat(&s, kd, v3(0, 0, 0));
-        lt_plane(&s, v3(0, 0, zs[k]), v3(0, 0, 1), m);
-        lt_light(&s, RD_LIGHT_DIRECTIONAL, v3(1, 1, 1))->direction = v3(1, -1, -2);
+        fixture_scene(&s, 9, 7);
+        int m = add_diffuse(&s, kd, v3(0, 0, 0));
+        add_plane(&s, v3(0, 0, zs[k]), v3(0, 0, 1), m);
+        add_light(&s, RD_LIGHT_DIRECTIONAL, v3(1, 1, 1))->direction = v3(1, -1, -2);
         rd_image img;
         rd_render_stats st;
-        lt_render(&s, &img, NULL, &st);
+        render_ok(&s, NULL, &img, &st);
         cr_assert_eq(st.shadow_rays, 9 * 7);
         for (int i = 0; i < 9 * 7; i++) {
             const double *p = &img.rgb[3 * i];

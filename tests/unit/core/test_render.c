@@ -8,7 +8,8 @@
  * rounding ambiguity (shading.md, Output).
  *
  * The other tests check properties that must hold bit for bit: thread and
- * tile independence, scale invariance, the error estimate, cancellation. */
+ * tile independence, scale invariance, cancellation. The error estimate has
+ * its own file, test_estimate.c. */
 #include <criterion/criterion.h>
 #include <math.h>
 #include <stdatomic.h>
@@ -19,117 +20,7 @@
 
 #include "rayd/render.h"
 #include "rayd/scene.h"
-
-/* ---- scene building helpers ----------------------------------------------- */
-
-static void base_scene(rd_scene *s, int w, int h)
-{
-    rd_scene_init(s);
-    s->render.width = w;
-    s->render.height = h;
-    s->render.samples = 1;
-    s->render.background = v3(0, 0, 0);
-    s->camera.eye = v3(0, 0, 5);
-    s->camera.target = v3(0, 0, 0);
-    s->camera.up = v3(0, 1, 0);
-    s->camera.fov_deg = 45;
-}
-
-static int add_mat(rd_scene *s, rd_material_type t)
-{
-    rd_material *m = rd_scene_add_material(s);
-    cr_assert(m);
-    rd_material_defaults(m, t);
-    return (int)s->material_count - 1;
-}
-
-static rd_material *mat_at(rd_scene *s, int i) { return &s->materials[i]; }
-
-static void add_sphere(rd_scene *s, rd_vec3 c, double r, int mat)
-{
-    rd_object *o = rd_scene_add_object(s);
-    cr_assert(o);
-    o->type = RD_OBJ_SPHERE;
-    o->center = c;
-    o->radius = r;
-    o->material = mat;
-}
-
-static void add_plane(rd_scene *s, rd_vec3 p, rd_vec3 n, int mat)
-{
-    rd_object *o = rd_scene_add_object(s);
-    cr_assert(o);
-    o->type = RD_OBJ_PLANE;
-    o->point = p;
-    o->normal = n;
-    o->material = mat;
-}
-
-static rd_object *add_tri(rd_scene *s, rd_vec3 a, rd_vec3 b, rd_vec3 c, int mat)
-{
-    rd_object *o = rd_scene_add_object(s);
-    cr_assert(o);
-    o->type = RD_OBJ_TRIANGLE;
-    o->v[0] = a;
-    o->v[1] = b;
-    o->v[2] = c;
-    o->material = mat;
-    return o;
-}
-
-static rd_light *add_point(rd_scene *s, rd_vec3 p, rd_rgb c)
-{
-    rd_light *l = rd_scene_add_light(s);
-    cr_assert(l);
-    l->type = RD_LIGHT_POINT;
-    l->position = p;
-    l->color = c;
-    return l;
-}
-
-static rd_light *add_dir(rd_scene *s, rd_vec3 d, rd_rgb c)
-{
-    rd_light *l = rd_scene_add_light(s);
-    cr_assert(l);
-    l->type = RD_LIGHT_DIRECTIONAL;
-    l->direction = d;
-    l->color = c;
-    return l;
-}
-
-static rd_light *add_area(rd_scene *s, rd_vec3 corner, rd_vec3 e1, rd_vec3 e2, int samples, rd_rgb c)
-{
-    rd_light *l = rd_scene_add_light(s);
-    cr_assert(l);
-    l->type = RD_LIGHT_AREA;
-    l->corner = corner;
-    l->edge1 = e1;
-    l->edge2 = e2;
-    l->samples = samples;
-    l->color = c;
-    return l;
-}
-
-/* Renders and converts to bytes with the scene's gamma; returns a malloc'd
- * buffer of w·h·3 bytes and fills stats and (optionally) the linear image. */
-static uint8_t *render_bytes(const rd_scene *s, const rd_render_options *opt, rd_render_stats *st, rd_image *keep)
-{
-    rd_image img;
-    rd_render_stats local;
-    rd_error err = {0};
-    rd_error_code rc = rd_render(s, opt, &img, st ? st : &local, &err);
-    cr_assert_eq(rc, RD_OK, "rd_render failed (%d): %s", (int)rc, err.message);
-    cr_assert(img.rgb && img.width == s->render.width && img.height == s->render.height);
-    size_t n = (size_t)img.width * (size_t)img.height * 3;
-    uint8_t *b = malloc(n);
-    cr_assert(b);
-    rd_image_to_rgb8(&img, s->render.gamma, b);
-    if (keep)
-        *keep = img;
-    else
-        rd_image_free(&img);
-    return b;
-}
+#include "support/scene_fixture.h"
 
 #define assert_px(bytes, w, x, y, r, g, b)                                                                        \
     do {                                                                                                          \
@@ -140,7 +31,7 @@ static uint8_t *render_bytes(const rd_scene *s, const rd_render_options *opt, rd
 
 /* ---- (1) exact pixel values -------------------------------------------------- */
 
-Test(render_exact, diffuse_light_at_eye_1x1)
+Test(render, exact_diffuse_light_at_eye_1x1)
 {
     /* kd = (0.25, 0.5, 0.75), ambient = (0.125, 0.0625, 0.5), light colour 1:
      *   c = kd·1 + ambient = (0.375, 0.5625, 1.25)
@@ -148,15 +39,15 @@ Test(render_exact, diffuse_light_at_eye_1x1)
      *   G: 0.5625·255 = 143.4375, +0.5 = 143.9375 -> 143
      *   B: clamp(1.25) = 1 -> 255. */
     rd_scene s;
-    base_scene(&s, 1, 1);
-    int m = add_mat(&s, RD_MAT_DIFFUSE);
-    mat_at(&s, m)->kd = v3(0.25, 0.5, 0.75);
-    mat_at(&s, m)->ambient = v3(0.125, 0.0625, 0.5);
+    fixture_scene(&s, 1, 1);
+    int m = add_material(&s, RD_MAT_DIFFUSE);
+    s.materials[m].kd = v3(0.25, 0.5, 0.75);
+    s.materials[m].ambient = v3(0.125, 0.0625, 0.5);
     add_sphere(&s, v3(0, 0, 0), 1, m);
-    add_point(&s, v3(0, 0, 5), v3(1, 1, 1));
+    add_point_light(&s, v3(0, 0, 5), v3(1, 1, 1));
     rd_image img;
     rd_render_stats st;
-    uint8_t *b = render_bytes(&s, NULL, &st, &img);
+    uint8_t *b = render_bytes(&s, NULL, &img, &st);
     /* The linear value is exact: every step of the sum is exact in binary. */
     cr_assert(img.rgb[0] == 0.375 && img.rgb[1] == 0.5625 && img.rgb[2] == 1.25, "linear (%.17g, %.17g, %.17g)",
               img.rgb[0], img.rgb[1], img.rgb[2]);
@@ -169,7 +60,7 @@ Test(render_exact, diffuse_light_at_eye_1x1)
     rd_scene_free(&s);
 }
 
-Test(render_exact, centre_hit_and_background_3x3)
+Test(render, exact_centre_hit_and_background_3x3)
 {
     /* 3x3 at fov 45°: only the centre pixel sees the sphere. The edge
      * pixels' rays are at tan = (2/3)·tan 22.5° = 0.276 off axis, outside
@@ -178,12 +69,12 @@ Test(render_exact, centre_hit_and_background_3x3)
      * Light colour (2, 1, 0.5) scales kd per channel: kd = (0.25, 0.25, 0.25)
      *   -> (0.5, 0.25, 0.125) -> 127.5+0.5 = 128, 64, 32 (exact sums). */
     rd_scene s;
-    base_scene(&s, 3, 3);
+    fixture_scene(&s, 3, 3);
     s.render.background = v3(0.25, 0.125, 1);
-    int m = add_mat(&s, RD_MAT_DIFFUSE);
-    mat_at(&s, m)->kd = v3(0.25, 0.25, 0.25);
+    int m = add_material(&s, RD_MAT_DIFFUSE);
+    s.materials[m].kd = v3(0.25, 0.25, 0.25);
     add_sphere(&s, v3(0, 0, 0), 1, m);
-    add_point(&s, v3(0, 0, 5), v3(2, 1, 0.5));
+    add_point_light(&s, v3(0, 0, 5), v3(2, 1, 0.5));
     uint8_t *b = render_bytes(&s, NULL, NULL, NULL);
     for (int y = 0; y < 3; y++)
         for (int x = 0; x < 3; x++) {
@@ -196,38 +87,38 @@ Test(render_exact, centre_hit_and_background_3x3)
     rd_scene_free(&s);
 }
 
-Test(render_exact, phong_centre_highlight_is_kd_plus_ks)
+Test(render, exact_phong_centre_highlight_is_kd_plus_ks)
 {
     /* R = reflect((0,0,-1), (0,0,1)) = (0,0,1) = V: max(R·V,0)^20 = 1.
      *   c = kd + ks = (0.25 + 0.5, 0.25 + 0.375, 0.25 + 0.125) = (0.75, 0.625, 0.375)
      *   -> 191.25+0.5 = 191.75 -> 191; 159.375+0.5 -> 159; 95.625+0.5 -> 96. */
     rd_scene s;
-    base_scene(&s, 1, 1);
-    int m = add_mat(&s, RD_MAT_PHONG);
-    mat_at(&s, m)->kd = v3(0.25, 0.25, 0.25);
-    mat_at(&s, m)->ks = v3(0.5, 0.375, 0.125);
-    mat_at(&s, m)->shininess = 20;
+    fixture_scene(&s, 1, 1);
+    int m = add_material(&s, RD_MAT_PHONG);
+    s.materials[m].kd = v3(0.25, 0.25, 0.25);
+    s.materials[m].ks = v3(0.5, 0.375, 0.125);
+    s.materials[m].shininess = 20;
     add_sphere(&s, v3(0, 0, 0), 1, m);
-    add_point(&s, v3(0, 0, 5), v3(1, 1, 1));
+    add_point_light(&s, v3(0, 0, 5), v3(1, 1, 1));
     uint8_t *b = render_bytes(&s, NULL, NULL, NULL);
     assert_px(b, 1, 0, 0, 191, 159, 96);
     free(b);
     rd_scene_free(&s);
 }
 
-Test(render_exact, directional_light_at_60_degrees)
+Test(render, exact_directional_light_at_60_degrees)
 {
     /* Light travelling along (0, -sin 60°, -cos 60°): cos α = -N·L = cos 60° = 0.5
      * at the centre hit. kd = (0.75, 0.5, 0.25) -> (0.375, 0.25, 0.125)
      *   -> 96, 64 (63.75+0.5), 32 (31.875+0.5). */
     rd_scene s;
-    base_scene(&s, 1, 1);
-    int m = add_mat(&s, RD_MAT_DIFFUSE);
-    mat_at(&s, m)->kd = v3(0.75, 0.5, 0.25);
+    fixture_scene(&s, 1, 1);
+    int m = add_material(&s, RD_MAT_DIFFUSE);
+    s.materials[m].kd = v3(0.75, 0.5, 0.25);
     add_sphere(&s, v3(0, 0, 0), 1, m);
-    add_dir(&s, v3(0, -sin(M_PI / 3), -cos(M_PI / 3)), v3(1, 1, 1));
+    add_directional_light(&s, v3(0, -sin(M_PI / 3), -cos(M_PI / 3)), v3(1, 1, 1));
     rd_image img;
-    uint8_t *b = render_bytes(&s, NULL, NULL, &img);
+    uint8_t *b = render_bytes(&s, NULL, &img, NULL);
     cr_assert(fabs(img.rgb[0] - 0.375) < 1e-15, "linear R %.17g", img.rgb[0]);
     assert_px(b, 1, 0, 0, 96, 64, 32);
     rd_image_free(&img);
@@ -235,41 +126,41 @@ Test(render_exact, directional_light_at_60_degrees)
     rd_scene_free(&s);
 }
 
-Test(render_exact, shadowed_hit_gets_ambient_only)
+Test(render, exact_shadowed_hit_gets_ambient_only)
 {
     /* Same directional light, but a small sphere at (0,0,1) + 2·(0, sin 60°, cos 60°)
      * sits on the shadow ray (and off the camera ray). Only the ambient
      * (0.125, 0.25, 0.0625) remains: 32 (31.875+0.5), 64, 16 (15.9375+0.5). */
     rd_scene s;
-    base_scene(&s, 1, 1);
-    int m = add_mat(&s, RD_MAT_DIFFUSE);
-    mat_at(&s, m)->kd = v3(0.75, 0.5, 0.25);
-    mat_at(&s, m)->ambient = v3(0.125, 0.25, 0.0625);
+    fixture_scene(&s, 1, 1);
+    int m = add_material(&s, RD_MAT_DIFFUSE);
+    s.materials[m].kd = v3(0.75, 0.5, 0.25);
+    s.materials[m].ambient = v3(0.125, 0.25, 0.0625);
     add_sphere(&s, v3(0, 0, 0), 1, m);
     add_sphere(&s, v3(0, 2 * sin(M_PI / 3), 1 + 2 * cos(M_PI / 3)), 0.5, m);
-    add_dir(&s, v3(0, -sin(M_PI / 3), -cos(M_PI / 3)), v3(1, 1, 1));
+    add_directional_light(&s, v3(0, -sin(M_PI / 3), -cos(M_PI / 3)), v3(1, 1, 1));
     uint8_t *b = render_bytes(&s, NULL, NULL, NULL);
     assert_px(b, 1, 0, 0, 32, 64, 16);
     free(b);
     rd_scene_free(&s);
 }
 
-Test(render_exact, gamma_2)
+Test(render, exact_gamma_2)
 {
     /* kd = (0.5, 0.125, 0.0625), ambient = (0.0625, 0.015625, 0.078125):
      *   linear c = (0.5625, 0.140625, 0.140625)
      *   gamma 2: sqrt -> (0.75, 0.375, 0.375) -> 191.25+0.5 -> 191; 95.625+0.5 -> 96; 96.
      *   gamma 1 for comparison: 143.4375+0.5 -> 143; 35.859+0.5 -> 36; 36. */
     rd_scene s;
-    base_scene(&s, 1, 1);
+    fixture_scene(&s, 1, 1);
     s.render.gamma = 2;
-    int m = add_mat(&s, RD_MAT_DIFFUSE);
-    mat_at(&s, m)->kd = v3(0.5, 0.125, 0.0625);
-    mat_at(&s, m)->ambient = v3(0.0625, 0.015625, 0.078125);
+    int m = add_material(&s, RD_MAT_DIFFUSE);
+    s.materials[m].kd = v3(0.5, 0.125, 0.0625);
+    s.materials[m].ambient = v3(0.0625, 0.015625, 0.078125);
     add_sphere(&s, v3(0, 0, 0), 1, m);
-    add_point(&s, v3(0, 0, 5), v3(1, 1, 1));
+    add_point_light(&s, v3(0, 0, 5), v3(1, 1, 1));
     rd_image img;
-    uint8_t *b = render_bytes(&s, NULL, NULL, &img);
+    uint8_t *b = render_bytes(&s, NULL, &img, NULL);
     assert_px(b, 1, 0, 0, 191, 96, 96);
     uint8_t g1[3];
     rd_image_to_rgb8(&img, 1.0, g1);
@@ -284,7 +175,7 @@ Test(render_exact, gamma_2)
     rd_scene_free(&s);
 }
 
-Test(render_exact, display_function)
+Test(render, exact_display_function)
 {
     /* clamp to [0,1], then ^(1/gamma). */
     cr_assert_eq(rd_display(-0.5, 1), 0.0);
@@ -304,19 +195,19 @@ Test(render_exact, display_function)
         cr_assert_eq(b[i], want[i], "byte %d = %d, expected %d", i, b[i], want[i]);
 }
 
-Test(render_exact, background_for_misses)
+Test(render, exact_background_for_misses)
 {
     /* An empty scene, and a scene whose only sphere is behind the camera:
      * every pixel is the background (0.5, 0.75, 0.125) -> 128 (127.5+0.5),
      * 191.75 -> 191, 32.375 -> 32. */
     for (int behind = 0; behind < 2; behind++) {
         rd_scene s;
-        base_scene(&s, 4, 3);
+        fixture_scene(&s, 4, 3);
         s.render.background = v3(0.5, 0.75, 0.125);
-        int m = add_mat(&s, RD_MAT_DIFFUSE);
+        int m = add_material(&s, RD_MAT_DIFFUSE);
         if (behind)
             add_sphere(&s, v3(0, 0, 10), 1, m);
-        add_point(&s, v3(0, 0, 5), v3(1, 1, 1));
+        add_point_light(&s, v3(0, 0, 5), v3(1, 1, 1));
         uint8_t *b = render_bytes(&s, NULL, NULL, NULL);
         for (int y = 0; y < 3; y++)
             for (int x = 0; x < 4; x++)
@@ -326,18 +217,18 @@ Test(render_exact, background_for_misses)
     }
 }
 
-Test(render_exact, mirror_reflects_background)
+Test(render, exact_mirror_reflects_background)
 {
     /* perfect_specular, ks = 0.5: the centre ray reflects straight back to +z
      * and misses -> ks·background = 0.5·(0.5, 0.25, 0.75) = (0.25, 0.125, 0.375)
      * -> 64, 32, 96. With max_depth = 0 no recursion: ambient only (0). */
     rd_scene s;
-    base_scene(&s, 1, 1);
+    fixture_scene(&s, 1, 1);
     s.render.background = v3(0.5, 0.25, 0.75);
-    int m = add_mat(&s, RD_MAT_PERFECT_SPECULAR);
-    mat_at(&s, m)->ks = v3(0.5, 0.5, 0.5);
+    int m = add_material(&s, RD_MAT_PERFECT_SPECULAR);
+    s.materials[m].ks = v3(0.5, 0.5, 0.5);
     add_sphere(&s, v3(0, 0, 0), 1, m);
-    add_point(&s, v3(0, 0, 5), v3(1, 1, 1));
+    add_point_light(&s, v3(0, 0, 5), v3(1, 1, 1));
     uint8_t *b = render_bytes(&s, NULL, NULL, NULL);
     assert_px(b, 1, 0, 0, 64, 32, 96);
     free(b);
@@ -348,7 +239,7 @@ Test(render_exact, mirror_reflects_background)
     rd_scene_free(&s);
 }
 
-Test(render_exact, glass_sphere_fresnel_normal_incidence)
+Test(render, exact_glass_sphere_fresnel_normal_incidence)
 {
     /* specular_refraction, ior 1.5, ks 1, max_depth 2, background b.
      * Normal incidence: F = ((1.5 - 1)/(1.5 + 1))² = 0.04 entering and leaving.
@@ -359,15 +250,15 @@ Test(render_exact, glass_sphere_fresnel_normal_incidence)
      * b = (0.5, 0.25, 1): (0.4808, 0.2404, 0.9616)
      *   -> 122.604+0.5 -> 123; 61.302+0.5 -> 61; 245.208+0.5 -> 245. */
     rd_scene s;
-    base_scene(&s, 1, 1);
+    fixture_scene(&s, 1, 1);
     s.render.background = v3(0.5, 0.25, 1);
     s.render.max_depth = 2;
-    int m = add_mat(&s, RD_MAT_SPECULAR_REFRACTION);
-    mat_at(&s, m)->ior = 1.5;
+    int m = add_material(&s, RD_MAT_SPECULAR_REFRACTION);
+    s.materials[m].ior = 1.5;
     add_sphere(&s, v3(0, 0, 0), 1, m);
     rd_image img;
     rd_render_stats st;
-    uint8_t *b = render_bytes(&s, NULL, &st, &img);
+    uint8_t *b = render_bytes(&s, NULL, &img, &st);
     cr_assert(fabs(img.rgb[2] - 0.9616) < 1e-12, "linear B %.17g, expected 0.9616", img.rgb[2]);
     assert_px(b, 1, 0, 0, 123, 61, 245);
     /* Secondary rays: 2 at depth 0, 2 at depth 1. */
@@ -377,16 +268,16 @@ Test(render_exact, glass_sphere_fresnel_normal_incidence)
     rd_scene_free(&s);
 }
 
-Test(render_exact, pseudo_normal_color)
+Test(render, exact_pseudo_normal_color)
 {
     /* (N + 1)/2 with N = (0,0,1): (0.5, 0.5, 1) -> 128 (127.5+0.5), 128, 255;
      * lights and ambient play no part. */
     rd_scene s;
-    base_scene(&s, 1, 1);
-    int m = add_mat(&s, RD_MAT_PSEUDO_NORMAL_COLOR);
-    mat_at(&s, m)->ambient = v3(0.5, 0.5, 0.5);
+    fixture_scene(&s, 1, 1);
+    int m = add_material(&s, RD_MAT_PSEUDO_NORMAL_COLOR);
+    s.materials[m].ambient = v3(0.5, 0.5, 0.5);
     add_sphere(&s, v3(0, 0, 0), 1, m);
-    add_point(&s, v3(0, 0, 5), v3(1, 1, 1));
+    add_point_light(&s, v3(0, 0, 5), v3(1, 1, 1));
     uint8_t *b = render_bytes(&s, NULL, NULL, NULL);
     assert_px(b, 1, 0, 0, 128, 128, 255);
     free(b);
@@ -395,22 +286,22 @@ Test(render_exact, pseudo_normal_color)
 
 /* ---- (6) perfect_specular with ks = 0 ------------------------------------- */
 
-Test(render_exact, perfect_specular_ks0_is_ambient_alone)
+Test(render, exact_perfect_specular_ks0_is_ambient_alone)
 {
     /* ks = 0: no reflection and no direct light, whatever the lights and the
      * background: only ambient (0.125, 0.25, 0.0625) -> 32, 64, 16. */
     rd_scene s;
-    base_scene(&s, 1, 1);
+    fixture_scene(&s, 1, 1);
     s.render.background = v3(1, 1, 1);
-    int m = add_mat(&s, RD_MAT_PERFECT_SPECULAR);
-    mat_at(&s, m)->ks = v3(0, 0, 0);
-    mat_at(&s, m)->kd = v3(1, 1, 1);
-    mat_at(&s, m)->ambient = v3(0.125, 0.25, 0.0625);
+    int m = add_material(&s, RD_MAT_PERFECT_SPECULAR);
+    s.materials[m].ks = v3(0, 0, 0);
+    s.materials[m].kd = v3(1, 1, 1);
+    s.materials[m].ambient = v3(0.125, 0.25, 0.0625);
     add_sphere(&s, v3(0, 0, 0), 1, m);
-    add_point(&s, v3(0, 0, 5), v3(10, 10, 10));
-    add_dir(&s, v3(0, 0, -1), v3(10, 10, 10));
+    add_point_light(&s, v3(0, 0, 5), v3(10, 10, 10));
+    add_directional_light(&s, v3(0, 0, -1), v3(10, 10, 10));
     rd_image img;
-    uint8_t *b = render_bytes(&s, NULL, NULL, &img);
+    uint8_t *b = render_bytes(&s, NULL, &img, NULL);
     cr_assert(img.rgb[0] == 0.125 && img.rgb[1] == 0.25 && img.rgb[2] == 0.0625, "linear (%g, %g, %g)", img.rgb[0],
               img.rgb[1], img.rgb[2]);
     assert_px(b, 1, 0, 0, 32, 64, 16);
@@ -423,7 +314,7 @@ Test(render_exact, perfect_specular_ks0_is_ambient_alone)
 
 static void all_materials_scene(rd_scene *s, int w, int h)
 {
-    base_scene(s, w, h);
+    fixture_scene(s, w, h);
     s->camera.eye = v3(0.3, 1.2, 6);
     s->camera.target = v3(0, 0.5, 0);
     s->render.background = v3(0.1, 0.2, 0.3);
@@ -435,44 +326,44 @@ static void all_materials_scene(rd_scene *s, int w, int h)
                              RD_MAT_PSEUDO_NORMAL_COLOR};
     int ms[7];
     for (int i = 0; i < 7; i++) {
-        ms[i] = add_mat(s, ts[i]);
-        mat_at(s, ms[i])->ambient = v3(0.02, 0.02, 0.02);
-        mat_at(s, ms[i])->ks = v3(0.6, 0.6, 0.6);
+        ms[i] = add_material(s, ts[i]);
+        s->materials[ms[i]].ambient = v3(0.02, 0.02, 0.02);
+        s->materials[ms[i]].ks = v3(0.6, 0.6, 0.6);
     }
-    mat_at(s, ms[1])->shininess = 1e6;  /* needle highlight */
-    mat_at(s, ms[2])->shininess = 0;    /* 0^0 */
-    mat_at(s, ms[3])->roughness = 1e-3; /* near-mirror microfacets */
-    mat_at(s, ms[3])->ks = v3(0.04, 0.5, 1);
-    mat_at(s, ms[5])->ks = v3(1, 1, 1);
-    int glass2 = add_mat(s, RD_MAT_SPECULAR_REFRACTION);
-    mat_at(s, glass2)->ior = 0.6; /* total internal reflection from outside */
+    s->materials[ms[1]].shininess = 1e6;  /* needle highlight */
+    s->materials[ms[2]].shininess = 0;    /* 0^0 */
+    s->materials[ms[3]].roughness = 1e-3; /* near-mirror microfacets */
+    s->materials[ms[3]].ks = v3(0.04, 0.5, 1);
+    s->materials[ms[5]].ks = v3(1, 1, 1);
+    int glass2 = add_material(s, RD_MAT_SPECULAR_REFRACTION);
+    s->materials[glass2].ior = 0.6; /* total internal reflection from outside */
     for (int i = 0; i < 7; i++)
         add_sphere(s, v3(-3 + i, 0.5 + 0.3 * (i % 2), -i * 0.2), 0.45, ms[i]);
     add_sphere(s, v3(0, 2, 0), 0.7, glass2);
     add_sphere(s, v3(0.3, 1.2, 6), 0.5, ms[5]); /* the camera sits inside a glass ball */
     add_plane(s, v3(0, 0, 0), v3(0, 1, 0), ms[0]);
     add_plane(s, v3(0, 0, -10), v3(0, 0.1, 1), ms[4]);
-    rd_object *t = add_tri(s, v3(-2, 0, -2), v3(2, 0.01, -2), v3(0, 3, -3), ms[1]);
+    rd_object *t = add_triangle(s, v3(-2, 0, -2), v3(2, 0.01, -2), v3(0, 3, -3), ms[1]);
     t->has_normals = 1;
     t->n[0] = v3(0, 0, 1);
     t->n[1] = v3(0, 0, -1); /* cancelling normals at the midpoint */
     t->n[2] = v3(0, 1, 0);
-    add_tri(s, v3(-2, 0.5, 1), v3(2, 0.5, 1), v3(-2, 0.5, 1), ms[3]); /* degenerate */
-    add_point(s, v3(2, 3, 3), v3(1, 1, 1));
-    add_point(s, v3(1, 0, 1), v3(0.5, 0.5, 0.5)); /* exactly on the floor plane */
-    add_dir(s, v3(-1, -1, -0.5), v3(0.3, 0.3, 0.3));
-    add_dir(s, v3(1, 0, 0), v3(0.3, 0.3, 0.3)); /* grazing the floor */
-    rd_light *sp = add_point(s, v3(-2, 4, 2), v3(0.8, 0.6, 0.4));
+    add_triangle(s, v3(-2, 0.5, 1), v3(2, 0.5, 1), v3(-2, 0.5, 1), ms[3]); /* degenerate */
+    add_point_light(s, v3(2, 3, 3), v3(1, 1, 1));
+    add_point_light(s, v3(1, 0, 1), v3(0.5, 0.5, 0.5)); /* exactly on the floor plane */
+    add_directional_light(s, v3(-1, -1, -0.5), v3(0.3, 0.3, 0.3));
+    add_directional_light(s, v3(1, 0, 0), v3(0.3, 0.3, 0.3)); /* grazing the floor */
+    rd_light *sp = add_point_light(s, v3(-2, 4, 2), v3(0.8, 0.6, 0.4));
     sp->type = RD_LIGHT_SPOT;
     sp->direction = v3(0.3, -1, -0.4);
     sp->angle_deg = 25;
     sp->falloff = 3;
-    add_area(s, v3(-1, 5, -1), v3(2, 0, 0), v3(0, 0, 2), 3, v3(0.7, 0.7, 0.7));
+    add_area_light(s, v3(-1, 5, -1), v3(2, 0, 0), v3(0, 0, 2), 3, v3(0.7, 0.7, 0.7));
 }
 
 /* ---- (2) no NaN or infinity anywhere ---------------------------------------- */
 
-Test(render_robust, every_material_finite)
+Test(render, every_material_finite)
 {
     rd_scene s;
     all_materials_scene(&s, 96, 64);
@@ -481,7 +372,7 @@ Test(render_robust, every_material_finite)
     rd_render_stats st;
     rd_render_options opt = {0};
     opt.threads = 2;
-    uint8_t *b = render_bytes(&s, &opt, &st, &img);
+    uint8_t *b = render_bytes(&s, &opt, &img, &st);
     size_t n = (size_t)img.width * img.height * 3, bad = 0;
     for (size_t i = 0; i < n; i++)
         bad += !isfinite(img.rgb[i]);
@@ -501,7 +392,7 @@ Test(render_robust, every_material_finite)
 
 /* ---- (3) thread and tile independence ----------------------------------------- */
 
-Test(render_determinism, threads_and_tiles_byte_identical)
+Test(render, threads_and_tiles_byte_identical)
 {
     rd_scene s;
     all_materials_scene(&s, 53, 37); /* sizes that no tile divides */
@@ -511,7 +402,7 @@ Test(render_determinism, threads_and_tiles_byte_identical)
     o1.tile = 16;
     rd_image ref;
     rd_render_stats st_ref;
-    uint8_t *b_ref = render_bytes(&s, &o1, &st_ref, &ref);
+    uint8_t *b_ref = render_bytes(&s, &o1, &ref, &st_ref);
     size_t n = (size_t)53 * 37 * 3;
     int configs[][2] = {{2, 16}, {2, 7}, {1, 7}, {3, 1}};
     for (size_t c = 0; c < sizeof configs / sizeof configs[0]; c++) {
@@ -520,7 +411,7 @@ Test(render_determinism, threads_and_tiles_byte_identical)
         o.tile = configs[c][1];
         rd_image img;
         rd_render_stats st;
-        uint8_t *b = render_bytes(&s, &o, &st, &img);
+        uint8_t *b = render_bytes(&s, &o, &img, &st);
         cr_assert(memcmp(b, b_ref, n) == 0, "threads %d tile %d: bytes differ from threads 1 tile 16", o.threads,
                   o.tile);
         cr_assert(memcmp(img.rgb, ref.rgb, n * sizeof(double)) == 0, "threads %d tile %d: linear image differs",
@@ -548,49 +439,49 @@ Test(render_determinism, threads_and_tiles_byte_identical)
 /* The eye at the origin; every position (not direction) times f. */
 static void scaled_scene(rd_scene *s, double f)
 {
-    base_scene(s, 40, 30);
+    fixture_scene(s, 40, 30);
     s->render.samples = 4;
     s->render.seed = 5;
     s->render.max_depth = 4;
     s->render.background = v3(0.05, 0.1, 0.2);
     s->camera.eye = v3(0, 0, 0);
     s->camera.target = v3_scale(v3(0.5, -1, -6), f);
-    int dif = add_mat(s, RD_MAT_DIFFUSE);
-    int ph = add_mat(s, RD_MAT_PHONG);
-    mat_at(s, ph)->ks = v3(0.5, 0.5, 0.5);
-    mat_at(s, ph)->shininess = 40;
-    int ct = add_mat(s, RD_MAT_COOK_TORRANCE);
-    int mir = add_mat(s, RD_MAT_PERFECT_SPECULAR);
-    mat_at(s, mir)->ks = v3(0.8, 0.8, 0.8);
-    int gl = add_mat(s, RD_MAT_SPECULAR_REFRACTION);
+    int dif = add_material(s, RD_MAT_DIFFUSE);
+    int ph = add_material(s, RD_MAT_PHONG);
+    s->materials[ph].ks = v3(0.5, 0.5, 0.5);
+    s->materials[ph].shininess = 40;
+    int ct = add_material(s, RD_MAT_COOK_TORRANCE);
+    int mir = add_material(s, RD_MAT_PERFECT_SPECULAR);
+    s->materials[mir].ks = v3(0.8, 0.8, 0.8);
+    int gl = add_material(s, RD_MAT_SPECULAR_REFRACTION);
     for (int i = 0; i < 5; i++)
-        mat_at(s, i)->ambient = v3(0.03, 0.03, 0.03);
+        s->materials[i].ambient = v3(0.03, 0.03, 0.03);
     add_sphere(s, v3_scale(v3(-1.5, -1, -6), f), 1 * f, ph);
     add_sphere(s, v3_scale(v3(1.2, -1.3, -5), f), 0.7 * f, gl);
     add_sphere(s, v3_scale(v3(0.3, -0.5, -8), f), 1.5 * f, mir);
     add_sphere(s, v3_scale(v3(-0.2, -1.6, -4), f), 0.4 * f, ct);
     add_plane(s, v3_scale(v3(0, -2, 0), f), v3(0, 1, 0), dif);
-    add_tri(s, v3_scale(v3(-3, -2, -10), f), v3_scale(v3(3, -2, -10), f), v3_scale(v3(0, 2, -11), f), dif);
+    add_triangle(s, v3_scale(v3(-3, -2, -10), f), v3_scale(v3(3, -2, -10), f), v3_scale(v3(0, 2, -11), f), dif);
     /* A ring of small spheres and triangles: enough primitives for the
      * world to use its acceleration structure, if it has one. */
     for (int i = 0; i < 24; i++) {
         double a = 2 * M_PI * i / 24;
         rd_vec3 c = v3(2.5 * cos(a), -1.8, -6 + 2.5 * sin(a));
         add_sphere(s, v3_scale(c, f), 0.2 * f, i % 2 ? ph : dif);
-        add_tri(s, v3_scale(v3_add(c, v3(0, 0.3, 0)), f), v3_scale(v3_add(c, v3(0.3, 0.6, 0.1)), f),
+        add_triangle(s, v3_scale(v3_add(c, v3(0, 0.3, 0)), f), v3_scale(v3_add(c, v3(0.3, 0.6, 0.1)), f),
                 v3_scale(v3_add(c, v3(-0.2, 0.7, -0.1)), f), i % 3 ? ct : mir);
     }
-    add_point(s, v3_scale(v3(3, 4, 0), f), v3(0.8, 0.8, 0.8));
-    add_area(s, v3_scale(v3(-2, 3, -4), f), v3_scale(v3(1.5, 0, 0), f), v3_scale(v3(0, 0, 1.5), f), 3,
+    add_point_light(s, v3_scale(v3(3, 4, 0), f), v3(0.8, 0.8, 0.8));
+    add_area_light(s, v3_scale(v3(-2, 3, -4), f), v3_scale(v3(1.5, 0, 0), f), v3_scale(v3(0, 0, 1.5), f), 3,
              v3(0.6, 0.6, 0.6));
-    rd_light *sp = add_point(s, v3_scale(v3(-3, 2, -2), f), v3(0.5, 0.4, 0.3));
+    rd_light *sp = add_point_light(s, v3_scale(v3(-3, 2, -2), f), v3(0.5, 0.4, 0.3));
     sp->type = RD_LIGHT_SPOT;
     sp->direction = v3(0.5, -0.7, -0.6);
     sp->angle_deg = 30;
     sp->falloff = 2;
 }
 
-Test(render_scale, power_of_two_scaling_is_invisible)
+Test(render, power_of_two_scaling_is_invisible)
 {
     /* Scaling every position by 2^k about the eye multiplies every length by
      * an exact power of two; directions, cosines and colours are unchanged.
@@ -598,14 +489,14 @@ Test(render_scale, power_of_two_scaling_is_invisible)
     rd_scene s;
     scaled_scene(&s, 1);
     rd_image ref;
-    uint8_t *b_ref = render_bytes(&s, NULL, NULL, &ref);
+    uint8_t *b_ref = render_bytes(&s, NULL, &ref, NULL);
     size_t n = (size_t)40 * 30 * 3;
     int ks[] = {-20, 20, -60, 60};
     for (int i = 0; i < 4; i++) {
         rd_scene t;
         scaled_scene(&t, ldexp(1, ks[i]));
         rd_image img;
-        uint8_t *b = render_bytes(&t, NULL, NULL, &img);
+        uint8_t *b = render_bytes(&t, NULL, &img, NULL);
         size_t diff = 0, first = n;
         for (size_t j = 0; j < n; j++)
             if (b[j] != b_ref[j]) {
@@ -624,87 +515,9 @@ Test(render_scale, power_of_two_scaling_is_invisible)
     rd_scene_free(&s);
 }
 
-/* ---- (5) the error estimate ------------------------------------------------------ */
-
-static void soft_shadow_scene(rd_scene *s, int samples)
-{
-    base_scene(s, 32, 24);
-    s->render.samples = samples;
-    s->render.seed = 3;
-    s->camera.eye = v3(0, 3, 6);
-    s->camera.target = v3(0, 0, 0);
-    int floor_m = add_mat(s, RD_MAT_DIFFUSE);
-    int ball = add_mat(s, RD_MAT_PHONG);
-    mat_at(s, ball)->ks = v3(0.3, 0.3, 0.3);
-    mat_at(s, ball)->shininess = 30;
-    add_plane(s, v3(0, 0, 0), v3(0, 1, 0), floor_m);
-    add_sphere(s, v3(0, 1, 0), 1, ball);
-    /* A big area light sampled coarsely (2² points): strong per-sample noise. */
-    add_area(s, v3(-2, 4, -2), v3(4, 0, 0), v3(0, 0, 4), 2, v3(1, 1, 1));
-}
-
-static double error_estimate_for(int samples)
-{
-    rd_scene s;
-    soft_shadow_scene(&s, samples);
-    rd_render_stats st;
-    uint8_t *b = render_bytes(&s, NULL, &st, NULL);
-    cr_assert_eq(st.samples, samples);
-    cr_assert(isfinite(st.error_estimate) && st.error_estimate >= 0);
-    free(b);
-    rd_scene_free(&s);
-    return st.error_estimate;
-}
-
-Test(render_error, zero_with_one_sample)
-{
-    cr_assert_eq(error_estimate_for(1), 0.0);
-}
-
-Test(render_error, decreases_with_samples)
-{
-    /* The standard error of a mean falls like 1/√n: ×4 samples ≈ ×0.5 error. */
-    double e4 = error_estimate_for(4), e16 = error_estimate_for(16), e64 = error_estimate_for(64);
-    cr_log_info("error estimates: 4 -> %g, 16 -> %g, 64 -> %g", e4, e16, e64);
-    cr_assert(e4 > 1e-3, "e4 = %g: the scene should be noisy", e4);
-    cr_assert(e16 < e4 && e64 < e16, "not decreasing: %g, %g, %g", e4, e16, e64);
-    cr_assert(e16 / e4 > 0.3 && e16 / e4 < 0.7, "e16/e4 = %g, expected about 0.5", e16 / e4);
-    cr_assert(e64 / e16 > 0.3 && e64 / e16 < 0.7, "e64/e16 = %g, expected about 0.5", e64 / e16);
-}
-
-Test(render_error, predicts_rmse_against_converged)
-{
-    /* The estimate predicts the RMSE (display units) of the image against a
-     * converged one: check it to within a factor of two at 4 samples,
-     * using 1024 samples as the reference. */
-    rd_scene s;
-    soft_shadow_scene(&s, 4);
-    rd_image img4, ref;
-    rd_render_stats st4, stref;
-    uint8_t *b4 = render_bytes(&s, NULL, &st4, &img4);
-    s.render.samples = 1024;
-    s.render.seed = 99;
-    uint8_t *bref = render_bytes(&s, NULL, &stref, &ref);
-    double sum = 0;
-    size_t n = (size_t)32 * 24 * 3;
-    for (size_t i = 0; i < n; i++) {
-        double d = rd_display(img4.rgb[i], 1) - rd_display(ref.rgb[i], 1);
-        sum += d * d;
-    }
-    double rmse = sqrt(sum / n);
-    cr_log_info("4 samples: estimate %g, RMSE against 1024 samples %g", st4.error_estimate, rmse);
-    cr_assert(st4.error_estimate > 0.5 * rmse && st4.error_estimate < 2 * rmse, "estimate %g, measured RMSE %g",
-              st4.error_estimate, rmse);
-    rd_image_free(&img4);
-    rd_image_free(&ref);
-    free(b4);
-    free(bref);
-    rd_scene_free(&s);
-}
-
 /* ---- (7) cancellation --------------------------------------------------------------- */
 
-Test(render_cancel, flag_set_before_render)
+Test(render, cancel_flag_set_before_render)
 {
     rd_scene s;
     soft_shadow_scene(&s, 4);
@@ -732,7 +545,7 @@ static void count_progress(void *user, int done, int total)
         ;
 }
 
-Test(render_cancel, unset_flag_renders_and_progress_completes)
+Test(render, cancel_unset_flag_renders_and_progress_completes)
 {
     /* The same options with the flag clear render normally; progress
      * reaches tiles_total = ceil(32/8)·ceil(24/8) = 12. */
@@ -753,10 +566,10 @@ Test(render_cancel, unset_flag_renders_and_progress_completes)
     rd_scene_free(&s);
 }
 
-Test(render_errors, invalid_camera_leaves_image_empty)
+Test(render, invalid_camera_leaves_image_empty)
 {
     rd_scene s;
-    base_scene(&s, 4, 4);
+    fixture_scene(&s, 4, 4);
     s.camera.target = s.camera.eye;
     rd_image img;
     rd_render_stats st;

@@ -3,9 +3,9 @@
  *
  * CMJ with n = m² samples puts exactly one point in each cell of the m×m
  * grid AND one point in each of the n columns of width 1/n and each of the
- * n rows of height 1/n (the n-rooks property). For n = m·k not square it
- * uses an m×k grid and the fine strata have width 1/(m·k): every one of
- * them holds at most one point. */
+ * n rows of height 1/n (the n-rooks property). Any other n uses an m×k grid
+ * with m·k = n (m the largest divisor of n up to √n): one point in each of
+ * its cells, and still one in each of the n fine columns and rows. */
 #include <criterion/criterion.h>
 #include <math.h>
 #include <stdint.h>
@@ -19,7 +19,7 @@ static void cmj_points(uint32_t n, uint32_t p, double *xs, double *ys)
         rd_cmj(s, n, p, &xs[s], &ys[s]);
 }
 
-Test(cmj, points_in_unit_square)
+Test(sampler, cmj_points_in_unit_square)
 {
     double xs[1024], ys[1024];
     uint32_t ns[] = {1, 2, 3, 4, 5, 7, 16, 17, 64, 100, 1000, 1024};
@@ -63,13 +63,13 @@ static void check_square(uint32_t n, uint32_t pat)
     free(cell);
 }
 
-Test(cmj, stratified_n16)
+Test(sampler, cmj_stratified_n16)
 {
     for (uint32_t p = 0; p < 1000; p++)
         check_square(16, p * 0x9e3779b9u + 1);
 }
 
-Test(cmj, stratified_perfect_squares)
+Test(sampler, cmj_stratified_perfect_squares)
 {
     uint32_t ns[] = {1, 4, 9, 25, 64, 256, 1024, 4096};
     for (size_t i = 0; i < sizeof ns / sizeof ns[0]; i++)
@@ -77,43 +77,70 @@ Test(cmj, stratified_perfect_squares)
             check_square(ns[i], rd_pattern(7, p));
 }
 
-Test(cmj, non_square_counts_fine_strata_once)
+/* The grid core/render/sampler.c uses for n samples: m×k with m·k = n and
+ * m the largest divisor of n up to √n (a prime n gives 1×n). */
+static void cmj_grid(uint32_t n, uint32_t *m, uint32_t *k)
 {
-    /* n = 8 uses a 2x4 grid, n = 12 a 3x4, n = 5 (prime) a 1x5: always
-     * m·k = n with m the largest divisor up to sqrt(n), so no cell is left
-     * empty (an empty cell would bias the pixel mean). Each of the n fine
-     * columns and rows of width 1/n holds exactly one point, and each of
-     * the m×k cells exactly one. */
+    *m = (uint32_t)floor(sqrt((double)n));
+    while (*m > 1 && n % *m)
+        (*m)--;
+    *k = n / *m;
+}
+
+Test(sampler, cmj_non_square_counts_fill_every_cell)
+{
+    /* n = 8 uses a 2x4 grid, n = 12 a 3x4, n = 5 (prime) a 1x5. Each of the
+     * n fine columns and rows of width 1/n holds exactly one point, and each
+     * of the m×k cells exactly one: no cell is left empty (an empty cell
+     * would bias the pixel mean). */
     uint32_t ns[] = {2, 3, 5, 6, 7, 8, 10, 12, 20, 50, 97, 1000};
     for (size_t i = 0; i < sizeof ns / sizeof ns[0]; i++) {
-        uint32_t n = ns[i];
-        uint32_t m = (uint32_t)floor(sqrt((double)n));
-        while (m > 1 && n % m)
-            m--;
-        uint32_t k = n / m, mk = m * k;
-        cr_assert_eq(mk, n);
+        uint32_t n = ns[i], m, k;
+        cmj_grid(n, &m, &k);
         for (uint32_t p = 0; p < 20; p++) {
             double xs[1000], ys[1000];
-            int col[1024] = {0}, row[1024] = {0};
+            int col[1000] = {0}, row[1000] = {0}, cell[1000] = {0};
             cmj_points(n, rd_pattern(3, p), xs, ys);
             for (uint32_t s = 0; s < n; s++) {
-                col[(uint32_t)floor(xs[s] * mk)]++;
-                row[(uint32_t)floor(ys[s] * mk)]++;
+                uint32_t cx = (uint32_t)floor(xs[s] * n), cy = (uint32_t)floor(ys[s] * n);
+                cr_assert(cx < n && cy < n, "n=%u: point %u at (%.17g, %.17g)", n, s, xs[s], ys[s]);
+                col[cx]++;
+                row[cy]++;
+                cell[(uint32_t)floor(ys[s] * k) * m + (uint32_t)floor(xs[s] * m)]++;
             }
-            for (uint32_t j = 0; j < mk; j++) {
-                cr_assert(col[j] == 1, "n=%u: fine column %u of %u holds %d points", n, j, mk, col[j]);
-                cr_assert(row[j] == 1, "n=%u: fine row %u of %u holds %d points", n, j, mk, row[j]);
-            }
-            int cell[1024] = {0};
-            for (uint32_t s2 = 0; s2 < n; s2++)
-                cell[(uint32_t)floor(ys[s2] * k) * m + (uint32_t)floor(xs[s2] * m)]++;
-            for (uint32_t j = 0; j < n; j++)
+            for (uint32_t j = 0; j < n; j++) {
+                cr_assert(col[j] == 1, "n=%u: fine column %u of %u holds %d points", n, j, n, col[j]);
+                cr_assert(row[j] == 1, "n=%u: fine row %u of %u holds %d points", n, j, n, row[j]);
                 cr_assert(cell[j] == 1, "n=%u: cell %u of the %ux%u grid holds %d points", n, j, m, k, cell[j]);
+            }
         }
     }
 }
 
-Test(cmj, deterministic_and_pattern_dependent)
+Test(sampler, cmj_every_count_up_to_512_is_n_rooks)
+{
+    /* Whatever n, the n points fill the n columns [j/n, (j+1)/n) and the n
+     * rows once each, so in either axis the point set is as even as n
+     * points can be: the fraction below any stratum boundary j/n is exactly
+     * j/n. */
+    for (uint32_t n = 1; n <= 512; n++)
+        for (uint32_t p = 0; p < 4; p++) {
+            double xs[512], ys[512];
+            int col[512] = {0}, row[512] = {0};
+            cmj_points(n, rd_pattern(11, p), xs, ys);
+            for (uint32_t s = 0; s < n; s++) {
+                uint32_t cx = (uint32_t)floor(xs[s] * n), cy = (uint32_t)floor(ys[s] * n);
+                cr_assert(cx < n && cy < n, "n=%u: point %u at (%.17g, %.17g)", n, s, xs[s], ys[s]);
+                col[cx]++;
+                row[cy]++;
+            }
+            for (uint32_t j = 0; j < n; j++)
+                cr_assert(col[j] == 1 && row[j] == 1, "n=%u pattern %u: column %u holds %d points, row %u holds %d", n,
+                          p, j, col[j], j, row[j]);
+        }
+}
+
+Test(sampler, cmj_deterministic_and_pattern_dependent)
 {
     /* Same (s, n, p) -> the same bits; another pattern -> another point set. */
     double x1, y1, x2, y2;
@@ -131,7 +158,7 @@ Test(cmj, deterministic_and_pattern_dependent)
     cr_assert_neq(rd_pattern(1, 2), rd_pattern(2, 2));
 }
 
-Test(cmj, mean_is_centred)
+Test(sampler, cmj_mean_is_centred)
 {
     /* A stratified set of 1024 points has a mean within 1/(2·32) of 0.5 per
      * axis (one point per 1/1024 column, so much closer in fact). */
@@ -147,7 +174,7 @@ Test(cmj, mean_is_centred)
     cr_assert(fabs(mx - 0.5) < 1.0 / 1024 && fabs(my - 0.5) < 1.0 / 1024, "mean (%g, %g)", mx, my);
 }
 
-Test(rng, range_and_determinism)
+Test(sampler, rng_range_and_determinism)
 {
     rd_rng a = rd_rng_make(1, 2, 3), b = rd_rng_make(1, 2, 3);
     double lo = 1, hi = 0, sum = 0;
@@ -165,7 +192,7 @@ Test(rng, range_and_determinism)
     cr_assert(lo < 1e-4 && hi > 1 - 1e-4, "range [%g, %g]", lo, hi);
 }
 
-Test(rng, histogram_is_flat)
+Test(sampler, rng_histogram_is_flat)
 {
     /* 16 bins of 1e5 draws: each 6250 ± 77 (1 σ); allow 6 σ. */
     rd_rng r = rd_rng_make(0, 0, 0);
@@ -176,7 +203,7 @@ Test(rng, histogram_is_flat)
         cr_assert(abs(bins[b] - 6250) < 470, "bin %d holds %d of 100000", b, bins[b]);
 }
 
-Test(rng, keys_give_independent_streams)
+Test(sampler, rng_keys_give_independent_streams)
 {
     /* Changing any key changes the stream. */
     rd_rng base = rd_rng_make(5, 6, 7);

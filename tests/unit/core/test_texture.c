@@ -48,7 +48,7 @@ static double texel(const rd_texture *t, int i, int j, int k) { return t->rgb[3 
     cr_assert(fabs((c).x - (r)) <= (tol) && fabs((c).y - (g)) <= (tol) && fabs((c).z - (b)) <= (tol),      \
               __VA_ARGS__)
 
-Test(texture_sample, texel_centres_are_exact)
+Test(texture, sample_texel_centres_are_exact)
 {
     /* Power-of-two sizes: (i + 0.5)/w·w - 0.5 = i exactly, so the texel
      * itself comes back bit for bit. */
@@ -74,7 +74,7 @@ Test(texture_sample, texel_centres_are_exact)
     free(t.rgb);
 }
 
-Test(texture_sample, bilinear_midpoints)
+Test(texture, sample_bilinear_midpoints)
 {
     rd_texture t = make_tex(4, 4);
     for (int j = 0; j < 4; j++)
@@ -105,7 +105,7 @@ Test(texture_sample, bilinear_midpoints)
     free(t.rgb);
 }
 
-Test(texture_sample, wrap_seam)
+Test(texture, sample_wrap_seam)
 {
     /* u = 0 and u = 1 are both the seam: halfway between the last column
      * and the first. Likewise v = 0 and v = 1 between the last and first
@@ -140,7 +140,7 @@ Test(texture_sample, wrap_seam)
     free(t.rgb);
 }
 
-Test(texture_sample, negative_and_huge_coordinates_wrap)
+Test(texture, sample_negative_and_huge_coordinates_wrap)
 {
     rd_texture t = make_tex(4, 4);
     /* Offsets by whole numbers that keep (i + 0.5)/4 exact. */
@@ -167,7 +167,7 @@ Test(texture_sample, negative_and_huge_coordinates_wrap)
     free(t.rgb);
 }
 
-Test(texture_sample, v_zero_is_the_top_row)
+Test(texture, sample_v_zero_is_the_top_row)
 {
     /* Row 0 of the array is the top row of the image (the PNG's first
      * row); v grows downward: small v reads row 0, v near 1 the last row. */
@@ -288,7 +288,7 @@ static void check_decode(const membuf *m, int w, int h, const unsigned *want, un
 /* Distinct-ish sample values for pixel p, channel k, in 0..255. */
 static unsigned val8(int p, int k) { return (unsigned)((p * 37 + k * 101 + 3) % 256); }
 
-Test(png_decode, rgb_8bit)
+Test(texture, png_rgb_8bit)
 {
     int w = 5, h = 3;
     png_layout L = {w, h, PNG_COLOR_TYPE_RGB, 8, 0, NULL, 0, NULL, 0};
@@ -312,7 +312,7 @@ Test(png_decode, rgb_8bit)
     free_rows(rows, h);
 }
 
-Test(png_decode, rgba_drops_alpha)
+Test(texture, png_rgba_drops_alpha)
 {
     int w = 4, h = 3;
     png_layout L = {w, h, PNG_COLOR_TYPE_RGB_ALPHA, 8, 0, NULL, 0, NULL, 0};
@@ -332,7 +332,7 @@ Test(png_decode, rgba_drops_alpha)
     free_rows(rows, h);
 }
 
-Test(png_decode, grey_8bit)
+Test(texture, png_grey_8bit)
 {
     int w = 7, h = 2;
     png_layout L = {w, h, PNG_COLOR_TYPE_GRAY, 8, 0, NULL, 0, NULL, 0};
@@ -353,7 +353,7 @@ Test(png_decode, grey_8bit)
     free_rows(rows, h);
 }
 
-Test(png_decode, grey_1_2_4_bit)
+Test(texture, png_grey_1_2_4_bit)
 {
     int depths[] = {1, 2, 4};
     for (int di = 0; di < 3; di++) {
@@ -378,7 +378,7 @@ Test(png_decode, grey_1_2_4_bit)
     }
 }
 
-Test(png_decode, grey_alpha)
+Test(texture, png_grey_alpha)
 {
     int w = 3, h = 3;
     png_layout L = {w, h, PNG_COLOR_TYPE_GRAY_ALPHA, 8, 0, NULL, 0, NULL, 0};
@@ -400,7 +400,7 @@ Test(png_decode, grey_alpha)
 
 static const png_color test_palette[5] = {{0, 0, 0}, {255, 0, 0}, {12, 200, 34}, {1, 2, 3}, {250, 251, 252}};
 
-Test(png_decode, palette_with_and_without_trns)
+Test(texture, png_palette_with_and_without_trns)
 {
     int w = 6, h = 2;
     for (int with_trns = 0; with_trns < 2; with_trns++) {
@@ -424,7 +424,7 @@ Test(png_decode, palette_with_and_without_trns)
     }
 }
 
-Test(png_decode, palette_2bit)
+Test(texture, png_palette_2bit)
 {
     /* Packed palette indices. */
     int w = 7, h = 2;
@@ -445,7 +445,7 @@ Test(png_decode, palette_2bit)
     free_rows(rows, h);
 }
 
-Test(png_decode, rgb_16bit_keeps_all_bits)
+Test(texture, png_rgb_16bit_keeps_all_bits)
 {
     int w = 4, h = 2;
     png_layout L = {w, h, PNG_COLOR_TYPE_RGB, 16, 0, NULL, 0, NULL, 0};
@@ -467,7 +467,7 @@ Test(png_decode, rgb_16bit_keeps_all_bits)
     free_rows(rows, h);
 }
 
-Test(png_decode, grey_16bit_and_rgba_16bit)
+Test(texture, png_grey_16bit_and_rgba_16bit)
 {
     int w = 3, h = 2;
     png_layout G = {w, h, PNG_COLOR_TYPE_GRAY, 16, 0, NULL, 0, NULL, 0};
@@ -500,7 +500,7 @@ Test(png_decode, grey_16bit_and_rgba_16bit)
     free_rows(rows, h);
 }
 
-Test(png_decode, interlaced_adam7)
+Test(texture, png_interlaced_adam7)
 {
     /* 13x11 reaches every one of the seven passes with partial blocks. */
     int w = 13, h = 11;
@@ -549,7 +549,7 @@ static membuf small_png(void)
     return m;
 }
 
-Test(png_decode, truncated_png_is_a_syntax_error)
+Test(texture, png_truncated_png_is_a_syntax_error)
 {
     membuf m = small_png();
     /* Every proper prefix: mid-signature, mid-header, mid-data, without IEND. */
@@ -576,7 +576,7 @@ Test(png_decode, truncated_png_is_a_syntax_error)
     free(m.data);
 }
 
-Test(png_decode, not_a_png_is_a_syntax_error)
+Test(texture, png_not_a_png_is_a_syntax_error)
 {
     const char *texts[] = {"GIF89a\x01\x00\x01\x00", "P6\n1 1\n255\n\xff\xff\xff", "\x89PNG\r\n\x1a", "",
                            "\x89PNG\r\n\x1b\n\0\0\0\rIHDR"};
@@ -627,7 +627,7 @@ static size_t header_only_png(unsigned char *out, uint32_t w, uint32_t h)
     return n;
 }
 
-Test(png_decode, over_the_pixel_limit_before_decoding)
+Test(texture, png_over_the_pixel_limit_before_decoding)
 {
     unsigned char buf[256];
     /* A real 100x100 image: 10000 pixels passes a limit of 10000, not 9999. */
@@ -666,7 +666,7 @@ Test(png_decode, over_the_pixel_limit_before_decoding)
     cr_assert_eq(rc, RD_ERR_LIMIT, "65536x65536: code %d (%s)", rc, err.message);
 }
 
-Test(png_decode, wide_image_over_the_limit_is_a_limit_error)
+Test(texture, png_wide_image_over_the_limit_is_a_limit_error)
 {
     /* 3,000,000 x 1 is 3M pixels, over a limit of 1M: a size limit, not a
      * damaged file, whatever width libpng itself would accept. */
@@ -679,7 +679,7 @@ Test(png_decode, wide_image_over_the_limit_is_a_limit_error)
     cr_assert(strstr(err.message, "--max-texture-pixels"), "%s", err.message);
 }
 
-Test(png_decode, limit_error_without_an_error_record)
+Test(texture, png_limit_error_without_an_error_record)
 {
     /* Like every rd_ function taking rd_error *, a NULL err must be
      * allowed (rd_error_set accepts it): the code alone comes back. */

@@ -7,24 +7,13 @@
 #include <math.h>
 
 #include "rayd/vec3.h"
-
-/* |a - b| <= tol, with a message naming both values. */
-#define assert_near(a, b, tol) \
-    cr_assert(fabs((double)(a) - (double)(b)) <= (tol), "%s = %.17g, expected %.17g (tol %g)", #a, (double)(a), (double)(b), (double)(tol))
-
-#define assert_vec_near(v, ex, ey, ez, tol) \
-    do {                                     \
-        rd_vec3 v_ = (v);                    \
-        assert_near(v_.x, ex, tol);          \
-        assert_near(v_.y, ey, tol);          \
-        assert_near(v_.z, ez, tol);          \
-    } while (0)
+#include "support/assert.h"
 
 /* A few ulps of 1: the result of a normalisation is a unit vector rounded
  * in two divisions, a multiplication and a square root. */
 #define UNIT_TOL (4 * DBL_EPSILON)
 
-Test(vec3_normalize, ordinary_vector)
+Test(vec3, normalize_ordinary_vector)
 {
     /* (3, 4, 12) has length 13: the unit vector is (3/13, 4/13, 12/13). */
     rd_vec3 n = v3_normalize(v3(3, 4, 12));
@@ -32,14 +21,14 @@ Test(vec3_normalize, ordinary_vector)
     assert_near(v3_len(n), 1.0, UNIT_TOL);
 }
 
-Test(vec3_normalize, keeps_sign_and_axis)
+Test(vec3, normalize_keeps_sign_and_axis)
 {
     /* A vector along -y stays exactly -y: the largest component divides itself. */
     rd_vec3 n = v3_normalize(v3(0, -7.5, 0));
     cr_assert(n.x == 0 && n.y == -1 && n.z == 0, "got (%g, %g, %g)", n.x, n.y, n.z);
 }
 
-Test(vec3_normalize, huge_1e200)
+Test(vec3, normalize_huge_1e200)
 {
     /* |(1e200,1e200,1e200)|² = 3e400 overflows a double; the scaled form must
      * still give 1/sqrt(3) in each component. */
@@ -51,7 +40,7 @@ Test(vec3_normalize, huge_1e200)
     assert_vec_near(n, 0.6, -0.8, 0.0, UNIT_TOL);
 }
 
-Test(vec3_normalize, tiny_1e200)
+Test(vec3, normalize_tiny_1e_minus_200)
 {
     /* |(3e-200, 4e-200, 0)|² = 2.5e-399 underflows to 0; the answer is (0.6, 0.8, 0). */
     rd_vec3 n = v3_normalize(v3(3e-200, 4e-200, 0));
@@ -61,14 +50,14 @@ Test(vec3_normalize, tiny_1e200)
     assert_vec_near(n, -e, e, -e, UNIT_TOL);
 }
 
-Test(vec3_normalize, smallest_normal_doubles)
+Test(vec3, normalize_smallest_normal_doubles)
 {
     /* DBL_MIN (2.2e-308) is still a normal number: unit result expected. */
     rd_vec3 n = v3_normalize(v3(0, 0, DBL_MIN));
     cr_assert(n.x == 0 && n.y == 0 && n.z == 1, "got (%g, %g, %g)", n.x, n.y, n.z);
 }
 
-Test(vec3_normalize, subnormal_vector)
+Test(vec3, normalize_subnormal_vector)
 {
     /* A non-zero finite vector must normalise (the header: only zero or
      * non-finite input gives the zero vector). With components below
@@ -82,7 +71,7 @@ Test(vec3_normalize, subnormal_vector)
               n.x, n.y, n.z);
 }
 
-Test(vec3_normalize, zero_and_infinite_give_zero)
+Test(vec3, normalize_zero_and_infinite_give_zero)
 {
     rd_vec3 z = v3_normalize(v3(0, 0, 0));
     cr_assert(z.x == 0 && z.y == 0 && z.z == 0);
@@ -94,7 +83,7 @@ Test(vec3_normalize, zero_and_infinite_give_zero)
     cr_assert(z.x == 0 && z.y == 0 && z.z == 0, "-inf input gave (%g, %g, %g)", z.x, z.y, z.z);
 }
 
-Test(vec3_normalize, nan_gives_zero)
+Test(vec3, normalize_nan_gives_zero)
 {
     /* NaN is non-finite too, so the header promises the zero vector. The
      * largest-component test uses fmax, which ignores a NaN argument: a NaN
@@ -107,7 +96,7 @@ Test(vec3_normalize, nan_gives_zero)
     }
 }
 
-Test(vec3_normalize, unit_length_across_exponents)
+Test(vec3, normalize_unit_length_across_exponents)
 {
     /* One direction at every power-of-ten scale from 1e-300 to 1e300: the
      * result must not depend on the scale by more than rounding. */
@@ -120,7 +109,7 @@ Test(vec3_normalize, unit_length_across_exponents)
     }
 }
 
-Test(vec3_reflect, mirror_about_normal)
+Test(vec3, reflect_mirror_about_normal)
 {
     /* reflect(i, n) = i - 2(i·n)n. i = (1, -1, 0), n = (0, 1, 0):
      * i·n = -1, so i + 2n = (1, 1, 0). */
@@ -134,7 +123,7 @@ Test(vec3_reflect, mirror_about_normal)
     cr_assert(r.x == 2 && r.y == 0 && r.z == 3);
 }
 
-Test(vec3_reflect, oblique_normal)
+Test(vec3, reflect_oblique_normal)
 {
     /* n = (0.6, 0.8, 0) (unit, exact in binary up to rounding of 0.6, 0.8),
      * i = (0, -1, 0): i·n = -0.8, r = i + 1.6 n = (0.96, 0.28, 0). */
@@ -145,7 +134,7 @@ Test(vec3_reflect, oblique_normal)
     assert_near(v3_dot(r, v3(0.6, 0.8, 0)), 0.8, 4 * DBL_EPSILON);
 }
 
-Test(vec3_reflect, involution)
+Test(vec3, reflect_involution)
 {
     /* reflect(reflect(i, n), n) = i for a unit n. */
     rd_vec3 n = v3_normalize(v3(1, 2, 2)); /* (1,2,2)/3 */
@@ -154,7 +143,7 @@ Test(vec3_reflect, involution)
     assert_vec_near(rr, i.x, i.y, i.z, 8 * DBL_EPSILON);
 }
 
-Test(vec3_cross, basis_is_right_handed)
+Test(vec3, cross_basis_is_right_handed)
 {
     rd_vec3 c = v3_cross(v3(1, 0, 0), v3(0, 1, 0));
     cr_assert(c.x == 0 && c.y == 0 && c.z == 1, "x×y = (%g, %g, %g)", c.x, c.y, c.z);
@@ -164,7 +153,7 @@ Test(vec3_cross, basis_is_right_handed)
     cr_assert(c.x == 0 && c.y == 1 && c.z == 0, "z×x = (%g, %g, %g)", c.x, c.y, c.z);
 }
 
-Test(vec3_cross, integer_vectors)
+Test(vec3, cross_integer_vectors)
 {
     /* (2,3,4)×(5,6,7) = (3·7-4·6, 4·5-2·7, 2·6-3·5) = (-3, 6, -3). */
     rd_vec3 a = v3(2, 3, 4), b = v3(5, 6, 7);
@@ -178,7 +167,7 @@ Test(vec3_cross, integer_vectors)
     cr_assert(z.x == 0 && z.y == 0 && z.z == 0);
 }
 
-Test(vec3_dot, values)
+Test(vec3, dot_values)
 {
     /* (1,2,3)·(4,-5,6) = 4 - 10 + 18 = 12. */
     cr_assert(v3_dot(v3(1, 2, 3), v3(4, -5, 6)) == 12);
