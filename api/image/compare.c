@@ -39,3 +39,32 @@ void rd_compare_rgb8(const uint8_t *a, const uint8_t *b, size_t pixels, rd_compa
     out->mean_a = (double)sum_a / n / 255.0;
     out->mean_b = (double)sum_b / n / 255.0;
 }
+
+double rd_compare_display_rmse(const rd_image *img, const double *ref, double gamma)
+{
+    size_t n = (size_t)img->width * (size_t)img->height * 3;
+    double sum = 0;
+    for (size_t i = 0; i < n; i++) {
+        double d = rd_display(img->rgb[i], gamma) - ref[i];
+        sum += d * d;
+    }
+    return n ? sqrt(sum / (double)n) : 0;
+}
+
+double rd_loglog_slope(const double *x, const double *y, int n)
+{
+    double sx = 0, sy = 0, sxx = 0, sxy = 0;
+    int m = 0;
+    for (int i = 0; i < n; i++) {
+        if (!(x[i] > 0) || !(y[i] > 0))
+            continue;
+        double a = log(x[i]), b = log(y[i]);
+        sx += a;
+        sy += b;
+        sxx += a * a;
+        sxy += a * b;
+        m++;
+    }
+    double d = m * sxx - sx * sx;
+    return m >= 2 && d != 0 ? (m * sxy - sx * sy) / d : NAN;
+}

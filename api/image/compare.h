@@ -8,6 +8,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "rayd/image.h"
+
 typedef struct {
     size_t pixels;
     /* Root-mean-square difference over every pixel and channel, in output
@@ -24,5 +26,14 @@ typedef struct {
 /* Compares a and b, each pixels·3 bytes (R, G, B per pixel). With no pixels
  * every figure is 0 and psnr_db is +infinity, as for identical images. */
 void rd_compare_rgb8(const uint8_t *a, const uint8_t *b, size_t pixels, rd_compare_result *out);
+
+/* The true error of a render against a converged one, in the units of its
+ * error_estimate: the RMSE of img's display values (rd_display with gamma)
+ * against ref, width·height·3 display values. */
+double rd_compare_display_rmse(const rd_image *img, const double *ref, double gamma);
+
+/* Least-squares slope of log(y) against log(x) over the points where both
+ * are > 0: how an error falls with samples. NAN with fewer than two. */
+double rd_loglog_slope(const double *x, const double *y, int n);
 
 #endif

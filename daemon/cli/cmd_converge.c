@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include "cli.h"
+#include "compare.h"
 #include "png_read.h"
 #include "png_write.h"
 #include "rayd/render.h"
@@ -34,37 +35,6 @@ static const char converge_help[] =
     "  --adaptive             use adaptive passes (each row a progressive render)\n"
     "  --svg FILE             write the error-against-time plot as SVG\n"
     "  --csv FILE             write the table as CSV\n";
-
-/* RMSE between an image's display values and reference display values. */
-static double rmse(const rd_image *img, const double *ref, double gamma)
-{
-    size_t n = (size_t)img->width * (size_t)img->height * 3;
-    double sum = 0;
-    for (size_t i = 0; i < n; i++) {
-        double d = rd_display(img->rgb[i], gamma) - ref[i];
-        sum += d * d;
-    }
-    return sqrt(sum / (double)n);
-}
-
-/* Least-squares slope of log(y) against log(x) over points with y > 0. */
-static double loglog_slope(const double *x, const double *y, int n)
-{
-    double sx = 0, sy = 0, sxx = 0, sxy = 0;
-    int m = 0;
-    for (int i = 0; i < n; i++) {
-        if (!(x[i] > 0) || !(y[i] > 0))
-            continue;
-        double a = log(x[i]), b = log(y[i]);
-        sx += a;
-        sy += b;
-        sxx += a * a;
-        sxy += a * b;
-        m++;
-    }
-    double d = m * sxx - sx * sx;
-    return m >= 2 && d != 0 ? (m * sxy - sx * sy) / d : NAN;
-}
 
 typedef struct {
     long max_samples, ref_samples, threads;
@@ -219,7 +189,7 @@ static void measure_rows(const converge_args *a, rd_scene *s, const double *ref,
             fprintf(stderr, "rayd converge: %s\n", err.message);
             break;
         }
-        double raw = rmse(&img, ref, s->render.gamma), d = raw * raw - ref_err * ref_err;
+        double raw = rd_compare_display_rmse(&img, ref, s->render.gamma), d = raw * raw - ref_err * ref_err;
         int i = t->n++;
         t->ms[i] = st.wall_ms;
         t->spp[i] = st.mean_samples;
@@ -229,8 +199,8 @@ static void measure_rows(const converge_args *a, rd_scene *s, const double *ref,
                t->truth[i] > 0 ? t->est[i] / t->truth[i] : NAN);
         rd_image_free(&img);
     }
-    printf("slope of log(true error) against log(samples): %.3f\n", loglog_slope(t->spp, t->truth, t->n));
-    printf("slope of log(estimate) against log(samples):   %.3f\n", loglog_slope(t->spp + 1, t->est + 1, t->n - 1));
+    printf("slope of log(true error) against log(samples): %.3f\n", rd_loglog_slope(t->spp, t->truth, t->n));
+    printf("slope of log(estimate) against log(samples):   %.3f\n", rd_loglog_slope(t->spp + 1, t->est + 1, t->n - 1));
 }
 
 static rd_error_code write_csv(const char *path, const rows *t, rd_error *err)

@@ -6,6 +6,7 @@
 #include <stdlib.h>
 
 #include "scene_fixture.h"
+#include "compare.h"
 
 double *display_values(const rd_image *img, double gamma)
 {
@@ -19,13 +20,7 @@ double *display_values(const rd_image *img, double gamma)
 
 double rmse_display(const rd_image *img, const double *ref, double gamma)
 {
-    size_t n = (size_t)img->width * (size_t)img->height * 3;
-    double sum = 0;
-    for (size_t i = 0; i < n; i++) {
-        double d = rd_display(img->rgb[i], gamma) - ref[i];
-        sum += d * d;
-    }
-    return sqrt(sum / (double)n);
+    return rd_compare_display_rmse(img, ref, gamma);
 }
 
 double true_error(const rd_image *img, const double *ref, double ref_estimate, double gamma)

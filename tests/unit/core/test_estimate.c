@@ -32,22 +32,9 @@
 #include "support/load.h"
 #include "support/scene_fixture.h"
 #include "support/true_error.h"
+#include "compare.h"
 
 /* ---- helpers -------------------------------------------------------------------- */
-
-/* Least-squares slope of log y against log x. */
-static double loglog_slope(const double *x, const double *y, int n)
-{
-    double sx = 0, sy = 0, sxx = 0, sxy = 0;
-    for (int i = 0; i < n; i++) {
-        double a = log(x[i]), b = log(y[i]);
-        sx += a;
-        sy += b;
-        sxx += a * a;
-        sxy += a * b;
-    }
-    return (n * sxy - sx * sy) / (n * sxx - sx * sx);
-}
 
 /* P(S = k) for S ~ Binomial(n, p). */
 static double binom_pmf(int n, int k, double p)
@@ -325,8 +312,8 @@ static void check_scene(rd_scene *s, const char *name)
         printf("  %7d %10.6f %10.6f %9.3f\n", ns[i], es[i], tr[i], es[i] / tr[i]);
         rd_image_free(&img);
     }
-    double slope = loglog_slope(x, tr, 4);
-    printf("  slope of log(true) against log(samples): %.3f (estimate: %.3f)\n", slope, loglog_slope(x, es, 4));
+    double slope = rd_loglog_slope(x, tr, 4);
+    printf("  slope of log(true) against log(samples): %.3f (estimate: %.3f)\n", slope, rd_loglog_slope(x, es, 4));
     /* The reference must be much better than the renders it judges. */
     cr_assert(rst.error_estimate < tr[3] / 3, "%s: reference estimate %g, true error at 32 samples %g", name,
               rst.error_estimate, tr[3]);
