@@ -39,6 +39,7 @@
 #include "scene_load.h"
 #include "file_io.h"
 #include "support/load.h"
+#include "support/rng.h"
 
 const char *rd_stability_scene_dir = "scenes/extreme";
 int rd_stability_threads = 1;
@@ -2257,7 +2258,7 @@ static void run_shuffled_order(rd_case_result *r)
         memset(&a, 0, sizeof a);
         order_base(r, mesh, &s, &a);
         if (a.rgb8) {
-            uint64_t x = 0x9e3779b97f4a7c15ULL;
+            test_rng g = {0x9e3779b97f4a7c15ULL};
             size_t worst_d = 0;
             for (int perm = 0; perm < 6; perm++) {
                 size_t n = s.object_count;
@@ -2269,8 +2270,7 @@ static void run_shuffled_order(rd_case_result *r)
                     }
                 } else {
                     for (size_t i = n - 1; i > 0; i--) {
-                        x ^= x << 13, x ^= x >> 7, x ^= x << 17;
-                        size_t j = (size_t)(x % (i + 1));
+                        size_t j = (size_t)(rng_u64(&g) % (i + 1));
                         rd_object t = s.objects[i];
                         s.objects[i] = s.objects[j];
                         s.objects[j] = t;
