@@ -22,6 +22,7 @@
 #include <zlib.h>
 
 #include "png_read.h"
+#include "support/png_fixture.h"
 
 /* Far below what the attacks below used to cost (2 GB for a 44-byte file)
  * and far above what decoding a small image needs, even with sanitizers. */
@@ -100,23 +101,8 @@ static void assert_cheap(const decoded *d, const char *what)
 
 /* ---- assembling PNGs --------------------------------------------------------- */
 
-typedef struct {
-    unsigned char *data;
-    size_t len, cap;
-} buf;
-
-static void put(buf *b, const void *p, size_t n)
-{
-    if (b->len + n > b->cap) {
-        size_t nc = (b->cap ? b->cap * 2 : 4096) + n;
-        unsigned char *q = realloc(b->data, nc);
-        cr_assert(q, "out of memory building a test PNG");
-        b->data = q;
-        b->cap = nc;
-    }
-    memcpy(b->data + b->len, p, n);
-    b->len += n;
-}
+typedef png_bytes buf;
+#define put png_bytes_put
 
 static void put32(buf *b, uint32_t v)
 {
@@ -414,43 +400,8 @@ Test(png_limits, cost_is_bounded_by_the_pixel_limit)
 
 /* ---- (c) ordinary images decode as before ------------------------------------- */
 
-typedef struct {
-    int width, height, color_type, depth, interlace;
-    const png_color *palette;
-    int npalette;
-    const png_byte *trns; /* palette alpha */
-    int ntrns;
-    const png_color_16 *trns_colour; /* grey or RGB */
-} layout;
-
-static void mem_write(png_structp png, png_bytep src, png_size_t n) { put(png_get_io_ptr(png), src, n); }
-
-static void mem_flush(png_structp png) { (void)png; }
-
-/* Rows exactly as PNG stores them (packed below 8 bits, big-endian at 16),
- * encoded by libpng. */
-static buf encode(const layout *L, unsigned char **rows)
-{
-    buf m = {NULL, 0, 0};
-    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
-    cr_assert(png);
-    png_infop info = png_create_info_struct(png);
-    cr_assert(info);
-    if (setjmp(png_jmpbuf(png)))
-        cr_assert_fail("libpng failed to encode the test image");
-    png_set_write_fn(png, &m, mem_write, mem_flush);
-    png_set_IHDR(png, info, (png_uint_32)L->width, (png_uint_32)L->height, L->depth, L->color_type,
-                 L->interlace ? PNG_INTERLACE_ADAM7 : PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
-                 PNG_FILTER_TYPE_DEFAULT);
-    if (L->palette)
-        png_set_PLTE(png, info, L->palette, L->npalette);
-    if (L->trns || L->trns_colour)
-        png_set_tRNS(png, info, L->trns, L->ntrns, L->trns_colour);
-    png_set_rows(png, info, rows);
-    png_write_png(png, info, PNG_TRANSFORM_IDENTITY, NULL);
-    png_destroy_write_struct(&png, &info);
-    return m;
-}
+typedef png_layout layout;
+#define encode png_fixture_encode
 
 /* The same file with ancillary chunks right after IHDR, each a valid one
  * of its kind (the profile apart): text, compressed text, a colour
@@ -512,23 +463,8 @@ static void check(const buf *m, int w, int h, const unsigned *want, unsigned max
     free(dressed.data);
 }
 
-static unsigned char **alloc_rows(int h, size_t bytes_per_row)
-{
-    unsigned char **rows = malloc(sizeof *rows * (size_t)h);
-    cr_assert(rows);
-    for (int y = 0; y < h; y++) {
-        rows[y] = calloc(1, bytes_per_row);
-        cr_assert(rows[y]);
-    }
-    return rows;
-}
-
-static void free_rows(unsigned char **rows, int h)
-{
-    for (int y = 0; y < h; y++)
-        free(rows[y]);
-    free(rows);
-}
+#define alloc_rows png_fixture_rows
+#define free_rows png_fixture_free_rows
 
 static const png_color palette[5] = {{0, 0, 0}, {255, 0, 0}, {12, 200, 34}, {1, 2, 3}, {250, 251, 252}};
 

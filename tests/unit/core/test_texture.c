@@ -22,6 +22,7 @@
 #include "scene_assets.h"
 #include "scene_limits.h"
 #include "texture.h"
+#include "support/png_fixture.h"
 
 /* ---- rd_texture_sample ---------------------------------------------------- */
 
@@ -181,79 +182,10 @@ Test(texture, sample_v_zero_is_the_top_row)
 
 /* ---- encoding PNGs in memory ----------------------------------------------- */
 
-typedef struct {
-    unsigned char *data;
-    size_t len, cap;
-} membuf;
-
-static void mem_write(png_structp png, png_bytep src, png_size_t n)
-{
-    membuf *m = png_get_io_ptr(png);
-    if (m->len + n > m->cap) {
-        size_t nc = (m->cap ? m->cap * 2 : 1024) + n;
-        unsigned char *p = realloc(m->data, nc);
-        if (!p)
-            png_error(png, "out of memory");
-        m->data = p;
-        m->cap = nc;
-    }
-    memcpy(m->data + m->len, src, n);
-    m->len += n;
-}
-
-static void mem_flush(png_structp png) { (void)png; }
-
-typedef struct {
-    int width, height, color_type, depth, interlace;
-    const png_color *palette;
-    int npalette;
-    const png_byte *trns; /* palette alpha */
-    int ntrns;
-} png_layout;
-
-/* Encodes rows (each exactly as PNG stores it: packed below 8 bits,
- * big-endian at 16) into a malloc'ed PNG. */
-static membuf encode_png(const png_layout *L, unsigned char **rows)
-{
-    membuf m = {NULL, 0, 0};
-    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
-    cr_assert(png);
-    png_infop info = png_create_info_struct(png);
-    cr_assert(info);
-    if (setjmp(png_jmpbuf(png)))
-        cr_assert_fail("libpng failed to encode the test image");
-    png_set_write_fn(png, &m, mem_write, mem_flush);
-    png_set_IHDR(png, info, (png_uint_32)L->width, (png_uint_32)L->height, L->depth, L->color_type,
-                 L->interlace ? PNG_INTERLACE_ADAM7 : PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
-                 PNG_FILTER_TYPE_DEFAULT);
-    if (L->palette)
-        png_set_PLTE(png, info, L->palette, L->npalette);
-    if (L->trns)
-        png_set_tRNS(png, info, L->trns, L->ntrns, NULL);
-    png_set_rows(png, info, rows);
-    png_write_png(png, info, PNG_TRANSFORM_IDENTITY, NULL);
-    png_destroy_write_struct(&png, &info);
-    return m;
-}
-
-/* Row storage for a w x h image of `bytes_per_row` bytes per row. */
-static unsigned char **alloc_rows(int h, size_t bytes_per_row)
-{
-    unsigned char **rows = malloc(sizeof *rows * (size_t)h);
-    cr_assert(rows);
-    for (int y = 0; y < h; y++) {
-        rows[y] = calloc(1, bytes_per_row);
-        cr_assert(rows[y]);
-    }
-    return rows;
-}
-
-static void free_rows(unsigned char **rows, int h)
-{
-    for (int y = 0; y < h; y++)
-        free(rows[y]);
-    free(rows);
-}
+typedef png_bytes membuf;
+#define encode_png png_fixture_encode
+#define alloc_rows png_fixture_rows
+#define free_rows png_fixture_free_rows
 
 /* Decodes and checks the layout flags, then every pixel against want
  * (3 per pixel, in 0..maxval), and the texture made from the same bytes
@@ -291,7 +223,7 @@ static unsigned val8(int p, int k) { return (unsigned)((p * 37 + k * 101 + 3) % 
 Test(texture, png_rgb_8bit)
 {
     int w = 5, h = 3;
-    png_layout L = {w, h, PNG_COLOR_TYPE_RGB, 8, 0, NULL, 0, NULL, 0};
+    png_layout L = {w, h, PNG_COLOR_TYPE_RGB, 8, 0, NULL, 0, NULL, 0, NULL};
     unsigned char **rows = alloc_rows(h, (size_t)w * 3);
     unsigned want[5 * 3 * 3];
     for (int y = 0; y < h; y++)
@@ -315,7 +247,7 @@ Test(texture, png_rgb_8bit)
 Test(texture, png_rgba_drops_alpha)
 {
     int w = 4, h = 3;
-    png_layout L = {w, h, PNG_COLOR_TYPE_RGB_ALPHA, 8, 0, NULL, 0, NULL, 0};
+    png_layout L = {w, h, PNG_COLOR_TYPE_RGB_ALPHA, 8, 0, NULL, 0, NULL, 0, NULL};
     unsigned char **rows = alloc_rows(h, (size_t)w * 4);
     unsigned want[4 * 3 * 3];
     for (int y = 0; y < h; y++)
@@ -335,7 +267,7 @@ Test(texture, png_rgba_drops_alpha)
 Test(texture, png_grey_8bit)
 {
     int w = 7, h = 2;
-    png_layout L = {w, h, PNG_COLOR_TYPE_GRAY, 8, 0, NULL, 0, NULL, 0};
+    png_layout L = {w, h, PNG_COLOR_TYPE_GRAY, 8, 0, NULL, 0, NULL, 0, NULL};
     unsigned char **rows = alloc_rows(h, (size_t)w);
     unsigned want[7 * 2 * 3];
     for (int y = 0; y < h; y++)
@@ -359,7 +291,7 @@ Test(texture, png_grey_1_2_4_bit)
     for (int di = 0; di < 3; di++) {
         int d = depths[di], w = 11, h = 3; /* 11 pixels: the last byte of a row is partly padding */
         unsigned maxs = (1u << d) - 1, scale = 255 / maxs;
-        png_layout L = {w, h, PNG_COLOR_TYPE_GRAY, d, 0, NULL, 0, NULL, 0};
+        png_layout L = {w, h, PNG_COLOR_TYPE_GRAY, d, 0, NULL, 0, NULL, 0, NULL};
         unsigned char **rows = alloc_rows(h, ((size_t)w * d + 7) / 8);
         unsigned want[11 * 3 * 3];
         for (int y = 0; y < h; y++)
@@ -381,7 +313,7 @@ Test(texture, png_grey_1_2_4_bit)
 Test(texture, png_grey_alpha)
 {
     int w = 3, h = 3;
-    png_layout L = {w, h, PNG_COLOR_TYPE_GRAY_ALPHA, 8, 0, NULL, 0, NULL, 0};
+    png_layout L = {w, h, PNG_COLOR_TYPE_GRAY_ALPHA, 8, 0, NULL, 0, NULL, 0, NULL};
     unsigned char **rows = alloc_rows(h, (size_t)w * 2);
     unsigned want[3 * 3 * 3];
     for (int y = 0; y < h; y++)
@@ -406,7 +338,7 @@ Test(texture, png_palette_with_and_without_trns)
     for (int with_trns = 0; with_trns < 2; with_trns++) {
         png_byte alpha[3] = {0, 128, 255};
         png_layout L = {w, h, PNG_COLOR_TYPE_PALETTE, 8, 0, test_palette, 5, with_trns ? alpha : NULL,
-                        with_trns ? 3 : 0};
+                        with_trns ? 3 : 0, NULL};
         unsigned char **rows = alloc_rows(h, (size_t)w);
         unsigned want[6 * 2 * 3];
         for (int y = 0; y < h; y++)
@@ -428,7 +360,7 @@ Test(texture, png_palette_2bit)
 {
     /* Packed palette indices. */
     int w = 7, h = 2;
-    png_layout L = {w, h, PNG_COLOR_TYPE_PALETTE, 2, 0, test_palette, 4, NULL, 0};
+    png_layout L = {w, h, PNG_COLOR_TYPE_PALETTE, 2, 0, test_palette, 4, NULL, 0, NULL};
     unsigned char **rows = alloc_rows(h, ((size_t)w * 2 + 7) / 8);
     unsigned want[7 * 2 * 3];
     for (int y = 0; y < h; y++)
@@ -448,7 +380,7 @@ Test(texture, png_palette_2bit)
 Test(texture, png_rgb_16bit_keeps_all_bits)
 {
     int w = 4, h = 2;
-    png_layout L = {w, h, PNG_COLOR_TYPE_RGB, 16, 0, NULL, 0, NULL, 0};
+    png_layout L = {w, h, PNG_COLOR_TYPE_RGB, 16, 0, NULL, 0, NULL, 0, NULL};
     unsigned char **rows = alloc_rows(h, (size_t)w * 6);
     unsigned want[4 * 2 * 3];
     /* Values that an 8-bit path would merge: 0x1234 and 0x12ff, 1, 65534. */
@@ -470,7 +402,7 @@ Test(texture, png_rgb_16bit_keeps_all_bits)
 Test(texture, png_grey_16bit_and_rgba_16bit)
 {
     int w = 3, h = 2;
-    png_layout G = {w, h, PNG_COLOR_TYPE_GRAY, 16, 0, NULL, 0, NULL, 0};
+    png_layout G = {w, h, PNG_COLOR_TYPE_GRAY, 16, 0, NULL, 0, NULL, 0, NULL};
     unsigned char **rows = alloc_rows(h, (size_t)w * 2);
     unsigned want[3 * 2 * 3];
     for (int p = 0; p < w * h; p++) {
@@ -484,7 +416,7 @@ Test(texture, png_grey_16bit_and_rgba_16bit)
     free(m.data);
     free_rows(rows, h);
 
-    png_layout A = {w, h, PNG_COLOR_TYPE_RGB_ALPHA, 16, 0, NULL, 0, NULL, 0};
+    png_layout A = {w, h, PNG_COLOR_TYPE_RGB_ALPHA, 16, 0, NULL, 0, NULL, 0, NULL};
     rows = alloc_rows(h, (size_t)w * 8);
     for (int p = 0; p < w * h; p++)
         for (int k = 0; k < 4; k++) {
@@ -504,7 +436,7 @@ Test(texture, png_interlaced_adam7)
 {
     /* 13x11 reaches every one of the seven passes with partial blocks. */
     int w = 13, h = 11;
-    png_layout L = {w, h, PNG_COLOR_TYPE_RGB, 8, 1, NULL, 0, NULL, 0};
+    png_layout L = {w, h, PNG_COLOR_TYPE_RGB, 8, 1, NULL, 0, NULL, 0, NULL};
     unsigned char **rows = alloc_rows(h, (size_t)w * 3);
     unsigned want[13 * 11 * 3];
     for (int y = 0; y < h; y++)
@@ -519,7 +451,7 @@ Test(texture, png_interlaced_adam7)
     free_rows(rows, h);
 
     /* Interlaced and packed: 1-bit grey. */
-    png_layout G = {w, h, PNG_COLOR_TYPE_GRAY, 1, 1, NULL, 0, NULL, 0};
+    png_layout G = {w, h, PNG_COLOR_TYPE_GRAY, 1, 1, NULL, 0, NULL, 0, NULL};
     rows = alloc_rows(h, ((size_t)w + 7) / 8);
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++) {
@@ -539,7 +471,7 @@ Test(texture, png_interlaced_adam7)
 static membuf small_png(void)
 {
     int w = 6, h = 5;
-    png_layout L = {w, h, PNG_COLOR_TYPE_RGB, 8, 0, NULL, 0, NULL, 0};
+    png_layout L = {w, h, PNG_COLOR_TYPE_RGB, 8, 0, NULL, 0, NULL, 0, NULL};
     unsigned char **rows = alloc_rows(h, (size_t)w * 3);
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w * 3; x++)
@@ -632,7 +564,7 @@ Test(texture, png_over_the_pixel_limit_before_decoding)
     unsigned char buf[256];
     /* A real 100x100 image: 10000 pixels passes a limit of 10000, not 9999. */
     int w = 100, h = 100;
-    png_layout L = {w, h, PNG_COLOR_TYPE_RGB, 8, 0, NULL, 0, NULL, 0};
+    png_layout L = {w, h, PNG_COLOR_TYPE_RGB, 8, 0, NULL, 0, NULL, 0, NULL};
     unsigned char **rows = alloc_rows(h, (size_t)w * 3);
     membuf m = encode_png(&L, rows);
     free_rows(rows, h);
