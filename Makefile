@@ -60,7 +60,7 @@ TEST_OBJ   := $(patsubst %.c,$(BUILD)/%.o,$(TEST_SRC))
 # The job queue's objects: tests/unit/daemon drives it without HTTP.
 JOBS_OBJ   := $(patsubst %.c,$(BUILD)/%.o,$(wildcard daemon/jobs/*.c))
 
-.PHONY: all deps test check run bench bench-quick clean scenes fuzz stability tsan fault print-includes
+.PHONY: all deps test check run bench bench-quick clean scenes fuzz stability tsan fault print-includes format-check
 
 # Large inputs are generated, not kept in git.
 GENERATED := scenes/generated/knot.obj
@@ -122,12 +122,19 @@ check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
 # daemon and under ThreadSanitizer, then a short fuzzing smoke of every
 # reader.
 test: deps
+	@$(MAKE) --no-print-directory format-check
 	@$(MAKE) --no-print-directory check CC=gcc BUILD=build
 	@$(MAKE) --no-print-directory check CC=clang SAN=1 BUILD=build/clang-san
 	@RAYD=build/rayd sh tests/browser/run.sh
 	@$(MAKE) --no-print-directory fault
 	@$(MAKE) --no-print-directory tsan
 	@sh tests/fuzz/run.sh $(FUZZ_SMOKE_SECONDS)
+
+# The C sources as .clang-format writes them (clang-format -i $(FORMATTED)
+# fixes a file).
+FORMATTED = $(shell git ls-files '*.c' '*.h' 2>/dev/null | grep -v '^tests/fuzz/\(regressions\|seeds\)/')
+format-check:
+	@clang-format --dry-run -Werror $(FORMATTED)
 
 # Hostile clients against one daemon while a probe renders (tests/fault/).
 FAULT_SECONDS ?= 40

@@ -3,29 +3,28 @@
 
 #include "cli.h"
 
-static const char help[] =
-    "usage: rayd COMMAND [options]\n"
-    "\n"
-    "rayd is a Whitted-style ray tracer: the reference renderer of the course's\n"
-    "shading assignment (Lambert, Phong, Blinn-Phong, Cook-Torrance, mirrors, glass).\n"
-    "\n"
-    "Commands:\n"
-    "  render SCENE -o OUT.png   render a .cfg or .json scene to PNG\n"
-    "  serve [--listen H:P]      run the HTTP render service\n"
-    "  grade --assignment A --image P   grade a student's image against the reference\n"
-    "  converge SCENE            error against samples and time, with a plot\n"
-    "  convert IN OUT            turn a cfg scene into JSON or back\n"
-    "  compare A.png B.png       how two images differ (RMSE, PSNR, pixels), as JSON\n"
-    "  limits                    list the size limits and their defaults\n"
-    "  schema                    print the JSON Schema of JSON scenes\n"
-    "\n"
-    "'rayd COMMAND --help' explains a command's options.\n";
+static const char help[] = "usage: rayd COMMAND [options]\n"
+                           "\n"
+                           "rayd is a Whitted-style ray tracer: the reference renderer of the course's\n"
+                           "shading assignment (Lambert, Phong, Blinn-Phong, Cook-Torrance, mirrors, glass).\n"
+                           "\n"
+                           "Commands:\n"
+                           "  render SCENE -o OUT.png   render a .cfg or .json scene to PNG\n"
+                           "  serve [--listen H:P]      run the HTTP render service\n"
+                           "  grade --assignment A --image P   grade a student's image against the reference\n"
+                           "  converge SCENE            error against samples and time, with a plot\n"
+                           "  convert IN OUT            turn a cfg scene into JSON or back\n"
+                           "  compare A.png B.png       how two images differ (RMSE, PSNR, pixels), as JSON\n"
+                           "  limits                    list the size limits and their defaults\n"
+                           "  schema                    print the JSON Schema of JSON scenes\n"
+                           "\n"
+                           "'rayd COMMAND --help' explains a command's options.\n";
 
 static const struct {
     const char *name;
     int (*run)(int argc, char **argv);
 } commands[] = {
-    {"render", rd_cmd_render},   {"serve", rd_cmd_serve},   {"grade", rd_cmd_grade},   {"converge", rd_cmd_converge},
+    {"render", rd_cmd_render},   {"serve", rd_cmd_serve},     {"grade", rd_cmd_grade},   {"converge", rd_cmd_converge},
     {"convert", rd_cmd_convert}, {"compare", rd_cmd_compare}, {"limits", rd_cmd_limits}, {"schema", rd_cmd_schema},
 };
 

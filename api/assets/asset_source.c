@@ -6,8 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "scene_load.h"
 #include "file_io.h"
+#include "scene_load.h"
 
 int rd_asset_name_ok(const char *name)
 {
@@ -43,15 +43,14 @@ rd_error_code rd_path_inside(const char *dir, const char *name, char *real_file,
     return RD_OK;
 }
 
-static rd_error_code folder_read(const rd_asset_source *src, const char *name, size_t max_bytes,
-                                 const char *flag, unsigned char **data, size_t *len, rd_error *err)
+static rd_error_code folder_read(const rd_asset_source *src, const char *name, size_t max_bytes, const char *flag,
+                                 unsigned char **data, size_t *len, rd_error *err)
 {
     *data = NULL;
     *len = 0;
     if (!rd_asset_name_ok(name))
         return rd_error_set(err, RD_ERR_INVALID, 0, 0,
-                            "'%.200s' is not a path inside the scene's folder (no absolute paths, no '..')",
-                            name);
+                            "'%.200s' is not a path inside the scene's folder (no absolute paths, no '..')", name);
     char real_file[PATH_MAX];
     rd_error_code rc = rd_path_inside(src->dir, name, real_file, err);
     if (rc)

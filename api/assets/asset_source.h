@@ -11,10 +11,10 @@ typedef struct rd_asset_source {
     /* Reads asset `name` (as written in the scene) into a malloc'ed buffer
      * the caller frees; refuses more than max_bytes (RD_ERR_LIMIT naming
      * flag) and any name that would leave the source (RD_ERR_INVALID). */
-    rd_error_code (*read)(const struct rd_asset_source *src, const char *name, size_t max_bytes,
-                          const char *flag, unsigned char **data, size_t *len, rd_error *err);
-    const char *dir;    /* folder source: the scene's folder */
-    void *user;         /* other sources */
+    rd_error_code (*read)(const struct rd_asset_source *src, const char *name, size_t max_bytes, const char *flag,
+                          unsigned char **data, size_t *len, rd_error *err);
+    const char *dir; /* folder source: the scene's folder */
+    void *user;      /* other sources */
 } rd_asset_source;
 
 /* A source reading files below dir; dir must outlive the source. */

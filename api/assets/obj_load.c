@@ -117,12 +117,12 @@ static rd_error_code face(obj *o, const char *p, const char *le, size_t max_tris
                 have[k] = 1;
                 p = d;
             } else if (k == 0) {
-            {
-                const char *e = at;
-                while (e < le && !is_space(*e) && e - at < 40)
-                    e++;
-                return fail(o, at, RD_ERR_SYNTAX, "f: expected a vertex index, got '%.*s'", (int)(e - at), at);
-            }
+                {
+                    const char *e = at;
+                    while (e < le && !is_space(*e) && e - at < 40)
+                        e++;
+                    return fail(o, at, RD_ERR_SYNTAX, "f: expected a vertex index, got '%.*s'", (int)(e - at), at);
+                }
             }
             if (p < le && *p == '/')
                 p++;
@@ -159,8 +159,8 @@ static rd_error_code face(obj *o, const char *p, const char *le, size_t max_tris
     return RD_OK;
 }
 
-rd_error_code rd_obj_parse(const char *text, size_t len, const char *source, size_t max_tris,
-                           const char *flag, rd_mesh *out, rd_warnings *w, rd_error *err)
+rd_error_code rd_obj_parse(const char *text, size_t len, const char *source, size_t max_tris, const char *flag,
+                           rd_mesh *out, rd_warnings *w, rd_error *err)
 {
     memset(out, 0, sizeof *out);
     obj o;

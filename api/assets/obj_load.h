@@ -19,7 +19,6 @@ rd_error_code rd_obj_parse(const char *text, size_t len, const char *source, siz
 /* Moves a mesh into the world: scale, then rotate about x, then y, then z
  * (degrees), then translate. Normals follow the inverse transpose.
  * RD_ERR_INVALID when a scale component is zero or not finite. */
-rd_error_code rd_mesh_transform(rd_mesh *m, rd_vec3 translate, rd_vec3 scale, rd_vec3 rotate_deg,
-                                rd_error *err);
+rd_error_code rd_mesh_transform(rd_mesh *m, rd_vec3 translate, rd_vec3 scale, rd_vec3 rotate_deg, rd_error *err);
 
 #endif

@@ -8,8 +8,7 @@
 #include "png_read.h"
 
 /* Prefixes err's message with where the scene names the file. */
-static rd_error_code located(rd_error *err, rd_error_code rc, const char *where, const char *what,
-                             const char *file)
+static rd_error_code located(rd_error *err, rd_error_code rc, const char *where, const char *what, const char *file)
 {
     char inner[sizeof err->message];
     snprintf(inner, sizeof inner, "%s", err->message);
@@ -17,13 +16,13 @@ static rd_error_code located(rd_error *err, rd_error_code rc, const char *where,
     return rc;
 }
 
-rd_error_code rd_texture_from_png(const unsigned char *data, size_t len, size_t max_pixels,
-                                  rd_texture *t, rd_error *err)
+rd_error_code rd_texture_from_png(const unsigned char *data, size_t len, size_t max_pixels, rd_texture *t,
+                                  rd_error *err)
 {
     rd_png_image img;
     memset(t, 0, sizeof *t);
-    rd_error_code rc = rd_png_decode(data, len, max_pixels,
-                                     rd_limit_flag(offsetof(rd_scene_limits, max_texture_pixels)), &img, err);
+    rd_error_code rc =
+        rd_png_decode(data, len, max_pixels, rd_limit_flag(offsetof(rd_scene_limits, max_texture_pixels)), &img, err);
     if (rc)
         return rc;
     size_t n = (size_t)img.width * (size_t)img.height * 3;

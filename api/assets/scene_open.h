@@ -22,12 +22,12 @@
 #include "warnings.h"
 
 typedef struct {
-    const char *path;           /* a file to read, or NULL for text/len: */
+    const char *path; /* a file to read, or NULL for text/len: */
     const char *text;
     size_t len;
-    const char *source;         /* text's name in messages (a file is named by its path) */
-    rd_scene_format format;     /* RD_FMT_AUTO: by path's extension, else sniffed */
-    const char *assets_dir;     /* NULL: path's folder ("." for text) */
+    const char *source;     /* text's name in messages (a file is named by its path) */
+    rd_scene_format format; /* RD_FMT_AUTO: by path's extension, else sniffed */
+    const char *assets_dir; /* NULL: path's folder ("." for text) */
 } rd_scene_source;
 
 /* Fills s (rd_scene_init'ed by the caller, who frees it either way). ov,

@@ -9,8 +9,8 @@
 #include <unistd.h>
 
 #include "asset_source.h"
-#include "scene_load.h"
 #include "file_io.h"
+#include "scene_load.h"
 
 static int name_ok(const char *n)
 {
@@ -76,8 +76,8 @@ static rd_error_code parse_grade(const char *path, const char *text, rd_assignme
         else if (strcmp(k, "hard_fail_pixels") == 0 && x >= 0 && x < 1e9 && x == (int)x)
             a->thresholds.hard_fail_pixels = (int)x;
         else if (strcmp(k, "fail") == 0 || strcmp(k, "hard_fail") == 0)
-            return rd_error_set(err, RD_ERR_SYNTAX, line, col, "%s:%d:%d: %s: expected an integer in 0..255", path, line,
-                                col, k);
+            return rd_error_set(err, RD_ERR_SYNTAX, line, col, "%s:%d:%d: %s: expected an integer in 0..255", path,
+                                line, col, k);
         else if (strcmp(k, "fail_fraction") == 0)
             return rd_error_set(err, RD_ERR_SYNTAX, line, col, "%s:%d:%d: fail_fraction: expected a number in [0, 1]",
                                 path, line, col);
@@ -85,9 +85,10 @@ static rd_error_code parse_grade(const char *path, const char *text, rd_assignme
             return rd_error_set(err, RD_ERR_SYNTAX, line, col, "%s:%d:%d: hard_fail_pixels: expected an integer >= 0",
                                 path, line, col);
         else
-            return rd_error_set(err, RD_ERR_SYNTAX, line, 1,
-                                "%s:%d:1: unknown key '%.40s' (title, fail, fail_fraction, hard_fail, hard_fail_pixels)",
-                                path, line, k);
+            return rd_error_set(
+                err, RD_ERR_SYNTAX, line, 1,
+                "%s:%d:1: unknown key '%.40s' (title, fail, fail_fraction, hard_fail, hard_fail_pixels)", path, line,
+                k);
     }
     return RD_OK;
 }

@@ -13,8 +13,8 @@
 
 #include <stddef.h>
 
-#include "rayd/error.h"
 #include "grade.h"
+#include "rayd/error.h"
 
 typedef struct {
     char name[64];

@@ -161,12 +161,13 @@ void rd_grade_heatmap(const uint8_t *ref, const uint8_t *img, int w, int h, int 
     }
 }
 
-rd_error_code rd_grade_load_png(const unsigned char *data, size_t len, size_t max_pixels, uint8_t **out, int *w,
-                                int *h, rd_error *err)
+rd_error_code rd_grade_load_png(const unsigned char *data, size_t len, size_t max_pixels, uint8_t **out, int *w, int *h,
+                                rd_error *err)
 {
     rd_png_image img;
     *out = NULL;
-    rd_error_code rc = rd_png_decode(data, len, max_pixels, rd_limit_flag(offsetof(rd_scene_limits, max_pixels)), &img, err);
+    rd_error_code rc =
+        rd_png_decode(data, len, max_pixels, rd_limit_flag(offsetof(rd_scene_limits, max_pixels)), &img, err);
     if (rc)
         return rc;
     size_t n = (size_t)img.width * (size_t)img.height * 3;

@@ -9,10 +9,10 @@
 #include "rayd/error.h"
 
 typedef struct {
-    int fail;               /* a pixel fails when its difference exceeds this (8-bit steps) */
-    double fail_fraction;   /* the image fails when more than this fraction of pixels fail */
-    int hard_fail;          /* a difference above this is a hard failure ... */
-    int hard_fail_pixels;   /* ... and more than this many hard failures fail the image */
+    int fail;             /* a pixel fails when its difference exceeds this (8-bit steps) */
+    double fail_fraction; /* the image fails when more than this fraction of pixels fail */
+    int hard_fail;        /* a difference above this is a hard failure ... */
+    int hard_fail_pixels; /* ... and more than this many hard failures fail the image */
 } rd_grade_thresholds;
 
 /* The calibrated defaults (docs/grading.md explains how). */
@@ -21,18 +21,18 @@ rd_grade_thresholds rd_grade_thresholds_default(void);
 typedef struct {
     int pass;
     int width, height;
-    double rmse;            /* over all channels, 1 = 255 levels */
-    double psnr_db;         /* 20·log10(1/rmse); 99 for identical images */
-    double ssim;            /* Wang et al. 2004 on luminance, Gaussian 11x11, σ = 1.5 */
-    int max_abs;            /* largest pixel difference, 8-bit steps */
-    double mean_abs;        /* mean pixel difference, 8-bit steps */
-    size_t failed_pixels;   /* difference > fail */
+    double rmse;          /* over all channels, 1 = 255 levels */
+    double psnr_db;       /* 20·log10(1/rmse); 99 for identical images */
+    double ssim;          /* Wang et al. 2004 on luminance, Gaussian 11x11, σ = 1.5 */
+    int max_abs;          /* largest pixel difference, 8-bit steps */
+    double mean_abs;      /* mean pixel difference, 8-bit steps */
+    size_t failed_pixels; /* difference > fail */
     double failed_fraction;
-    size_t hard_pixels;     /* difference > hard_fail */
-    int worst_x, worst_y;   /* first pixel with the largest difference */
+    size_t hard_pixels;   /* difference > hard_fail */
+    int worst_x, worst_y; /* first pixel with the largest difference */
     uint8_t expected[3], got[3];
     int has_box;
-    int box[4];             /* x0, y0, x1, y1 (inclusive) of failed pixels */
+    int box[4]; /* x0, y0, x1, y1 (inclusive) of failed pixels */
 } rd_grade_result;
 
 /* A pixel's difference: the largest absolute difference over R, G, B. */
@@ -64,7 +64,7 @@ void rd_grade_heatmap(const uint8_t *ref, const uint8_t *img, int width, int hei
 /* Decodes a student's PNG of any layout into 8-bit RGB (16-bit rounded,
  * alpha dropped, grey and palette expanded). RD_ERR_SYNTAX: not a PNG or
  * damaged. *out is malloc'ed. */
-rd_error_code rd_grade_load_png(const unsigned char *data, size_t len, size_t max_pixels, uint8_t **out,
-                                int *width, int *height, rd_error *err);
+rd_error_code rd_grade_load_png(const unsigned char *data, size_t len, size_t max_pixels, uint8_t **out, int *width,
+                                int *height, rd_error *err);
 
 #endif

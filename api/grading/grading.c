@@ -4,9 +4,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "rayd/render.h"
 #include "assignment.h"
 #include "png_read.h"
+#include "rayd/render.h"
 #include "scene_open.h"
 
 void rd_grade_output_free(rd_grade_output *o)
@@ -52,21 +52,21 @@ static int png_size(const unsigned char *p, size_t len, unsigned *w, unsigned *h
     return 1;
 }
 
-static rd_error_code size_mismatch(const rd_grade_input *in, unsigned iw, unsigned ih, const rd_scene *s,
-                                   rd_error *err)
+static rd_error_code size_mismatch(const rd_grade_input *in, unsigned iw, unsigned ih, const rd_scene *s, rd_error *err)
 {
     return rd_error_set(err, RD_ERR_INVALID, 0, 0, "the image is %ux%u; the %s renders %dx%d", iw, ih,
                         in->assignment ? "assignment" : "scene", s->render.width, s->render.height);
 }
 
-static rd_error_code open_image(const rd_grader *g, const rd_grade_input *in, const rd_scene *s,
-                                rd_grade_output *o, rd_error *err)
+static rd_error_code open_image(const rd_grader *g, const rd_grade_input *in, const rd_scene *s, rd_grade_output *o,
+                                rd_error *err)
 {
     o->stage = RD_GRADE_STAGE_IMAGE;
     if (!rd_png_sniff(in->png, in->png_len))
         return rd_error_set(err, RD_ERR_UNSUPPORTED, 0, 0, "the image is not a PNG file");
     unsigned iw, ih;
-    if (png_size(in->png, in->png_len, &iw, &ih) && (iw != (unsigned)s->render.width || ih != (unsigned)s->render.height))
+    if (png_size(in->png, in->png_len, &iw, &ih) &&
+        (iw != (unsigned)s->render.width || ih != (unsigned)s->render.height))
         return size_mismatch(in, iw, ih, s, err);
     int w, h;
     rd_error_code rc = rd_grade_load_png(in->png, in->png_len, g->limits.max_pixels, &o->image, &w, &h, err);
@@ -148,8 +148,7 @@ static rd_error_code render_reference(const rd_grader *g, const rd_scene *s, int
     return rc;
 }
 
-rd_error_code rd_grade_run(const rd_grader *g, const rd_grade_input *in, int threads, rd_grade_output *o,
-                           rd_error *err)
+rd_error_code rd_grade_run(const rd_grader *g, const rd_grade_input *in, int threads, rd_grade_output *o, rd_error *err)
 {
     rd_scene s;
     rd_scene_init(&s);
@@ -195,8 +194,8 @@ static int add_worst(cJSON *root, const rd_grade_result *r)
 {
     cJSON *w = cJSON_AddObjectToObject(root, "worst");
     int e[3] = {r->expected[0], r->expected[1], r->expected[2]}, g[3] = {r->got[0], r->got[1], r->got[2]};
-    return w && add_number(w, "x", r->worst_x) && add_number(w, "y", r->worst_y) && add_int_array(w, "expected", e, 3) &&
-           add_int_array(w, "got", g, 3);
+    return w && add_number(w, "x", r->worst_x) && add_number(w, "y", r->worst_y) &&
+           add_int_array(w, "expected", e, 3) && add_int_array(w, "got", g, 3);
 }
 
 cJSON *rd_grade_json(const rd_grade_output *o)
@@ -210,7 +209,8 @@ cJSON *rd_grade_json(const rd_grade_output *o)
     ok = ok && cJSON_AddBoolToObject(root, "pass", r->pass) && add_number(root, "width", r->width) &&
          add_number(root, "height", r->height);
     ok = ok && add_metrics(root, r) && add_thresholds(root, &o->thresholds) && add_worst(root, r);
-    ok = ok && (r->has_box ? add_int_array(root, "failed_box", r->box, 4) : cJSON_AddNullToObject(root, "failed_box") != NULL);
+    ok = ok && (r->has_box ? add_int_array(root, "failed_box", r->box, 4)
+                           : cJSON_AddNullToObject(root, "failed_box") != NULL);
     ok = ok && cJSON_AddBoolToObject(root, "reference_cached", o->reference_cached);
     if (!ok) {
         cJSON_Delete(root);

@@ -23,9 +23,9 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "grade.h"
 #include "rayd/error.h"
 #include "rayd/scene.h"
-#include "grade.h"
 #include "reference.h"
 #include "scene_limits.h"
 
@@ -34,18 +34,18 @@
 #define RD_GRADE_MAX_PNG_BYTES ((size_t)1 << 30)
 
 typedef enum {
-    RD_GRADE_STAGE_NONE,        /* no error */
-    RD_GRADE_STAGE_ASSIGNMENT,  /* the assignment: its name, .grade file or scene */
-    RD_GRADE_STAGE_SCENE,       /* the scene given instead */
-    RD_GRADE_STAGE_IMAGE,       /* the student's PNG */
-    RD_GRADE_STAGE_REFERENCE    /* obtaining the reference */
+    RD_GRADE_STAGE_NONE,       /* no error */
+    RD_GRADE_STAGE_ASSIGNMENT, /* the assignment: its name, .grade file or scene */
+    RD_GRADE_STAGE_SCENE,      /* the scene given instead */
+    RD_GRADE_STAGE_IMAGE,      /* the student's PNG */
+    RD_GRADE_STAGE_REFERENCE   /* obtaining the reference */
 } rd_grade_stage;
 
 typedef struct {
     const char *assignments_dir;
-    const char *assets_dir;     /* where a given scene's files resolve (NULL: a scene file's folder) */
+    const char *assets_dir; /* where a given scene's files resolve (NULL: a scene file's folder) */
     rd_scene_limits limits;
-    rd_ref_cache *cache;        /* NULL: every grade renders its reference */
+    rd_ref_cache *cache; /* NULL: every grade renders its reference */
 } rd_grader;
 
 /* What is graded: the assignment named, or else a scene given as a file or
@@ -55,21 +55,21 @@ typedef struct {
     const char *scene_path;
     const char *scene_text;
     size_t scene_len;
-    const char *source;         /* the text's name in messages ("<upload>") */
+    const char *source; /* the text's name in messages ("<upload>") */
     const unsigned char *png;
     size_t png_len;
 } rd_grade_input;
 
 typedef struct {
     rd_grade_stage stage;
-    char assignment[64];        /* "" for a given scene */
+    char assignment[64]; /* "" for a given scene */
     char title[160];
     rd_grade_thresholds thresholds;
     char key[17];               /* the reference's */
     uint8_t *reference, *image; /* 8-bit RGB, width x height */
     int width, height;
-    int reference_cached;       /* the cache had it */
-    rd_grade_result result;     /* after rd_grade_finish */
+    int reference_cached;   /* the cache had it */
+    rd_grade_result result; /* after rd_grade_finish */
 } rd_grade_output;
 
 /* Fills *s (rd_scene_init'ed by the caller, who frees it) with the scene to

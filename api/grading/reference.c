@@ -7,12 +7,12 @@
 #include <string.h>
 #include <sys/stat.h>
 
+#include "file_io.h"
 #include "grade.h"
 #include "hash.h"
 #include "png_read.h"
 #include "png_write.h"
 #include "scene_write.h"
-#include "file_io.h"
 
 #ifndef RD_CORE_HASH
 #define RD_CORE_HASH "unversioned"
@@ -64,9 +64,9 @@ enum { REF_SLOTS = 32 };
 
 typedef struct {
     char key[17];
-    uint8_t *rgb;       /* NULL: a free slot */
+    uint8_t *rgb; /* NULL: a free slot */
     int w, h;
-    uint64_t used;      /* the cache's use counter at the last get or put */
+    uint64_t used; /* the cache's use counter at the last get or put */
 } ref_slot;
 
 struct rd_ref_cache {

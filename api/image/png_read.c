@@ -33,13 +33,10 @@ static void warning_fn(png_structp png, png_const_charp msg)
     (void)msg;
 }
 
-int rd_png_sniff(const unsigned char *data, size_t len)
-{
-    return len >= 8 && png_sig_cmp(data, 0, 8) == 0;
-}
+int rd_png_sniff(const unsigned char *data, size_t len) { return len >= 8 && png_sig_cmp(data, 0, 8) == 0; }
 
-rd_error_code rd_png_decode(const unsigned char *data, size_t len, size_t max_pixels,
-                            const char *limit_flag, rd_png_image *out, rd_error *err)
+rd_error_code rd_png_decode(const unsigned char *data, size_t len, size_t max_pixels, const char *limit_flag,
+                            rd_png_image *out, rd_error *err)
 {
     memset(out, 0, sizeof *out);
     if (!rd_png_sniff(data, len))
@@ -103,7 +100,7 @@ rd_error_code rd_png_decode(const unsigned char *data, size_t len, size_t max_pi
     out->was_palette = ctype == PNG_COLOR_TYPE_PALETTE;
     out->was_grey = !(ctype & PNG_COLOR_MASK_COLOR);
     out->depth = depth == 16 ? 16 : 8;
-    png_set_expand(png);            /* palette -> RGB, grey < 8 bits -> 8, tRNS -> alpha */
+    png_set_expand(png); /* palette -> RGB, grey < 8 bits -> 8, tRNS -> alpha */
     png_set_strip_alpha(png);
     png_set_gray_to_rgb(png);
     png_set_interlace_handling(png);

@@ -68,8 +68,8 @@ rd_error_code rd_png_encode(const uint8_t *rgb, int width, int height, const rd_
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "PNG encoding failed");
     }
     png_set_write_fn(png, &m, mem_write, mem_flush);
-    png_set_IHDR(png, info, (png_uint_32)width, (png_uint_32)height, 8, PNG_COLOR_TYPE_RGB,
-                 PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_set_IHDR(png, info, (png_uint_32)width, (png_uint_32)height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
+                 PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     png_set_compression_level(png, opt.level < 0 ? 0 : (opt.level > 9 ? 9 : opt.level));
     png_set_filter(png, PNG_FILTER_TYPE_BASE,
                    opt.filter == RD_PNG_FILTER_NONE  ? PNG_FILTER_NONE

@@ -22,8 +22,8 @@ typedef struct {
 static int is_space(char c) { return c == ' ' || c == '\t' || c == '\v' || c == '\f'; }
 static int is_word_char(char c)
 {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
-           c == '-' || c == '.' || c == '+' || (unsigned char)c >= 0x80;
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-' ||
+           c == '.' || c == '+' || (unsigned char)c >= 0x80;
 }
 static int is_key_char(char c)
 {
@@ -41,12 +41,11 @@ static rd_error_code flush(parser *ps, rd_error *err)
     if (!ps->open)
         return RD_OK;
     ps->open = 0;
-    return rd_builder_section(ps->b, ps->kind, ps->kind_len, ps->name, ps->name_len, ps->where,
-                              ps->entries, ps->n, err);
+    return rd_builder_section(ps->b, ps->kind, ps->kind_len, ps->name, ps->name_len, ps->where, ps->entries, ps->n,
+                              err);
 }
 
-static rd_error_code header(parser *ps, int line, const char *ls, const char *p, const char *le,
-                            rd_error *err)
+static rd_error_code header(parser *ps, int line, const char *ls, const char *p, const char *le, rd_error *err)
 {
     rd_loc where = at(line, ls, p);
     p++; /* '[' */
@@ -56,8 +55,7 @@ static rd_error_code header(parser *ps, int line, const char *ls, const char *p,
     while (p < le && is_key_char(*p))
         p++;
     if (p == k)
-        return rd_builder_error(ps->b, err, RD_ERR_SYNTAX, at(line, ls, p),
-                                "expected a section kind after '['");
+        return rd_builder_error(ps->b, err, RD_ERR_SYNTAX, at(line, ls, p), "expected a section kind after '['");
     size_t klen = (size_t)(p - k);
     if (klen > RD_MAX_KEY_BYTES)
         return rd_builder_error(ps->b, err, RD_ERR_SYNTAX, where, "a section kind longer than %d bytes",
@@ -89,8 +87,7 @@ static rd_error_code header(parser *ps, int line, const char *ls, const char *p,
     while (p < le && is_space(*p))
         p++;
     if (p < le && *p != '#' && *p != ';')
-        return rd_builder_error(ps->b, err, RD_ERR_SYNTAX, at(line, ls, p),
-                                "unexpected text after the section header");
+        return rd_builder_error(ps->b, err, RD_ERR_SYNTAX, at(line, ls, p), "unexpected text after the section header");
     rd_error_code rc = flush(ps, err);
     if (rc)
         return rc;
@@ -104,15 +101,13 @@ static rd_error_code header(parser *ps, int line, const char *ls, const char *p,
     return RD_OK;
 }
 
-static rd_error_code key_value(parser *ps, int line, const char *ls, const char *p, const char *le,
-                               rd_error *err)
+static rd_error_code key_value(parser *ps, int line, const char *ls, const char *p, const char *le, rd_error *err)
 {
     const char *k = p;
     while (p < le && is_key_char(*p))
         p++;
     if (p == k || (p < le && !is_space(*p) && *p != '='))
-        return rd_builder_error(ps->b, err, RD_ERR_SYNTAX, at(line, ls, k),
-                                "expected '[section]' or 'key = value'");
+        return rd_builder_error(ps->b, err, RD_ERR_SYNTAX, at(line, ls, k), "expected '[section]' or 'key = value'");
     rd_loc key_loc = at(line, ls, k);
     size_t klen = (size_t)(p - k);
     if (klen > RD_MAX_KEY_BYTES)
@@ -172,8 +167,8 @@ static rd_error_code key_value(parser *ps, int line, const char *ls, const char 
     return RD_OK;
 }
 
-rd_error_code rd_cfg_parse(const char *text, size_t len, const char *source,
-                           const rd_scene_limits *lim_in, rd_scene *s, rd_error *err)
+rd_error_code rd_cfg_parse(const char *text, size_t len, const char *source, const rd_scene_limits *lim_in, rd_scene *s,
+                           rd_error *err)
 {
     rd_scene_limits lim = lim_in ? *lim_in : rd_scene_limits_default();
     source = source ? source : "<scene>";

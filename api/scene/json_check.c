@@ -45,7 +45,10 @@ static void ws(checker *c)
 
 static int hex(char ch)
 {
-    return (ch >= '0' && ch <= '9') ? ch - '0' : (ch >= 'a' && ch <= 'f') ? ch - 'a' + 10 : (ch >= 'A' && ch <= 'F') ? ch - 'A' + 10 : -1;
+    return (ch >= '0' && ch <= '9')   ? ch - '0'
+           : (ch >= 'a' && ch <= 'f') ? ch - 'a' + 10
+           : (ch >= 'A' && ch <= 'F') ? ch - 'A' + 10
+                                      : -1;
 }
 
 /* key: 0 a value, 1 a key of the format, 2 a material name. */

@@ -2,8 +2,8 @@
 
 #include <cJSON.h>
 #include <math.h>
-#include <stdio.h>
 #include <stddef.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -99,8 +99,8 @@ static rd_token token_of(const cJSON *v, char *numbuf)
 }
 
 /* Applies the members of obj (except those named in skip) as one section. */
-static rd_error_code section(jparser *jp, const char *kind, const char *name, const char *path,
-                             const cJSON *obj, const char *const *skip, rd_error *err)
+static rd_error_code section(jparser *jp, const char *kind, const char *name, const char *path, const cJSON *obj,
+                             const char *const *skip, rd_error *err)
 {
     size_t n = 0;
     for (const cJSON *m = obj->child; m; m = m->next)
@@ -136,12 +136,11 @@ static rd_error_code section(jparser *jp, const char *kind, const char *name, co
         }
         k++;
     }
-    return rd_builder_section(jp->b, kind, strlen(kind), name, name ? strlen(name) : 0, path_loc(path),
-                              jp->entries, k, err);
+    return rd_builder_section(jp->b, kind, strlen(kind), name, name ? strlen(name) : 0, path_loc(path), jp->entries, k,
+                              err);
 }
 
-static rd_error_code expect_object(jparser *jp, const cJSON *v, const char *path, const char *what,
-                                   rd_error *err)
+static rd_error_code expect_object(jparser *jp, const cJSON *v, const char *path, const char *what, rd_error *err)
 {
     if (cJSON_IsObject(v))
         return RD_OK;
@@ -149,8 +148,8 @@ static rd_error_code expect_object(jparser *jp, const cJSON *v, const char *path
 }
 
 /* A string member used for structure (a light's name, an object's type). */
-static rd_error_code string_member(jparser *jp, const cJSON *obj, const char *key, const char *path,
-                                   const char **out, rd_error *err)
+static rd_error_code string_member(jparser *jp, const cJSON *obj, const char *key, const char *path, const char **out,
+                                   rd_error *err)
 {
     *out = NULL;
     const cJSON *m = cJSON_GetObjectItemCaseSensitive(obj, key);
@@ -263,23 +262,20 @@ static rd_error_code top_level(jparser *jp, const cJSON *root, rd_error *err)
     static const char *const object_skip[] = {"name", "type", NULL};
     if ((v = cJSON_GetObjectItemCaseSensitive(root, "lights"))) {
         if (!cJSON_IsArray(v))
-            return rd_builder_error(jp->b, err, RD_ERR_SYNTAX, path_loc("lights"),
-                                    "expected an array of lights");
+            return rd_builder_error(jp->b, err, RD_ERR_SYNTAX, path_loc("lights"), "expected an array of lights");
         int i = 0;
         for (const cJSON *m = v->child; m; m = m->next, i++) {
             char p[PATH_MAX_LEN];
             const char *name;
             snprintf(p, sizeof p, "lights[%d]", i);
-            if ((rc = expect_object(jp, m, p, "a light", err)) ||
-                (rc = string_member(jp, m, "name", p, &name, err)) ||
+            if ((rc = expect_object(jp, m, p, "a light", err)) || (rc = string_member(jp, m, "name", p, &name, err)) ||
                 (rc = section(jp, "light", name, p, m, light_skip, err)))
                 return rc;
         }
     }
     if ((v = cJSON_GetObjectItemCaseSensitive(root, "objects"))) {
         if (!cJSON_IsArray(v))
-            return rd_builder_error(jp->b, err, RD_ERR_SYNTAX, path_loc("objects"),
-                                    "expected an array of objects");
+            return rd_builder_error(jp->b, err, RD_ERR_SYNTAX, path_loc("objects"), "expected an array of objects");
         int i = 0;
         for (const cJSON *m = v->child; m; m = m->next, i++) {
             char p[PATH_MAX_LEN];
@@ -315,8 +311,8 @@ static rd_error_code top_level(jparser *jp, const cJSON *root, rd_error *err)
     return rd_builder_finish(jp->b, err);
 }
 
-rd_error_code rd_json_parse(const char *text, size_t len, const char *source,
-                            const rd_scene_limits *lim_in, rd_scene *s, rd_error *err)
+rd_error_code rd_json_parse(const char *text, size_t len, const char *source, const rd_scene_limits *lim_in,
+                            rd_scene *s, rd_error *err)
 {
     jparser jp;
     memset(&jp, 0, sizeof jp);

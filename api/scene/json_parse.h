@@ -12,7 +12,7 @@
  * Syntax errors carry line and column; errors in content name the JSON path
  * ("objects[3].radius"). Fills s through the same key table as cfg, so a
  * scene written in both formats gives the same rd_scene. */
-rd_error_code rd_json_parse(const char *text, size_t len, const char *source,
-                            const rd_scene_limits *lim, rd_scene *s, rd_error *err);
+rd_error_code rd_json_parse(const char *text, size_t len, const char *source, const rd_scene_limits *lim, rd_scene *s,
+                            rd_error *err);
 
 #endif

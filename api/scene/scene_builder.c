@@ -6,12 +6,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "scene_keys.h"
 #include "name_set.h"
+#include "scene_keys.h"
 #include "suggest.h"
 #include "utf8.h"
 #include "value_parse.h"
-
 
 typedef struct {
     size_t object;
@@ -23,8 +22,8 @@ struct rd_builder {
     rd_scene *s;
     const char *source;
     rd_scene_limits lim;
-    int seen[RD_SEC_COUNT];     /* render/camera: 1 + line of the first one */
-    rd_name_set names;  /* (kind, name) -> first line, for duplicates */
+    int seen[RD_SEC_COUNT]; /* render/camera: 1 + line of the first one */
+    rd_name_set names;      /* (kind, name) -> first line, for duplicates */
     mat_ref *refs;
     size_t nrefs, caprefs;
 };
@@ -32,8 +31,7 @@ struct rd_builder {
 /* Bytes of at most 60 characters of s: names and keys quoted in messages. */
 static int cut(const char *s, size_t len) { return (int)rd_utf8_prefix(s, len, 60); }
 
-static void vformat(rd_error *err, rd_error_code code, const char *source, rd_loc loc,
-                    const char *fmt, va_list ap)
+static void vformat(rd_error *err, rd_error_code code, const char *source, rd_loc loc, const char *fmt, va_list ap)
 {
     char msg[400];
     vsnprintf(msg, sizeof msg, fmt, ap);
@@ -47,16 +45,14 @@ static void vformat(rd_error *err, rd_error_code code, const char *source, rd_lo
         if (n > 0 && strncmp(msg, last, n) == 0 && msg[n] == ':' && msg[n + 1] == ' ')
             shown = msg + n + 2;
         rd_error_set(err, code, loc.line, loc.column, "%s: %s: %s", source, loc.path, shown);
-    }
-    else if (loc.line > 0)
-        rd_error_set(err, code, loc.line, loc.column, "%s:%d:%d: %s", source, loc.line,
-                     loc.column > 0 ? loc.column : 1, msg);
+    } else if (loc.line > 0)
+        rd_error_set(err, code, loc.line, loc.column, "%s:%d:%d: %s", source, loc.line, loc.column > 0 ? loc.column : 1,
+                     msg);
     else
         rd_error_set(err, code, 0, 0, "%s: %s", source, msg);
 }
 
-rd_error_code rd_loc_error(rd_error *err, rd_error_code code, const char *source, rd_loc loc,
-                           const char *fmt, ...)
+rd_error_code rd_loc_error(rd_error *err, rd_error_code code, const char *source, rd_loc loc, const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
@@ -65,8 +61,7 @@ rd_error_code rd_loc_error(rd_error *err, rd_error_code code, const char *source
     return code;
 }
 
-rd_error_code rd_builder_error(const rd_builder *b, rd_error *err, rd_error_code code, rd_loc loc,
-                               const char *fmt, ...)
+rd_error_code rd_builder_error(const rd_builder *b, rd_error *err, rd_error_code code, rd_loc loc, const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
@@ -139,27 +134,25 @@ static rd_loc token_loc(const rd_value *v, int i, char *buf, size_t size)
 }
 
 /* Reads n numbers of a value into out, with the key's range. */
-static rd_error_code numbers(rd_builder *b, const rd_key *k, const rd_value *v, int n, double *out,
-                             rd_error *err)
+static rd_error_code numbers(rd_builder *b, const rd_key *k, const rd_value *v, int n, double *out, rd_error *err)
 {
     char pb[300], tb[176], rb[64];
     if (v->total != n) {
         if (n == 1)
-            return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected a number, got %d values",
-                                    k->name, v->total);
-        return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected %d numbers, got %d", k->name,
-                                n, v->total);
+            return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected a number, got %d values", k->name,
+                                    v->total);
+        return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected %d numbers, got %d", k->name, n, v->total);
     }
     rd_key_range_text(k, rb, sizeof rb);
     for (int i = 0; i < n; i++) {
         int r = rd_parse_real(&v->tok[i], &out[i]);
         rd_loc l = token_loc(v, i, pb, sizeof pb);
         if (r == 1)
-            return rd_builder_error(b, err, RD_ERR_SYNTAX, l, "%s: expected a number%s, got %s",
-                                    k->name, rb, rd_token_what(&v->tok[i], tb, sizeof tb));
+            return rd_builder_error(b, err, RD_ERR_SYNTAX, l, "%s: expected a number%s, got %s", k->name, rb,
+                                    rd_token_what(&v->tok[i], tb, sizeof tb));
         if (r == 2)
-            return rd_builder_error(b, err, RD_ERR_SYNTAX, l, "%s: expected a finite number, got %s",
-                                    k->name, rd_token_what(&v->tok[i], tb, sizeof tb));
+            return rd_builder_error(b, err, RD_ERR_SYNTAX, l, "%s: expected a finite number, got %s", k->name,
+                                    rd_token_what(&v->tok[i], tb, sizeof tb));
         if (!rd_key_in_range(k, out[i]))
             return rd_builder_error(b, err, k->degenerate ? RD_ERR_INVALID : RD_ERR_SYNTAX, l,
                                     "%s: expected a number%s, got %s", k->name, rb,
@@ -168,17 +161,15 @@ static rd_error_code numbers(rd_builder *b, const rd_key *k, const rd_value *v, 
     return RD_OK;
 }
 
-static rd_error_code one_token(rd_builder *b, const rd_key *k, const rd_value *v, const char *what,
-                               rd_error *err)
+static rd_error_code one_token(rd_builder *b, const rd_key *k, const rd_value *v, const char *what, rd_error *err)
 {
     if (v->total != 1)
-        return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected %s, got %d values",
-                                k->name, what, v->total);
+        return rd_builder_error(b, err, RD_ERR_SYNTAX, v->loc, "%s: expected %s, got %d values", k->name, what,
+                                v->total);
     return RD_OK;
 }
 
-static rd_error_code enum_value(rd_builder *b, const rd_key *k, const rd_value *v, int *out,
-                                rd_error *err)
+static rd_error_code enum_value(rd_builder *b, const rd_key *k, const rd_value *v, int *out, rd_error *err)
 {
     char tb[200], list[200] = "";
     rd_error_code rc = one_token(b, k, v, "a word", err);
@@ -346,10 +337,7 @@ static char *loc_text(const rd_builder *b, rd_loc l)
     return dupn(buf, strlen(buf));
 }
 
-static const char *subtype_noun(rd_section_kind sec)
-{
-    return sec == RD_SEC_LIGHT ? "light" : "material";
-}
+static const char *subtype_noun(rd_section_kind sec) { return sec == RD_SEC_LIGHT ? "light" : "material"; }
 
 static void section_label(char *buf, size_t size, rd_section_kind sec, const char *name, size_t nlen)
 {
@@ -359,12 +347,11 @@ static void section_label(char *buf, size_t size, rd_section_kind sec, const cha
         snprintf(buf, size, "[%s]", rd_section_kind_name(sec));
 }
 
-static rd_error_code check_name(rd_builder *b, rd_section_kind sec, const char *name, size_t nlen,
-                                rd_loc where, rd_error *err)
+static rd_error_code check_name(rd_builder *b, rd_section_kind sec, const char *name, size_t nlen, rd_loc where,
+                                rd_error *err)
 {
     if (nlen > b->lim.max_name)
-        return rd_builder_error(b, err, RD_ERR_LIMIT, where,
-                                "%s name is longer than the limit of %zu bytes (%s)",
+        return rd_builder_error(b, err, RD_ERR_LIMIT, where, "%s name is longer than the limit of %zu bytes (%s)",
                                 rd_section_kind_name(sec), b->lim.max_name,
                                 rd_limit_flag(offsetof(rd_scene_limits, max_name)));
     long first = rd_name_set_add(&b->names, (int)sec, name, nlen, where.line);
@@ -388,8 +375,8 @@ static const rd_entry *find_entry(const rd_entry *e, size_t n, const char *key)
     return NULL;
 }
 
-static rd_error_code unknown_key(rd_builder *b, rd_section_kind sec, const rd_entry *e,
-                                 const char *label, rd_error *err)
+static rd_error_code unknown_key(rd_builder *b, rd_section_kind sec, const rd_entry *e, const char *label,
+                                 rd_error *err)
 {
     size_t nk;
     const rd_key *keys = rd_keys_all(&nk);
@@ -403,14 +390,11 @@ static rd_error_code unknown_key(rd_builder *b, rd_section_kind sec, const rd_en
                             e->key, label, rd_suggest_hint(&sg, e->key_len, hint, sizeof hint));
 }
 
-static rd_loc loc_of(const rd_entry *e, rd_loc fallback)
-{
-    return e ? e->value.loc : fallback;
-}
+static rd_loc loc_of(const rd_entry *e, rd_loc fallback) { return e ? e->value.loc : fallback; }
 
 /* Checks that need the whole section: degenerate geometry and pairs of keys. */
-static rd_error_code check_section(rd_builder *b, rd_section_kind sec, void *base, const rd_entry *e,
-                                   size_t n, rd_loc where, rd_error *err)
+static rd_error_code check_section(rd_builder *b, rd_section_kind sec, void *base, const rd_entry *e, size_t n,
+                                   rd_loc where, rd_error *err)
 {
     if (sec == RD_SEC_CAMERA) {
         rd_camera *c = base;
@@ -435,8 +419,7 @@ static rd_error_code check_section(rd_builder *b, rd_section_kind sec, void *bas
                                     "normal: must not be the zero vector");
     } else if (sec == RD_SEC_LIGHT) {
         rd_light *l = base;
-        if ((l->type == RD_LIGHT_DIRECTIONAL || l->type == RD_LIGHT_SPOT) &&
-            !(v3_max_abs(l->direction) > 0))
+        if ((l->type == RD_LIGHT_DIRECTIONAL || l->type == RD_LIGHT_SPOT) && !(v3_max_abs(l->direction) > 0))
             return rd_builder_error(b, err, RD_ERR_INVALID, loc_of(find_entry(e, n, "direction"), where),
                                     "direction: must not be the zero vector");
     } else if (sec == RD_SEC_TRIANGLE) {
@@ -448,8 +431,8 @@ static rd_error_code check_section(rd_builder *b, rd_section_kind sec, void *bas
                 have += find_entry(e, n, groups[g][i]) != NULL;
             if (have != 0 && have != 3)
                 return rd_builder_error(b, err, RD_ERR_SYNTAX, where,
-                                        "[triangle] needs all of %s, %s, %s or none of them",
-                                        groups[g][0], groups[g][1], groups[g][2]);
+                                        "[triangle] needs all of %s, %s, %s or none of them", groups[g][0],
+                                        groups[g][1], groups[g][2]);
             if (g == 0)
                 o->has_normals = have == 3;
             else
@@ -458,8 +441,7 @@ static rd_error_code check_section(rd_builder *b, rd_section_kind sec, void *bas
         if (o->has_normals)
             for (int i = 0; i < 3; i++)
                 if (!(v3_max_abs(o->n[i]) > 0))
-                    return rd_builder_error(b, err, RD_ERR_INVALID,
-                                            loc_of(find_entry(e, n, groups[0][i]), where),
+                    return rd_builder_error(b, err, RD_ERR_INVALID, loc_of(find_entry(e, n, groups[0][i]), where),
                                             "%s: must not be the zero vector", groups[0][i]);
     }
     return RD_OK;
@@ -487,8 +469,8 @@ static rd_error_code add_ref(rd_builder *b, size_t object, rd_loc l, rd_error *e
 }
 
 /* The section kind named by kind, or an error with a did-you-mean. */
-static rd_error_code resolve_kind(rd_builder *b, const char *kind, size_t kind_len, rd_loc where,
-                                  rd_section_kind *sec, rd_error *err)
+static rd_error_code resolve_kind(rd_builder *b, const char *kind, size_t kind_len, rd_loc where, rd_section_kind *sec,
+                                  rd_error *err)
 {
     int ki = rd_section_kind_find(kind, kind_len);
     if (ki >= 0) {
@@ -552,8 +534,7 @@ static rd_error_code check_entries(rd_builder *b, const char *label, const rd_en
     return RD_OK;
 }
 
-static rd_error_code too_many(rd_builder *b, rd_loc where, const char *what, size_t limit, size_t offset,
-                              rd_error *err)
+static rd_error_code too_many(rd_builder *b, rd_loc where, const char *what, size_t limit, size_t offset, rd_error *err)
 {
     return rd_builder_error(b, err, RD_ERR_LIMIT, where, "too many %s (limit %zu, %s)", what, limit,
                             rd_limit_flag(offset));
@@ -579,16 +560,17 @@ static rd_error_code alloc_section(rd_builder *b, rd_section_kind sec, const cha
         name_slot = l ? &l->name : NULL;
     } else if (sec == RD_SEC_MATERIAL) {
         if (s->material_count >= b->lim.max_materials)
-            return too_many(b, where, "materials", b->lim.max_materials, offsetof(rd_scene_limits, max_materials),
-                            err);
+            return too_many(b, where, "materials", b->lim.max_materials, offsetof(rd_scene_limits, max_materials), err);
         rd_material *m = rd_scene_add_material(s);
         *base = m;
         name_slot = m ? &m->name : NULL;
     } else {
         if (s->object_count >= b->lim.max_objects)
             return too_many(b, where, "objects", b->lim.max_objects, offsetof(rd_scene_limits, max_objects), err);
-        static const rd_object_type types[] = {[RD_SEC_SPHERE] = RD_OBJ_SPHERE, [RD_SEC_PLANE] = RD_OBJ_PLANE,
-                                               [RD_SEC_TRIANGLE] = RD_OBJ_TRIANGLE, [RD_SEC_MESH] = RD_OBJ_MESH};
+        static const rd_object_type types[] = {[RD_SEC_SPHERE] = RD_OBJ_SPHERE,
+                                               [RD_SEC_PLANE] = RD_OBJ_PLANE,
+                                               [RD_SEC_TRIANGLE] = RD_OBJ_TRIANGLE,
+                                               [RD_SEC_MESH] = RD_OBJ_MESH};
         *object_index = s->object_count;
         rd_object *o = rd_scene_add_object(s);
         if (o)
@@ -606,8 +588,8 @@ static rd_error_code alloc_section(rd_builder *b, rd_section_kind sec, const cha
 /* A light's or material's type comes first: it decides the defaults and
  * which keys apply. *subtype_bit: the type's bit (1 for other sections). */
 static rd_error_code apply_type(rd_builder *b, rd_section_kind sec, const char *label, const rd_entry *entries,
-                                size_t n, rd_loc where, void *base, const rd_entry **type_entry,
-                                unsigned *subtype_bit, rd_error *err)
+                                size_t n, rd_loc where, void *base, const rd_entry **type_entry, unsigned *subtype_bit,
+                                rd_error *err)
 {
     *subtype_bit = 1;
     *type_entry = NULL;
@@ -670,9 +652,8 @@ static rd_error_code check_required(rd_builder *b, rd_section_kind sec, const ch
     return RD_OK;
 }
 
-rd_error_code rd_builder_section(rd_builder *b, const char *kind, size_t kind_len,
-                                 const char *name, size_t name_len, rd_loc where,
-                                 const rd_entry *entries, size_t n, rd_error *err)
+rd_error_code rd_builder_section(rd_builder *b, const char *kind, size_t kind_len, const char *name, size_t name_len,
+                                 rd_loc where, const rd_entry *entries, size_t n, rd_error *err)
 {
     rd_section_kind sec = RD_SEC_RENDER;
     rd_error_code rc = resolve_kind(b, kind, kind_len, where, &sec, err);
@@ -684,7 +665,8 @@ rd_error_code rd_builder_section(rd_builder *b, const char *kind, size_t kind_le
     size_t object_index = 0;
     const rd_entry *type_entry = NULL;
     unsigned subtype_bit = 1;
-    if ((rc = check_header(b, sec, name, name_len, where, err)) || (rc = check_entries(b, label, entries, n, where, err)) ||
+    if ((rc = check_header(b, sec, name, name_len, where, err)) ||
+        (rc = check_entries(b, label, entries, n, where, err)) ||
         (rc = alloc_section(b, sec, name, name_len, where, &base, &object_index, err)) ||
         (rc = apply_type(b, sec, label, entries, n, where, base, &type_entry, &subtype_bit, err)))
         return rc;

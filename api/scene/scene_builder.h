@@ -25,7 +25,7 @@
 #define RD_MAX_SECTION_KEYS 256
 
 typedef struct {
-    const char *key;    /* not NUL-terminated */
+    const char *key; /* not NUL-terminated */
     size_t key_len;
     rd_loc key_loc;
     rd_value value;
@@ -46,19 +46,18 @@ void rd_builder_free(rd_builder *b);
 
 /* One section: its kind ("sphere"), optional name, where its header is, and
  * all of its entries. */
-rd_error_code rd_builder_section(rd_builder *b, const char *kind, size_t kind_len,
-                                 const char *name, size_t name_len, rd_loc where,
-                                 const rd_entry *entries, size_t n, rd_error *err);
+rd_error_code rd_builder_section(rd_builder *b, const char *kind, size_t kind_len, const char *name, size_t name_len,
+                                 rd_loc where, const rd_entry *entries, size_t n, rd_error *err);
 
 /* Resolves material names and checks what needs the whole scene. */
 rd_error_code rd_builder_finish(rd_builder *b, rd_error *err);
 
 /* Formats an error at loc with the builder's source name. */
-rd_error_code rd_builder_error(const rd_builder *b, rd_error *err, rd_error_code code, rd_loc loc,
-                               const char *fmt, ...) __attribute__((format(printf, 5, 6)));
+rd_error_code rd_builder_error(const rd_builder *b, rd_error *err, rd_error_code code, rd_loc loc, const char *fmt, ...)
+    __attribute__((format(printf, 5, 6)));
 
 /* The same for readers before a builder exists. */
-rd_error_code rd_loc_error(rd_error *err, rd_error_code code, const char *source, rd_loc loc,
-                           const char *fmt, ...) __attribute__((format(printf, 5, 6)));
+rd_error_code rd_loc_error(rd_error *err, rd_error_code code, const char *source, rd_loc loc, const char *fmt, ...)
+    __attribute__((format(printf, 5, 6)));
 
 #endif

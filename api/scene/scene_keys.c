@@ -22,8 +22,8 @@ static const char *const section_words[RD_SEC_COUNT] = {RD_SECTION_KINDS(RD_WORD
 #define LA BIT(RD_LIGHT_AREA)
 #define M(t) BIT(RD_MAT_##t)
 #define KD_MATS (M(DIFFUSE) | M(PHONG) | M(BLINN_PHONG) | M(COOK_TORRANCE))
-#define KS_MATS (M(PHONG) | M(BLINN_PHONG) | M(COOK_TORRANCE) | M(PERFECT_SPECULAR) | \
-                 M(SPECULAR_REFRACTION) | M(TEXTURED_PHONG))
+#define KS_MATS                                                                                                        \
+    (M(PHONG) | M(BLINN_PHONG) | M(COOK_TORRANCE) | M(PERFECT_SPECULAR) | M(SPECULAR_REFRACTION) | M(TEXTURED_PHONG))
 #define SHINY_MATS (M(PHONG) | M(BLINN_PHONG) | M(TEXTURED_PHONG))
 
 #define R(f) offsetof(rd_render_settings, f)
@@ -102,16 +102,12 @@ int rd_section_kind_find(const char *name, size_t len)
     return -1;
 }
 
-const char *rd_section_kind_name(rd_section_kind k)
-{
-    return (unsigned)k < RD_SEC_COUNT ? section_words[k] : "?";
-}
+const char *rd_section_kind_name(rd_section_kind k) { return (unsigned)k < RD_SEC_COUNT ? section_words[k] : "?"; }
 
 const rd_key *rd_key_find(rd_section_kind sec, const char *name, size_t len)
 {
     for (size_t i = 0; i < sizeof keys / sizeof keys[0]; i++)
-        if (keys[i].section == sec && strlen(keys[i].name) == len &&
-            memcmp(keys[i].name, name, len) == 0)
+        if (keys[i].section == sec && strlen(keys[i].name) == len && memcmp(keys[i].name, name, len) == 0)
             return &keys[i];
     return NULL;
 }
@@ -126,8 +122,7 @@ void rd_key_range_text(const rd_key *k, char *buf, size_t size)
 {
     int has_lo = !isinf(k->lo), has_hi = !isinf(k->hi);
     if (has_lo && has_hi)
-        snprintf(buf, size, " in %c%g, %g%c", k->lo_open ? '(' : '[', k->lo, k->hi,
-                 k->hi_open ? ')' : ']');
+        snprintf(buf, size, " in %c%g, %g%c", k->lo_open ? '(' : '[', k->lo, k->hi, k->hi_open ? ')' : ']');
     else if (has_lo)
         snprintf(buf, size, " %s %g", k->lo_open ? ">" : ">=", k->lo);
     else if (has_hi)

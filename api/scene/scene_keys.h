@@ -8,15 +8,23 @@
 
 /* Every section kind once, with its cfg header word; the object kinds
  * (sphere to mesh) come last, in this order. */
-#define RD_SECTION_KINDS(X)                                                                            \
-    X(RENDER, "render") X(CAMERA, "camera") X(LIGHT, "light") X(MATERIAL, "material") X(SPHERE, "sphere") \
-    X(PLANE, "plane") X(TRIANGLE, "triangle") X(MESH, "mesh")
+/* clang-format off */
+#define RD_SECTION_KINDS(X) \
+    X(RENDER, "render") \
+    X(CAMERA, "camera") \
+    X(LIGHT, "light") \
+    X(MATERIAL, "material") \
+    X(SPHERE, "sphere") \
+    X(PLANE, "plane") \
+    X(TRIANGLE, "triangle") \
+    X(MESH, "mesh")
+/* clang-format on */
 
 typedef enum {
 #define RD_SEC_ENUM(id, word) RD_SEC_##id,
     RD_SECTION_KINDS(RD_SEC_ENUM)
 #undef RD_SEC_ENUM
-    RD_SEC_COUNT
+        RD_SEC_COUNT
 } rd_section_kind;
 
 typedef enum {
@@ -37,13 +45,13 @@ typedef struct {
     rd_section_kind section;
     const char *name;
     rd_key_type type;
-    double lo, hi;          /* range; ±INFINITY when open-ended */
-    int lo_open, hi_open;   /* 1 when the bound itself is excluded */
-    unsigned applies;       /* bit t set: applies to subtype t (material/light type) */
-    unsigned required;      /* bit t set: required for subtype t */
-    size_t offset;          /* into the section's struct in rd_scene */
+    double lo, hi;            /* range; ±INFINITY when open-ended */
+    int lo_open, hi_open;     /* 1 when the bound itself is excluded */
+    unsigned applies;         /* bit t set: applies to subtype t (material/light type) */
+    unsigned required;        /* bit t set: required for subtype t */
+    size_t offset;            /* into the section's struct in rd_scene */
     const char *const *words; /* RD_KT_ENUM: NULL-terminated */
-    int degenerate;         /* out of range means degenerate geometry */
+    int degenerate;           /* out of range means degenerate geometry */
 } rd_key;
 
 /* Section kind by name, or -1. */

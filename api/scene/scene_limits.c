@@ -51,19 +51,17 @@ rd_scene_limits rd_scene_limits_default(void)
     return l;
 }
 
-rd_error_code rd_scene_check_limits(const rd_scene *s, const rd_scene_limits *lim_in, const char *source,
-                                    rd_error *err)
+rd_error_code rd_scene_check_limits(const rd_scene *s, const rd_scene_limits *lim_in, const char *source, rd_error *err)
 {
     rd_scene_limits lim = lim_in ? *lim_in : rd_scene_limits_default();
     source = source ? source : "<scene>";
     size_t pixels = (size_t)s->render.width * (size_t)s->render.height;
     if (pixels > lim.max_pixels)
-        return rd_error_set(err, RD_ERR_LIMIT, 0, 0,
-                            "%s: %dx%d is %zu pixels, over the limit of %zu (%s)", source, s->render.width,
-                            s->render.height, pixels, lim.max_pixels, rd_limit_flag(F(max_pixels)));
+        return rd_error_set(err, RD_ERR_LIMIT, 0, 0, "%s: %dx%d is %zu pixels, over the limit of %zu (%s)", source,
+                            s->render.width, s->render.height, pixels, lim.max_pixels, rd_limit_flag(F(max_pixels)));
     if ((size_t)s->render.samples > lim.max_samples)
-        return rd_error_set(err, RD_ERR_LIMIT, 0, 0, "%s: %d samples per pixel, over the limit of %zu (%s)",
-                            source, s->render.samples, lim.max_samples, rd_limit_flag(F(max_samples)));
+        return rd_error_set(err, RD_ERR_LIMIT, 0, 0, "%s: %d samples per pixel, over the limit of %zu (%s)", source,
+                            s->render.samples, lim.max_samples, rd_limit_flag(F(max_samples)));
     if ((size_t)s->render.max_depth > lim.max_depth)
         return rd_error_set(err, RD_ERR_LIMIT, 0, 0, "%s: max_depth %d, over the limit of %zu (%s)", source,
                             s->render.max_depth, lim.max_depth, rd_limit_flag(F(max_depth)));

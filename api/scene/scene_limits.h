@@ -10,25 +10,25 @@
 #include "rayd/scene.h"
 
 typedef struct {
-    size_t max_bytes;           /* scene text */
-    size_t max_pixels;          /* width × height */
-    size_t max_samples;         /* per pixel */
-    size_t max_depth;           /* recursion */
-    size_t max_objects;         /* spheres, planes, triangles (after meshes are expanded) */
+    size_t max_bytes;   /* scene text */
+    size_t max_pixels;  /* width × height */
+    size_t max_samples; /* per pixel */
+    size_t max_depth;   /* recursion */
+    size_t max_objects; /* spheres, planes, triangles (after meshes are expanded) */
     size_t max_lights;
     size_t max_materials;
-    size_t max_name;            /* bytes in a name or string value */
-    size_t max_nesting;         /* JSON arrays and objects inside each other */
-    size_t max_mesh_bytes;      /* one OBJ file */
-    size_t max_texture_bytes;   /* one PNG file */
-    size_t max_texture_pixels;  /* one texture, decoded */
+    size_t max_name;           /* bytes in a name or string value */
+    size_t max_nesting;        /* JSON arrays and objects inside each other */
+    size_t max_mesh_bytes;     /* one OBJ file */
+    size_t max_texture_bytes;  /* one PNG file */
+    size_t max_texture_pixels; /* one texture, decoded */
 } rd_scene_limits;
 
 /* One limit: its flag, its field and what it bounds, for help texts and
  * parsing flags generically. */
 typedef struct {
-    const char *flag;           /* "--max-pixels" */
-    size_t offset;              /* into rd_scene_limits */
+    const char *flag; /* "--max-pixels" */
+    size_t offset;    /* into rd_scene_limits */
     const char *what;
 } rd_limit_info;
 
@@ -46,7 +46,6 @@ rd_scene_limits rd_scene_limits_default(void);
 
 /* Checks what the render section asks for (after any overrides) against
  * the limits: pixels, samples, depth. */
-rd_error_code rd_scene_check_limits(const rd_scene *s, const rd_scene_limits *lim, const char *source,
-                                    rd_error *err);
+rd_error_code rd_scene_check_limits(const rd_scene *s, const rd_scene_limits *lim, const char *source, rd_error *err);
 
 #endif

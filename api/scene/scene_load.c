@@ -1,11 +1,11 @@
 #include "scene_load.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -33,19 +33,18 @@ rd_error_code rd_scene_parse(const char *text, size_t len, rd_scene_format fmt, 
     return rd_cfg_parse(text, len, source, lim, s, err);
 }
 
-rd_error_code rd_scene_load_file(const char *path, const rd_scene_limits *lim_in, rd_scene *s,
-                                 rd_error *err)
+rd_error_code rd_scene_load_file(const char *path, const rd_scene_limits *lim_in, rd_scene *s, rd_error *err)
 {
     rd_scene_limits lim = lim_in ? *lim_in : rd_scene_limits_default();
     char *text;
     size_t len;
-    rd_error_code rc = rd_read_file(path, lim.max_bytes, rd_limit_flag(offsetof(rd_scene_limits, max_bytes)),
-                                    &text, &len, err);
+    rd_error_code rc =
+        rd_read_file(path, lim.max_bytes, rd_limit_flag(offsetof(rd_scene_limits, max_bytes)), &text, &len, err);
     if (rc)
         return rc;
-    rd_scene_format fmt = rd_ends_with(path, ".json") ? RD_FMT_JSON
-                        : rd_ends_with(path, ".cfg")  ? RD_FMT_CFG
-                                                   : RD_FMT_AUTO;
+    rd_scene_format fmt = rd_ends_with(path, ".json")  ? RD_FMT_JSON
+                          : rd_ends_with(path, ".cfg") ? RD_FMT_CFG
+                                                       : RD_FMT_AUTO;
     rc = rd_scene_parse(text, len, fmt, path, &lim, s, err);
     free(text);
     return rc;

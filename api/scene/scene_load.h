@@ -19,7 +19,6 @@ rd_error_code rd_scene_parse(const char *text, size_t len, rd_scene_format fmt, 
 
 /* Reads and parses a file: .json is JSON, .cfg is cfg, anything else is
  * sniffed. A file over lim->max_bytes is refused before it is read. */
-rd_error_code rd_scene_load_file(const char *path, const rd_scene_limits *lim, rd_scene *s,
-                                 rd_error *err);
+rd_error_code rd_scene_load_file(const char *path, const rd_scene_limits *lim, rd_scene *s, rd_error *err);
 
 #endif

@@ -13,8 +13,8 @@
 extern const char *const rd_override_names[];
 
 typedef struct {
-    unsigned set;               /* bit i: rd_override_names[i] was given */
-    rd_render_settings values;  /* those given */
+    unsigned set;              /* bit i: rd_override_names[i] was given */
+    rd_render_settings values; /* those given */
 } rd_scene_overrides;
 
 /* Reads value for the render key name into ov. RD_ERR_NOT_FOUND when name

@@ -77,8 +77,8 @@ static cJSON *key_schema(const rd_key *k, int *f)
 /* An object schema for one section kind. extra: structural members such as
  * "name"; subtype_words: for lights and materials, one if/then per type
  * limiting the keys to those that apply and requiring the required ones. */
-static cJSON *section_schema(rd_section_kind sec, const char *const *extra,
-                             const char *const *subtype_words, const char *default_type, int *f)
+static cJSON *section_schema(rd_section_kind sec, const char *const *extra, const char *const *subtype_words,
+                             const char *default_type, int *f)
 {
     size_t nk;
     const rd_key *keys = rd_keys_all(&nk);

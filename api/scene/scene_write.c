@@ -40,9 +40,7 @@ static int defaults_for(rd_section_kind sec, int subtype, any_section *d)
         ok = l != NULL;
         break;
     }
-    case RD_SEC_MATERIAL:
-        rd_material_defaults(&d->m, (rd_material_type)subtype);
-        break;
+    case RD_SEC_MATERIAL: rd_material_defaults(&d->m, (rd_material_type)subtype); break;
     default: {
         rd_object *o = rd_scene_add_object(&s);
         if (o)
@@ -71,8 +69,7 @@ static int key_bytes(const rd_key *k)
 
 /* Whether key k of the section at base should be written; every: also at
  * its default. */
-static int wanted(const rd_key *k, unsigned bit, const void *base, const any_section *d,
-                  const rd_object *o, int every)
+static int wanted(const rd_key *k, unsigned bit, const void *base, const any_section *d, const rd_object *o, int every)
 {
     if (!(k->applies & bit) || strcmp(k->name, "type") == 0)
         return 0;
@@ -107,8 +104,8 @@ static int bare_word(const char *s)
         return 0;
     for (const char *p = s; *p; p++) {
         char c = *p;
-        if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
-              c == '-' || c == '.' || (unsigned char)c >= 0x80))
+        if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-' ||
+              c == '.' || (unsigned char)c >= 0x80))
             return 0;
     }
     return 1;
@@ -155,8 +152,8 @@ static rd_error_code cfg_value(rd_strbuf *b, const rd_key *k, const void *base, 
     return RD_OK;
 }
 
-static rd_error_code cfg_section(rd_strbuf *b, rd_section_kind sec, const char *name, int subtype,
-                                 const void *base, const rd_object *o, rd_error *err)
+static rd_error_code cfg_section(rd_strbuf *b, rd_section_kind sec, const char *name, int subtype, const void *base,
+                                 const rd_object *o, rd_error *err)
 {
     any_section d;
     if (!defaults_for(sec, subtype, &d))
@@ -214,11 +211,11 @@ rd_error_code rd_scene_write_cfg(const rd_scene *s, char **out, rd_error *err)
     for (size_t i = 0; !rc && i < s->light_count; i++)
         rc = cfg_section(&b, RD_SEC_LIGHT, s->lights[i].name, (int)s->lights[i].type, &s->lights[i], NULL, err);
     for (size_t i = 0; !rc && i < s->material_count; i++)
-        rc = cfg_section(&b, RD_SEC_MATERIAL, s->materials[i].name, (int)s->materials[i].type,
-                         &s->materials[i], NULL, err);
+        rc = cfg_section(&b, RD_SEC_MATERIAL, s->materials[i].name, (int)s->materials[i].type, &s->materials[i], NULL,
+                         err);
     for (size_t i = 0; !rc && i < s->object_count; i++)
-        rc = cfg_section(&b, object_section(&s->objects[i]), s->objects[i].name, 0, &s->objects[i],
-                         &s->objects[i], err);
+        rc =
+            cfg_section(&b, object_section(&s->objects[i]), s->objects[i].name, 0, &s->objects[i], &s->objects[i], err);
     if (rc) {
         rd_strbuf_free(&b);
         return rc;
@@ -271,8 +268,8 @@ static cJSON *json_value(const rd_key *k, const void *base, int *failed)
     return NULL;
 }
 
-static cJSON *json_section(rd_section_kind sec, int subtype, const void *base, const rd_object *o,
-                           const char *name, const char *type_word, int every, int *failed)
+static cJSON *json_section(rd_section_kind sec, int subtype, const void *base, const rd_object *o, const char *name,
+                           const char *type_word, int every, int *failed)
 {
     any_section d;
     if (!defaults_for(sec, subtype, &d))
@@ -322,8 +319,7 @@ rd_error_code rd_scene_write_json(const rd_scene *s, char **out, rd_error *err)
     return rd_scene_write_json_with(s, NULL, out, err);
 }
 
-rd_error_code rd_scene_write_json_with(const rd_scene *s, const rd_scene_write_options *opt, char **out,
-                                       rd_error *err)
+rd_error_code rd_scene_write_json_with(const rd_scene *s, const rd_scene_write_options *opt, char **out, rd_error *err)
 {
     int every = opt && opt->every_key, loaded = opt && opt->loaded_meshes;
     *out = NULL;
@@ -342,17 +338,16 @@ rd_error_code rd_scene_write_json_with(const rd_scene *s, const rd_scene_write_o
     cJSON *mats = rd_json_add(root, "materials", cJSON_CreateObject(), &f);
     for (size_t i = 0; mats && i < s->material_count; i++) {
         const rd_material *m = &s->materials[i];
-        rd_json_add(mats, m->name ? m->name : "",
-                    json_section(RD_SEC_MATERIAL, (int)m->type, m, NULL, NULL, rd_material_type_words[m->type], every,
-                                 &f),
-                    &f);
+        rd_json_add(
+            mats, m->name ? m->name : "",
+            json_section(RD_SEC_MATERIAL, (int)m->type, m, NULL, NULL, rd_material_type_words[m->type], every, &f), &f);
     }
     cJSON *objs = rd_json_add(root, "objects", cJSON_CreateArray(), &f);
     for (size_t i = 0; objs && i < s->object_count; i++) {
         const rd_object *o = &s->objects[i];
         rd_section_kind sec = object_section(o);
-        cJSON *obj = rd_json_add(objs, NULL, json_section(sec, 0, o, o, o->name, rd_section_kind_name(sec), every, &f),
-                                 &f);
+        cJSON *obj =
+            rd_json_add(objs, NULL, json_section(sec, 0, o, o, o->name, rd_section_kind_name(sec), every, &f), &f);
         if (obj && loaded && o->type == RD_OBJ_MESH && o->mesh >= 0 && (size_t)o->mesh < s->mesh_count)
             rd_json_add(obj, "loaded", mesh_json(&s->meshes[o->mesh], &f), &f);
     }

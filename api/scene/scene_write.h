@@ -33,7 +33,6 @@ typedef struct {
 } rd_scene_write_options;
 
 /* rd_scene_write_json with options (NULL: none, as rd_scene_write_json). */
-rd_error_code rd_scene_write_json_with(const rd_scene *s, const rd_scene_write_options *opt, char **out,
-                                       rd_error *err);
+rd_error_code rd_scene_write_json_with(const rd_scene *s, const rd_scene_write_options *opt, char **out, rd_error *err);
 
 #endif

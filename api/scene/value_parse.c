@@ -5,9 +5,9 @@
 #include <ctype.h>
 #include <errno.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <stdio.h>
 #include <strings.h>
 
 /* Longest number text accepted; more digits than this carry no precision. */
@@ -45,8 +45,7 @@ static int is_nonfinite_word(const char *s, size_t n)
     if (n > 0 && (s[0] == '+' || s[0] == '-'))
         s++, n--;
     return (n == 3 && (strncasecmp(s, "nan", 3) == 0 || strncasecmp(s, "inf", 3) == 0)) ||
-           (n == 8 && strncasecmp(s, "infinity", 8) == 0) ||
-           (n > 3 && strncasecmp(s, "nan(", 4) == 0);
+           (n == 8 && strncasecmp(s, "infinity", 8) == 0) || (n > 3 && strncasecmp(s, "nan(", 4) == 0);
 }
 
 int rd_parse_real(const rd_token *t, double *out)

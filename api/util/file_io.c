@@ -8,8 +8,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-rd_error_code rd_read_file(const char *path, size_t max_bytes, const char *flag, char **out, size_t *len,
-                           rd_error *err)
+rd_error_code rd_read_file(const char *path, size_t max_bytes, const char *flag, char **out, size_t *len, rd_error *err)
 {
     *out = NULL;
     *len = 0;

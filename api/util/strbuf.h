@@ -7,9 +7,9 @@
 #include <stddef.h>
 
 typedef struct {
-    char *text;     /* NUL-terminated once anything was appended */
+    char *text; /* NUL-terminated once anything was appended */
     size_t len, cap;
-    int failed;     /* an append ran out of memory */
+    int failed; /* an append ran out of memory */
 } rd_strbuf;
 
 /* Appends; a no-op once an append has failed. */

@@ -60,10 +60,7 @@ size_t rd_utf8_prefix(const char *s, size_t len, size_t max_chars)
     return i;
 }
 
-size_t rd_utf8_bom(const char *text, size_t len)
-{
-    return len >= 3 && memcmp(text, "\xef\xbb\xbf", 3) == 0 ? 3 : 0;
-}
+size_t rd_utf8_bom(const char *text, size_t len) { return len >= 3 && memcmp(text, "\xef\xbb\xbf", 3) == 0 ? 3 : 0; }
 
 void rd_utf8_position(const char *text, size_t len, size_t off, int *line, int *column)
 {

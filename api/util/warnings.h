@@ -4,8 +4,8 @@
 #define RD_WARNINGS_H
 
 typedef struct {
-    int count;          /* all of them */
-    char text[1024];    /* the first five, one per line */
+    int count;       /* all of them */
+    char text[1024]; /* the first five, one per line */
 } rd_warnings;
 
 /* Adds one; w may be NULL (nobody listens). */

@@ -3,8 +3,7 @@
 #include <stdarg.h>
 #include <stdio.h>
 
-rd_error_code rd_error_set(rd_error *err, rd_error_code code, int line, int column,
-                           const char *fmt, ...)
+rd_error_code rd_error_set(rd_error *err, rd_error_code code, int line, int column, const char *fmt, ...)
 {
     if (err) {
         err->code = code;

@@ -110,8 +110,8 @@ static void node_bounds(const rec *r, size_t first, size_t count, box *bounds, b
 typedef struct {
     int axis, bin;
     double cost;
-    double scale;   /* bins per unit along axis */
-    float lo;       /* where bin 0 starts */
+    double scale; /* bins per unit along axis */
+    float lo;     /* where bin 0 starts */
 } split;
 
 static int bin_of(const rec *x, const split *sp)
@@ -160,8 +160,8 @@ static void find_split(const rec *r, size_t first, size_t count, const box *boun
         cnt += bc[k];
         if (cnt == 0 || right_count[k + 1] == 0)
             continue;
-        double cost = 0.5 + (box_area(&acc) * cnt + right_area[k + 1] * right_count[k + 1]) /
-                                (parent_area > 0 ? parent_area : 1);
+        double cost =
+            0.5 + (box_area(&acc) * cnt + right_area[k + 1] * right_count[k + 1]) / (parent_area > 0 ? parent_area : 1);
         if (cost < sp->cost) {
             sp->cost = cost;
             best = k;

@@ -11,8 +11,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "rayd/error.h"
 #include "ray.h"
+#include "rayd/error.h"
 
 /* Entries of a traversal stack: the builder keeps every leaf shallower than
  * RD_BVH_STACK - 8, so a depth-first walk pushing one node per level (and
@@ -23,15 +23,15 @@
  * box always contains its primitives. */
 typedef struct {
     float lo[3], hi[3];
-    uint32_t offset;    /* leaf: first index into prims; inner: right child */
-    uint16_t count;     /* leaf: primitive count; inner: 0 */
-    uint16_t axis;      /* inner: split axis, for near-first order */
+    uint32_t offset; /* leaf: first index into prims; inner: right child */
+    uint16_t count;  /* leaf: primitive count; inner: 0 */
+    uint16_t axis;   /* inner: split axis, for near-first order */
 } rd_bvh_node;
 
 typedef struct {
     rd_bvh_node *nodes;
     size_t nnodes;
-    uint32_t *prims;    /* primitive ids in leaf order */
+    uint32_t *prims; /* primitive ids in leaf order */
     size_t nprims;
 } rd_bvh;
 
@@ -45,7 +45,7 @@ void rd_bvh_free(rd_bvh *b);
 typedef struct {
     rd_vec3 o, inv;
     int neg[3];
-    int flat[3];        /* direction component exactly 0: the slab is all or nothing */
+    int flat[3]; /* direction component exactly 0: the slab is all or nothing */
 } rd_bvh_ray;
 
 rd_bvh_ray rd_bvh_ray_make(rd_ray r);

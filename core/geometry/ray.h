@@ -7,8 +7,8 @@
 #include "rayd/vec3.h"
 
 typedef struct {
-    rd_vec3 o;  /* origin */
-    rd_vec3 d;  /* direction; not necessarily unit (shadow rays span 0..1) */
+    rd_vec3 o; /* origin */
+    rd_vec3 d; /* direction; not necessarily unit (shadow rays span 0..1) */
 } rd_ray;
 
 static inline rd_vec3 rd_ray_at(rd_ray r, double t) { return v3_add(r.o, v3_scale(r.d, t)); }
@@ -16,12 +16,12 @@ static inline rd_vec3 rd_ray_at(rd_ray r, double t) { return v3_add(r.o, v3_scal
 /* The course's HitRecord. */
 typedef struct {
     double t;
-    rd_vec3 p;          /* hit point */
-    rd_vec3 ng;         /* unit geometric normal, as the primitive defines it */
-    rd_vec3 n;          /* unit shading normal turned to face the ray (N·dir < 0) */
-    int front;          /* 1 when ng faces the ray */
-    double perr;        /* bound on the absolute error of each component of p */
-    double u, v;        /* texture coordinates */
+    rd_vec3 p;   /* hit point */
+    rd_vec3 ng;  /* unit geometric normal, as the primitive defines it */
+    rd_vec3 n;   /* unit shading normal turned to face the ray (N·dir < 0) */
+    int front;   /* 1 when ng faces the ray */
+    double perr; /* bound on the absolute error of each component of p */
+    double u, v; /* texture coordinates */
     int material;
     int object;
     /* which primitive, for attributes computed only when needed (uv) */

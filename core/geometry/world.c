@@ -25,7 +25,6 @@ void rd_world_free(rd_world *w)
     memset(w, 0, sizeof *w);
 }
 
-
 static rd_error_code nomem(rd_world *w, rd_error *err)
 {
     rd_world_free(w);
@@ -61,8 +60,7 @@ rd_error_code rd_world_build(rd_world *w, const rd_scene *s, rd_error *err)
     w->plane_mat = malloc((np + 1) * sizeof(int32_t));
     w->plane_obj = malloc((np + 1) * sizeof(int32_t));
     w->tris = malloc((nt + 1) * sizeof *w->tris);
-    if (!w->spheres || !w->sphere_mat || !w->sphere_obj || !w->planes || !w->plane_mat ||
-        !w->plane_obj || !w->tris)
+    if (!w->spheres || !w->sphere_mat || !w->sphere_obj || !w->planes || !w->plane_mat || !w->plane_obj || !w->tris)
         return nomem(w, err);
     for (size_t i = 0; i < s->object_count; i++) {
         const rd_object *o = &s->objects[i];

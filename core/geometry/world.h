@@ -12,8 +12,8 @@
 #include <stdint.h>
 
 #include "bvh.h"
-#include "rayd/error.h"
 #include "plane.h"
+#include "rayd/error.h"
 #include "rayd/scene.h"
 #include "sphere.h"
 
@@ -25,9 +25,9 @@
 typedef struct {
     rd_vec3 v[3];
     int32_t material;
-    int32_t object;     /* the scene object it came from */
-    int32_t mesh;       /* -1 for a [triangle]; else index into scene->meshes */
-    uint32_t face;      /* the mesh face */
+    int32_t object; /* the scene object it came from */
+    int32_t mesh;   /* -1 for a [triangle]; else index into scene->meshes */
+    uint32_t face;  /* the mesh face */
 } rd_wtri;
 
 typedef struct {
@@ -40,10 +40,10 @@ typedef struct {
     size_t nplanes;
     rd_wtri *tris;
     size_t ntris;
-    rd_bvh bvh;         /* over spheres (ids < nspheres) then triangles */
+    rd_bvh bvh; /* over spheres (ids < nspheres) then triangles */
     int use_bvh;
-    rd_vec3 origin;     /* world position of the camera-relative origin */
-    double build_ms;    /* time spent building the BVH */
+    rd_vec3 origin;  /* world position of the camera-relative origin */
+    double build_ms; /* time spent building the BVH */
 } rd_world;
 
 /* Fails (RD_ERR_INVALID) on unresolved materials or meshes the loader has

@@ -1,7 +1,6 @@
 #include "camera.h"
 
-rd_error_code rd_pinhole_make(rd_pinhole *c, const rd_camera *cam, int width, int height,
-                              rd_error *err)
+rd_error_code rd_pinhole_make(rd_pinhole *c, const rd_camera *cam, int width, int height, rd_error *err)
 {
     if (!(cam->fov_deg > 0 && cam->fov_deg < 180))
         return rd_error_set(err, RD_ERR_INVALID, 0, 0, "camera fov must be in (0, 180)");

@@ -2,8 +2,8 @@
 #ifndef RD_CAMERA_H
 #define RD_CAMERA_H
 
-#include "rayd/error.h"
 #include "ray.h"
+#include "rayd/error.h"
 #include "rayd/scene.h"
 
 typedef struct {
@@ -14,8 +14,7 @@ typedef struct {
 
 /* Basis from eye, target, up and fov; RD_ERR_INVALID when eye == target,
  * up is parallel to the view, or fov is outside (0, 180). */
-rd_error_code rd_pinhole_make(rd_pinhole *c, const rd_camera *cam, int width, int height,
-                              rd_error *err);
+rd_error_code rd_pinhole_make(rd_pinhole *c, const rd_camera *cam, int width, int height, rd_error *err);
 
 /* Ray from the eye (the origin: the world is camera-relative) through image
  * point (x, y), x right in [0, width), y down in [0, height). Unit direction. */

@@ -4,8 +4,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "rayd/clock.h"
 #include "camera.h"
+#include "rayd/clock.h"
 #include "trace.h"
 
 /* Per-pixel state lives in separate arrays, each allocated only when the
@@ -24,15 +24,15 @@ struct rd_job {
     const rd_scene *scene;
     rd_pinhole cam;
     rd_plan plan;
-    double *mean;       /* 3 a pixel: linear colour, all samples; always */
-    uint32_t *n;        /* samples a pixel; always */
-    float *half;        /* 6 a pixel: linear means of the two half-sets; when estimating */
-    uint32_t *nh;       /* 2 a pixel: their counts; when estimating */
-    float *stat;        /* 6 a pixel: display mean and Welford sum of squares; adaptive only */
+    double *mean; /* 3 a pixel: linear colour, all samples; always */
+    uint32_t *n;  /* samples a pixel; always */
+    float *half;  /* 6 a pixel: linear means of the two half-sets; when estimating */
+    uint32_t *nh; /* 2 a pixel: their counts; when estimating */
+    float *stat;  /* 6 a pixel: display mean and Welford sum of squares; adaptive only */
     int tile, tiles_x, tiles_total;
     int progressive, adaptive;
     int pass, pass_samples;
-    double mean_weight;         /* adaptive: mean of w_i at the pass start */
+    double mean_weight; /* adaptive: mean of w_i at the pass start */
     double deadline_ms;
     const atomic_int *cancel;
     double plan_ms;
@@ -45,7 +45,6 @@ struct rd_job {
     rd_curve_point curve[RD_CURVE_MAX];
     int curve_len;
 };
-
 
 /* World bytes a primitive costs at most: its record (a triangle's is the
  * largest), two BVH nodes, its leaf index, and the double bounds and
@@ -149,8 +148,6 @@ static double weight(const rd_job *j, size_t i)
     double var = ((double)m2[0] + m2[1] + m2[2]) / (n - 1);
     return var / ((double)n * n);
 }
-
-
 
 /* Reads every pixel (adaptive): no tile may be rendering. */
 static void begin_pass(rd_job *j, int pass, int samples)

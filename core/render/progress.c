@@ -11,10 +11,7 @@ const char *rd_stop_reason_name(rd_stop_reason r)
     }
 }
 
-int rd_progress_is_progressive(const rd_progress_settings *p)
-{
-    return p->time_budget_ms > 0 || p->target_error > 0;
-}
+int rd_progress_is_progressive(const rd_progress_settings *p) { return p->time_budget_ms > 0 || p->target_error > 0; }
 
 int rd_progress_next(const rd_progress_settings *p, int done, int spp, double last_pass_ms, int last_pass_spp,
                      double elapsed_ms, double error, rd_stop_reason *why)

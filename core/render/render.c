@@ -12,7 +12,7 @@ typedef struct {
     rd_job *job;
     const rd_render_options *opt;
     atomic_int next, done;
-    int tiles_done_before;      /* for progress across passes */
+    int tiles_done_before; /* for progress across passes */
     int tiles_all;
 } shared;
 
@@ -69,8 +69,8 @@ static int run_pass(shared *sh, worker *ws, int threads)
     return started + 1;
 }
 
-rd_error_code rd_render(const rd_scene *s, const rd_render_options *opt_in, rd_image *out,
-                        rd_render_stats *stats, rd_error *err)
+rd_error_code rd_render(const rd_scene *s, const rd_render_options *opt_in, rd_image *out, rd_render_stats *stats,
+                        rd_error *err)
 {
     double t0 = rd_now_ms();
     rd_render_options opt = {0};

@@ -7,7 +7,9 @@
 #include <stdint.h>
 
 /* A small counter-based generator (SplitMix64 steps). */
-typedef struct { uint64_t s; } rd_rng;
+typedef struct {
+    uint64_t s;
+} rd_rng;
 
 /* Generator for one use, keyed by up to three integers. */
 rd_rng rd_rng_make(uint64_t seed, uint64_t a, uint64_t b);

@@ -3,12 +3,12 @@
 #include <float.h>
 #include <stdint.h>
 #include <stdlib.h>
-#include <time.h>
 #include <string.h>
+#include <time.h>
 
-#include "rayd/clock.h"
 #include "fresnel.h"
 #include "material.h"
+#include "rayd/clock.h"
 #include "texture.h"
 
 /* Colour sums saturate here, far above white and far below overflow, so
@@ -148,8 +148,8 @@ int rd_counts_check(rd_ray_counts *c)
     return 0;
 }
 
-static rd_rgb trace_secondary(const rd_plan *p, const rd_hit *h, rd_vec3 dir, int depth,
-                              rd_rng *rng, rd_ray_counts *counts)
+static rd_rgb trace_secondary(const rd_plan *p, const rd_hit *h, rd_vec3 dir, int depth, rd_rng *rng,
+                              rd_ray_counts *counts)
 {
     if (rd_counts_tick(counts))
         return v3(0, 0, 0);
@@ -177,8 +177,7 @@ rd_rgb rd_trace(const rd_plan *p, rd_ray r, int depth, rd_rng *rng, rd_ray_count
         /* Only textured materials pay for texture coordinates and lookups. */
         rd_world_hit_uv(&p->world, &h);
         textured = *m;
-        textured.kd = rd_texture_sample(&s->textures[m->texture_index], h.u * m->uv_scale,
-                                        h.v * m->uv_scale);
+        textured.kd = rd_texture_sample(&s->textures[m->texture_index], h.u * m->uv_scale, h.v * m->uv_scale);
         m = &textured;
     }
     rd_vec3 V = v3_neg(r.d);

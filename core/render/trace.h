@@ -16,8 +16,8 @@ typedef struct {
     rd_world world;
     rd_light_prep *lights;
     size_t nlights;
-    int recursive;      /* some used material sends secondary rays */
-    int stochastic;     /* area lights draw random numbers per hit */
+    int recursive;  /* some used material sends secondary rays */
+    int stochastic; /* area lights draw random numbers per hit */
 } rd_plan;
 
 typedef struct {
@@ -46,10 +46,7 @@ void rd_counts_init(rd_ray_counts *c, double deadline_ms, const atomic_int *canc
 int rd_counts_check(rd_ray_counts *c);
 
 /* One unit of work done; 1 when the render must stop. */
-static inline int rd_counts_tick(rd_ray_counts *c)
-{
-    return --c->until_check > 0 ? 0 : rd_counts_check(c);
-}
+static inline int rd_counts_tick(rd_ray_counts *c) { return --c->until_check > 0 ? 0 : rd_counts_check(c); }
 
 rd_error_code rd_plan_build(rd_plan *p, const rd_scene *s, rd_error *err);
 void rd_plan_free(rd_plan *p);

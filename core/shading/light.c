@@ -15,8 +15,7 @@ void rd_light_prepare(rd_light_prep *lp, const rd_light *l, rd_vec3 origin)
     lp->samples = lp->side * lp->side;
 }
 
-int rd_light_sample_at(const rd_light_prep *lp, rd_vec3 p, int k, double ux, double uy,
-                       rd_light_sample *out)
+int rd_light_sample_at(const rd_light_prep *lp, rd_vec3 p, int k, double ux, double uy, rd_light_sample *out)
 {
     rd_vec3 at;
     out->color = lp->color;
@@ -34,9 +33,7 @@ int rd_light_sample_at(const rd_light_prep *lp, rd_vec3 p, int k, double ux, dou
         out->color = v3_scale(lp->color, 1.0 / lp->samples);
         break;
     }
-    default:
-        at = lp->pos;
-        break;
+    default: at = lp->pos; break;
     }
     out->to_light = v3_sub(at, p);
     out->L = v3_normalize(v3_neg(out->to_light));

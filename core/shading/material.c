@@ -1,7 +1,6 @@
 #include "material.h"
 
-rd_rgb rd_calc_reflected_light(const rd_material *m, const rd_hit *hit, rd_vec3 incoming,
-                               rd_vec3 outgoing)
+rd_rgb rd_calc_reflected_light(const rd_material *m, const rd_hit *hit, rd_vec3 incoming, rd_vec3 outgoing)
 {
     switch (m->type) {
     case RD_MAT_DIFFUSE: return rd_diffuse_reflected(m, hit, incoming, outgoing);

@@ -10,8 +10,7 @@
  * the light to the surface: incomingDir, L), per unit light colour. Excludes
  * ambient and recursion. Finite and non-negative for any unit inputs;
  * zero when the light is behind the shading normal hit->n. */
-rd_rgb rd_calc_reflected_light(const rd_material *m, const rd_hit *hit, rd_vec3 incoming,
-                               rd_vec3 outgoing);
+rd_rgb rd_calc_reflected_light(const rd_material *m, const rd_hit *hit, rd_vec3 incoming, rd_vec3 outgoing);
 
 /* cos α = -N·L of light arriving along L, clamped to 1 (rounding can
  * pass it); 0 when the light is behind the surface or grazes it, where

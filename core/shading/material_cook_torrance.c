@@ -41,8 +41,7 @@ rd_rgb rd_cook_torrance_reflected(const rd_material *m, const rd_hit *hit, rd_ve
     /* G/(N·V) taken term by term so that N·V -> 0 stays finite. */
     double g_nv = fmin(1 / nv, fmin(2 * nh / vh, 2 * nh * cosa / (vh * nv)));
     double s = pow(1 - vh, 5);
-    rd_rgb F = v3(m->ks.x + (1 - m->ks.x) * s, m->ks.y + (1 - m->ks.y) * s,
-                  m->ks.z + (1 - m->ks.z) * s);
+    rd_rgb F = v3(m->ks.x + (1 - m->ks.x) * s, m->ks.y + (1 - m->ks.y) * s, m->ks.z + (1 - m->ks.z) * s);
     /* The formula diverges like 1/(N·V) when V and L both graze in the
      * mirror configuration; keep it finite (any such value clamps to white). */
     double spec = fmin(D * g_nv / 4, RD_MAX_SPECULAR);

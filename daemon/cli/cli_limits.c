@@ -15,8 +15,8 @@ int rd_cli_take_limits(int *argc, char **argv, rd_scene_limits *lim, const char 
         const rd_limit_info *hit = NULL;
         const char *value = NULL;
         int used = 1;
-        if (strncmp(a, "--max-", 6) == 0 && !(own && strncmp(a, own, strlen(own)) == 0 &&
-                                                (a[strlen(own)] == 0 || a[strlen(own)] == '='))) {
+        if (strncmp(a, "--max-", 6) == 0 &&
+            !(own && strncmp(a, own, strlen(own)) == 0 && (a[strlen(own)] == 0 || a[strlen(own)] == '='))) {
             for (size_t k = 0; k < n && !hit; k++) {
                 size_t fl = strlen(info[k].flag);
                 if (strncmp(a, info[k].flag, fl) == 0 && (a[fl] == 0 || a[fl] == '=')) {
@@ -40,8 +40,7 @@ int rd_cli_take_limits(int *argc, char **argv, rd_scene_limits *lim, const char 
         errno = 0;
         unsigned long long v = value && *value && *value != '-' ? strtoull(value, &end, 10) : 0;
         if (!value || !*value || *value == '-' || *end || errno || v == 0) {
-            fprintf(stderr, "%s: %s: expected a positive integer, got '%s'\n", who, hit->flag,
-                    value ? value : "");
+            fprintf(stderr, "%s: %s: expected a positive integer, got '%s'\n", who, hit->flag, value ? value : "");
             return RD_EXIT_USAGE;
         }
         *(size_t *)((char *)lim + hit->offset) = (size_t)v;
@@ -61,8 +60,7 @@ int rd_cmd_limits(int argc, char **argv)
     rd_scene_limits d = rd_scene_limits_default();
     printf("Size limits on scene input (flags of 'rayd render', 'converge', 'grade' and 'serve'):\n\n");
     for (size_t i = 0; i < n; i++)
-        printf("  %-22s %12zu  %s\n", info[i].flag, *(const size_t *)((const char *)&d + info[i].offset),
-               info[i].what);
+        printf("  %-22s %12zu  %s\n", info[i].flag, *(const size_t *)((const char *)&d + info[i].offset), info[i].what);
     return RD_EXIT_OK;
 }
 

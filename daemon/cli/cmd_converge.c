@@ -7,13 +7,13 @@
 
 #include "cli.h"
 #include "compare.h"
+#include "file_io.h"
 #include "png_read.h"
 #include "png_write.h"
 #include "rayd/render.h"
 #include "scene_open.h"
 #include "strbuf.h"
 #include "svg_plot.h"
-#include "file_io.h"
 
 static const char converge_help[] =
     "usage: rayd converge SCENE [--reference REF.png | --reference-samples N] [options]\n"
@@ -56,12 +56,17 @@ typedef struct {
 static int parse_args(int argc, char **argv, converge_args *a)
 {
     enum { O_MAX = 256, O_REF, O_REFS, O_W, O_H, O_THREADS, O_SVG, O_CSV, O_ADAPTIVE };
-    static const struct option opts[] = {
-        {"max-samples", required_argument, NULL, O_MAX}, {"reference", required_argument, NULL, O_REF},
-        {"reference-samples", required_argument, NULL, O_REFS}, {"width", required_argument, NULL, O_W},
-        {"height", required_argument, NULL, O_H}, {"threads", required_argument, NULL, O_THREADS},
-        {"svg", required_argument, NULL, O_SVG}, {"csv", required_argument, NULL, O_CSV},
-        {"adaptive", no_argument, NULL, O_ADAPTIVE}, {"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}};
+    static const struct option opts[] = {{"max-samples", required_argument, NULL, O_MAX},
+                                         {"reference", required_argument, NULL, O_REF},
+                                         {"reference-samples", required_argument, NULL, O_REFS},
+                                         {"width", required_argument, NULL, O_W},
+                                         {"height", required_argument, NULL, O_H},
+                                         {"threads", required_argument, NULL, O_THREADS},
+                                         {"svg", required_argument, NULL, O_SVG},
+                                         {"csv", required_argument, NULL, O_CSV},
+                                         {"adaptive", no_argument, NULL, O_ADAPTIVE},
+                                         {"help", no_argument, NULL, 'h'},
+                                         {NULL, 0, NULL, 0}};
     memset(a, 0, sizeof *a);
     a->max_samples = 64;
     a->ref_samples = 1024;
@@ -115,7 +120,8 @@ static int parse_args(int argc, char **argv, converge_args *a)
     a->path = argv[optind];
     /* Every row and the reference must fit the limits, not just the scene. */
     char most[24];
-    snprintf(most, sizeof most, "%ld", a->max_samples > a->ref_samples || a->ref_path ? a->max_samples : a->ref_samples);
+    snprintf(most, sizeof most, "%ld",
+             a->max_samples > a->ref_samples || a->ref_path ? a->max_samples : a->ref_samples);
     rd_override_set(&a->ov, "samples", most, "samples", &err);
     return 0;
 }
@@ -128,8 +134,8 @@ static rd_error_code read_reference(const char *path, const rd_scene *s, double 
     char *data;
     size_t len;
     rd_png_image png;
-    rd_error_code rc = rd_read_file(path, rd_png_file_bound(w, h), "--reference: a PNG of the render's size", &data,
-                                    &len, err);
+    rd_error_code rc =
+        rd_read_file(path, rd_png_file_bound(w, h), "--reference: a PNG of the render's size", &data, &len, err);
     if (rc)
         return rc;
     rc = rd_png_decode((unsigned char *)data, len, (size_t)w * (size_t)h, "--reference: the render's size", &png, err);
@@ -138,8 +144,8 @@ static rd_error_code read_reference(const char *path, const rd_scene *s, double 
         return rc;
     if (png.width != w || png.height != h) {
         free(png.rgb);
-        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "%s is %dx%d, the render %dx%d", path, png.width, png.height,
-                            w, h);
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "%s is %dx%d, the render %dx%d", path, png.width, png.height, w,
+                            h);
     }
     for (size_t i = 0; i < (size_t)w * (size_t)h * 3; i++)
         ref[i] = (double)png.rgb[i] / png.maxval;

@@ -3,33 +3,32 @@
 #include <string.h>
 
 #include "cli.h"
-#include "png_write.h"
-#include "scene_open.h"
-#include "scene_load.h"
-#include "scene_write.h"
 #include "file_io.h"
+#include "png_write.h"
+#include "scene_load.h"
+#include "scene_open.h"
+#include "scene_write.h"
 
-static const char convert_help[] =
-    "usage: rayd convert IN OUT [--to cfg|json] [--expand [--max-... N]]\n"
-    "\n"
-    "Reads the scene IN (.cfg or .json; other names are sniffed) and writes the\n"
-    "same scene to OUT in the other format, or the one OUT's extension names.\n"
-    "OUT '-' writes to standard output (give --to). Comments are not kept; every\n"
-    "key that differs from its default is written, so converting the result\n"
-    "again gives the same text.\n"
-    "\n"
-    "  --expand   JSON only: the scene as rayd renders it, for other programs\n"
-    "             (bench/cfg2pov.py): every key with its value, defaults\n"
-    "             included, and each mesh object with a member \"loaded\": the\n"
-    "             OBJ as rayd reads it, in world coordinates (translate, scale,\n"
-    "             rotate applied), polygons fanned: {\"positions\": [[x,y,z],\n"
-    "             ...], \"normals\": [...], \"faces\": [[v0,v1,v2,n0,n1,n2],\n"
-    "             ...]}, indices from 0, n -1 where a corner has no normal;\n"
-    "             rayd itself refuses \"loaded\" when reading a scene\n"
-    "  --max-...  N  the size limits of 'rayd limits' for the scene and its\n"
-    "             meshes (a mesh of a million triangles needs --max-objects)\n"
-    "\n"
-    "Exit status: 0 written; 1 usage error; 2 scene error; 3 I/O error.\n";
+static const char convert_help[] = "usage: rayd convert IN OUT [--to cfg|json] [--expand [--max-... N]]\n"
+                                   "\n"
+                                   "Reads the scene IN (.cfg or .json; other names are sniffed) and writes the\n"
+                                   "same scene to OUT in the other format, or the one OUT's extension names.\n"
+                                   "OUT '-' writes to standard output (give --to). Comments are not kept; every\n"
+                                   "key that differs from its default is written, so converting the result\n"
+                                   "again gives the same text.\n"
+                                   "\n"
+                                   "  --expand   JSON only: the scene as rayd renders it, for other programs\n"
+                                   "             (bench/cfg2pov.py): every key with its value, defaults\n"
+                                   "             included, and each mesh object with a member \"loaded\": the\n"
+                                   "             OBJ as rayd reads it, in world coordinates (translate, scale,\n"
+                                   "             rotate applied), polygons fanned: {\"positions\": [[x,y,z],\n"
+                                   "             ...], \"normals\": [...], \"faces\": [[v0,v1,v2,n0,n1,n2],\n"
+                                   "             ...]}, indices from 0, n -1 where a corner has no normal;\n"
+                                   "             rayd itself refuses \"loaded\" when reading a scene\n"
+                                   "  --max-...  N  the size limits of 'rayd limits' for the scene and its\n"
+                                   "             meshes (a mesh of a million triangles needs --max-objects)\n"
+                                   "\n"
+                                   "Exit status: 0 written; 1 usage error; 2 scene error; 3 I/O error.\n";
 
 int rd_cmd_convert(int argc, char **argv)
 {
@@ -90,8 +89,8 @@ int rd_cmd_convert(int argc, char **argv)
     /* Expanded, the scene is opened as for a render: with its meshes. */
     rd_scene_source src = {.path = in};
     rd_warnings warnings = {0, ""};
-    rd_error_code rc = expand ? rd_scene_open(&src, NULL, &lim, &s, &warnings, &err)
-                              : rd_scene_load_file(in, &lim, &s, &err);
+    rd_error_code rc =
+        expand ? rd_scene_open(&src, NULL, &lim, &s, &warnings, &err) : rd_scene_load_file(in, &lim, &s, &err);
     if (warnings.count)
         fprintf(stderr, "%s%s", warnings.text, warnings.count > 5 ? "(more warnings not shown)\n" : "");
     char *text = NULL;

@@ -5,31 +5,30 @@
 #include <unistd.h>
 
 #include "cli.h"
-#include "grading.h"
-#include "png_write.h"
-#include "json_text.h"
 #include "file_io.h"
+#include "grading.h"
+#include "json_text.h"
+#include "png_write.h"
 
-static const char grade_help[] =
-    "usage: rayd grade (--assignment NAME | --scene FILE) --image FILE [options]\n"
-    "\n"
-    "Compares a student's rendering with rayd's reference for the same scene and\n"
-    "prints the verdict as JSON (docs/grading.md): pass or fail, RMSE, PSNR, SSIM,\n"
-    "the failed pixels and where they are.\n"
-    "\n"
-    "  --assignment NAME    an assignment of --assignments (e.g. phong)\n"
-    "  --scene FILE         or any scene file\n"
-    "  --image FILE         the student's PNG (any layout: grey, palette, alpha, 16-bit)\n"
-    "  --diff OUT.png       write the heat map of where the image differs\n"
-    "  --assignments DIR    the assignments folder (default scenes/assignments)\n"
-    "  --cache-dir DIR      where references are cached (default: none)\n"
-    "  --threads N          render threads for the reference (default: the cores)\n"
-    "  --max-...  N         a size limit; 'rayd limits' lists them with defaults\n"
-    "\n"
-    "Exit status: 0 pass; 4 graded, fail; 1 usage or no such assignment; 2 bad\n"
-    "scene, assignment or image (not a PNG, damaged, wrong size); 3 a file could\n"
-    "not be read or written. Errors are those of POST /v1/grade for the same\n"
-    "input (docs/grading.md).\n";
+static const char grade_help[] = "usage: rayd grade (--assignment NAME | --scene FILE) --image FILE [options]\n"
+                                 "\n"
+                                 "Compares a student's rendering with rayd's reference for the same scene and\n"
+                                 "prints the verdict as JSON (docs/grading.md): pass or fail, RMSE, PSNR, SSIM,\n"
+                                 "the failed pixels and where they are.\n"
+                                 "\n"
+                                 "  --assignment NAME    an assignment of --assignments (e.g. phong)\n"
+                                 "  --scene FILE         or any scene file\n"
+                                 "  --image FILE         the student's PNG (any layout: grey, palette, alpha, 16-bit)\n"
+                                 "  --diff OUT.png       write the heat map of where the image differs\n"
+                                 "  --assignments DIR    the assignments folder (default scenes/assignments)\n"
+                                 "  --cache-dir DIR      where references are cached (default: none)\n"
+                                 "  --threads N          render threads for the reference (default: the cores)\n"
+                                 "  --max-...  N         a size limit; 'rayd limits' lists them with defaults\n"
+                                 "\n"
+                                 "Exit status: 0 pass; 4 graded, fail; 1 usage or no such assignment; 2 bad\n"
+                                 "scene, assignment or image (not a PNG, damaged, wrong size); 3 a file could\n"
+                                 "not be read or written. Errors are those of POST /v1/grade for the same\n"
+                                 "input (docs/grading.md).\n";
 
 /* The heat map of where the image differs, as a PNG file. */
 static rd_error_code write_diff(const rd_grade_output *o, const char *path, rd_error *err)
@@ -71,11 +70,15 @@ static int report(const rd_grade_output *o, const char *diff)
 int rd_cmd_grade(int argc, char **argv)
 {
     enum { O_ASSIGN = 256, O_SCENE, O_IMAGE, O_DIFF, O_DIR, O_CACHE, O_THREADS };
-    static const struct option opts[] = {
-        {"assignment", required_argument, NULL, O_ASSIGN}, {"scene", required_argument, NULL, O_SCENE},
-        {"image", required_argument, NULL, O_IMAGE}, {"diff", required_argument, NULL, O_DIFF},
-        {"assignments", required_argument, NULL, O_DIR}, {"cache-dir", required_argument, NULL, O_CACHE},
-        {"threads", required_argument, NULL, O_THREADS}, {"help", no_argument, NULL, 'h'}, {NULL, 0, NULL, 0}};
+    static const struct option opts[] = {{"assignment", required_argument, NULL, O_ASSIGN},
+                                         {"scene", required_argument, NULL, O_SCENE},
+                                         {"image", required_argument, NULL, O_IMAGE},
+                                         {"diff", required_argument, NULL, O_DIFF},
+                                         {"assignments", required_argument, NULL, O_DIR},
+                                         {"cache-dir", required_argument, NULL, O_CACHE},
+                                         {"threads", required_argument, NULL, O_THREADS},
+                                         {"help", no_argument, NULL, 'h'},
+                                         {NULL, 0, NULL, 0}};
     rd_grade_input in = {0};
     const char *image = NULL, *diff = NULL, *cache_dir = NULL;
     rd_grader g = {.assignments_dir = "scenes/assignments", .limits = rd_scene_limits_default()};
@@ -109,14 +112,16 @@ int rd_cmd_grade(int argc, char **argv)
         }
     }
     if (optind != argc || !image || (!in.assignment == !in.scene_path)) {
-        fprintf(stderr, "rayd grade: give --image and exactly one of --assignment or --scene (try 'rayd grade --help')\n");
+        fprintf(stderr,
+                "rayd grade: give --image and exactly one of --assignment or --scene (try 'rayd grade --help')\n");
         return RD_EXIT_USAGE;
     }
     rd_error err = {0};
     char *png = NULL;
     /* The upload limit of the daemon: a PNG over the body limit is refused
      * there before it is read, here likewise. */
-    rd_error_code rc = rd_read_file(image, RD_GRADE_MAX_PNG_BYTES, "the largest PNG graded, 1 GiB", &png, &in.png_len, &err);
+    rd_error_code rc =
+        rd_read_file(image, RD_GRADE_MAX_PNG_BYTES, "the largest PNG graded, 1 GiB", &png, &in.png_len, &err);
     if (rc) {
         fprintf(stderr, "rayd grade: %s\n", err.message);
         return rd_error_answer_for(rc).exit;

@@ -6,53 +6,52 @@
 #include <unistd.h>
 
 #include "cli.h"
+#include "file_io.h"
 #include "png_write.h"
 #include "rayd/render.h"
 #include "scene_open.h"
-#include "file_io.h"
 
-static const char render_help[] =
-    "usage: rayd render SCENE -o OUT.png [options]\n"
-    "\n"
-    "Renders SCENE (.cfg or .json; other names are sniffed) into an 8-bit RGB PNG\n"
-    "and prints one line of statistics on stderr.\n"
-    "\n"
-    "  -o, --output FILE   where to write the PNG (required)\n"
-    "      --width N       image width in pixels, 1..16384 (overrides [render])\n"
-    "      --height N      image height in pixels, 1..16384\n"
-    "      --samples N     samples per pixel, 1..65536; 1 is the pixel centre\n"
-    "      --seed N        sampling seed; same seed gives the same image\n"
-    "      --threads N     worker threads, 1..1024 (default: the number of cores);\n"
-    "                      the image does not depend on it\n"
-    "      --png-level N   zlib level 0..9 for the PNG (default 1)\n"
-    "      --time-budget-ms T  render in passes and stop before T ms are spent\n"
-    "      --target-error E    render in passes until the error estimate is <= E\n"
-    "                      (either makes --samples the cap, not the count)\n"
-    "      --adaptive      later passes spend samples where the estimated error is\n"
-    "      --stats-format text|json|both  the statistics as the line below (text,\n"
-    "                      the default), as one JSON object on one line (json), or\n"
-    "                      the line and then the object (both)\n"
-    "      --max-...  N    a size limit; 'rayd limits' lists them with defaults\n"
-    "  -h, --help          this text\n"
-    "\n"
-    "Exit status: 0 written; 1 usage error; 2 scene error (message on stderr,\n"
-    "no image written); 3 file could not be read or written.\n"
-    "\n"
-    "Statistics line (stderr):\n"
-    "  render: WxH samples=N threads=N time_ms=T camera_rays=N shadow_rays=N\n"
-    "  secondary_rays=N rays_per_s=R error_estimate=E nonfinite=N prepare_ms=T\n"
-    "  bvh_build_ms=T bvh_nodes=N primitives=N world_bytes=B\n"
-    "  stopped_by=samples|time_budget|target_error passes=N curve=MS:SPP:ERR,...\n"
-    "error_estimate is the estimated RMS error of the image against a converged\n"
-    "render, in [0,1] units (1 = 255 levels); 0 with one sample per pixel. curve\n"
-    "has one point per pass: elapsed ms, samples per pixel, error estimate.\n"
-    "\n"
-    "Statistics object (--stats-format json): the same figures under the same\n"
-    "names, numbers at full precision: width, height, samples, threads, time_ms,\n"
-    "camera_rays, shadow_rays, secondary_rays, rays_per_s, error_estimate,\n"
-    "nonfinite, prepare_ms, bvh_build_ms, bvh_nodes, primitives, world_bytes,\n"
-    "stopped_by, passes, curve (an array of {ms, samples, error}), and\n"
-    "mean_samples (the exact mean per pixel; samples is it rounded).\n";
+static const char render_help[] = "usage: rayd render SCENE -o OUT.png [options]\n"
+                                  "\n"
+                                  "Renders SCENE (.cfg or .json; other names are sniffed) into an 8-bit RGB PNG\n"
+                                  "and prints one line of statistics on stderr.\n"
+                                  "\n"
+                                  "  -o, --output FILE   where to write the PNG (required)\n"
+                                  "      --width N       image width in pixels, 1..16384 (overrides [render])\n"
+                                  "      --height N      image height in pixels, 1..16384\n"
+                                  "      --samples N     samples per pixel, 1..65536; 1 is the pixel centre\n"
+                                  "      --seed N        sampling seed; same seed gives the same image\n"
+                                  "      --threads N     worker threads, 1..1024 (default: the number of cores);\n"
+                                  "                      the image does not depend on it\n"
+                                  "      --png-level N   zlib level 0..9 for the PNG (default 1)\n"
+                                  "      --time-budget-ms T  render in passes and stop before T ms are spent\n"
+                                  "      --target-error E    render in passes until the error estimate is <= E\n"
+                                  "                      (either makes --samples the cap, not the count)\n"
+                                  "      --adaptive      later passes spend samples where the estimated error is\n"
+                                  "      --stats-format text|json|both  the statistics as the line below (text,\n"
+                                  "                      the default), as one JSON object on one line (json), or\n"
+                                  "                      the line and then the object (both)\n"
+                                  "      --max-...  N    a size limit; 'rayd limits' lists them with defaults\n"
+                                  "  -h, --help          this text\n"
+                                  "\n"
+                                  "Exit status: 0 written; 1 usage error; 2 scene error (message on stderr,\n"
+                                  "no image written); 3 file could not be read or written.\n"
+                                  "\n"
+                                  "Statistics line (stderr):\n"
+                                  "  render: WxH samples=N threads=N time_ms=T camera_rays=N shadow_rays=N\n"
+                                  "  secondary_rays=N rays_per_s=R error_estimate=E nonfinite=N prepare_ms=T\n"
+                                  "  bvh_build_ms=T bvh_nodes=N primitives=N world_bytes=B\n"
+                                  "  stopped_by=samples|time_budget|target_error passes=N curve=MS:SPP:ERR,...\n"
+                                  "error_estimate is the estimated RMS error of the image against a converged\n"
+                                  "render, in [0,1] units (1 = 255 levels); 0 with one sample per pixel. curve\n"
+                                  "has one point per pass: elapsed ms, samples per pixel, error estimate.\n"
+                                  "\n"
+                                  "Statistics object (--stats-format json): the same figures under the same\n"
+                                  "names, numbers at full precision: width, height, samples, threads, time_ms,\n"
+                                  "camera_rays, shadow_rays, secondary_rays, rays_per_s, error_estimate,\n"
+                                  "nonfinite, prepare_ms, bvh_build_ms, bvh_nodes, primitives, world_bytes,\n"
+                                  "stopped_by, passes, curve (an array of {ms, samples, error}), and\n"
+                                  "mean_samples (the exact mean per pixel; samples is it rounded).\n";
 
 enum { STATS_TEXT = 1, STATS_JSON = 2 };
 
@@ -62,11 +61,10 @@ static void stats_text(const rd_image *img, const rd_render_stats *st)
             "render: %dx%d samples=%d threads=%d time_ms=%.3f camera_rays=%llu shadow_rays=%llu "
             "secondary_rays=%llu rays_per_s=%.4g error_estimate=%.6f nonfinite=%llu prepare_ms=%.3f "
             "bvh_build_ms=%.3f bvh_nodes=%zu primitives=%zu world_bytes=%zu stopped_by=%s passes=%d curve=",
-            img->width, img->height, st->samples, st->threads, st->wall_ms,
-            (unsigned long long)st->camera_rays, (unsigned long long)st->shadow_rays,
-            (unsigned long long)st->secondary_rays, st->rays_per_second, st->error_estimate,
-            (unsigned long long)st->nonfinite, st->prepare_ms, st->bvh_build_ms, st->bvh_nodes, st->primitives,
-            st->world_bytes, rd_stop_reason_name(st->stopped_by), st->passes);
+            img->width, img->height, st->samples, st->threads, st->wall_ms, (unsigned long long)st->camera_rays,
+            (unsigned long long)st->shadow_rays, (unsigned long long)st->secondary_rays, st->rays_per_second,
+            st->error_estimate, (unsigned long long)st->nonfinite, st->prepare_ms, st->bvh_build_ms, st->bvh_nodes,
+            st->primitives, st->world_bytes, rd_stop_reason_name(st->stopped_by), st->passes);
     for (int i = 0; i < st->curve_len; i++)
         fprintf(stderr, "%s%.3f:%g:%.6f", i ? "," : "", st->curve[i].ms, st->curve[i].samples, st->curve[i].error);
     fputc('\n', stderr);
@@ -128,7 +126,6 @@ static int usage_error(const char *fmt, const char *arg)
     return RD_EXIT_USAGE;
 }
 
-
 typedef struct {
     const char *scene, *output;
     long threads, level;
@@ -156,9 +153,10 @@ static int positive(const char *flag, const char *v, double *out)
 
 static int stats_format_of(const char *v, int *out)
 {
-    *out = strcmp(v, "text") == 0 ? STATS_TEXT : strcmp(v, "json") == 0 ? STATS_JSON
-                                             : strcmp(v, "both") == 0   ? STATS_TEXT | STATS_JSON
-                                                                        : 0;
+    *out = strcmp(v, "text") == 0   ? STATS_TEXT
+           : strcmp(v, "json") == 0 ? STATS_JSON
+           : strcmp(v, "both") == 0 ? STATS_TEXT | STATS_JSON
+                                    : 0;
     return *out ? 0 : usage_error("--stats-format: expected text, json or both, got '%s'", v);
 }
 
@@ -166,17 +164,30 @@ static int stats_format_of(const char *v, int *out)
 static int parse_args(int argc, char **argv, render_args *a)
 {
     enum {
-        O_WIDTH = 256, O_HEIGHT, O_SAMPLES, O_SEED, O_THREADS, O_PNG_LEVEL, O_BUDGET, O_TARGET, O_ADAPTIVE,
+        O_WIDTH = 256,
+        O_HEIGHT,
+        O_SAMPLES,
+        O_SEED,
+        O_THREADS,
+        O_PNG_LEVEL,
+        O_BUDGET,
+        O_TARGET,
+        O_ADAPTIVE,
         O_STATS_FORMAT
     };
-    static const struct option opts[] = {
-        {"output", required_argument, NULL, 'o'}, {"width", required_argument, NULL, O_WIDTH},
-        {"height", required_argument, NULL, O_HEIGHT}, {"samples", required_argument, NULL, O_SAMPLES},
-        {"seed", required_argument, NULL, O_SEED}, {"threads", required_argument, NULL, O_THREADS},
-        {"png-level", required_argument, NULL, O_PNG_LEVEL}, {"help", no_argument, NULL, 'h'},
-        {"time-budget-ms", required_argument, NULL, O_BUDGET}, {"target-error", required_argument, NULL, O_TARGET},
-        {"adaptive", no_argument, NULL, O_ADAPTIVE}, {"stats-format", required_argument, NULL, O_STATS_FORMAT},
-        {NULL, 0, NULL, 0}};
+    static const struct option opts[] = {{"output", required_argument, NULL, 'o'},
+                                         {"width", required_argument, NULL, O_WIDTH},
+                                         {"height", required_argument, NULL, O_HEIGHT},
+                                         {"samples", required_argument, NULL, O_SAMPLES},
+                                         {"seed", required_argument, NULL, O_SEED},
+                                         {"threads", required_argument, NULL, O_THREADS},
+                                         {"png-level", required_argument, NULL, O_PNG_LEVEL},
+                                         {"help", no_argument, NULL, 'h'},
+                                         {"time-budget-ms", required_argument, NULL, O_BUDGET},
+                                         {"target-error", required_argument, NULL, O_TARGET},
+                                         {"adaptive", no_argument, NULL, O_ADAPTIVE},
+                                         {"stats-format", required_argument, NULL, O_STATS_FORMAT},
+                                         {NULL, 0, NULL, 0}};
     memset(a, 0, sizeof *a);
     a->threads = sysconf(_SC_NPROCESSORS_ONLN);
     if (a->threads < 1)
@@ -192,9 +203,11 @@ static int parse_args(int argc, char **argv, render_args *a)
     opterr = 0;
     int c;
     while ((c = getopt_long(argc, argv, ":o:h", opts, NULL)) != -1) {
-        const char *key = c == O_WIDTH ? "width" : c == O_HEIGHT ? "height" : c == O_SAMPLES ? "samples"
-                        : c == O_SEED                              ? "seed"
-                                                                   : NULL;
+        const char *key = c == O_WIDTH     ? "width"
+                          : c == O_HEIGHT  ? "height"
+                          : c == O_SAMPLES ? "samples"
+                          : c == O_SEED    ? "seed"
+                                           : NULL;
         char what[32];
         if (key) {
             snprintf(what, sizeof what, "--%s", key);
@@ -209,9 +222,9 @@ static int parse_args(int argc, char **argv, render_args *a)
                      ? usage_error("--threads: expected an integer in 1..1024, got '%s'", optarg)
                      : 0;
         } else if (c == O_PNG_LEVEL) {
-            rc = rd_cli_int(optarg, 0, 9, &a->level) ? usage_error("--png-level: expected an integer in 0..9, got '%s'",
-                                                                   optarg)
-                                                     : 0;
+            rc = rd_cli_int(optarg, 0, 9, &a->level)
+                     ? usage_error("--png-level: expected an integer in 0..9, got '%s'", optarg)
+                     : 0;
         } else if (c == O_BUDGET) {
             rc = positive("--time-budget-ms", optarg, &a->ro.time_budget_ms);
         } else if (c == O_TARGET) {

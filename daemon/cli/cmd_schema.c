@@ -9,7 +9,8 @@ int rd_cmd_schema(int argc, char **argv)
 {
     if (argc > 1 && (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0)) {
         fputs("usage: rayd schema\n\nPrints the JSON Schema of JSON scenes (docs/scene.schema.json),\n"
-              "generated from the same key table as the parsers.\n", stdout);
+              "generated from the same key table as the parsers.\n",
+              stdout);
         return RD_EXIT_OK;
     }
     char *text;

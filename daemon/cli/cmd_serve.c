@@ -1,6 +1,6 @@
 #include <limits.h>
-#include <stddef.h>
 #include <signal.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -27,7 +27,7 @@ typedef struct {
     flag_kind kind;
     size_t offset;
     unsigned long long lo, hi;
-    double scale;       /* K_DOUBLE: the value times this (seconds to ms) */
+    double scale; /* K_DOUBLE: the value times this (seconds to ms) */
 } serve_flag;
 
 #define A(f) offsetof(serve_args, f)
@@ -36,8 +36,8 @@ static const serve_flag flags[] = {
     {"--port-file", "FILE", "write the port listened on to FILE once ready", "none", K_STRING, A(port_file), 0, 0, 0},
     {"--threads", "N", "render threads", "the number of cores", K_INT, A(o.jobs.workers), 1, 1024, 0},
     {"--http-threads", "N", "HTTP threads, at least 2", NULL, K_INT, A(o.http_threads), 2, 256, 0},
-    {"--queue", "N", "jobs queued or running at most; more get 503", NULL, K_SIZE, A(o.jobs.queue_length), 1,
-     1000000, 0},
+    {"--queue", "N", "jobs queued or running at most; more get 503", NULL, K_SIZE, A(o.jobs.queue_length), 1, 1000000,
+     0},
     {"--max-body-bytes", "N", "request body limit, answered 413", NULL, K_SIZE, A(o.max_body_bytes), 1, 1ull << 34, 0},
     {"--job-timeout-ms", "N", "a render running longer fails (0 = none)", NULL, K_DOUBLE, A(o.jobs.job_timeout_ms), 0,
      1ull << 40, 1},
@@ -49,16 +49,16 @@ static const serve_flag flags[] = {
      A(o.header_timeout_ms), 1, 1ull << 30, 1},
     {"--body-timeout-ms", "N", "its body within N ms of its headers", NULL, K_DOUBLE, A(o.body_timeout_ms), 1,
      1ull << 30, 1},
-    {"--max-query-args", "N", "query arguments at most; more get 431", NULL, K_UNSIGNED, A(o.max_query_args), 1,
-     10000, 0},
+    {"--max-query-args", "N", "query arguments at most; more get 431", NULL, K_UNSIGNED, A(o.max_query_args), 1, 10000,
+     0},
     {"--memory-budget", "N",
      "bytes for running jobs, results and grading caches; a job starts only when it fits, one that never could "
      "gets 413",
      "half the RAM", K_SIZE, A(o.jobs.memory_budget), 1u << 20, 1ull << 50, 0},
     {"--grade-cache-bytes", "N", "grading references and kept grade images", NULL, K_SIZE, A(o.grade_cache_bytes), 0,
      1ull << 40, 0},
-    {"--max-jobs-kept", "N", "finished jobs whose status stays readable", NULL, K_SIZE, A(o.jobs.kept_max), 1,
-     10000000, 0},
+    {"--max-jobs-kept", "N", "finished jobs whose status stays readable", NULL, K_SIZE, A(o.jobs.kept_max), 1, 10000000,
+     0},
     {"--result-memory", "N", "bytes of finished PNGs kept for /v1/jobs", NULL, K_SIZE, A(o.jobs.result_memory), 0,
      1ull << 40, 0},
     {"--result-ttl", "N", "seconds a finished job stays readable", NULL, K_DOUBLE, A(o.jobs.result_ttl_ms), 0,

@@ -36,8 +36,10 @@ char *rd_svg_loglog(const char *title, const char *xlabel, const char *ylabel, c
     rd_strbuf b = {0};
 #define PX(v) (L + (log10(v) - lx0) / (lx1 - lx0) * (W - L - R))
 #define PY(v) (H - B - (log10(v) - ly0) / (ly1 - ly0) * (H - T - B))
-    put(&b, "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%.0f\" height=\"%.0f\" viewBox=\"0 0 %.0f %.0f\" "
-            "font-family=\"sans-serif\" font-size=\"12\">\n", W, H, W, H);
+    put(&b,
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%.0f\" height=\"%.0f\" viewBox=\"0 0 %.0f %.0f\" "
+        "font-family=\"sans-serif\" font-size=\"12\">\n",
+        W, H, W, H);
     put(&b, "<rect width=\"100%%\" height=\"100%%\" fill=\"white\"/>\n");
     put(&b, "<text x=\"%.0f\" y=\"24\" font-size=\"15\" text-anchor=\"middle\">%s</text>\n", W / 2, title);
     for (double e = lx0; e <= lx1; e++)

@@ -24,8 +24,8 @@ rd_error_answer rd_grade_error_answer(rd_grade_stage stage, rd_error_code c)
     rd_error_answer a = rd_error_answer_for(c);
     /* An assignment the server holds that does not load is not the
      * client's malformed input: 422, whatever the parser said. */
-    if (stage == RD_GRADE_STAGE_ASSIGNMENT && (c == RD_ERR_SYNTAX || c == RD_ERR_INVALID || c == RD_ERR_IO ||
-                                               c == RD_ERR_LIMIT)) {
+    if (stage == RD_GRADE_STAGE_ASSIGNMENT &&
+        (c == RD_ERR_SYNTAX || c == RD_ERR_INVALID || c == RD_ERR_IO || c == RD_ERR_LIMIT)) {
         a.http = 422;
         a.code = "bad_assignment";
     }

@@ -6,22 +6,22 @@
 #ifndef RD_ERROR_MAP_H
 #define RD_ERROR_MAP_H
 
-#include "rayd/error.h"
 #include "grading.h"
+#include "rayd/error.h"
 
 /* Exit statuses of every command. */
 enum {
     RD_EXIT_OK = 0,
-    RD_EXIT_USAGE = 1,      /* bad arguments, or a name that does not exist */
-    RD_EXIT_SCENE = 2,      /* the scene or image could not be used: nothing written */
-    RD_EXIT_IO = 3,         /* a file could not be read or written */
-    RD_EXIT_GRADE_FAIL = 4  /* rayd grade: graded, and the image fails */
+    RD_EXIT_USAGE = 1,     /* bad arguments, or a name that does not exist */
+    RD_EXIT_SCENE = 2,     /* the scene or image could not be used: nothing written */
+    RD_EXIT_IO = 3,        /* a file could not be read or written */
+    RD_EXIT_GRADE_FAIL = 4 /* rayd grade: graded, and the image fails */
 };
 
 typedef struct {
-    unsigned http;          /* status */
-    const char *code;       /* the JSON error.code */
-    int exit;               /* RD_EXIT_* */
+    unsigned http;    /* status */
+    const char *code; /* the JSON error.code */
+    int exit;         /* RD_EXIT_* */
 } rd_error_answer;
 
 /* The answer for c; codes outside RD_ERRORS answer as out of memory. */

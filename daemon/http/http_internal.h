@@ -7,8 +7,8 @@
 #include <pthread.h>
 #include <stdatomic.h>
 
-#include "rayd/error.h"
 #include "error_map.h"
+#include "rayd/error.h"
 #include "server.h"
 
 struct rd_server {
@@ -17,19 +17,19 @@ struct rd_server {
     rd_jq *jobs;
     atomic_int draining;
     uint16_t port;
-    atomic_ullong http_count[6];    /* 1xx..5xx answers, index = class; [0] unused */
+    atomic_ullong http_count[6]; /* 1xx..5xx answers, index = class; [0] unused */
     atomic_ullong requests;
-    atomic_int waiting;             /* suspended synchronous renders */
+    atomic_int waiting; /* suspended synchronous renders */
     atomic_int stopped;
-    struct rd_grades *grades;       /* grade results and the reference cache */
+    struct rd_grades *grades; /* grade results and the reference cache */
     /* Every open connection with its deadline, for the reaper thread. */
     pthread_mutex_t conn_mu;
     pthread_cond_t conn_cv;
     struct rd_conn *conns;
     pthread_t reaper;
     int reaper_on, reaper_stop;
-    atomic_ullong deadline_closed;  /* connections closed by a header or body deadline */
-    atomic_ullong raw_refused;      /* requests refused before libmicrohttpd parsed them */
+    atomic_ullong deadline_closed; /* connections closed by a header or body deadline */
+    atomic_ullong raw_refused;     /* requests refused before libmicrohttpd parsed them */
 };
 
 typedef struct rd_route rd_route;
@@ -46,15 +46,15 @@ typedef struct rd_req {
     /* the upload */
     char *body;
     size_t len, cap;
-    int answered;           /* a response was queued early (413, 415, 503) */
-    int too_big;            /* the body passed --max-body-bytes; the rest is dropped */
+    int answered; /* a response was queued early (413, 415, 503) */
+    int too_big;  /* the body passed --max-body-bytes; the rest is dropped */
     size_t discarded;
-    const rd_route *route;  /* NULL: no such route */
-    size_t rest;            /* where the URL goes on past the route's path */
-    int started;            /* on_request has seen the request */
-    int http11;             /* HTTP/1.1: may be sent an interim 102 while it waits */
-    int async;              /* POST /v1/jobs: answered 202 once the scene is read */
-    int raw;                /* half-closed while waiting: answered on the socket; close */
+    const rd_route *route; /* NULL: no such route */
+    size_t rest;           /* where the URL goes on past the route's path */
+    int started;           /* on_request has seen the request */
+    int http11;            /* HTTP/1.1: may be sent an interim 102 while it waits */
+    int async;             /* POST /v1/jobs: answered 202 once the scene is read */
+    int raw;               /* half-closed while waiting: answered on the socket; close */
     /* a synchronous render */
     pthread_mutex_t mu;
     rd_jq_job *job;
@@ -95,8 +95,7 @@ const char *rd_route_allowed(const rd_route *t, const char *method, const char *
 
 /* Queue a response and record status and size for the log. Takes ownership
  * of body (malloc'ed) when must_free. */
-enum MHD_Result rd_reply(rd_req *r, unsigned status, const char *type, void *body, size_t len,
-                         int must_free);
+enum MHD_Result rd_reply(rd_req *r, unsigned status, const char *type, void *body, size_t len, int must_free);
 
 /* The same with extra headers: name, value, ..., NULL. */
 enum MHD_Result rd_reply_with(rd_req *r, unsigned status, const char *type, void *body, size_t len, int must_free,
@@ -112,8 +111,7 @@ int rd_req_wait(rd_req *r, rd_jq_job *job);
 int rd_req_socket(rd_req *r);
 
 /* An error answer: {"error": {"code", "message"[, "line", "column"]}}. */
-enum MHD_Result rd_reply_error(rd_req *r, unsigned status, const char *code, const rd_error *err,
-                               const char *message);
+enum MHD_Result rd_reply_error(rd_req *r, unsigned status, const char *code, const rd_error *err, const char *message);
 
 /* The same, adding a header (Allow, Retry-After). */
 enum MHD_Result rd_reply_error_hdr(rd_req *r, unsigned status, const char *code, const char *message,

@@ -1,9 +1,9 @@
 #define _GNU_SOURCE /* POLLRDHUP */
 #include <arpa/inet.h>
-#include <errno.h>
-#include <poll.h>
 #include <cJSON.h>
+#include <errno.h>
 #include <netinet/in.h>
+#include <poll.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -11,10 +11,9 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "rayd/clock.h"
 #include "http_internal.h"
+#include "rayd/clock.h"
 #include "timed_wait.h"
-
 
 /* An open connection. libmicrohttpd's own timeout counts idle time, which
  * every trickled byte resets; these deadlines count from when the headers
@@ -22,7 +21,7 @@
  * a slot. */
 struct rd_conn {
     int fd;
-    double deadline;            /* monotonic ms; 0 = none (the request is being answered) */
+    double deadline; /* monotonic ms; 0 = none (the request is being answered) */
     struct rd_conn *prev, *next;
 };
 
@@ -262,8 +261,7 @@ static enum MHD_Result reply_error_full(rd_req *r, unsigned status, const char *
     return rd_reply_with(r, status, "application/json", text, strlen(text), 1, header ? headers : NULL);
 }
 
-enum MHD_Result rd_reply_error(rd_req *r, unsigned status, const char *code, const rd_error *err,
-                               const char *message)
+enum MHD_Result rd_reply_error(rd_req *r, unsigned status, const char *code, const rd_error *err, const char *message)
 {
     return reply_error_full(r, status, code, err, message, NULL, NULL);
 }
@@ -284,8 +282,7 @@ enum MHD_Result rd_reply_json(rd_req *r, unsigned status, char *json_text)
 enum MHD_Result rd_reply_too_large(rd_req *r, const char *what)
 {
     char msg[160];
-    snprintf(msg, sizeof msg, "%s is over the limit of %zu bytes (--max-body-bytes)", what,
-             r->srv->opt.max_body_bytes);
+    snprintf(msg, sizeof msg, "%s is over the limit of %zu bytes (--max-body-bytes)", what, r->srv->opt.max_body_bytes);
     return rd_reply_error(r, 413, "too_large", NULL, msg);
 }
 
@@ -439,8 +436,8 @@ static void log_request(rd_server *srv, rd_req *r, enum MHD_RequestTerminationCo
     struct tm tm;
     gmtime_r(&ts.tv_sec, &tm);
     char when[96];
-    snprintf(when, sizeof when, "%04d-%02d-%02dT%02d:%02d:%02d.%03ldZ", tm.tm_year + 1900, tm.tm_mon + 1,
-             tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec, ts.tv_nsec / 1000000);
+    snprintf(when, sizeof when, "%04d-%02d-%02dT%02d:%02d:%02d.%03ldZ", tm.tm_year + 1900, tm.tm_mon + 1, tm.tm_mday,
+             tm.tm_hour, tm.tm_min, tm.tm_sec, ts.tv_nsec / 1000000);
     double ms = rd_now_ms() - r->t0;
     const char *end = toe == MHD_REQUEST_TERMINATED_COMPLETED_OK ? "" : " (connection closed early)";
     if (srv->opt.log_json) {
@@ -467,8 +464,7 @@ static void log_request(rd_server *srv, rd_req *r, enum MHD_RequestTerminationCo
     }
 }
 
-static void on_completed(void *cls, struct MHD_Connection *conn, void **con_cls,
-                         enum MHD_RequestTerminationCode toe)
+static void on_completed(void *cls, struct MHD_Connection *conn, void **con_cls, enum MHD_RequestTerminationCode toe)
 {
     rd_server *srv = cls;
     rd_req *r = *con_cls;
@@ -576,15 +572,12 @@ rd_server *rd_server_start(const rd_server_options *opt, rd_error *err)
         return NULL;
     }
     unsigned flags = MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_EPOLL | MHD_ALLOW_SUSPEND_RESUME | MHD_USE_ERROR_LOG;
-    s->mhd = MHD_start_daemon(flags, opt->port, NULL, NULL, on_request, s, MHD_OPTION_SOCK_ADDR,
-                              (const struct sockaddr *)&addr, MHD_OPTION_THREAD_POOL_SIZE,
-                              (unsigned)(opt->http_threads < 2 ? 2 : opt->http_threads),
-                              MHD_OPTION_CONNECTION_LIMIT, opt->max_connections,
-                              MHD_OPTION_PER_IP_CONNECTION_LIMIT, opt->max_per_ip,
-                              MHD_OPTION_CONNECTION_TIMEOUT, opt->connection_timeout_s,
-                              MHD_OPTION_URI_LOG_CALLBACK, on_uri, s,
-                              MHD_OPTION_NOTIFY_CONNECTION, on_connection, s,
-                              MHD_OPTION_NOTIFY_COMPLETED, on_completed, s, MHD_OPTION_END);
+    s->mhd = MHD_start_daemon(
+        flags, opt->port, NULL, NULL, on_request, s, MHD_OPTION_SOCK_ADDR, (const struct sockaddr *)&addr,
+        MHD_OPTION_THREAD_POOL_SIZE, (unsigned)(opt->http_threads < 2 ? 2 : opt->http_threads),
+        MHD_OPTION_CONNECTION_LIMIT, opt->max_connections, MHD_OPTION_PER_IP_CONNECTION_LIMIT, opt->max_per_ip,
+        MHD_OPTION_CONNECTION_TIMEOUT, opt->connection_timeout_s, MHD_OPTION_URI_LOG_CALLBACK, on_uri, s,
+        MHD_OPTION_NOTIFY_CONNECTION, on_connection, s, MHD_OPTION_NOTIFY_COMPLETED, on_completed, s, MHD_OPTION_END);
     if (!s->mhd) {
         free_server(s);
         rd_error_set(err, RD_ERR_IO, 0, 0, "cannot listen on %s:%u", opt->listen_host, (unsigned)opt->port);

@@ -7,7 +7,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "rayd/clock.h"
 #include "assignment.h"
 #include "error_map.h"
 #include "file_io.h"
@@ -16,6 +15,7 @@
 #include "http_internal.h"
 #include "json_text.h"
 #include "png_write.h"
+#include "rayd/clock.h"
 #include "scene_load.h"
 
 enum { GRADES_KEPT = 256 };
@@ -43,7 +43,7 @@ struct rd_grades {
     size_t next;
     uint64_t key;
     uint64_t counter;
-    rd_jq *jobs;                /* told of every byte the caches hold */
+    rd_jq *jobs; /* told of every byte the caches hold */
     size_t kept_bytes, cap;
 };
 
@@ -56,7 +56,7 @@ typedef struct {
     size_t scene_len;
     char assignment[80];
     int too_big;
-    const char *bad;            /* the form is malformed: why (answered once it has arrived) */
+    const char *bad; /* the form is malformed: why (answered once it has arrived) */
 } grade_form;
 
 /* One grade on a render thread: prepared (rd_grade_prepare, which finds a
@@ -70,7 +70,7 @@ typedef struct {
     char assignment[80];
     rd_server *srv;
     rd_grade_output out;
-    char *json;                 /* the verdict */
+    char *json; /* the verdict */
 } grade_task;
 
 static void count_bytes(void *jobs, long long delta) { rd_jq_external_bytes(jobs, delta); }
@@ -282,7 +282,8 @@ static char *verdict_json(const rd_grade_output *o, const char *id)
     cJSON *root = rd_grade_json(o);
     if (!root)
         return NULL;
-    static const char *const files[][2] = {{"diff_url", "diff"}, {"reference_url", "reference"}, {"image_url", "image"}};
+    static const char *const files[][2] = {
+        {"diff_url", "diff"}, {"reference_url", "reference"}, {"image_url", "image"}};
     char url[80];
     int ok = cJSON_AddStringToObject(root, "id", id) != NULL;
     for (int i = 0; i < 3 && ok; i++) {
@@ -377,8 +378,8 @@ enum MHD_Result rd_route_grade(rd_req *r, const char *rest)
     memcpy(t->assignment, g->assignment, sizeof t->assignment);
     g->image = g->scene = NULL;
     rd_jq_task task = {prepare_grade, finish_grade, free_grade, t, t->image_len + t->scene_len};
-    rd_jq_submit_options so = {.watch_fd = rd_req_socket(r), .watch_http11 = r->http11, .done = rd_req_on_done,
-                               .user = r};
+    rd_jq_submit_options so = {
+        .watch_fd = rd_req_socket(r), .watch_http11 = r->http11, .done = rd_req_on_done, .user = r};
     rd_jq_job *job;
     rd_error err = {0};
     rd_error_code rc = rd_jq_submit(srv->jobs, &task, &so, &job, &err);
@@ -491,8 +492,8 @@ enum MHD_Result rd_route_assignments(rd_req *r, const char *rest)
         char *text;
         size_t tl;
         if (rd_assignment_load(r->srv->opt.assignments_dir, n, &a, &err) ||
-            rd_read_file(a.scene_path, r->srv->opt.limits.max_bytes, rd_limit_flag(offsetof(rd_scene_limits, max_bytes)), &text,
-                         &tl, &err))
+            rd_read_file(a.scene_path, r->srv->opt.limits.max_bytes,
+                         rd_limit_flag(offsetof(rd_scene_limits, max_bytes)), &text, &tl, &err))
             return rd_reply_error(r, 404, "not_found", NULL, "no such assignment");
         return rd_reply(r, 200, "text/x-rayd-cfg", text, tl, 1);
     }

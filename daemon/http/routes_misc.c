@@ -6,11 +6,11 @@
 #include <string.h>
 
 #include "asset_source.h"
+#include "file_io.h"
 #include "http_internal.h"
 #include "json_text.h"
-#include "strbuf.h"
 #include "scene_load.h"
-#include "file_io.h"
+#include "strbuf.h"
 
 static int scene_file(const char *name) { return rd_ends_with(name, ".cfg") || rd_ends_with(name, ".json"); }
 
@@ -67,9 +67,9 @@ enum MHD_Result rd_route_scenes(rd_req *r, const char *rest)
     char *text;
     size_t len;
     rd_error err = {0};
-    if (rd_path_inside(dir, file, path, &err) || rd_read_file(path, r->srv->opt.limits.max_bytes,
-                                                                  rd_limit_flag(offsetof(rd_scene_limits, max_bytes)),
-                                                                  &text, &len, &err))
+    if (rd_path_inside(dir, file, path, &err) ||
+        rd_read_file(path, r->srv->opt.limits.max_bytes, rd_limit_flag(offsetof(rd_scene_limits, max_bytes)), &text,
+                     &len, &err))
         return rd_reply_error(r, 404, "not_found", NULL, "no bundled scene by that name");
     const char *type = rd_ends_with(file, ".json") ? "application/json" : "text/x-rayd-cfg";
     return rd_reply(r, 200, type, text, len, 1);
@@ -97,7 +97,8 @@ enum MHD_Result rd_route_metrics(rd_req *r, const char *rest)
     PUT("rayd_render_seconds_bucket{le=\"+Inf\"} %llu\n", (unsigned long long)m.render_count);
     PUT("rayd_render_seconds_sum %.6f\nrayd_render_seconds_count %llu\n", m.render_seconds_sum,
         (unsigned long long)m.render_count);
-    PUT("# HELP rayd_rays_traced_total Camera, shadow and secondary rays traced.\n# TYPE rayd_rays_traced_total counter\n");
+    PUT("# HELP rayd_rays_traced_total Camera, shadow and secondary rays traced.\n# TYPE rayd_rays_traced_total "
+        "counter\n");
     PUT("rayd_rays_traced_total %llu\n", (unsigned long long)m.rays);
     PUT("# HELP rayd_result_bytes PNG bytes kept for finished jobs.\n# TYPE rayd_result_bytes gauge\n");
     PUT("rayd_result_bytes %zu\n", m.result_bytes);

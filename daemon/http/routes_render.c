@@ -37,8 +37,8 @@ static rd_error_code prepare_render(void *arg, rd_scene *s, int *render, rd_erro
 {
     (void)render;
     render_task *t = arg;
-    rd_scene_source src = {.text = t->body, .len = t->len, .source = "<upload>", .format = t->fmt,
-                           .assets_dir = t->opt->scenes_dir};
+    rd_scene_source src = {
+        .text = t->body, .len = t->len, .source = "<upload>", .format = t->fmt, .assets_dir = t->opt->scenes_dir};
     rd_warnings w = {0, ""};
     rd_error_code rc = rd_scene_open(&src, &t->ov, &t->opt->limits, s, &w, err);
     free(t->body);
@@ -68,7 +68,8 @@ static int progress_params(struct MHD_Connection *c, rd_progress_settings *p, rd
         char *end;
         double x = strtod(v, &end);
         if (!*v || *end || !(x > 0) || !(x < 1e15)) {
-            rd_error_set(err, RD_ERR_SYNTAX, 0, 0, "query parameter %s: expected a number > 0, got '%.40s'", names[i], v);
+            rd_error_set(err, RD_ERR_SYNTAX, 0, 0, "query parameter %s: expected a number > 0, got '%.40s'", names[i],
+                         v);
             return 1;
         }
         *dst[i] = x;
@@ -128,9 +129,9 @@ static char *job_json(const rd_jq_info *in)
  * form posted to /v1/render by mistake), anything else is sniffed. */
 static int refused_type(const char *ct)
 {
-    static const char *const families[] = {"image/", "audio/", "video/", "font/", "model/", "multipart/",
-                                           "application/pdf",
-                                           "application/zip", "application/gzip", NULL};
+    static const char *const families[] = {"image/",           "audio/",     "video/",          "font/",
+                                           "model/",           "multipart/", "application/pdf", "application/zip",
+                                           "application/gzip", NULL};
     if (!ct)
         return 0;
     for (int i = 0; families[i]; i++)
@@ -262,8 +263,16 @@ enum MHD_Result rd_route_render_resumed(rd_req *r)
     snprintf(spp, sizeof spp, "%d", info.samples);
     snprintf(est, sizeof est, "%.6f", info.error_estimate);
     snprintf(passes, sizeof passes, "%d", info.passes);
-    const char *headers[] = {"X-Rayd-Render-Ms", ms, "X-Rayd-Samples", spp, "X-Rayd-Error-Estimate", est,
-                             "X-Rayd-Stopped-By", rd_stop_reason_name(info.stopped_by), "X-Rayd-Passes", passes,
+    const char *headers[] = {"X-Rayd-Render-Ms",
+                             ms,
+                             "X-Rayd-Samples",
+                             spp,
+                             "X-Rayd-Error-Estimate",
+                             est,
+                             "X-Rayd-Stopped-By",
+                             rd_stop_reason_name(info.stopped_by),
+                             "X-Rayd-Passes",
+                             passes,
                              NULL};
     return rd_reply_with(r, 200, "image/png", png, len, 1, headers);
 }
@@ -271,7 +280,7 @@ enum MHD_Result rd_route_render_resumed(rd_req *r)
 /* A running job's image so far, encoded on a render thread. */
 typedef struct {
     rd_jq *q;
-    rd_jq_job *target;          /* held by the snapshot's job (rd_jq_submit_options.hold) */
+    rd_jq_job *target; /* held by the snapshot's job (rd_jq_submit_options.hold) */
     unsigned char *png;
     size_t len;
 } partial_task;
@@ -305,8 +314,12 @@ static enum MHD_Result submit_partial(rd_req *r, rd_jq_job *job)
     t->q = srv->jobs;
     t->target = job;
     rd_jq_task task = {prepare_partial, NULL, free_partial, t, 0};
-    rd_jq_submit_options so = {.watch_fd = rd_req_socket(r), .watch_http11 = r->http11, .done = rd_req_on_done,
-                               .user = r, .internal = 1, .hold = job};
+    rd_jq_submit_options so = {.watch_fd = rd_req_socket(r),
+                               .watch_http11 = r->http11,
+                               .done = rd_req_on_done,
+                               .user = r,
+                               .internal = 1,
+                               .hold = job};
     rd_jq_job *snap;
     rd_error err = {0};
     rd_error_code rc = rd_jq_submit(srv->jobs, &task, &so, &snap, &err);

@@ -10,22 +10,22 @@
 #include "scene_limits.h"
 
 typedef struct {
-    const char *listen_host;    /* "127.0.0.1" */
-    uint16_t port;              /* 0: any free port */
-    int http_threads;           /* libmicrohttpd's thread pool, >= 2 */
+    const char *listen_host; /* "127.0.0.1" */
+    uint16_t port;           /* 0: any free port */
+    int http_threads;        /* libmicrohttpd's thread pool, >= 2 */
     rd_jq_options jobs;
     rd_scene_limits limits;
     size_t max_body_bytes;
     unsigned max_connections;
     unsigned max_per_ip;
     unsigned connection_timeout_s;
-    double header_timeout_ms;   /* from accept (or the previous answer) to a request's last header */
-    double body_timeout_ms;     /* from the last header to the body's last byte */
-    unsigned max_query_args;    /* more get 431 */
-    size_t grade_cache_bytes;   /* grading references and kept grade images */
-    const char *scenes_dir;     /* bundled scenes and the folder uploaded scenes' files resolve in */
-    const char *assignments_dir;/* graded assignments */
-    const char *cache_dir;      /* grading references on disk; NULL: memory only */
+    double header_timeout_ms;    /* from accept (or the previous answer) to a request's last header */
+    double body_timeout_ms;      /* from the last header to the body's last byte */
+    unsigned max_query_args;     /* more get 431 */
+    size_t grade_cache_bytes;    /* grading references and kept grade images */
+    const char *scenes_dir;      /* bundled scenes and the folder uploaded scenes' files resolve in */
+    const char *assignments_dir; /* graded assignments */
+    const char *cache_dir;       /* grading references on disk; NULL: memory only */
     int log_json;
 } rd_server_options;
 

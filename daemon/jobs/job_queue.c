@@ -12,10 +12,10 @@
 #include <sys/socket.h>
 #include <time.h>
 
+#include "hash.h"
+#include "rayd/clock.h"
 #include "rayd/job.h"
 #include "timed_wait.h"
-#include "rayd/clock.h"
-#include "hash.h"
 
 const double rd_jq_buckets[RD_JQ_BUCKETS] = {0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1, 2.5, 5, 10, 30};
 
@@ -48,17 +48,17 @@ struct rd_jq_job {
     phase ph;
     rd_jq_task task;
     rd_scene scene;
-    int render;                 /* prepare left the render in */
+    int render; /* prepare left the render in */
     rd_job *core;
     int tiles_total, next_tile, tiles_done, inflight;
-    uint64_t tiles_given;       /* over all passes: the fair-share key */
+    uint64_t tiles_given; /* over all passes: the fair-share key */
     unsigned char *tile_state;
     rd_progress_settings progress;
-    int spp, pass_spp;          /* samples per pixel of the passes ended, of the one running */
-    int cancel;                 /* asked to stop */
+    int spp, pass_spp; /* samples per pixel of the passes ended, of the one running */
+    int cancel;        /* asked to stop */
     int timed_out;
-    int hung_up;                /* cancelled because its client went away */
-    atomic_int stop;            /* cancel as the tracer sees it */
+    int hung_up;     /* cancelled because its client went away */
+    atomic_int stop; /* cancel as the tracer sees it */
     int watch_fd, watch_http11, probe_sent;
     rd_jq_done_fn done;
     void *user;
@@ -67,17 +67,17 @@ struct rd_jq_job {
     rd_jq_job *hold;
     double t_submit, t_start, t_end;
     rd_job_counts counts;
-    rd_render_stats stats;      /* what the core measured so far (rd_job_stats) */
+    rd_render_stats stats; /* what the core measured so far (rd_job_stats) */
     unsigned char *png;
     size_t png_len;
     rd_error error;
-    size_t charged;             /* bytes of the budget it holds */
-    size_t footprint;           /* what it will hold once admitted */
+    size_t charged;   /* bytes of the budget it holds */
+    size_t footprint; /* what it will hold once admitted */
     int active, registered;
-    int sync;                   /* a waiting client takes the PNG: limits do not evict it */
+    int sync; /* a waiting client takes the PNG: limits do not evict it */
     int was_sync;
     int width, height;
-    uint64_t idnum;             /* the id's value: its hash-table key */
+    uint64_t idnum; /* the id's value: its hash-table key */
     rd_jq_job *next_active, *next_hash;
     jq_link in_all, in_kept, in_results;
 };
@@ -90,11 +90,11 @@ struct rd_jq {
     int nthreads, has_watchdog;
     int stopping;
     rd_jq_job *active_head, *active_tail;
-    jq_list all;          /* registered jobs, oldest first */
-    jq_list kept[2];      /* finished and evictable, by was_sync, oldest first */
-    jq_list results;      /* asynchronous results holding a PNG, oldest first */
-    rd_jq_job **by_id;    /* registered jobs by idnum, chained */
-    size_t nby_id;        /* a power of two */
+    jq_list all;       /* registered jobs, oldest first */
+    jq_list kept[2];   /* finished and evictable, by was_sync, oldest first */
+    jq_list results;   /* asynchronous results holding a PNG, oldest first */
+    rd_jq_job **by_id; /* registered jobs by idnum, chained */
+    size_t nby_id;     /* a power of two */
     size_t active_count, running_count, result_bytes, reserved;
     atomic_llong external;
     uint64_t counter, key;
@@ -108,7 +108,6 @@ const char *rd_jq_status_name(rd_jq_status s)
     static const char *const names[] = {"queued", "running", "done", "failed", "cancelled"};
     return (unsigned)s < 5 ? names[s] : "?";
 }
-
 
 static void job_free(rd_jq_job *j)
 {
@@ -486,8 +485,8 @@ static void prepare_job(rd_jq *q, rd_jq_job *j)
         need = rd_job_estimate_bytes(&j->scene, &jo);
         if (q->opt.memory_budget && need > q->opt.memory_budget)
             rc = rd_error_set(&err, RD_ERR_LIMIT, 0, 0,
-                              "the render needs about %zu MiB, over the limit of %zu MiB (--memory-budget)",
-                              need >> 20, q->opt.memory_budget >> 20);
+                              "the render needs about %zu MiB, over the limit of %zu MiB (--memory-budget)", need >> 20,
+                              q->opt.memory_budget >> 20);
     }
     size_t held = rc ? 0 : rd_scene_bytes(&j->scene);
     pthread_mutex_lock(&q->mu);
@@ -650,10 +649,7 @@ static void render_tile(rd_jq *q, rd_jq_job *j)
         pthread_cond_broadcast(&q->work_cv); /* someone ends it */
 }
 
-static int busy(const rd_jq_job *j)
-{
-    return j->ph == PH_PREPARING || j->ph == PH_STARTING || j->ph == PH_FINISHING;
-}
+static int busy(const rd_jq_job *j) { return j->ph == PH_PREPARING || j->ph == PH_STARTING || j->ph == PH_FINISHING; }
 
 /* May this prepared job start now? The oldest waiting job that does not fit
  * holds its place: younger ones start only if they fit beside it, so a

@@ -25,8 +25,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "rayd/error.h"
 #include "png_write.h"
+#include "rayd/error.h"
 #include "rayd/progress.h"
 #include "rayd/render.h"
 #include "rayd/scene.h"
@@ -36,13 +36,13 @@ typedef enum { RD_JQ_QUEUED, RD_JQ_RUNNING, RD_JQ_DONE, RD_JQ_FAILED, RD_JQ_CANC
 const char *rd_jq_status_name(rd_jq_status s);
 
 typedef struct {
-    int workers;                /* render threads */
-    size_t queue_length;        /* jobs queued or running at most */
-    double job_timeout_ms;      /* per job, from when it starts rendering */
-    size_t result_memory;       /* bytes of finished PNGs kept */
-    double result_ttl_ms;       /* how long a finished job stays */
-    size_t kept_max;            /* finished jobs whose status stays readable */
-    size_t memory_budget;       /* bytes of running jobs, results and caches; 0 = no limit */
+    int workers;           /* render threads */
+    size_t queue_length;   /* jobs queued or running at most */
+    double job_timeout_ms; /* per job, from when it starts rendering */
+    size_t result_memory;  /* bytes of finished PNGs kept */
+    double result_ttl_ms;  /* how long a finished job stays */
+    size_t kept_max;       /* finished jobs whose status stays readable */
+    size_t memory_budget;  /* bytes of running jobs, results and caches; 0 = no limit */
     rd_png_options png;
 } rd_jq_options;
 
@@ -60,9 +60,9 @@ typedef struct {
      * render); an error fails the job. NULL: the image is encoded as the
      * job's PNG. */
     rd_error_code (*finish)(void *arg, const uint8_t *rgb, int width, int height, rd_error *err);
-    void (*free)(void *arg);    /* releases arg when the job is freed, with the queue locked: it must not call the queue */
+    void (*free)(void *arg); /* releases arg when the job is freed, with the queue locked: it must not call the queue */
     void *arg;
-    size_t input_bytes;         /* what arg holds until prepared: counted against the budget */
+    size_t input_bytes; /* what arg holds until prepared: counted against the budget */
 } rd_jq_task;
 
 /* Called by a render thread when a job ends (done, failed or cancelled),
@@ -71,14 +71,14 @@ typedef struct {
 typedef void (*rd_jq_done_fn)(rd_jq_job *job, void *user);
 
 typedef struct {
-    rd_progress_settings progress;  /* max_samples is set from the scene */
-    int watch_fd;               /* a client socket: the job is cancelled once the peer hangs up; -1 */
-    int watch_http11;           /* that client speaks HTTP/1.1 and may be sent an interim 102 */
-    rd_jq_done_fn done;         /* may be NULL */
+    rd_progress_settings progress; /* max_samples is set from the scene */
+    int watch_fd;                  /* a client socket: the job is cancelled once the peer hangs up; -1 */
+    int watch_http11;              /* that client speaks HTTP/1.1 and may be sent an interim 102 */
+    rd_jq_done_fn done;            /* may be NULL */
     void *user;
-    int notify_prepared;        /* call done once prepared (an asynchronous submission) */
-    int internal;               /* work for a request, not a job of its own: no id to find, not in the metrics */
-    rd_jq_job *hold;            /* a reference the job takes over and drops when it is freed; may be NULL */
+    int notify_prepared; /* call done once prepared (an asynchronous submission) */
+    int internal;        /* work for a request, not a job of its own: no id to find, not in the metrics */
+    rd_jq_job *hold;     /* a reference the job takes over and drops when it is freed; may be NULL */
 } rd_jq_submit_options;
 
 rd_jq *rd_jq_start(const rd_jq_options *opt, rd_error *err);
@@ -119,17 +119,17 @@ int rd_jq_cancel(rd_jq *q, rd_jq_job *j);
 typedef struct {
     char id[24];
     rd_jq_status status;
-    double progress;            /* 0..1, tiles done over tiles */
-    double elapsed_ms;          /* since it started (0 while queued) */
-    double queued_ms;           /* waiting before it started */
+    double progress;   /* 0..1, tiles done over tiles */
+    double elapsed_ms; /* since it started (0 while queued) */
+    double queued_ms;  /* waiting before it started */
     int samples;
     double error_estimate;
     rd_render_stats stats;
-    rd_error error;             /* when failed */
-    int width, height;          /* 0 until prepared */
+    rd_error error;    /* when failed */
+    int width, height; /* 0 until prepared */
     rd_stop_reason stopped_by;
-    int hung_up;                /* cancelled because its client went away */
-    int prepared;               /* prepared (or failed or ended) */
+    int hung_up;  /* cancelled because its client went away */
+    int prepared; /* prepared (or failed or ended) */
     int passes;
     rd_curve_point curve[RD_CURVE_MAX];
     int curve_len;
@@ -139,8 +139,7 @@ void rd_jq_info_get(rd_jq *q, rd_jq_job *j, rd_jq_info *out);
 
 /* The finished PNG (malloc'ed copy, caller frees), or with partial != 0
  * the image so far while it runs. RD_ERR_INVALID when there is none. */
-rd_error_code rd_jq_png(rd_jq *q, rd_jq_job *j, int partial, unsigned char **png, size_t *len,
-                        rd_error *err);
+rd_error_code rd_jq_png(rd_jq *q, rd_jq_job *j, int partial, unsigned char **png, size_t *len, rd_error *err);
 
 /* Drops a finished job's PNG (a synchronous answer has been sent). */
 void rd_jq_release_png(rd_jq *q, rd_jq_job *j);

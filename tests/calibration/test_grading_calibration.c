@@ -48,10 +48,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "rayd/render.h"
 #include "assignment.h"
 #include "grade.h"
 #include "oracles/student_float.h"
+#include "rayd/render.h"
 #include "support/load.h"
 #include "support/scene_fixture.h"
 
@@ -74,10 +74,10 @@
 enum { CAL_NBUGS = SF_BUG_COUNT };
 
 typedef struct {
-    const char *name;       /* assignment, or the extra case's name */
-    const char *base;       /* assignment it is built from */
-    int extra;              /* 1: not an assignment (gamma 2.2, light below) */
-    unsigned touched;       /* sf_bug bits that change this case */
+    const char *name; /* assignment, or the extra case's name */
+    const char *base; /* assignment it is built from */
+    int extra;        /* 1: not an assignment (gamma 2.2, light below) */
+    unsigned touched; /* sf_bug bits that change this case */
 } cal_case;
 
 #define ALL_AMBIENT_LIGHT (SF_BUG_LIGHT_REVERSED | SF_BUG_NO_AMBIENT | SF_BUG_AMBIENT_PER_LIGHT)
@@ -129,7 +129,7 @@ typedef struct {
     const char *label;
     unsigned bugs;
     float eps;
-    int role;               /* 0 correct (asserted to pass), 1 wrong, 2 printed only */
+    int role; /* 0 correct (asserted to pass), 1 wrong, 2 printed only */
 } cal_student;
 
 static size_t cal_students(cal_student *out)
@@ -185,8 +185,8 @@ Test(grading_calibration, float_student_passes_wrong_ones_fail, .timeout = 300)
     printf("\nGrading calibration: thresholds under test fail=%d fail_fraction=%g hard_fail=%d "
            "hard_fail_pixels=%d\n",
            T.fail, T.fail_fraction, T.hard_fail, T.hard_fail_pixels);
-    printf("%-21s %-18s %-7s %10s %7s %5s %4s %-4s %-5s\n", "case", "student", "touches", "failed_frac",
-           "failed", "hard", "max", "pass", ".grade");
+    printf("%-21s %-18s %-7s %10s %7s %5s %4s %-4s %-5s\n", "case", "student", "touches", "failed_frac", "failed",
+           "hard", "max", "pass", ".grade");
     fflush(stdout);
 
     for (size_t ci = 0; ci < CAL_NCASES; ci++) {
@@ -225,14 +225,13 @@ Test(grading_calibration, float_student_passes_wrong_ones_fail, .timeout = 300)
 
             int touched = st[k].role == 1 && (c->touched & st[k].bugs);
             const char *tag = st[k].role == 0 ? "correct" : st[k].role == 2 ? "info" : touched ? "yes" : "no";
-            printf("%-21s %-18s %-7s %10.6f %7zu %5zu %4d %-4s %-5s\n", c->name, st[k].label, tag,
-                   r.failed_fraction, r.failed_pixels, r.hard_pixels, r.max_abs, r.pass ? "PASS" : "FAIL",
-                   ro.pass ? "PASS" : "FAIL");
+            printf("%-21s %-18s %-7s %10.6f %7zu %5zu %4d %-4s %-5s\n", c->name, st[k].label, tag, r.failed_fraction,
+                   r.failed_pixels, r.hard_pixels, r.max_abs, r.pass ? "PASS" : "FAIL", ro.pass ? "PASS" : "FAIL");
             fflush(stdout);
 
             if (st[k].role == 0) {
-                cr_expect(r.pass, "%s/%s fails the calibrated thresholds (%zu failed, %zu hard)",
-                          c->name, st[k].label, r.failed_pixels, r.hard_pixels);
+                cr_expect(r.pass, "%s/%s fails the calibrated thresholds (%zu failed, %zu hard)", c->name, st[k].label,
+                          r.failed_pixels, r.hard_pixels);
                 cr_expect(rd.pass, "%s/%s fails rd_grade_thresholds_default()", c->name, st[k].label);
                 cr_expect(ro.pass, "%s/%s fails its own .grade thresholds", c->name, st[k].label);
                 if (r.failed_fraction >= worst_correct_ff) {
@@ -247,8 +246,8 @@ Test(grading_calibration, float_student_passes_wrong_ones_fail, .timeout = 300)
                     lo++;
                 fail_lo = lo > fail_lo ? lo : fail_lo;
             } else if (st[k].role == 1 && touched) {
-                cr_expect(!r.pass, "%s/%s passes the calibrated thresholds (%zu failed, max %d)", c->name,
-                          st[k].label, r.failed_pixels, r.max_abs);
+                cr_expect(!r.pass, "%s/%s passes the calibrated thresholds (%zu failed, max %d)", c->name, st[k].label,
+                          r.failed_pixels, r.max_abs);
                 cr_expect(!rd.pass, "%s/%s passes rd_grade_thresholds_default()", c->name, st[k].label);
                 cr_expect(!ro.pass, "%s/%s passes its own .grade thresholds", c->name, st[k].label);
                 if (r.failed_fraction < best_wrong_ff) {
@@ -279,7 +278,7 @@ Test(grading_calibration, float_student_passes_wrong_ones_fail, .timeout = 300)
     double lo_ff = worst_correct_ff > floor_ff ? worst_correct_ff : floor_ff;
     double mid_ff = sqrt(lo_ff * best_wrong_ff);
     double gap_decades = log10(best_wrong_ff / lo_ff);
-    double pos = log10(T.fail_fraction / lo_ff) / gap_decades;  /* 0 = correct end, 1 = wrong end */
+    double pos = log10(T.fail_fraction / lo_ff) / gap_decades; /* 0 = correct end, 1 = wrong end */
     double mid_fail = sqrt((fail_lo > 1 ? fail_lo : 1) * (double)fail_hi);
     printf("\nfailed_fraction: largest over correct students %.6f (%s), smallest over wrong ones %.6f (%s)\n",
            worst_correct_ff, worst_correct_at, best_wrong_ff, best_wrong_at);
@@ -297,11 +296,11 @@ Test(grading_calibration, float_student_passes_wrong_ones_fail, .timeout = 300)
 
     /* Separation with margin. */
     cr_expect(worst_correct_ff * CAL_MIN_FACTOR <= T.fail_fraction,
-              "fail_fraction %g is within %gx of the worst correct student (%g at %s)", T.fail_fraction,
-              CAL_MIN_FACTOR, worst_correct_ff, worst_correct_at);
+              "fail_fraction %g is within %gx of the worst correct student (%g at %s)", T.fail_fraction, CAL_MIN_FACTOR,
+              worst_correct_ff, worst_correct_at);
     cr_expect(T.fail_fraction * CAL_MIN_FACTOR <= best_wrong_ff,
-              "fail_fraction %g is within %gx of the best wrong student (%g at %s)", T.fail_fraction,
-              CAL_MIN_FACTOR, best_wrong_ff, best_wrong_at);
+              "fail_fraction %g is within %gx of the best wrong student (%g at %s)", T.fail_fraction, CAL_MIN_FACTOR,
+              best_wrong_ff, best_wrong_at);
     cr_expect(pos >= 0.25 && pos <= 0.75, "fail_fraction %g is outside the middle half of the gap (at %.0f%%)",
               T.fail_fraction, 100 * pos);
     cr_expect(worst_correct_hard <= (size_t)T.hard_fail_pixels, "a correct student has %zu hard pixels",

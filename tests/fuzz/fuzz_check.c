@@ -43,8 +43,8 @@ void rd_fuzz_check_error(rd_error_code rc, const rd_error *err, const char *sour
 {
     size_t n = strlen(source);
     if (err->code != rc)
-        rd_fuzz_fail("parser returned code %d but the error holds code %d (message '%s')", (int)rc,
-             (int)err->code, err->message);
+        rd_fuzz_fail("parser returned code %d but the error holds code %d (message '%s')", (int)rc, (int)err->code,
+                     err->message);
     if (!err->message[0])
         rd_fuzz_fail("parser returned code %d without a message", (int)rc);
     /* The daemon sends the message as is: the spec wants every error to name
@@ -87,8 +87,7 @@ static int same_v(diff *d, const char *where, const char *field, rd_vec3 a, rd_v
     return same_d(d, where, f, a.z, b.z);
 }
 
-static int same_i(diff *d, const char *where, const char *field, unsigned long long a,
-                  unsigned long long b)
+static int same_i(diff *d, const char *where, const char *field, unsigned long long a, unsigned long long b)
 {
     if (a == b)
         return 1;
@@ -107,44 +106,34 @@ static int same_s(diff *d, const char *where, const char *field, const char *a, 
 
 static int same_light(diff *d, const char *w, const rd_light *a, const rd_light *b)
 {
-    return same_s(d, w, "name", a->name, b->name) &&
-           same_i(d, w, "type", (unsigned)a->type, (unsigned)b->type) &&
-           same_v(d, w, "color", a->color, b->color) &&
-           same_v(d, w, "position", a->position, b->position) &&
+    return same_s(d, w, "name", a->name, b->name) && same_i(d, w, "type", (unsigned)a->type, (unsigned)b->type) &&
+           same_v(d, w, "color", a->color, b->color) && same_v(d, w, "position", a->position, b->position) &&
            same_v(d, w, "direction", a->direction, b->direction) &&
-           same_d(d, w, "angle_deg", a->angle_deg, b->angle_deg) &&
-           same_d(d, w, "falloff", a->falloff, b->falloff) &&
-           same_v(d, w, "corner", a->corner, b->corner) &&
-           same_v(d, w, "edge1", a->edge1, b->edge1) &&
+           same_d(d, w, "angle_deg", a->angle_deg, b->angle_deg) && same_d(d, w, "falloff", a->falloff, b->falloff) &&
+           same_v(d, w, "corner", a->corner, b->corner) && same_v(d, w, "edge1", a->edge1, b->edge1) &&
            same_v(d, w, "edge2", a->edge2, b->edge2) &&
            same_i(d, w, "samples", (unsigned)a->samples, (unsigned)b->samples);
 }
 
 static int same_material(diff *d, const char *w, const rd_material *a, const rd_material *b)
 {
-    return same_s(d, w, "name", a->name, b->name) &&
-           same_i(d, w, "type", (unsigned)a->type, (unsigned)b->type) &&
+    return same_s(d, w, "name", a->name, b->name) && same_i(d, w, "type", (unsigned)a->type, (unsigned)b->type) &&
            same_v(d, w, "kd", a->kd, b->kd) && same_v(d, w, "ks", a->ks, b->ks) &&
-           same_v(d, w, "ambient", a->ambient, b->ambient) &&
-           same_d(d, w, "shininess", a->shininess, b->shininess) &&
-           same_d(d, w, "roughness", a->roughness, b->roughness) &&
-           same_d(d, w, "ior", a->ior, b->ior) && same_s(d, w, "texture", a->texture, b->texture) &&
-           same_d(d, w, "uv_scale", a->uv_scale, b->uv_scale);
+           same_v(d, w, "ambient", a->ambient, b->ambient) && same_d(d, w, "shininess", a->shininess, b->shininess) &&
+           same_d(d, w, "roughness", a->roughness, b->roughness) && same_d(d, w, "ior", a->ior, b->ior) &&
+           same_s(d, w, "texture", a->texture, b->texture) && same_d(d, w, "uv_scale", a->uv_scale, b->uv_scale);
 }
 
 static int same_object(diff *d, const char *w, const rd_object *a, const rd_object *b)
 {
-    if (!(same_i(d, w, "type", (unsigned)a->type, (unsigned)b->type) &&
-          same_s(d, w, "name", a->name, b->name) &&
+    if (!(same_i(d, w, "type", (unsigned)a->type, (unsigned)b->type) && same_s(d, w, "name", a->name, b->name) &&
           same_i(d, w, "material", (unsigned)a->material, (unsigned)b->material) &&
           same_s(d, w, "material_name", a->material_name, b->material_name) &&
           same_v(d, w, "center", a->center, b->center) && same_d(d, w, "radius", a->radius, b->radius) &&
           same_v(d, w, "point", a->point, b->point) && same_v(d, w, "normal", a->normal, b->normal) &&
           same_i(d, w, "has_normals", (unsigned)a->has_normals, (unsigned)b->has_normals) &&
-          same_i(d, w, "has_uv", (unsigned)a->has_uv, (unsigned)b->has_uv) &&
-          same_s(d, w, "file", a->file, b->file) &&
-          same_v(d, w, "translate", a->translate, b->translate) &&
-          same_v(d, w, "scale", a->scale, b->scale) &&
+          same_i(d, w, "has_uv", (unsigned)a->has_uv, (unsigned)b->has_uv) && same_s(d, w, "file", a->file, b->file) &&
+          same_v(d, w, "translate", a->translate, b->translate) && same_v(d, w, "scale", a->scale, b->scale) &&
           same_v(d, w, "rotate_deg", a->rotate_deg, b->rotate_deg)))
         return 0;
     for (int i = 0; i < 3; i++) {
@@ -174,12 +163,9 @@ static int same_scene(diff *d, const rd_scene *a, const rd_scene *b)
           same_i(d, "render", "samples", (unsigned)ra->samples, (unsigned)rb->samples) &&
           same_i(d, "render", "max_depth", (unsigned)ra->max_depth, (unsigned)rb->max_depth) &&
           same_v(d, "render", "background", ra->background, rb->background) &&
-          same_d(d, "render", "gamma", ra->gamma, rb->gamma) &&
-          same_i(d, "render", "seed", ra->seed, rb->seed) &&
-          same_v(d, "camera", "eye", ca->eye, cb->eye) &&
-          same_v(d, "camera", "target", ca->target, cb->target) &&
-          same_v(d, "camera", "up", ca->up, cb->up) &&
-          same_d(d, "camera", "fov_deg", ca->fov_deg, cb->fov_deg) &&
+          same_d(d, "render", "gamma", ra->gamma, rb->gamma) && same_i(d, "render", "seed", ra->seed, rb->seed) &&
+          same_v(d, "camera", "eye", ca->eye, cb->eye) && same_v(d, "camera", "target", ca->target, cb->target) &&
+          same_v(d, "camera", "up", ca->up, cb->up) && same_d(d, "camera", "fov_deg", ca->fov_deg, cb->fov_deg) &&
           same_i(d, "scene", "light_count", a->light_count, b->light_count) &&
           same_i(d, "scene", "material_count", a->material_count, b->material_count) &&
           same_i(d, "scene", "object_count", a->object_count, b->object_count)))
@@ -207,10 +193,7 @@ static int same_scene(diff *d, const rd_scene *a, const rd_scene *b)
 
 /* scene_write.h: the cfg writer fails when a name cannot be spelled in cfg
  * (a '"' or a line end). Any other refusal is a bug. */
-static int unspellable(const char *s)
-{
-    return s && strpbrk(s, "\"\r\n") != NULL;
-}
+static int unspellable(const char *s) { return s && strpbrk(s, "\"\r\n") != NULL; }
 
 static int has_unspellable(const rd_scene *s)
 {
@@ -231,9 +214,9 @@ static int has_unspellable(const rd_scene *s)
 typedef struct {
     const char *name;
     rd_error_code (*write)(const rd_scene *s, char **out, rd_error *err);
-    rd_error_code (*parse)(const char *text, size_t len, const char *source,
-                           const rd_scene_limits *lim, rd_scene *s, rd_error *err);
-    int may_refuse;     /* may refuse unspellable names (cfg) */
+    rd_error_code (*parse)(const char *text, size_t len, const char *source, const rd_scene_limits *lim, rd_scene *s,
+                           rd_error *err);
+    int may_refuse; /* may refuse unspellable names (cfg) */
 } format;
 
 static const format formats[] = {
@@ -263,14 +246,14 @@ static void roundtrip(const format *f, const rd_scene *s)
     rd_fuzz_error_init(&err);
     rc = f->parse(t1, strlen(t1), "<written>", NULL, &s2, &err);
     if (rc)
-        rd_fuzz_fail("%s written from a valid scene does not parse again: %s\n--- written text ---\n%.*s",
-             f->name, err.message, SHOW_MAX, t1);
+        rd_fuzz_fail("%s written from a valid scene does not parse again: %s\n--- written text ---\n%.*s", f->name,
+                     err.message, SHOW_MAX, t1);
 
     rd_fuzz_error_init(&err);
     rc = f->write(&s2, &t2, &err);
     if (rc || !t2)
         rd_fuzz_fail("the %s writer refused a scene it wrote itself: %s\n--- written text ---\n%.*s", f->name,
-             err.message, SHOW_MAX, t1);
+                     err.message, SHOW_MAX, t1);
 
     /* Both properties are computed before failing so one report says
      * whether the text, the scene or both changed. */
@@ -278,9 +261,9 @@ static void roundtrip(const format *f, const rd_scene *s)
     diff d = {""};
     int same = same_scene(&d, s, &s2);
     if (!same_text || !same)
-        rd_fuzz_fail("%s round trip: text %s, scene %s%s\n--- first text ---\n%.*s\n--- second text ---\n%.*s",
-             f->name, same_text ? "identical" : "CHANGED", same ? "identical" : "CHANGED: ",
-             same ? "" : d.text, SHOW_MAX, t1, SHOW_MAX, t2);
+        rd_fuzz_fail("%s round trip: text %s, scene %s%s\n--- first text ---\n%.*s\n--- second text ---\n%.*s", f->name,
+                     same_text ? "identical" : "CHANGED", same ? "identical" : "CHANGED: ", same ? "" : d.text,
+                     SHOW_MAX, t1, SHOW_MAX, t2);
     free(t1);
     free(t2);
     rd_scene_free(&s2);

@@ -142,8 +142,7 @@ static const char *header(const char *head, const char *name)
     return NULL;
 }
 
-int rd_fuzz_request(const char *method, const char *target, const char *content_type, const uint8_t *body,
-                    size_t len)
+int rd_fuzz_request(const char *method, const char *target, const char *content_type, const uint8_t *body, size_t len)
 {
     double start = rd_now_ms(), deadline = start + RD_FUZZ_ANSWER_MS;
     int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
@@ -163,8 +162,8 @@ int rd_fuzz_request(const char *method, const char *target, const char *content_
          * still completes in the background. */
         int e = errno, soerr = 0;
         socklen_t sl = sizeof soerr;
-        if (e != EINTR || !wait_for(fd, POLLOUT, deadline) ||
-            getsockopt(fd, SOL_SOCKET, SO_ERROR, &soerr, &sl) != 0 || soerr != 0)
+        if (e != EINTR || !wait_for(fd, POLLOUT, deadline) || getsockopt(fd, SOL_SOCKET, SO_ERROR, &soerr, &sl) != 0 ||
+            soerr != 0)
             rd_fuzz_http_fail("connect to 127.0.0.1:%u: %s", (unsigned)port, strerror(soerr ? soerr : e));
     }
     size_t tlen = strlen(target);
@@ -172,9 +171,8 @@ int rd_fuzz_request(const char *method, const char *target, const char *content_
     char *head = malloc(cap);
     if (!head)
         rd_fuzz_http_fail("out of memory");
-    int hn = snprintf(head, cap,
-                      "%s %s HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: %s\r\nContent-Length: %zu\r\n\r\n", method,
-                      target, content_type, len);
+    int hn = snprintf(head, cap, "%s %s HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: %s\r\nContent-Length: %zu\r\n\r\n",
+                      method, target, content_type, len);
     requests++;
     if (send_all(fd, head, (size_t)hn, deadline))
         send_all(fd, (const char *)body, len, deadline);
@@ -207,8 +205,7 @@ int rd_fuzz_request(const char *method, const char *target, const char *content_
         char *end;
         while (status < 0 && (end = strstr(buf, "\r\n\r\n"))) {
             *end = 0;
-            if (strncmp(buf, "HTTP/1.", 7) != 0 || sscanf(buf + 8, " %d", &status) != 1 || status < 100 ||
-                status > 599)
+            if (strncmp(buf, "HTTP/1.", 7) != 0 || sscanf(buf + 8, " %d", &status) != 1 || status < 100 || status > 599)
                 rd_fuzz_http_fail("not an HTTP answer: '%.80s'", buf);
             size_t rest = have - (size_t)(end + 4 - buf);
             if (status < 200) {

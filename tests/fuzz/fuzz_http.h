@@ -39,8 +39,7 @@ void rd_fuzz_server_start(const rd_server_options *o);
 /* One request on a new connection: method and target ("/v1/grade"), a
  * Content-Type and the body. Returns the status of the answer, or 0 when
  * the connection closed without one; aborts on the failures above. */
-int rd_fuzz_request(const char *method, const char *target, const char *content_type, const uint8_t *body,
-                    size_t len);
+int rd_fuzz_request(const char *method, const char *target, const char *content_type, const uint8_t *body, size_t len);
 
 /* Formats a failure on the real stderr and aborts. */
 void rd_fuzz_http_fail(const char *fmt, ...) __attribute__((format(printf, 1, 2), noreturn));

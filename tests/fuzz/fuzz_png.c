@@ -125,8 +125,9 @@ static void decode(const unsigned char *bytes, size_t n)
         for (size_t i = 0; i < px * 3; i++)
             if (img.rgb[i] > img.maxval)
                 rd_fuzz_fail("sample %zu is %u, over maxval %u", i, img.rgb[i], img.maxval);
-        outcome("decoded", (unsigned)img.depth | (unsigned)img.had_alpha << 5 | (unsigned)img.was_palette << 6 |
-                               (unsigned)img.was_grey << 7,
+        outcome("decoded",
+                (unsigned)img.depth | (unsigned)img.had_alpha << 5 | (unsigned)img.was_palette << 6 |
+                    (unsigned)img.was_grey << 7,
                 img.width < 16 ? (unsigned)img.width : 16, img.height < 16 ? (unsigned)img.height : 16);
     } else {
         check_error("rd_png_decode", rc, &err);
@@ -144,7 +145,7 @@ static void decode(const unsigned char *bytes, size_t n)
     rd_error_code rc8 = rd_grade_load_png(bytes, n, MAX_PIXELS, &rgb8, &w, &h, &err8);
     if (rc8 != rc)
         rd_fuzz_fail("rd_grade_load_png returned %d ('%s'), rd_png_decode %d ('%s')", (int)rc8, err8.message, (int)rc,
-             err.message);
+                     err.message);
     if (rc == RD_OK) {
         if (w != img.width || h != img.height || !rgb8)
             rd_fuzz_fail("rd_grade_load_png: %dx%d, rd_png_decode %dx%d", w, h, img.width, img.height);

@@ -68,8 +68,8 @@ Test(daemon, render_sync_is_byte_identical_to_cli)
     server *s = start_server_default();
     char out[320];
     snprintf(out, sizeof out, "%s/cli.png", s->dir);
-    const char *argv[] = {rayd_path(), "render", "scenes/phong.cfg", "-o", out, "--width", "160", "--height", "120",
-                          NULL};
+    const char *argv[] = {rayd_path(), "render", "scenes/phong.cfg", "-o",  out,
+                          "--width",   "160",    "--height",         "120", NULL};
     cr_assert_eq(run_cmd(argv, 120), 0, "rayd render failed");
     size_t cli_len;
     char *cli = slurp(out, &cli_len);
@@ -214,8 +214,8 @@ Test(daemon, async_partial_image_and_cancel)
             break;
         sleep_ms(20);
     }
-    cr_assert(strcmp(st, "running") == 0 && p > 0 && p < 1, "the job should be running with some progress: %s %g",
-              st, p);
+    cr_assert(strcmp(st, "running") == 0 && p > 0 && p < 1, "the job should be running with some progress: %s %g", st,
+              p);
 
     GET(s->port, path, &r);
     assert_error(&r, 409, "not_ready");
@@ -299,8 +299,7 @@ Test(daemon, healthz_and_web_page)
     char ct[128] = "";
     cr_assert_eq(r.code, 200, "/: %ld", r.code);
     cr_assert(header(&r, "Content-Type", ct, sizeof ct) && strncmp(ct, "text/html", 9) == 0, "Content-Type: %s", ct);
-    cr_assert(r.body && strstr(r.body, "<html") && strstr(r.body, "rayd"), "the page: %.300s",
-              r.body ? r.body : "");
+    cr_assert(r.body && strstr(r.body, "<html") && strstr(r.body, "rayd"), "the page: %.300s", r.body ? r.body : "");
     resp_free(&r);
     assert_clean_exit(s, 20);
 }
@@ -312,8 +311,7 @@ Test(daemon, metrics_count_renders)
     GET(s->port, "/metrics", &r);
     char ct[128] = "";
     cr_assert_eq(r.code, 200);
-    cr_assert(header(&r, "Content-Type", ct, sizeof ct) && strncmp(ct, "text/plain", 10) == 0, "Content-Type: %s",
-              ct);
+    cr_assert(header(&r, "Content-Type", ct, sizeof ct) && strncmp(ct, "text/plain", 10) == 0, "Content-Type: %s", ct);
     cr_assert(strstr(r.body, "# TYPE rayd_queue_depth gauge"), "%s", r.body);
     cr_assert(strstr(r.body, "# TYPE rayd_jobs_total counter"), "%s", r.body);
     cr_assert(strstr(r.body, "# TYPE rayd_render_seconds histogram"), "%s", r.body);
@@ -362,8 +360,7 @@ Test(daemon, bad_cfg_is_400_with_line_and_column)
         assert_error(&r, 400, "parse_error");
         double line = -1, column = -1;
         char msg[1024] = "", want[64];
-        cr_assert(json_num(r.body, "line", &line) && json_num(r.body, "column", &column), "no line/column: %s",
-                  r.body);
+        cr_assert(json_num(r.body, "line", &line) && json_num(r.body, "column", &column), "no line/column: %s", r.body);
         cr_assert_eq((int)line, cases[i].line, "line: %s", r.body);
         if (cases[i].column)
             cr_assert_eq((int)column, cases[i].column, "column: %s", r.body);
@@ -435,10 +432,7 @@ static size_t on_read(char *buf, size_t sz, size_t n, void *user)
  * upload it all. */
 static void sized_upload(int port, int chunked, int expect, curl_off_t size, resp *r);
 
-static void big_upload(int port, int chunked, int expect, resp *r)
-{
-    sized_upload(port, chunked, expect, BIG_BODY, r);
-}
+static void big_upload(int port, int chunked, int expect, resp *r) { sized_upload(port, chunked, expect, BIG_BODY, r); }
 
 static void sized_upload(int port, int chunked, int expect, curl_off_t size, resp *r)
 {
@@ -492,8 +486,8 @@ static void assert_early_413(server *s, int chunked, int expect)
         resp_free(&r);
         return;
     }
-    const char *how = chunked ? (expect ? "chunked, Expect: 100-continue" : "chunked") :
-                      (expect ? "Content-Length, Expect: 100-continue" : "Content-Length");
+    const char *how = chunked ? (expect ? "chunked, Expect: 100-continue" : "chunked")
+                              : (expect ? "Content-Length, Expect: 100-continue" : "Content-Length");
     cr_assert_eq(r.code, 413, "64 MB body (%s): expected 413, got %ld; curl: %s (%s); %lld bytes uploaded in %.3f s",
                  how, r.code, curl_easy_strerror(r.rc), r.errbuf, (long long)r.uploaded, r.seconds);
     assert_error(&r, 413, "too_large");
@@ -602,10 +596,14 @@ Test(daemon, wrong_method_is_405_with_allow)
     static const struct {
         const char *method, *path, *allow_has;
     } cases[] = {
-        {"GET", "/v1/render", "POST"},       {"PUT", "/v1/render", "POST"},
-        {"GET", "/v1/jobs", "POST"},         {"DELETE", "/v1/scenes", "GET"},
-        {"POST", "/v1/scenes/phong", "GET"}, {"PUT", "/v1/jobs/0123456789abcdef", "DELETE"},
-        {"POST", "/healthz", "GET"},         {"DELETE", "/metrics", "GET"},
+        {"GET", "/v1/render", "POST"},
+        {"PUT", "/v1/render", "POST"},
+        {"GET", "/v1/jobs", "POST"},
+        {"DELETE", "/v1/scenes", "GET"},
+        {"POST", "/v1/scenes/phong", "GET"},
+        {"PUT", "/v1/jobs/0123456789abcdef", "DELETE"},
+        {"POST", "/healthz", "GET"},
+        {"DELETE", "/metrics", "GET"},
         {"POST", "/", "GET"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
@@ -636,9 +634,15 @@ Test(daemon, bad_query_parameter_is_400)
     static const struct {
         const char *query, *names;
     } cases[] = {
-        {"?width=0", "width"},         {"?samples=x", "samples"},         {"?height=-3", "height"},
-        {"?width=99999999", "width"},  {"?samples=", "samples"},          {"?gamma=0", "gamma"},
-        {"?seed=abc", "seed"},         {"?time_budget_ms=-1", "time_budget_ms"}, {"?max_depth=1000", "max_depth"},
+        {"?width=0", "width"},
+        {"?samples=x", "samples"},
+        {"?height=-3", "height"},
+        {"?width=99999999", "width"},
+        {"?samples=", "samples"},
+        {"?gamma=0", "gamma"},
+        {"?seed=abc", "seed"},
+        {"?time_budget_ms=-1", "time_budget_ms"},
+        {"?max_depth=1000", "max_depth"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         for (int async = 0; async < 2; async++) {
@@ -726,8 +730,12 @@ Test(daemon, client_disconnect_cancels_render)
     char *cfg = scene_text("scenes/area_light.cfg", &len);
     const char *name = "rayd_jobs_total{outcome=\"cancelled\"}";
     double c0 = get_metric(s->port, name);
-    req_opts o = {.method = "POST", .path = "/v1/render" SLOW_QUERY, .ctype = "text/plain", .body = cfg,
-                  .len = len, .timeout_ms = 500};
+    req_opts o = {.method = "POST",
+                  .path = "/v1/render" SLOW_QUERY,
+                  .ctype = "text/plain",
+                  .body = cfg,
+                  .len = len,
+                  .timeout_ms = 500};
     resp r;
     http(s->port, &o, &r);
     cr_assert_eq(r.rc, CURLE_OPERATION_TIMEDOUT, "the slow render should outlast the 0.5 s client timeout: %s %ld",
@@ -925,8 +933,7 @@ Test(daemon, keepalive_256_connections, .timeout = 240)
     cr_assert_eq(reconnects, 0, "%d second requests opened a new connection instead of reusing one", reconnects);
     /* The first round ran concurrently: (nearly) every handle opened its
      * own connection. */
-    cr_assert_geq(opened, KA_CONNS / 2, "only %ld connections were opened for %d concurrent handles", opened,
-                  KA_CONNS);
+    cr_assert_geq(opened, KA_CONNS / 2, "only %ld connections were opened for %d concurrent handles", opened, KA_CONNS);
     cr_log_info("256 keep-alive connections x 2 renders: %.2f s, %ld connections", secs, opened);
     assert_clean_exit(s, 20);
 }
@@ -963,8 +970,12 @@ Test(daemon, memory_flat_over_2000_requests, .timeout = 300)
     double t0 = now_s();
     for (int i = 0; i < 2000; i++) {
         double ti = now_s();
-        req_opts o = {.method = "POST", .path = "/v1/render" SMALL_QUERY, .ctype = "text/plain", .body = cfg,
-                      .len = len, .easy = e};
+        req_opts o = {.method = "POST",
+                      .path = "/v1/render" SMALL_QUERY,
+                      .ctype = "text/plain",
+                      .body = cfg,
+                      .len = len,
+                      .easy = e};
         resp r;
         http(s->port, &o, &r);
         cr_assert_eq(r.code, 200, "request %d: %ld (%s) %.200s", i, r.code, curl_easy_strerror(r.rc),
@@ -985,7 +996,6 @@ Test(daemon, memory_flat_over_2000_requests, .timeout = 300)
     cr_assert_leq(connects, 1, "keep-alive: %ld connections for 2,000 requests", connects);
     /* Bound: 5 MB of growth over 1,800 requests (under 3 kB each); a leak
      * of a job, a scene or an image per request would exceed it. */
-    cr_assert_lt(rss2000 - rss200, 5 * 1024, "VmRSS grew from %ld kB to %ld kB over 1,800 requests", rss200,
-                 rss2000);
+    cr_assert_lt(rss2000 - rss200, 5 * 1024, "VmRSS grew from %ld kB to %ld kB over 1,800 requests", rss200, rss2000);
     assert_clean_exit(s, 20);
 }

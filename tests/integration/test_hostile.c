@@ -422,8 +422,12 @@ Test(hostile, fifo_in_the_scenes_folder_does_not_hang)
     const char *scene = "[material m]\ntype = diffuse\n[mesh]\nfile = f.obj\nmaterial = m\n";
     for (int i = 0; i < 3; i++) {
         resp r;
-        req_opts o = {.method = "POST", .path = "/v1/render?width=8&height=8", .ctype = "text/plain",
-                      .body = scene, .len = strlen(scene), .timeout_ms = 10000};
+        req_opts o = {.method = "POST",
+                      .path = "/v1/render?width=8&height=8",
+                      .ctype = "text/plain",
+                      .body = scene,
+                      .len = strlen(scene),
+                      .timeout_ms = 10000};
         http(s->port, &o, &r);
         cr_assert_eq(r.code, 422, "a FIFO as a mesh: %ld (%s)", r.code, curl_easy_strerror(r.rc));
         cr_assert(strstr(r.body, "not a regular file"), "%s", r.body);

@@ -30,10 +30,7 @@ static fvec fmulv(fvec a, fvec b) { return fv(a.x * b.x, a.y * b.y, a.z * b.z); 
 static fvec fscale(fvec a, float s) { return fv(a.x * s, a.y * s, a.z * s); }
 static fvec fneg(fvec a) { return fv(-a.x, -a.y, -a.z); }
 static float fdot(fvec a, fvec b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-static fvec fcross(fvec a, fvec b)
-{
-    return fv(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
-}
+static fvec fcross(fvec a, fvec b) { return fv(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x); }
 static fvec fnormalize(fvec a)
 {
     float l = sqrtf(fdot(a, a));
@@ -50,8 +47,8 @@ typedef struct {
 } sf_sphere;
 
 typedef struct {
-    fvec q, n;      /* a point and the unit normal as written */
-    fvec tu, tv;    /* texture axes */
+    fvec q, n;   /* a point and the unit normal as written */
+    fvec tu, tv; /* texture axes */
     int mat;
 } sf_plane;
 
@@ -91,7 +88,7 @@ typedef struct {
     fvec background;
     int max_depth;
     unsigned bugs;
-    float eps;      /* hits closer than this along any ray are ignored */
+    float eps; /* hits closer than this along any ray are ignored */
 } sf_world;
 
 enum { K_NONE, K_SPHERE, K_PLANE, K_TRI };
@@ -100,7 +97,7 @@ typedef struct {
     float t;
     int kind;
     size_t idx;
-    float b1, b2;   /* triangle barycentrics of v1 and v2 */
+    float b1, b2; /* triangle barycentrics of v1 and v2 */
 } sf_hit;
 
 const char *sf_bug_name(unsigned bug)
@@ -280,15 +277,14 @@ static fvec calc_reflected_light(const sf_mat *m, fvec kd, fvec N, fvec L, fvec 
     float cosa = -fdot(N, L);
     if (!(bugs & SF_BUG_NO_MAX_COS)) {
         if (cosa <= 0)
-            return zero;    /* behind: no diffuse, no highlight */
+            return zero; /* behind: no diffuse, no highlight */
     }
     fvec diffuse = fscale(kd, cosa);
     float n = m->shininess;
     if (bugs & SF_BUG_SHININESS_HALVED)
         n *= 0.5f;
     switch (m->type) {
-    case RD_MAT_DIFFUSE:
-        return diffuse;
+    case RD_MAT_DIFFUSE: return diffuse;
     case RD_MAT_PHONG:
     case RD_MAT_TEXTURED_PHONG: {
         float c;
@@ -326,8 +322,7 @@ static fvec calc_reflected_light(const sf_mat *m, fvec kd, fvec N, fvec L, fvec 
         fvec F = fv(m->ks.x + (1 - m->ks.x) * s5, m->ks.y + (1 - m->ks.y) * s5, m->ks.z + (1 - m->ks.z) * s5);
         return fadd(diffuse, fscale(F, D * G / (4 * nv)));
     }
-    default:
-        return zero;    /* mirror and glass: their light comes from recursion */
+    default: return zero; /* mirror and glass: their light comes from recursion */
     }
 }
 
@@ -404,7 +399,7 @@ static fvec trace(const sf_world *w, fvec o, fvec d, int depth)
         if (bugs & SF_BUG_AMBIENT_PER_LIGHT)
             color = fadd(color, m->ambient);
         if (recursive)
-            continue;   /* calcReflectedLight is 0 for them */
+            continue; /* calcReflectedLight is 0 for them */
         int n = l->side * l->side;
         for (int k = 0; k < n; k++) {
             fvec L, to_light, lc = l->color;

@@ -29,6 +29,7 @@
 #include <time.h>
 
 #include "asset_source.h"
+#include "file_io.h"
 #include "fresnel.h"
 #include "light.h"
 #include "material.h"
@@ -37,7 +38,6 @@
 #include "scene_assets.h"
 #include "scene_limits.h"
 #include "scene_load.h"
-#include "file_io.h"
 #include "support/load.h"
 #include "support/rng.h"
 
@@ -165,10 +165,7 @@ static size_t diff_pixels(const shot *a, const shot *b, int *maxlev)
 
 static const uint8_t *px(const shot *o, int x, int y) { return o->rgb8 + 3 * ((size_t)y * o->w + x); }
 
-static uint8_t to8(double c, double gamma)
-{
-    return (uint8_t)floor(rd_display(c, gamma) * 255.0 + 0.5);
-}
+static uint8_t to8(double c, double gamma) { return (uint8_t)floor(rd_display(c, gamma) * 255.0 + 0.5); }
 
 static int is_rgb(const uint8_t *p, rd_rgb c, double gamma)
 {
@@ -268,7 +265,7 @@ typedef struct {
 
 typedef struct {
     const rd_scene *s;
-    lv eye;          /* world position; everything below is relative to it */
+    lv eye; /* world position; everything below is relative to it */
     lv u, v, w;
     ld h, aspect;
     int W, H;
@@ -278,11 +275,11 @@ typedef struct {
 } lref;
 
 typedef struct {
-    int obj;         /* scene object index, -1 for none */
+    int obj; /* scene object index, -1 for none */
     ld t;
-    lv p, ng, n;     /* n: shading normal facing the ray */
+    lv p, ng, n; /* n: shading normal facing the ray */
     int mat;
-    int tri;         /* index into lref.tri, or -1 */
+    int tri; /* index into lref.tri, or -1 */
 } lhit;
 
 static void lref_free(lref *R) { free(R->tri); }
@@ -564,8 +561,8 @@ static ld lbeckmann(ld nh, ld m, lv N, lv H)
     if (!(nh > 0))
         return 0;
     lv d = lsub(N, H);
-    ld x = ldot(d, d) / 2;     /* 1 - nh, exactly for unit N, H */
-    ld s2 = x * (2 - x);       /* 1 - nh² */
+    ld x = ldot(d, d) / 2; /* 1 - nh, exactly for unit N, H */
+    ld s2 = x * (2 - x);   /* 1 - nh² */
     ld nh2 = (1 - x) * (1 - x);
     return expl(-s2 / (nh2 * m * m)) / (3.14159265358979323846264338327950288L * m * m * nh2 * nh2);
 }
@@ -577,11 +574,11 @@ static lv lbrdf(const rd_material *m, lv N, lv L, lv V, ld cmax, int *amb)
     /* At the terminator (|cos α| within 1e-9) the sign of cos α decides,
      * and it matters only when what switches on is at least 1e-3: a
      * specular term, or a diffuse one under a very bright light. */
-    int shiny = m->type != RD_MAT_DIFFUSE &&
-                (m->ks.x != 0 || m->ks.y != 0 || m->ks.z != 0);
+    int shiny = m->type != RD_MAT_DIFFUSE && (m->ks.x != 0 || m->ks.y != 0 || m->ks.z != 0);
     ld kdm = fmaxl(fabsl(m->kd.x), fmaxl(fabsl(m->kd.y), fabsl(m->kd.z)));
     ld ksm = fmaxl(fabsl(m->ks.x), fmaxl(fabsl(m->ks.y), fabsl(m->ks.z)));
-    if (fabsl(cosa) <= 1e-9L && cmax * (kdm * 1e-9L + (shiny ? ksm + 1e200L * (m->type == RD_MAT_COOK_TORRANCE) : 0)) > 1e-3L)
+    if (fabsl(cosa) <= 1e-9L &&
+        cmax * (kdm * 1e-9L + (shiny ? ksm + 1e200L * (m->type == RD_MAT_COOK_TORRANCE) : 0)) > 1e-3L)
         *amb = 1;
     if (!(cosa > 0))
         return lv3(0, 0, 0);
@@ -683,7 +680,7 @@ static lv lref_pixel(const lref *R, int x, int y, int *amb, int *obj)
 
 typedef struct {
     size_t mismatches, boundary, compared;
-    int maxlev;          /* largest difference among compared pixels */
+    int maxlev; /* largest difference among compared pixels */
     int first_x, first_y;
 } lcmp;
 
@@ -980,10 +977,7 @@ static void run_scale_acne(rd_case_result *r)
 
 /* ---- tiny, huge, planet -------------------------------------------------------- */
 
-static double fov_scaled(double fov_deg, double k)
-{
-    return 2 * atan(tan(fov_deg * M_PI / 360) * k) * 360 / M_PI;
-}
+static double fov_scaled(double fov_deg, double k) { return 2 * atan(tan(fov_deg * M_PI / 360) * k) * 360 / M_PI; }
 
 static void tiny_adjust(rd_scene *s, int v)
 {
@@ -1097,8 +1091,9 @@ static void contact_check(rd_case_result *r, int v)
                         detached++;
                 }
             }
-        note(r, "contact point (view %d): %zu floor pixels within 0.3 of it, %zu in the sphere's shadow, %zu of "
-                "those lit; ",
+        note(r,
+             "contact point (view %d): %zu floor pixels within 0.3 of it, %zu in the sphere's shadow, %zu of "
+             "those lit; ",
              v, near, dark, detached);
         worst(r, (double)detached);
         if (dark == 0) {
@@ -1583,8 +1578,9 @@ static void run_cook_torrance_limits(rd_case_result *r)
                     e = ek;
                 n++;
             }
-    note(r, "%d evaluations (roughness 1e-4..1, N.V 1..0, mirror and off-mirror): max relative error %.3g, %d "
-            "non-finite or negative. ",
+    note(r,
+         "%d evaluations (roughness 1e-4..1, N.V 1..0, mirror and off-mirror): max relative error %.3g, %d "
+         "non-finite or negative. ",
          n, e, bad);
     worst(r, bad ? INFINITY : e);
 }
@@ -1724,8 +1720,9 @@ static void run_fresnel_critical(rd_case_result *r)
             }
         }
     }
-    note(r, "%d incidences over 5 index pairs (dense within 1e-9 and 2^-49 of the critical angle): |F - F_ld| "
-            "max %.3g, |R + T - 1| max %.3g; past critical %d not R = 1; %d out of [0,1]. ",
+    note(r,
+         "%d incidences over 5 index pairs (dense within 1e-9 and 2^-49 of the critical angle): |F - F_ld| "
+         "max %.3g, |R + T - 1| max %.3g; past critical %d not R = 1; %d out of [0,1]. ",
          n, errF, errRT, tir_bad, range_bad);
     worst(r, errF > errRT ? errF : errRT);
     if (tir_bad || range_bad)
@@ -1823,8 +1820,8 @@ static void run_cos_above_one(rd_case_result *r)
     rd_light_sample ls;
     if (rd_light_sample_at(&lp, v3(0, 0, 0), 0, 0.5, 0.5, &ls) && (!v3_is_finite(ls.color) || ls.color.x > 1))
         bad++;
-    note(r, "materials at cos > 1 against cos = 1: max relative error %.3g; pow_cos %.17g; Fresnel %s; %d bad. ",
-         e, pc, F == F1 ? "as at 1" : "differs", bad);
+    note(r, "materials at cos > 1 against cos = 1: max relative error %.3g; pow_cos %.17g; Fresnel %s; %d bad. ", e, pc,
+         F == F1 ? "as at 1" : "differs", bad);
     worst(r, bad ? INFINITY : e);
 }
 
@@ -1934,10 +1931,7 @@ static void run_light_far_extreme(rd_case_result *r)
     far_light(r, k, 6);
 }
 
-static void run_light_intensity(rd_case_result *r)
-{
-    ref_case(r, "intense.cfg", NULL, 0, "lights of 1e38", 0);
-}
+static void run_light_intensity(rd_case_result *r) { ref_case(r, "intense.cfg", NULL, 0, "lights of 1e38", 0); }
 
 static void run_light_overflow(rd_case_result *r)
 {
@@ -1989,8 +1983,9 @@ static void run_area_zero(rd_case_result *r)
             if (shoot(r, &s, &b)) {
                 int maxlev;
                 size_t d = diff_pixels(&a, &b, &maxlev);
-                note(r, "zero-area 4x4 area light against a point light at its corner: %zu pixels differ, max %d "
-                        "levels. ",
+                note(r,
+                     "zero-area 4x4 area light against a point light at its corner: %zu pixels differ, max %d "
+                     "levels. ",
                      d, maxlev);
                 worst(r, maxlev);
                 shot_free(&b);
@@ -2038,8 +2033,9 @@ static void run_mirror_series(rd_case_result *r)
                         e = ec;
                 }
             }
-        note(r, "depth %d: every bouncing pixel against a·(1 - ks^%d)/(1 - ks) = %.15Lg %.15Lg %.15Lg: max "
-                "relative error %.3g; middle column (parallel): %d not background. ",
+        note(r,
+             "depth %d: every bouncing pixel against a·(1 - ks^%d)/(1 - ks) = %.15Lg %.15Lg %.15Lg: max "
+             "relative error %.3g; middle column (parallel): %d not background. ",
              s.render.max_depth, s.render.max_depth + 1, want[0], want[1], want[2], e, mid_bad);
         worst(r, e);
         if (mid_bad)
@@ -2065,8 +2061,8 @@ static void run_mirror_rays_linear(rd_case_result *r)
             break;
         uint64_t want = bouncing * (uint64_t)depth[i];
         double e = fabs((double)o.st.secondary_rays - (double)want) + (double)o.st.shadow_rays;
-        note(r, "depth %d: %llu secondary rays (%llu expected); ", depth[i],
-             (unsigned long long)o.st.secondary_rays, (unsigned long long)want);
+        note(r, "depth %d: %llu secondary rays (%llu expected); ", depth[i], (unsigned long long)o.st.secondary_rays,
+             (unsigned long long)want);
         worst(r, e);
         shot_free(&o);
     }
@@ -2141,8 +2137,9 @@ static void run_stack_depth(rd_case_result *r)
     s.render.max_depth = 64;
     size_t u64 = stack_used(r, &s);
     double per = ((double)u64 - (double)u1) / 63;
-    note(r, "stack used: %zu bytes at max_depth 1, %zu at 64 (thread descriptor and TLS included): %.0f bytes "
-            "per level of recursion (rd_trace + trace_secondary frames). ",
+    note(r,
+         "stack used: %zu bytes at max_depth 1, %zu at 64 (thread descriptor and TLS included): %.0f bytes "
+         "per level of recursion (rd_trace + trace_secondary frames). ",
          u1, u64, per);
     worst(r, per);
     if (u64 > ((size_t)256 << 10)) {
@@ -2172,8 +2169,9 @@ static void run_glass_rays(rd_case_result *r)
     }
     if (per[1] > 0) {
         double g = per[3] / per[1];
-        note(r, "from depth 8 to 16 the rays grow x%.2f (x%.3f per level; at that rate depth 64 would need %.2g "
-                "rays per camera ray). ",
+        note(r,
+             "from depth 8 to 16 the rays grow x%.2f (x%.3f per level; at that rate depth 64 would need %.2g "
+             "rays per camera ray). ",
              g, pow(g, 1.0 / 8), per[3] * pow(g, 48.0 / 8));
         worst(r, g);
     }
@@ -2311,7 +2309,7 @@ static void run_shuffled_order(rd_case_result *r)
 #endif
 
 const rd_case rd_cases[] = {
-#define RD_CASE(name, group, scenes, property, unit, tolerance, why_tol, analysis, run) \
+#define RD_CASE(name, group, scenes, property, unit, tolerance, why_tol, analysis, run)                                \
     {#name, group, scenes, property, unit, tolerance, why_tol, analysis, run},
 #include "case_list.h"
 #undef RD_CASE
@@ -2333,8 +2331,7 @@ void rd_case_run(const rd_case *c, rd_case_result *r)
     double t0 = now_ms();
     c->run(r);
     r->ms = now_ms() - t0;
-    r->pass = !r->error && !r->extra_fail && r->nonfinite == 0 && r->bad_values == 0 &&
-              r->worst <= c->tolerance;
+    r->pass = !r->error && !r->extra_fail && r->nonfinite == 0 && r->bad_values == 0 && r->worst <= c->tolerance;
     if (r->nonfinite)
         note(r, "[%llu non-finite samples] ", (unsigned long long)r->nonfinite);
     if (r->bad_values)

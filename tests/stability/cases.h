@@ -16,25 +16,25 @@
 #include <stdint.h>
 
 typedef struct {
-    double worst;       /* the measured worst error, in the case's unit */
-    int pass;           /* worst <= tolerance, no error, nothing non-finite, no extra failure */
-    int error;          /* a scene failed to load or render (message in detail) */
-    int extra_fail;     /* a secondary condition of the property failed (said in detail) */
-    uint64_t nonfinite; /* sum of rd_render_stats.nonfinite over every render */
-    uint64_t bad_values;/* non-finite values found in rendered images (rd_image.rgb) */
-    int renders;        /* rd_render calls */
-    double ms;          /* wall time of the case */
-    char detail[2048];  /* what was measured, for the report and failure messages */
+    double worst;        /* the measured worst error, in the case's unit */
+    int pass;            /* worst <= tolerance, no error, nothing non-finite, no extra failure */
+    int error;           /* a scene failed to load or render (message in detail) */
+    int extra_fail;      /* a secondary condition of the property failed (said in detail) */
+    uint64_t nonfinite;  /* sum of rd_render_stats.nonfinite over every render */
+    uint64_t bad_values; /* non-finite values found in rendered images (rd_image.rgb) */
+    int renders;         /* rd_render calls */
+    double ms;           /* wall time of the case */
+    char detail[2048];   /* what was measured, for the report and failure messages */
 } rd_case_result;
 
 typedef struct {
-    const char *name;       /* identifier: the Criterion test's name */
-    const char *group;      /* the case class (scale, geometry, triangles, ...) */
-    const char *scenes;     /* scene files under scenes/extreme/, or what is called */
-    const char *property;   /* one sentence */
-    const char *unit;       /* of worst and tolerance */
-    double tolerance;       /* pass when worst <= tolerance */
-    const char *why_tol;    /* why that tolerance */
+    const char *name;     /* identifier: the Criterion test's name */
+    const char *group;    /* the case class (scale, geometry, triangles, ...) */
+    const char *scenes;   /* scene files under scenes/extreme/, or what is called */
+    const char *property; /* one sentence */
+    const char *unit;     /* of worst and tolerance */
+    double tolerance;     /* pass when worst <= tolerance */
+    const char *why_tol;  /* why that tolerance */
     /* Known cause and proposed fix, printed in the report when the case
      * fails (NULL when none is known). */
     const char *analysis;

@@ -70,8 +70,8 @@ int main(int argc, char **argv)
             failed++;
         char w[32];
         num(w, sizeof w, res[i].worst);
-        printf("%-26s %s  worst %s (%s), tolerance %g  [%.0f ms]\n", rd_cases[i].name, res[i].pass ? "pass" : "FAIL",
-               w, rd_cases[i].unit, rd_cases[i].tolerance, res[i].ms);
+        printf("%-26s %s  worst %s (%s), tolerance %g  [%.0f ms]\n", rd_cases[i].name, res[i].pass ? "pass" : "FAIL", w,
+               rd_cases[i].unit, rd_cases[i].tolerance, res[i].ms);
         fflush(stdout);
     }
 
@@ -118,8 +118,8 @@ int main(int argc, char **argv)
         fprintf(f, "%s Scenes: %s. Measured worst %s (%s) against a tolerance of %g", c->property, c->scenes, w,
                 c->unit, c->tolerance);
         if (res[i].nonfinite || res[i].bad_values)
-            fprintf(f, "; %llu non-finite samples, %llu non-finite image values",
-                    (unsigned long long)res[i].nonfinite, (unsigned long long)res[i].bad_values);
+            fprintf(f, "; %llu non-finite samples, %llu non-finite image values", (unsigned long long)res[i].nonfinite,
+                    (unsigned long long)res[i].bad_values);
         fprintf(f, ". Measured: %s\n\n", res[i].detail);
         fprintf(f, "%s\n\n", c->analysis ? c->analysis : "Cause not yet analysed.");
     }

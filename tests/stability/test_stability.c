@@ -24,7 +24,7 @@ static void check(const char *name)
 }
 
 /* One test per case of tests/stability/case_list.h, named after it. */
-#define RD_CASE(name, ...) \
+#define RD_CASE(name, ...)                                                                                             \
     Test(stability, name, .timeout = 120) { check(#name); }
 #include "stability/case_list.h"
 #undef RD_CASE

@@ -69,7 +69,6 @@ char *slurp(const char *path, size_t *len_out)
 
 /* ---- the daemon under test ------------------------------------------------ */
 
-
 server g_servers[MAX_SERVERS];
 int g_nservers;
 
@@ -156,7 +155,6 @@ server *start_server_v(const char *const *extra)
     return NULL;
 }
 
-
 /* SIGTERM, then wait up to timeout_s for the exit. Returns the wait status,
  * or -1 (after SIGKILL) when it did not exit in time. *secs: how long. */
 int stop_server(server *s, double timeout_s, double *secs)
@@ -193,7 +191,9 @@ void assert_clean_exit(server *s, double timeout_s)
         char why[160];
         snprintf(why, sizeof why, "the daemon did not exit 0 after SIGTERM: %s %d",
                  WIFEXITED(st) ? "exit status" : "killed by signal",
-                 WIFEXITED(st) ? WEXITSTATUS(st) : WIFSIGNALED(st) ? WTERMSIG(st) : -1);
+                 WIFEXITED(st)     ? WEXITSTATUS(st)
+                 : WIFSIGNALED(st) ? WTERMSIG(st)
+                                   : -1);
         die_with_log(s, why);
     }
 }
@@ -234,7 +234,6 @@ void teardown(void)
 }
 
 /* ---- HTTP with libcurl ---------------------------------------------------- */
-
 
 size_t on_body(char *p, size_t sz, size_t n, void *user)
 {
@@ -292,7 +291,6 @@ const char *header(const resp *r, const char *name, char *out, size_t outsz)
     }
     return NULL;
 }
-
 
 void http(int port, const req_opts *o, resp *r)
 {
@@ -522,8 +520,7 @@ int wait_job_status(int port, const char *id, const char *want, double timeout_s
 }
 
 /* POST /v1/jobs: asserts 202 and returns the id. */
-void submit_job(int port, const char *query, const char *ctype, const char *body, size_t len, char *id,
-                       size_t idsz)
+void submit_job(int port, const char *query, const char *ctype, const char *body, size_t len, char *id, size_t idsz)
 {
     char path[256];
     snprintf(path, sizeof path, "/v1/jobs%s", query);
@@ -559,7 +556,6 @@ char *wait_log_line(server *s, const char *a, const char *b, double timeout_s)
     }
     return NULL;
 }
-
 
 void *bg_main(void *arg)
 {
@@ -637,4 +633,3 @@ int run_cmd(const char *const *argv, double timeout_s)
     waitpid(pid, &st, 0);
     return -1;
 }
-

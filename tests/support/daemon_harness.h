@@ -10,12 +10,12 @@
 #include <sys/types.h>
 
 typedef struct {
-    pid_t pid;          /* > 0 while running and not reaped */
+    pid_t pid; /* > 0 while running and not reaped */
     int port;
     char dir[256];
     char port_file[300];
     char log_file[300];
-    long long max_body;  /* --max-body-bytes it was started with */
+    long long max_body; /* --max-body-bytes it was started with */
 } server;
 
 #define MAX_SERVERS 4
@@ -33,7 +33,7 @@ typedef struct {
     long code;
     char *body;
     size_t len;
-    char hdr[16384];    /* the last response's header block */
+    char hdr[16384]; /* the last response's header block */
     size_t hlen;
     double seconds;
     curl_off_t uploaded;
@@ -42,13 +42,13 @@ typedef struct {
 } resp;
 
 typedef struct {
-    const char *method;     /* GET when NULL */
-    const char *path;       /* with the query */
-    const char *ctype;      /* Content-Type; NULL: none at all */
+    const char *method; /* GET when NULL */
+    const char *path;   /* with the query */
+    const char *ctype;  /* Content-Type; NULL: none at all */
     const void *body;
     size_t len;
-    long timeout_ms;        /* 0: 120 s */
-    CURL *easy;             /* reuse this handle (keep-alive); NULL: a new one */
+    long timeout_ms; /* 0: 120 s */
+    CURL *easy;      /* reuse this handle (keep-alive); NULL: a new one */
 } req_opts;
 
 /* A request on its own thread (a sync render to interrupt). */
@@ -155,7 +155,6 @@ long vm_rss_kb(pid_t pid);
 
 /* Runs argv to completion (at most timeout_s); its exit status or -1. */
 int run_cmd(const char *const *argv, double timeout_s);
-void submit_job(int port, const char *query, const char *ctype, const char *body, size_t len, char *id,
-                size_t idsz);
+void submit_job(int port, const char *query, const char *ctype, const char *body, size_t len, char *id, size_t idsz);
 
 #endif

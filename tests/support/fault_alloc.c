@@ -26,9 +26,9 @@ void *__wrap_aligned_alloc(size_t align, size_t n);
 char *__wrap_strdup(const char *s);
 char *__wrap_strndup(const char *s, size_t n);
 
-static atomic_int armed;        /* 0: pass through */
+static atomic_int armed; /* 0: pass through */
 static atomic_int persist;
-static atomic_long countdown;   /* allocations left before the failing one, that one included */
+static atomic_long countdown; /* allocations left before the failing one, that one included */
 static atomic_long injected;
 static atomic_long calls;
 static atomic_long live;

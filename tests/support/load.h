@@ -20,12 +20,12 @@ rd_error_code load_scene(const char *path, rd_scene *s, rd_warnings *w, rd_error
 
 /* load_scene, failing the current Criterion test with the path and the
  * message on any error. */
-#define load_cfg(path, s)                                                       \
-    do {                                                                        \
-        const char *load_path_ = (path);                                        \
-        rd_error load_err_ = {0};                                               \
-        rd_error_code load_rc_ = load_scene(load_path_, (s), NULL, &load_err_); \
-        cr_assert_eq(load_rc_, RD_OK, "%s: %s", load_path_, load_err_.message); \
+#define load_cfg(path, s)                                                                                              \
+    do {                                                                                                               \
+        const char *load_path_ = (path);                                                                               \
+        rd_error load_err_ = {0};                                                                                      \
+        rd_error_code load_rc_ = load_scene(load_path_, (s), NULL, &load_err_);                                        \
+        cr_assert_eq(load_rc_, RD_OK, "%s: %s", load_path_, load_err_.message);                                        \
     } while (0)
 
 #endif

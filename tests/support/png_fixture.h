@@ -19,7 +19,7 @@ typedef struct {
     int width, height, color_type, depth, interlace;
     const png_color *palette;
     int npalette;
-    const png_byte *trns;            /* palette alpha */
+    const png_byte *trns; /* palette alpha */
     int ntrns;
     const png_color_16 *trns_colour; /* grey or RGB transparency; may be NULL */
 } png_layout;

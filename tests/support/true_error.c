@@ -5,8 +5,8 @@
 #include <math.h>
 #include <stdlib.h>
 
-#include "scene_fixture.h"
 #include "compare.h"
+#include "scene_fixture.h"
 
 double *display_values(const rd_image *img, double gamma)
 {

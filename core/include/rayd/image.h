@@ -11,7 +11,7 @@
 
 typedef struct {
     int width, height;
-    double *rgb;                /* linear colour, row-major, 3 per pixel, top row first */
+    double *rgb; /* linear colour, row-major, 3 per pixel, top row first */
 } rd_image;
 
 /* Frees rgb and leaves an empty image; safe on an empty one. */

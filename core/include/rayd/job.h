@@ -34,7 +34,7 @@ typedef struct {
 #define RD_JOB_TILE 16
 
 typedef struct {
-    int tile;           /* edge in pixels; < 1 means RD_JOB_TILE */
+    int tile; /* edge in pixels; < 1 means RD_JOB_TILE */
     /* The schedule of passes (progress.h); all zero: one pass of the
      * scene's samples. max_samples < 1 means the scene's samples. A
      * progressive schedule jitters every pass, even a first pass of one

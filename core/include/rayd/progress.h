@@ -26,17 +26,17 @@ typedef enum {
 const char *rd_stop_reason_name(rd_stop_reason r);
 
 typedef struct {
-    int max_samples;            /* the scene's samples: the cap */
-    double time_budget_ms;      /* <= 0: none */
-    double target_error;        /* <= 0: none */
-    int adaptive;               /* later passes follow the error */
+    int max_samples;       /* the scene's samples: the cap */
+    double time_budget_ms; /* <= 0: none */
+    double target_error;   /* <= 0: none */
+    int adaptive;          /* later passes follow the error */
 } rd_progress_settings;
 
 /* One point of the error-against-time curve, taken after a pass. */
 typedef struct {
-    double ms;                  /* since the render started (plan included) */
-    double samples;             /* mean per pixel so far */
-    double error;               /* the estimate then */
+    double ms;      /* since the render started (plan included) */
+    double samples; /* mean per pixel so far */
+    double error;   /* the estimate then */
 } rd_curve_point;
 
 #define RD_CURVE_MAX 64

@@ -15,23 +15,23 @@
 #include "rayd/stats.h"
 
 typedef struct {
-    int threads;                /* worker threads; < 1 means 1 */
-    int tile;                   /* tile edge in pixels; < 1 means RD_JOB_TILE (job.h) */
-    const atomic_int *cancel;   /* optional: non-zero stops the render within milliseconds */
+    int threads;              /* worker threads; < 1 means 1 */
+    int tile;                 /* tile edge in pixels; < 1 means RD_JOB_TILE (job.h) */
+    const atomic_int *cancel; /* optional: non-zero stops the render within milliseconds */
     /* Optional; called by a worker after each tile, possibly concurrently. */
     void (*progress)(void *user, int tiles_done, int tiles_total);
     void *user;
     /* Progressive rendering (progress.h): either makes the render run
      * passes until the scene's samples, the budget or the target error,
      * whichever comes first. */
-    double time_budget_ms;      /* <= 0: none */
-    double target_error;        /* <= 0: none */
-    int adaptive;               /* later passes spend samples where the error is */
+    double time_budget_ms; /* <= 0: none */
+    double target_error;   /* <= 0: none */
+    int adaptive;          /* later passes spend samples where the error is */
 } rd_render_options;
 
 /* Renders s as its render section says. On RD_ERR_CANCELLED the image is
  * freed. Any error leaves *out empty. */
-rd_error_code rd_render(const rd_scene *s, const rd_render_options *opt, rd_image *out,
-                        rd_render_stats *stats, rd_error *err);
+rd_error_code rd_render(const rd_scene *s, const rd_render_options *opt, rd_image *out, rd_render_stats *stats,
+                        rd_error *err);
 
 #endif

@@ -14,8 +14,8 @@
 
 typedef struct {
     int width, height;
-    int samples;        /* per pixel; 1 = the pixel centre */
-    int max_depth;      /* mirror/refraction bounces */
+    int samples;   /* per pixel; 1 = the pixel centre */
+    int max_depth; /* mirror/refraction bounces */
     rd_rgb background;
     double gamma;
     uint64_t seed;
@@ -23,7 +23,7 @@ typedef struct {
 
 typedef struct {
     rd_vec3 eye, target, up;
-    double fov_deg;     /* vertical */
+    double fov_deg; /* vertical */
 } rd_camera;
 
 /* up and the view direction must be at least this far from parallel (the
@@ -32,37 +32,50 @@ typedef struct {
 #define RD_MIN_UP_SINE 1e-9
 
 /* Every light type once, with the word the scene formats use for it. */
-#define RD_LIGHT_TYPES(X) X(POINT, "point") X(DIRECTIONAL, "directional") X(SPOT, "spot") X(AREA, "area")
+/* clang-format off */
+#define RD_LIGHT_TYPES(X) \
+    X(POINT, "point") \
+    X(DIRECTIONAL, "directional") \
+    X(SPOT, "spot") \
+    X(AREA, "area")
+/* clang-format on */
 
 typedef enum {
 #define RD_LIGHT_ENUM(id, word) RD_LIGHT_##id,
     RD_LIGHT_TYPES(RD_LIGHT_ENUM)
 #undef RD_LIGHT_ENUM
-    RD_LIGHT_COUNT
+        RD_LIGHT_COUNT
 } rd_light_type;
 
 typedef struct {
-    char *name;         /* may be NULL (anonymous) */
+    char *name; /* may be NULL (anonymous) */
     rd_light_type type;
     rd_rgb color;
-    rd_vec3 position;   /* point, spot */
-    rd_vec3 direction;  /* directional, spot: the way the light travels */
-    double angle_deg, falloff;      /* spot */
-    rd_vec3 corner, edge1, edge2;   /* area */
-    int samples;                    /* area: samples² points */
+    rd_vec3 position;             /* point, spot */
+    rd_vec3 direction;            /* directional, spot: the way the light travels */
+    double angle_deg, falloff;    /* spot */
+    rd_vec3 corner, edge1, edge2; /* area */
+    int samples;                  /* area: samples² points */
 } rd_light;
 
 /* Every material type once (shading.md), with its word in the formats. */
-#define RD_MATERIAL_TYPES(X)                                                                          \
-    X(DIFFUSE, "diffuse") X(PHONG, "phong") X(BLINN_PHONG, "blinn_phong") X(COOK_TORRANCE, "cook_torrance") \
-    X(PERFECT_SPECULAR, "perfect_specular") X(SPECULAR_REFRACTION, "specular_refraction")             \
-    X(PSEUDO_NORMAL_COLOR, "pseudo_normal_color") X(TEXTURED_PHONG, "textured_phong")
+/* clang-format off */
+#define RD_MATERIAL_TYPES(X) \
+    X(DIFFUSE, "diffuse") \
+    X(PHONG, "phong") \
+    X(BLINN_PHONG, "blinn_phong") \
+    X(COOK_TORRANCE, "cook_torrance") \
+    X(PERFECT_SPECULAR, "perfect_specular") \
+    X(SPECULAR_REFRACTION, "specular_refraction") \
+    X(PSEUDO_NORMAL_COLOR, "pseudo_normal_color") \
+    X(TEXTURED_PHONG, "textured_phong")
+/* clang-format on */
 
 typedef enum {
 #define RD_MAT_ENUM(id, word) RD_MAT_##id,
     RD_MATERIAL_TYPES(RD_MAT_ENUM)
 #undef RD_MAT_ENUM
-    RD_MAT_COUNT
+        RD_MAT_COUNT
 } rd_material_type;
 
 typedef struct {
@@ -70,20 +83,20 @@ typedef struct {
     rd_material_type type;
     rd_rgb kd, ks, ambient;
     double shininess;
-    double roughness;   /* cook_torrance */
-    double ior;         /* specular_refraction */
-    char *texture;      /* textured_phong: path as written in the scene */
+    double roughness; /* cook_torrance */
+    double ior;       /* specular_refraction */
+    char *texture;    /* textured_phong: path as written in the scene */
     double uv_scale;
-    int texture_index;  /* into rd_scene.textures once loaded; -1 before */
-    char *where;        /* where `texture` was written, for messages ("a.cfg:7:11") */
+    int texture_index; /* into rd_scene.textures once loaded; -1 before */
+    char *where;       /* where `texture` was written, for messages ("a.cfg:7:11") */
 } rd_material;
 
 typedef enum { RD_OBJ_SPHERE, RD_OBJ_PLANE, RD_OBJ_TRIANGLE, RD_OBJ_MESH } rd_object_type;
 
 typedef struct {
     rd_object_type type;
-    char *name;         /* may be NULL */
-    int material;       /* index into materials; -1 until resolved */
+    char *name;   /* may be NULL */
+    int material; /* index into materials; -1 until resolved */
     char *material_name;
     /* sphere */
     rd_vec3 center;
@@ -92,14 +105,14 @@ typedef struct {
     rd_vec3 point, normal;
     /* triangle */
     rd_vec3 v[3];
-    rd_vec3 n[3];       /* shading normals, when has_normals */
-    double uv[3][2];    /* when has_uv */
+    rd_vec3 n[3];    /* shading normals, when has_normals */
+    double uv[3][2]; /* when has_uv */
     int has_normals, has_uv;
     /* mesh: an OBJ file, loaded into rd_scene.meshes before rendering */
     char *file;
     rd_vec3 translate, scale, rotate_deg;
-    int mesh;           /* into rd_scene.meshes once loaded; -1 before */
-    char *where;        /* where `file` was written, for messages */
+    int mesh;    /* into rd_scene.meshes once loaded; -1 before */
+    char *where; /* where `file` was written, for messages */
 } rd_object;
 
 /* A decoded texture: RGB values in [0, 1] as stored in the PNG (8-bit
@@ -137,9 +150,9 @@ typedef struct {
     size_t material_count, material_cap;
     rd_object *objects;
     size_t object_count, object_cap;
-    rd_texture *textures;   /* filled by the asset loader */
+    rd_texture *textures; /* filled by the asset loader */
     size_t texture_count;
-    rd_mesh *meshes;        /* filled by the asset loader */
+    rd_mesh *meshes; /* filled by the asset loader */
     size_t mesh_count;
 } rd_scene;
 

@@ -4,11 +4,17 @@
 
 #include <math.h>
 
-typedef struct { double x, y, z; } rd_vec3;
+typedef struct {
+    double x, y, z;
+} rd_vec3;
 /* Colours share the representation; products of colours are per channel. */
 typedef rd_vec3 rd_rgb;
 
-static inline rd_vec3 v3(double x, double y, double z) { rd_vec3 r = {x, y, z}; return r; }
+static inline rd_vec3 v3(double x, double y, double z)
+{
+    rd_vec3 r = {x, y, z};
+    return r;
+}
 static inline rd_vec3 v3_add(rd_vec3 a, rd_vec3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
 static inline rd_vec3 v3_sub(rd_vec3 a, rd_vec3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
 static inline rd_vec3 v3_mul(rd_vec3 a, rd_vec3 b) { return v3(a.x * b.x, a.y * b.y, a.z * b.z); }

@@ -35,16 +35,21 @@ struct row {
     rd_error_code code;
     int line, column;
     const char *message;
-    size_t lim_field;   /* offsetof(rd_scene_limits, ...) to lower, when lim_value > 0 */
+    size_t lim_field; /* offsetof(rd_scene_limits, ...) to lower, when lim_value > 0 */
     size_t lim_value;
     int flags;
 };
 
 /* sizeof, not strlen: some texts carry NUL bytes. */
-#define ROW(n, t, c, l, col, m) {n, t, sizeof(t) - 1, c, l, col, m, 0, 0, 0}
+#define ROW(n, t, c, l, col, m)                                                                                        \
+    {                                                                                                                  \
+        n, t, sizeof(t) - 1, c, l, col, m, 0, 0, 0                                                                     \
+    }
 /* The default limits with one field set to val. */
-#define ROWL(n, t, c, l, col, m, field, val, fl) \
-    {n, t, sizeof(t) - 1, c, l, col, m, offsetof(rd_scene_limits, field), val, fl}
+#define ROWL(n, t, c, l, col, m, field, val, fl)                                                                       \
+    {                                                                                                                  \
+        n, t, sizeof(t) - 1, c, l, col, m, offsetof(rd_scene_limits, field), val, fl                                   \
+    }
 
 #define SYN RD_ERR_SYNTAX
 #define INV RD_ERR_INVALID
@@ -53,17 +58,17 @@ struct row {
 /* The example of scene-format.md, cut where rows change a line. */
 #define SPEC_1_2 "# phong.cfg: three Phong spheres on a diffuse floor\n[render]\n"
 #define SPEC_3 "width = 640\n"
-#define SPEC_4_19                                                                          \
-    "height = 480\n\n[camera]\neye = 0 2 8\ntarget = 0 1 0\nfov = 45\n\n[light key]\n"       \
-    "type = point\nposition = 5 8 5\ncolor = 1 1 1\n\n[material red]\ntype = phong\n"        \
+#define SPEC_4_19                                                                                                      \
+    "height = 480\n\n[camera]\neye = 0 2 8\ntarget = 0 1 0\nfov = 45\n\n[light key]\n"                                 \
+    "type = point\nposition = 5 8 5\ncolor = 1 1 1\n\n[material red]\ntype = phong\n"                                  \
     "kd = 0.6 0.1 0.1\nks = 0.4 0.4 0.4\n"
 #define SPEC_20 "shininess = 50\n"
-#define SPEC_21_31                                                                         \
-    "ambient = 0.05 0.05 0.05\n\n[sphere]\ncenter = 0 1 0\nradius = 1\nmaterial = red\n\n"  \
+#define SPEC_21_31                                                                                                     \
+    "ambient = 0.05 0.05 0.05\n\n[sphere]\ncenter = 0 1 0\nradius = 1\nmaterial = red\n\n"                             \
     "[plane]\npoint = 0 0 0\nnormal = 0 1 0\nmaterial = floor\n"
 
-#define MAT_LIST                                                                           \
-    "diffuse, phong, blinn_phong, cook_torrance, perfect_specular, specular_refraction, "   \
+#define MAT_LIST                                                                                                       \
+    "diffuse, phong, blinn_phong, cook_torrance, perfect_specular, specular_refraction, "                              \
     "pseudo_normal_color, textured_phong"
 
 static const struct row rows[] = {
@@ -72,14 +77,11 @@ static const struct row rows[] = {
         "t.cfg:1:8: missing ']' at the end of the section header"),
     ROW("header_missing_bracket_named", "[render]\n[material red\n", SYN, 2, 14,
         "t.cfg:2:14: missing ']' at the end of the section header"),
-    ROW("header_comment_before_bracket", "[camera # c\n", SYN, 1, 9,
-        "t.cfg:1:9: expected ']' after the section name"),
+    ROW("header_comment_before_bracket", "[camera # c\n", SYN, 1, 9, "t.cfg:1:9: expected ']' after the section name"),
     ROW("header_empty", "[]\n", SYN, 1, 2, "t.cfg:1:2: expected a section kind after '['"),
     ROW("header_only_spaces", "[  ]\n", SYN, 1, 4, "t.cfg:1:4: expected a section kind after '['"),
-    ROW("header_two_names", "[light key fill]\n", SYN, 1, 12,
-        "t.cfg:1:12: expected ']' after the section name"),
-    ROW("header_bad_name_char", "[material red!]\n", SYN, 1, 14,
-        "t.cfg:1:14: expected ']' after the section name"),
+    ROW("header_two_names", "[light key fill]\n", SYN, 1, 12, "t.cfg:1:12: expected ']' after the section name"),
+    ROW("header_bad_name_char", "[material red!]\n", SYN, 1, 14, "t.cfg:1:14: expected ']' after the section name"),
     ROW("text_after_header", "[render] width = 1\n", SYN, 1, 10,
         "t.cfg:1:10: unexpected text after the section header"),
     /* ø is two bytes but one column. */
@@ -88,26 +90,18 @@ static const struct row rows[] = {
     ROW("text_after_header_double_bracket", "[render]]\n", SYN, 1, 9,
         "t.cfg:1:9: unexpected text after the section header"),
     ROW("no_equals", "[render]\nwidth 640\n", SYN, 2, 7, "t.cfg:2:7: expected '=' after key 'width'"),
-    ROW("no_equals_end_of_line", "[render]\nwidth\n", SYN, 2, 6,
-        "t.cfg:2:6: expected '=' after key 'width'"),
-    ROW("no_equals_comment", "[render]\nwidth # = 5\n", SYN, 2, 7,
-        "t.cfg:2:7: expected '=' after key 'width'"),
-    ROW("key_colon", "[render]\nwidth: 640\n", SYN, 2, 1,
-        "t.cfg:2:1: expected '[section]' or 'key = value'"),
-    ROW("key_dash", "[render]\nmax-depth = 3\n", SYN, 2, 1,
-        "t.cfg:2:1: expected '[section]' or 'key = value'"),
-    ROW("key_non_ascii", "[render]\nwïdth = 3\n", SYN, 2, 1,
-        "t.cfg:2:1: expected '[section]' or 'key = value'"),
-    ROW("key_quoted", "[render]\n\"width\" = 3\n", SYN, 2, 1,
-        "t.cfg:2:1: expected '[section]' or 'key = value'"),
-    ROW("key_missing", "[render]\n = 3\n", SYN, 2, 2,
-        "t.cfg:2:2: expected '[section]' or 'key = value'"),
+    ROW("no_equals_end_of_line", "[render]\nwidth\n", SYN, 2, 6, "t.cfg:2:6: expected '=' after key 'width'"),
+    ROW("no_equals_comment", "[render]\nwidth # = 5\n", SYN, 2, 7, "t.cfg:2:7: expected '=' after key 'width'"),
+    ROW("key_colon", "[render]\nwidth: 640\n", SYN, 2, 1, "t.cfg:2:1: expected '[section]' or 'key = value'"),
+    ROW("key_dash", "[render]\nmax-depth = 3\n", SYN, 2, 1, "t.cfg:2:1: expected '[section]' or 'key = value'"),
+    ROW("key_non_ascii", "[render]\nwïdth = 3\n", SYN, 2, 1, "t.cfg:2:1: expected '[section]' or 'key = value'"),
+    ROW("key_quoted", "[render]\n\"width\" = 3\n", SYN, 2, 1, "t.cfg:2:1: expected '[section]' or 'key = value'"),
+    ROW("key_missing", "[render]\n = 3\n", SYN, 2, 2, "t.cfg:2:2: expected '[section]' or 'key = value'"),
     ROW("key_outside_section", "width = 640\n[render]\n", SYN, 1, 1,
         "t.cfg:1:1: key 'width' outside any section; start one with a header such as [render]"),
     ROW("key_outside_section_after_comments", "# hi\n\n  eye = 0 0 1\n", SYN, 3, 3,
         "t.cfg:3:3: key 'eye' outside any section; start one with a header such as [render]"),
-    ROW("unterminated_string_value", "[sphere]\nmaterial = \"red\n", SYN, 2, 12,
-        "t.cfg:2:12: unterminated string"),
+    ROW("unterminated_string_value", "[sphere]\nmaterial = \"red\n", SYN, 2, 12, "t.cfg:2:12: unterminated string"),
     ROW("unterminated_string_header", "[material \"red]\n", SYN, 1, 11, "t.cfg:1:11: unterminated string"),
     /* '#' inside quotes is not a comment, so the string never closes. */
     ROW("unterminated_string_hash", "[material m]\ntype = textured_phong\ntexture = \"a # b\n", SYN, 3, 11,
@@ -184,8 +178,8 @@ static const struct row rows[] = {
     ROW("duplicate_material", "[material red]\ntype = diffuse\n[material red]\ntype = phong\n", SYN, 3, 1,
         "t.cfg:3:1: duplicate material name 'red' (first at line 1)"),
     /* Quotes are spelling, not part of the name. */
-    ROW("duplicate_material_quoted", "[material \"red\"]\ntype = diffuse\n\n[material red]\ntype = diffuse\n", SYN, 4, 1,
-        "t.cfg:4:1: duplicate material name 'red' (first at line 1)"),
+    ROW("duplicate_material_quoted", "[material \"red\"]\ntype = diffuse\n\n[material red]\ntype = diffuse\n", SYN, 4,
+        1, "t.cfg:4:1: duplicate material name 'red' (first at line 1)"),
     ROW("duplicate_light", "[light key]\nposition = 0 0 0\n[light key]\nposition = 1 1 1\n", SYN, 3, 1,
         "t.cfg:3:1: duplicate light name 'key' (first at line 1)"),
     ROW("duplicate_render", "[render]\n[camera]\n[render]\n", SYN, 3, 1,
@@ -221,12 +215,15 @@ static const struct row rows[] = {
     /* ---- wrong type ---- */
     ROW("spec_width_64O", SPEC_1_2 "width = 64O\n" SPEC_4_19 SPEC_20 SPEC_21_31, SYN, 3, 9,
         "t.cfg:3:9: width: expected an integer in 1..16384, got '64O'"),
-    ROW("width_64O", "[render]\nwidth = 64O\n", SYN, 2, 9, "t.cfg:2:9: width: expected an integer in 1..16384, got '64O'"),
+    ROW("width_64O", "[render]\nwidth = 64O\n", SYN, 2, 9,
+        "t.cfg:2:9: width: expected an integer in 1..16384, got '64O'"),
     ROW("height_real", "[render]\nheight = 480.0\n", SYN, 2, 10,
         "t.cfg:2:10: height: expected an integer in 1..16384, got '480.0'"),
     /* Control bytes are shown as '?' so the message stays printable. */
-    ROW("width_control_byte", "[render]\nwidth = 6\x01" "4\n", SYN, 2, 9,
-        "t.cfg:2:9: width: expected an integer in 1..16384, got '6?4'"),
+    ROW("width_control_byte",
+        "[render]\nwidth = 6\x01"
+        "4\n",
+        SYN, 2, 9, "t.cfg:2:9: width: expected an integer in 1..16384, got '6?4'"),
     ROW("width_long_token", "[render]\nwidth = 11111111111111111111111111111111111111111111111111\n", SYN, 2, 9,
         "t.cfg:2:9: width: expected an integer in 1..16384, got '1111111111111111111111111111111111111111...'"),
     ROW("fov_word", "[camera]\nfov = wide\n", SYN, 2, 7, "t.cfg:2:7: fov: expected a number in (0, 180), got 'wide'"),
@@ -266,7 +263,8 @@ static const struct row rows[] = {
         "t.cfg:2:10: height: expected an integer in 1..16384, got '-1'"),
     ROW("samples_65537", "[render]\nsamples = 65537\n", SYN, 2, 11,
         "t.cfg:2:11: samples: expected an integer in 1..65536, got '65537'"),
-    ROW("samples_0", "[render]\nsamples = 0\n", SYN, 2, 11, "t.cfg:2:11: samples: expected an integer in 1..65536, got '0'"),
+    ROW("samples_0", "[render]\nsamples = 0\n", SYN, 2, 11,
+        "t.cfg:2:11: samples: expected an integer in 1..65536, got '0'"),
     ROW("max_depth_65", "[render]\nmax_depth = 65\n", SYN, 2, 13,
         "t.cfg:2:13: max_depth: expected an integer in 0..64, got '65'"),
     ROW("max_depth_negative", "[render]\nmax_depth = -1\n", SYN, 2, 13,
@@ -280,8 +278,8 @@ static const struct row rows[] = {
         "t.cfg:5:9: angle: expected a number in (0, 90], got '91'"),
     ROW("spot_angle_0", "[light s]\ntype = spot\nposition = 0 0 0\ndirection = 0 -1 0\nangle = 0\n", SYN, 5, 9,
         "t.cfg:5:9: angle: expected a number in (0, 90], got '0'"),
-    ROW("spot_falloff_negative", "[light s]\ntype = spot\nposition = 0 0 0\ndirection = 0 -1 0\nfalloff = -1\n", SYN,
-        5, 11, "t.cfg:5:11: falloff: expected a number >= 0, got '-1'"),
+    ROW("spot_falloff_negative", "[light s]\ntype = spot\nposition = 0 0 0\ndirection = 0 -1 0\nfalloff = -1\n", SYN, 5,
+        11, "t.cfg:5:11: falloff: expected a number >= 0, got '-1'"),
     ROW("roughness_0", "[material m]\ntype = cook_torrance\nroughness = 0\n", SYN, 3, 13,
         "t.cfg:3:13: roughness: expected a number in (0, 1], got '0'"),
     ROW("roughness_1_5", "[material m]\ntype = cook_torrance\nroughness = 1.5\n", SYN, 3, 13,
@@ -292,12 +290,10 @@ static const struct row rows[] = {
         "t.cfg:3:13: shininess: expected a number >= 0, got '-1'"),
     ROW("uv_scale_0", "[material t]\ntype = textured_phong\ntexture = t.png\nuv_scale = 0\n", SYN, 4, 12,
         "t.cfg:4:12: uv_scale: expected a number > 0, got '0'"),
-    ROW("area_samples_65",
-        "[light a]\ntype = area\ncorner = 0 0 0\nedge1 = 1 0 0\nedge2 = 0 0 1\nsamples = 65\n", SYN, 6, 11,
-        "t.cfg:6:11: samples: expected an integer in 1..64, got '65'"),
-    ROW("area_samples_0",
-        "[light a]\ntype = area\ncorner = 0 0 0\nedge1 = 1 0 0\nedge2 = 0 0 1\nsamples = 0\n", SYN, 6, 11,
-        "t.cfg:6:11: samples: expected an integer in 1..64, got '0'"),
+    ROW("area_samples_65", "[light a]\ntype = area\ncorner = 0 0 0\nedge1 = 1 0 0\nedge2 = 0 0 1\nsamples = 65\n", SYN,
+        6, 11, "t.cfg:6:11: samples: expected an integer in 1..64, got '65'"),
+    ROW("area_samples_0", "[light a]\ntype = area\ncorner = 0 0 0\nedge1 = 1 0 0\nedge2 = 0 0 1\nsamples = 0\n", SYN, 6,
+        11, "t.cfg:6:11: samples: expected an integer in 1..64, got '0'"),
 
     /* ---- NaN and infinity ---- */
     ROW("fov_nan", "[camera]\nfov = nan\n", SYN, 2, 7, "t.cfg:2:7: fov: expected a finite number, got 'nan'"),
@@ -306,32 +302,36 @@ static const struct row rows[] = {
         "t.cfg:2:18: background: expected a finite number, got '-nan'"),
     ROW("nan_payload", "[render]\nbackground = nan(1) 0 0\n", SYN, 2, 14,
         "t.cfg:2:14: background: expected a finite number, got 'nan(1)'"),
-    ROW("radius_inf", "[sphere]\nradius = inf\n", SYN, 2, 10, "t.cfg:2:10: radius: expected a finite number, got 'inf'"),
+    ROW("radius_inf", "[sphere]\nradius = inf\n", SYN, 2, 10,
+        "t.cfg:2:10: radius: expected a finite number, got 'inf'"),
     ROW("color_minus_Infinity", "[light]\nposition = 0 0 0\ncolor = -Infinity 1 1\n", SYN, 3, 9,
         "t.cfg:3:9: color: expected a finite number, got '-Infinity'"),
     ROW("kd_plus_INF", "[material m]\ntype = diffuse\nkd = 1 +INF 1\n", SYN, 3, 8,
         "t.cfg:3:8: kd: expected a finite number, got '+INF'"),
-    ROW("gamma_1e309", "[render]\ngamma = 1e309\n", SYN, 2, 9, "t.cfg:2:9: gamma: expected a finite number, got '1e309'"),
+    ROW("gamma_1e309", "[render]\ngamma = 1e309\n", SYN, 2, 9,
+        "t.cfg:2:9: gamma: expected a finite number, got '1e309'"),
     ROW("target_minus_1e309", "[camera]\ntarget = 0 -1e309 0\n", SYN, 2, 12,
         "t.cfg:2:12: target: expected a finite number, got '-1e309'"),
-    ROW("v0_INFINITY", "[triangle]\nv0 = INFINITY 0 0\n", SYN, 2, 6, "t.cfg:2:6: v0: expected a finite number, got 'INFINITY'"),
+    ROW("v0_INFINITY", "[triangle]\nv0 = INFINITY 0 0\n", SYN, 2, 6,
+        "t.cfg:2:6: v0: expected a finite number, got 'INFINITY'"),
     ROW("uv1_1e400", "[triangle]\nuv1 = 0 1e400\n", SYN, 2, 9, "t.cfg:2:9: uv1: expected a finite number, got '1e400'"),
-    ROW("width_inf", "[render]\nwidth = inf\n", SYN, 2, 9, "t.cfg:2:9: width: expected an integer in 1..16384, got 'inf'"),
+    ROW("width_inf", "[render]\nwidth = inf\n", SYN, 2, 9,
+        "t.cfg:2:9: width: expected an integer in 1..16384, got 'inf'"),
 
     /* ---- unknown material ---- */
     ROW("spec_floor_undefined", SPEC_1_2 SPEC_3 SPEC_4_19 SPEC_20 SPEC_21_31, INV, 31, 12,
         "t.cfg:31:12: no material named 'floor'"),
-    ROW("flor_no_close_name", "[material red]\ntype = diffuse\n[sphere]\ncenter = 0 0 0\nradius = 1\nmaterial = flor\n", INV,
-        6, 12, "t.cfg:6:12: no material named 'flor'"),
+    ROW("flor_no_close_name", "[material red]\ntype = diffuse\n[sphere]\ncenter = 0 0 0\nradius = 1\nmaterial = flor\n",
+        INV, 6, 12, "t.cfg:6:12: no material named 'flor'"),
     /* The suggestion comes from a material defined after the use. */
-    ROW("flor_floor_later", "[sphere]\ncenter = 0 0 0\nradius = 1\nmaterial = flor\n[material floor]\ntype = diffuse\n", INV,
-        4, 12, "t.cfg:4:12: no material named 'flor'; did you mean 'floor'?"),
+    ROW("flor_floor_later", "[sphere]\ncenter = 0 0 0\nradius = 1\nmaterial = flor\n[material floor]\ntype = diffuse\n",
+        INV, 4, 12, "t.cfg:4:12: no material named 'flor'; did you mean 'floor'?"),
     /* Names are per kind: a light called red is no material. */
     ROW("light_name_is_not_material",
         "[light red]\nposition = 0 0 0\n[triangle]\nv0 = 0 0 0\nv1 = 1 0 0\nv2 = 0 1 0\nmaterial = red\n", INV, 7, 12,
         "t.cfg:7:12: no material named 'red'"),
-    ROW("material_case", "[material red]\ntype = diffuse\n[plane]\npoint = 0 0 0\nnormal = 0 1 0\nmaterial = Red\n", INV, 6,
-        12, "t.cfg:6:12: no material named 'Red'; did you mean 'red'?"),
+    ROW("material_case", "[material red]\ntype = diffuse\n[plane]\npoint = 0 0 0\nnormal = 0 1 0\nmaterial = Red\n",
+        INV, 6, 12, "t.cfg:6:12: no material named 'Red'; did you mean 'red'?"),
     ROW("material_quoted_space",
         "[material dark_red]\ntype = diffuse\n[sphere]\ncenter = 0 0 0\nradius = 1\nmaterial = \"dark red\"\n", INV, 6,
         12, "t.cfg:6:12: no material named 'dark red'; did you mean 'dark_red'?"),
@@ -375,7 +375,8 @@ static const struct row rows[] = {
     ROW("eye_is_target", "[camera]\neye = 1 2 3\ntarget = 1 2 3\n", INV, 3, 10,
         "t.cfg:3:10: camera: target must differ from eye"),
     /* target left at its default: no target line to point at. */
-    ROW("eye_is_default_target", "[camera]\neye = 0 0 0\n", INV, 1, 1, "t.cfg:1:1: camera: target must differ from eye"),
+    ROW("eye_is_default_target", "[camera]\neye = 0 0 0\n", INV, 1, 1,
+        "t.cfg:1:1: camera: target must differ from eye"),
     ROW("up_parallel", "[camera]\neye = 0 5 0\ntarget = 0 0 0\nup = 0 1 0\n", INV, 4, 6,
         "t.cfg:4:6: camera: up must not be parallel to target - eye"),
     ROW("up_antiparallel", "[camera]\neye = 0 0 5\nup = 0 0 -2\n", INV, 3, 6,
@@ -390,10 +391,10 @@ static const struct row rows[] = {
     ROW("triangle_zero_normal",
         "[triangle]\nv0 = 0 0 0\nv1 = 1 0 0\nv2 = 0 1 0\nn0 = 0 0 1\nn1 = 0 0 0\nn2 = 0 0 1\nmaterial = m\n", INV, 6, 6,
         "t.cfg:6:6: n1: must not be the zero vector"),
-    ROW("triangle_some_normals", "[triangle]\nv0 = 0 0 0\nv1 = 1 0 0\nv2 = 0 1 0\nn0 = 0 0 1\nmaterial = m\n", SYN, 1, 1,
-        "t.cfg:1:1: [triangle] needs all of n0, n1, n2 or none of them"),
-    ROW("triangle_some_uvs", "[triangle]\nv0 = 0 0 0\nv1 = 1 0 0\nv2 = 0 1 0\nuv0 = 0 0\nuv2 = 1 1\nmaterial = m\n", SYN,
-        1, 1, "t.cfg:1:1: [triangle] needs all of uv0, uv1, uv2 or none of them"),
+    ROW("triangle_some_normals", "[triangle]\nv0 = 0 0 0\nv1 = 1 0 0\nv2 = 0 1 0\nn0 = 0 0 1\nmaterial = m\n", SYN, 1,
+        1, "t.cfg:1:1: [triangle] needs all of n0, n1, n2 or none of them"),
+    ROW("triangle_some_uvs", "[triangle]\nv0 = 0 0 0\nv1 = 1 0 0\nv2 = 0 1 0\nuv0 = 0 0\nuv2 = 1 1\nmaterial = m\n",
+        SYN, 1, 1, "t.cfg:1:1: [triangle] needs all of uv0, uv1, uv2 or none of them"),
 
     /* ---- invalid UTF-8 and NUL bytes ---- */
     ROW("utf8_ff", "[render]\nwidth = \xff\n", SYN, 2, 9, "t.cfg:2:9: invalid UTF-8"),
@@ -405,7 +406,10 @@ static const struct row rows[] = {
     ROW("utf8_lone_continuation", "[render]\n\n  \x80\n", SYN, 3, 3, "t.cfg:3:3: invalid UTF-8"),
     ROW("utf8_after_multibyte", "[render]\n# ééé \xfe\n", SYN, 2, 7, "t.cfg:2:7: invalid UTF-8"),
     ROW("utf8_cut_at_end", "[render]\nwidth = 1 # \xe2\x82", SYN, 2, 13, "t.cfg:2:13: invalid UTF-8"),
-    ROW("nul_in_value", "[render]\nwidth = 6\0" "40\n", SYN, 2, 10, "t.cfg:2:10: NUL byte in the scene text"),
+    ROW("nul_in_value",
+        "[render]\nwidth = 6\0"
+        "40\n",
+        SYN, 2, 10, "t.cfg:2:10: NUL byte in the scene text"),
     ROW("nul_first_byte", "\0[render]\n", SYN, 1, 1, "t.cfg:1:1: NUL byte in the scene text"),
 
     /* ---- size limits ---- */
@@ -524,13 +528,13 @@ ParameterizedTest(size_t *ip, cfg_errors, table, .timeout = 20)
             *(size_t *)((char *)&lim + r->lim_field) = r->lim_value;
         rd_error_code rc = rd_cfg_parse(text, len, "t.cfg", &lim, &s, &err);
 
-        cr_expect_eq(rc, r->code, "[%s %s] code %d, expected %d (message: %s)", r->name, variant_names[v], rc,
-                     r->code, err.message);
+        cr_expect_eq(rc, r->code, "[%s %s] code %d, expected %d (message: %s)", r->name, variant_names[v], rc, r->code,
+                     err.message);
         cr_expect_eq(err.code, rc, "[%s %s] err.code %d but returned %d", r->name, variant_names[v], err.code, rc);
         cr_expect_eq(err.line, r->line, "[%s %s] line %d, expected %d (message: %s)", r->name, variant_names[v],
                      err.line, r->line, err.message);
-        cr_expect_eq(err.column, r->column, "[%s %s] column %d, expected %d (message: %s)", r->name,
-                     variant_names[v], err.column, r->column, err.message);
+        cr_expect_eq(err.column, r->column, "[%s %s] column %d, expected %d (message: %s)", r->name, variant_names[v],
+                     err.column, r->column, err.message);
         cr_expect(strcmp(err.message, want) == 0, "[%s %s] message\n  got:      %s\n  expected: %s", r->name,
                   variant_names[v], err.message, want);
         cr_expect(valid_utf8(err.message), "[%s %s] message is not valid UTF-8: %s", r->name, variant_names[v],
@@ -581,9 +585,8 @@ Test(cfg_errors, messages_stay_valid_utf8_when_cut)
         {"long token", repeat("[render]\nwidth = a", "é", 45, "\n"), RD_ERR_SYNTAX, "t.cfg:2:9: width: "},
         {"long section name", repeat("[material x", "é", 40, "]\ntype = diffuse\nfoo = 1\n"), RD_ERR_SYNTAX,
          "t.cfg:3:1: unknown key 'foo' in [material x"},
-        {"long material reference",
-         repeat("[sphere]\ncenter = 0 0 0\nradius = 1\nmaterial = x", "é", 40, "\n"), RD_ERR_INVALID,
-         "t.cfg:4:12: no material named 'x"},
+        {"long material reference", repeat("[sphere]\ncenter = 0 0 0\nradius = 1\nmaterial = x", "é", 40, "\n"),
+         RD_ERR_INVALID, "t.cfg:4:12: no material named 'x"},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         rd_error err;
@@ -656,7 +659,8 @@ Test(cfg_errors, load_file_over_byte_limit)
     memset(&err, 0, sizeof err);
     rd_error_code rc = rd_scene_load_file("scenes/phong.cfg", &lim, &s, &err);
     char want[200];
-    snprintf(want, sizeof want, "scenes/phong.cfg: %lld bytes, over the limit of 100 (--max-scene-bytes)", (long long)st.st_size);
+    snprintf(want, sizeof want, "scenes/phong.cfg: %lld bytes, over the limit of 100 (--max-scene-bytes)",
+             (long long)st.st_size);
     cr_expect_eq(rc, RD_ERR_LIMIT);
     cr_expect_str_eq(err.message, want);
     rd_scene_free(&s);
@@ -705,8 +709,7 @@ static void check_any(const char *text, size_t len, const char *what, size_t at)
 
 Test(cfg_errors, damaged_spec_example_never_crashes, .timeout = 120)
 {
-    static const char spec[] = SPEC_1_2 SPEC_3 SPEC_4_19 SPEC_20 SPEC_21_31
-        "\n[material floor]\ntype = diffuse\n";
+    static const char spec[] = SPEC_1_2 SPEC_3 SPEC_4_19 SPEC_20 SPEC_21_31 "\n[material floor]\ntype = diffuse\n";
     size_t n = sizeof spec - 1;
     for (size_t i = 0; i <= n; i++)
         check_any(spec, i, "prefix", i);

@@ -41,20 +41,22 @@ static void parse_ok(const char *text, rd_scene *s)
     cr_assert_eq(rc, RD_OK, "parse failed: %s\n--- text ---\n%s", err.message, text);
 }
 
-#define expect_num(a, b) \
+#define expect_num(a, b)                                                                                               \
     cr_expect((double)(a) == (double)(b), "%s = %.17g, expected %.17g", #a, (double)(a), (double)(b))
 
-#define expect_int(a, b) cr_expect_eq((long long)(a), (long long)(b), "%s = %lld, expected %lld", #a, (long long)(a), (long long)(b))
+#define expect_int(a, b)                                                                                               \
+    cr_expect_eq((long long)(a), (long long)(b), "%s = %lld, expected %lld", #a, (long long)(a), (long long)(b))
 
-#define expect_vec(v, ex, ey, ez)                                                                           \
-    do {                                                                                                    \
-        rd_vec3 v_ = (v);                                                                                   \
-        cr_expect(v_.x == (ex) && v_.y == (ey) && v_.z == (ez), "%s = (%.17g %.17g %.17g), expected (%.17g %.17g %.17g)", \
-                  #v, v_.x, v_.y, v_.z, (double)(ex), (double)(ey), (double)(ez));                         \
+#define expect_vec(v, ex, ey, ez)                                                                                      \
+    do {                                                                                                               \
+        rd_vec3 v_ = (v);                                                                                              \
+        cr_expect(v_.x == (ex) && v_.y == (ey) && v_.z == (ez),                                                        \
+                  "%s = (%.17g %.17g %.17g), expected (%.17g %.17g %.17g)", #v, v_.x, v_.y, v_.z, (double)(ex),        \
+                  (double)(ey), (double)(ez));                                                                         \
     } while (0)
 
-#define expect_str(a, b)                                                                                    \
-    cr_expect((a) != NULL && strcmp((a), (b)) == 0, "%s = %s%s%s, expected '%s'", #a, (a) ? "'" : "",      \
+#define expect_str(a, b)                                                                                               \
+    cr_expect((a) != NULL && strcmp((a), (b)) == 0, "%s = %s%s%s, expected '%s'", #a, (a) ? "'" : "",                  \
               (a) ? (a) : "NULL", (a) ? "'" : "", (b))
 
 /* The defaults column of the key table. */
@@ -298,9 +300,15 @@ static const struct {
     const char *key, *value;
     const char *applies; /* initials of the light types: p d s a */
 } light_keys[] = {
-    {"color", "0.5 0.6 0.7", "pdsa"}, {"position", "1 2 3", "ps"}, {"direction", "0 -1 0", "ds"},
-    {"angle", "45", "s"},             {"falloff", "2", "s"},        {"corner", "0 2 0", "a"},
-    {"edge1", "1 0 0", "a"},          {"edge2", "0 0 1", "a"},      {"samples", "3", "a"},
+    {"color", "0.5 0.6 0.7", "pdsa"},
+    {"position", "1 2 3", "ps"},
+    {"direction", "0 -1 0", "ds"},
+    {"angle", "45", "s"},
+    {"falloff", "2", "s"},
+    {"corner", "0 2 0", "a"},
+    {"edge1", "1 0 0", "a"},
+    {"edge2", "0 0 1", "a"},
+    {"samples", "3", "a"},
 };
 
 static const char *light_required(int type)
@@ -315,16 +323,26 @@ static const char *light_required(int type)
 
 static void check_light_field(const rd_light *l, const char *key)
 {
-    if (!strcmp(key, "color")) expect_vec(l->color, 0.5, 0.6, 0.7);
-    else if (!strcmp(key, "position")) expect_vec(l->position, 1, 2, 3);
-    else if (!strcmp(key, "direction")) expect_vec(l->direction, 0, -1, 0);
-    else if (!strcmp(key, "angle")) expect_num(l->angle_deg, 45);
-    else if (!strcmp(key, "falloff")) expect_num(l->falloff, 2);
-    else if (!strcmp(key, "corner")) expect_vec(l->corner, 0, 2, 0);
-    else if (!strcmp(key, "edge1")) expect_vec(l->edge1, 1, 0, 0);
-    else if (!strcmp(key, "edge2")) expect_vec(l->edge2, 0, 0, 1);
-    else if (!strcmp(key, "samples")) expect_int(l->samples, 3);
-    else cr_expect_fail("no check for light key %s", key);
+    if (!strcmp(key, "color"))
+        expect_vec(l->color, 0.5, 0.6, 0.7);
+    else if (!strcmp(key, "position"))
+        expect_vec(l->position, 1, 2, 3);
+    else if (!strcmp(key, "direction"))
+        expect_vec(l->direction, 0, -1, 0);
+    else if (!strcmp(key, "angle"))
+        expect_num(l->angle_deg, 45);
+    else if (!strcmp(key, "falloff"))
+        expect_num(l->falloff, 2);
+    else if (!strcmp(key, "corner"))
+        expect_vec(l->corner, 0, 2, 0);
+    else if (!strcmp(key, "edge1"))
+        expect_vec(l->edge1, 1, 0, 0);
+    else if (!strcmp(key, "edge2"))
+        expect_vec(l->edge2, 0, 0, 1);
+    else if (!strcmp(key, "samples"))
+        expect_int(l->samples, 3);
+    else
+        cr_expect_fail("no check for light key %s", key);
 }
 
 Test(cfg_parse, light_keys_by_type)
@@ -366,10 +384,14 @@ Test(cfg_parse, light_keys_by_type)
 
 /* ---- materials ---- */
 
-static const char *const mat_types[] = {"diffuse",          "phong",
-                                        "blinn_phong",      "cook_torrance",
-                                        "perfect_specular", "specular_refraction",
-                                        "pseudo_normal_color", "textured_phong"};
+static const char *const mat_types[] = {"diffuse",
+                                        "phong",
+                                        "blinn_phong",
+                                        "cook_torrance",
+                                        "perfect_specular",
+                                        "specular_refraction",
+                                        "pseudo_normal_color",
+                                        "textured_phong"};
 
 /* Rows: the material table of the spec ("every material also takes ambient"). */
 static const struct {
@@ -388,15 +410,24 @@ static const struct {
 
 static void check_material_field(const rd_material *m, const char *key)
 {
-    if (!strcmp(key, "ambient")) expect_vec(m->ambient, 0.1, 0.2, 0.3);
-    else if (!strcmp(key, "kd")) expect_vec(m->kd, 0.4, 0.5, 0.6);
-    else if (!strcmp(key, "ks")) expect_vec(m->ks, 0.7, 0.8, 0.9);
-    else if (!strcmp(key, "shininess")) expect_num(m->shininess, 20);
-    else if (!strcmp(key, "roughness")) expect_num(m->roughness, 0.5);
-    else if (!strcmp(key, "ior")) expect_num(m->ior, 1.33);
-    else if (!strcmp(key, "texture")) expect_str(m->texture, "t.png");
-    else if (!strcmp(key, "uv_scale")) expect_num(m->uv_scale, 2);
-    else cr_expect_fail("no check for material key %s", key);
+    if (!strcmp(key, "ambient"))
+        expect_vec(m->ambient, 0.1, 0.2, 0.3);
+    else if (!strcmp(key, "kd"))
+        expect_vec(m->kd, 0.4, 0.5, 0.6);
+    else if (!strcmp(key, "ks"))
+        expect_vec(m->ks, 0.7, 0.8, 0.9);
+    else if (!strcmp(key, "shininess"))
+        expect_num(m->shininess, 20);
+    else if (!strcmp(key, "roughness"))
+        expect_num(m->roughness, 0.5);
+    else if (!strcmp(key, "ior"))
+        expect_num(m->ior, 1.33);
+    else if (!strcmp(key, "texture"))
+        expect_str(m->texture, "t.png");
+    else if (!strcmp(key, "uv_scale"))
+        expect_num(m->uv_scale, 2);
+    else
+        cr_expect_fail("no check for material key %s", key);
 }
 
 Test(cfg_parse, material_keys_by_type)
@@ -712,10 +743,7 @@ static void expect_same_vec(rd_vec3 a, rd_vec3 b, const char *what)
     cr_expect(a.x == b.x && a.y == b.y && a.z == b.z, "%s differs", what);
 }
 
-static int same_str(const char *a, const char *b)
-{
-    return (a == NULL && b == NULL) || (a && b && strcmp(a, b) == 0);
-}
+static int same_str(const char *a, const char *b) { return (a == NULL && b == NULL) || (a && b && strcmp(a, b) == 0); }
 
 static void expect_same_scene(const rd_scene *a, const rd_scene *b, const char *variant)
 {

@@ -9,7 +9,7 @@
 
 #include "compare.h"
 
-#define assert_near(a, b, tol) \
+#define assert_near(a, b, tol)                                                                                         \
     cr_assert(fabs((double)(a) - (double)(b)) <= (tol), "%s = %.17g, expected %.17g", #a, (double)(a), (double)(b))
 
 /* A few ulps of the values compared (a square root, a logarithm). */

@@ -111,10 +111,8 @@ Test(grading, heat_map_colours)
     uint8_t grey = (uint8_t)(40 + (0.299 * 100 + 0.587 * 150 + 0.114 * 200) * 0.5);
     cr_assert(out[0] == grey && out[1] == grey && out[2] == grey, "within: %d %d %d, not grey %d", out[0], out[1],
               out[2], grey);
-    cr_assert(out[3] == 255 && out[4] > 200 && out[5] == 0, "just over: %d %d %d, not yellow", out[3], out[4],
-              out[5]);
-    cr_assert(out[6] == 215 && out[7] == 0 && out[8] == 220, "255 off: %d %d %d, not magenta", out[6], out[7],
-              out[8]);
+    cr_assert(out[3] == 255 && out[4] > 200 && out[5] == 0, "just over: %d %d %d, not yellow", out[3], out[4], out[5]);
+    cr_assert(out[6] == 215 && out[7] == 0 && out[8] == 220, "255 off: %d %d %d, not magenta", out[6], out[7], out[8]);
 }
 
 static double number(const cJSON *o, const char *path0, const char *path1)
@@ -267,8 +265,9 @@ Test(grading, each_failure_names_its_stage)
     cr_assert_eq(o.stage, RD_GRADE_STAGE_IMAGE);
     rd_grade_output_free(&o);
     /* A PNG signature and an IHDR of 4x3, where phong renders 320x240. */
-    static const unsigned char small[] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n', 0, 0, 0, 13, 'I', 'H', 'D', 'R',
-                                          0, 0, 0, 4, 0, 0, 0, 3, 8, 2, 0, 0, 0, 0, 0, 0, 0};
+    static const unsigned char small[] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n', 0, 0, 0,
+                                          13,   'I', 'H', 'D', 'R',  0,    0,    0,    4, 0, 0,
+                                          0,    3,   8,   2,   0,    0,    0,    0,    0, 0, 0};
     cr_assert_eq(prepare(&g, "phong", small, sizeof small, &o, &err), RD_ERR_INVALID);
     cr_assert_eq(o.stage, RD_GRADE_STAGE_IMAGE);
     cr_assert(strstr(err.message, "4x3") && strstr(err.message, "320x240"), "%s", err.message);

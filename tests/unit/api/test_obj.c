@@ -40,9 +40,9 @@ static void parse_n(parsed *p, const char *text, size_t len, size_t max_tris)
 
 static void parse(parsed *p, const char *text) { parse_n(p, text, strlen(text), 1000000); }
 
-#define assert_face(m, i, a, b, c)                                                                          \
-    cr_assert((m).faces[i].v[0] == (a) && (m).faces[i].v[1] == (b) && (m).faces[i].v[2] == (c),             \
-              "face %d = (%u, %u, %u), expected (%d, %d, %d)", (int)(i), (m).faces[i].v[0], (m).faces[i].v[1], \
+#define assert_face(m, i, a, b, c)                                                                                     \
+    cr_assert((m).faces[i].v[0] == (a) && (m).faces[i].v[1] == (b) && (m).faces[i].v[2] == (c),                        \
+              "face %d = (%u, %u, %u), expected (%d, %d, %d)", (int)(i), (m).faces[i].v[0], (m).faces[i].v[1],         \
               (m).faces[i].v[2], (int)(a), (int)(b), (int)(c))
 
 Test(obj, parse_elements_and_the_four_corner_forms)
@@ -202,8 +202,8 @@ static void expect_error(const char *text, size_t len, size_t max_tris, rd_error
               p.err.line, p.err.column, p.err.message, line, col);
     char prefix[64];
     snprintf(prefix, sizeof prefix, "t.obj:%d:%d: ", line, col);
-    cr_assert(strncmp(p.err.message, prefix, strlen(prefix)) == 0, "message '%s' should start with '%s'",
-              p.err.message, prefix);
+    cr_assert(strncmp(p.err.message, prefix, strlen(prefix)) == 0, "message '%s' should start with '%s'", p.err.message,
+              prefix);
     if (needle)
         cr_assert(strstr(p.err.message, needle), "message '%s' should mention '%s'", p.err.message, needle);
     rd_mesh_free(&p.m);
@@ -262,11 +262,11 @@ Test(obj, parse_bad_corner_syntax)
         const char *f;
         int col;
     } cases[] = {
-        {"f a 2 3", 3},           /* not an index */
-        {"f 1 2x 3", 6},          /* junk after an index */
-        {"f 1 2 3/1/1/1", 13},    /* a fourth component (at it) */
-        {"f 1 -/1 3", 5},         /* a sign without digits */
-        {"f 1 2 3 ,", 9},         /* junk corner */
+        {"f a 2 3", 3},        /* not an index */
+        {"f 1 2x 3", 6},       /* junk after an index */
+        {"f 1 2 3/1/1/1", 13}, /* a fourth component (at it) */
+        {"f 1 -/1 3", 5},      /* a sign without digits */
+        {"f 1 2 3 ,", 9},      /* junk corner */
     };
     for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
         snprintf(buf, sizeof buf, "%s%s\n", pre, cases[i].f);
@@ -374,8 +374,8 @@ Test(obj, mesh_transform_normals_by_inverse_transpose)
         rd_vec3 e1 = v3_normalize(v3_sub(t.positions[1], t.positions[0]));
         rd_vec3 e2 = v3_normalize(v3_sub(t.positions[2], t.positions[0]));
         rd_vec3 nn = v3_normalize(t.normals[0]);
-        cr_assert(fabs(v3_dot(nn, e1)) < 1e-12 && fabs(v3_dot(nn, e2)) < 1e-12,
-                  "scale %d: normal·edges = %.3g, %.3g", k, v3_dot(nn, e1), v3_dot(nn, e2));
+        cr_assert(fabs(v3_dot(nn, e1)) < 1e-12 && fabs(v3_dot(nn, e2)) < 1e-12, "scale %d: normal·edges = %.3g, %.3g",
+                  k, v3_dot(nn, e1), v3_dot(nn, e2));
         /* And it still points to the same side as the corners' winding
          * says, flipped when the scale mirrors (det < 0). */
         rd_vec3 g = v3_normalize(v3_cross(e1, e2));
@@ -412,7 +412,8 @@ static const char cube_obj[] = "# unit cube, quads, counter-clockwise seen from 
                                "f 1 5 8 4\n"  /* x = -0.5 */
                                "f 2 3 7 6\n"; /* x = +0.5 */
 
-static const int cube_quads[6][4] = {{1, 4, 3, 2}, {5, 6, 7, 8}, {1, 2, 6, 5}, {4, 8, 7, 3}, {1, 5, 8, 4}, {2, 3, 7, 6}};
+static const int cube_quads[6][4] = {{1, 4, 3, 2}, {5, 6, 7, 8}, {1, 2, 6, 5},
+                                     {4, 8, 7, 3}, {1, 5, 8, 4}, {2, 3, 7, 6}};
 
 static rd_vec3 cube_corner(int i, rd_vec3 scale, rd_vec3 t)
 {
@@ -574,8 +575,7 @@ Test(obj, render_cube_file_through_the_loader_equals_twelve_triangles)
     uint8_t *a = load_and_render(dir, "mesh.cfg"), *b = load_and_render(dir, "tris.cfg"),
             *c = load_and_render(dir, "floor.cfg");
     size_t n = 40 * 30 * 3;
-    cr_assert_eq(count_not(a, n, b), 0, "%zu pixels differ between the OBJ cube and 12 triangles",
-                 count_not(a, n, b));
+    cr_assert_eq(count_not(a, n, b), 0, "%zu pixels differ between the OBJ cube and 12 triangles", count_not(a, n, b));
     cr_assert_gt(count_not(a, n, c), 100);
     free(a);
     free(b);
@@ -588,8 +588,8 @@ Test(obj, render_cube_file_through_the_loader_equals_twelve_triangles)
 
 Test(obj, asset_folder_names_that_could_leave_the_folder_are_refused)
 {
-    const char *bad[] = {"../x", "/etc/passwd", "a/../../b", "a\\b", "", "..", ".", "a/./b", "a//b",
-                         "./a", "a/..", "x/../y", "\\x"};
+    const char *bad[] = {"../x",  "/etc/passwd", "a/../../b", "a\\b", "",       "..", ".",
+                         "a/./b", "a//b",        "./a",       "a/..", "x/../y", "\\x"};
     for (size_t i = 0; i < sizeof bad / sizeof *bad; i++)
         cr_assert_not(rd_asset_name_ok(bad[i]), "'%s' accepted", bad[i]);
     cr_assert_not(rd_asset_name_ok(NULL));

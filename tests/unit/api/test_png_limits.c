@@ -69,8 +69,8 @@ typedef struct {
     rd_error_code rc;
     rd_png_image img;
     rd_error err;
-    long rss_growth_kb;   /* of the peak, over the decode */
-    long vm_growth_kb;    /* the same for the address space; 0 if unknown */
+    long rss_growth_kb; /* of the peak, over the decode */
+    long vm_growth_kb;  /* the same for the address space; 0 if unknown */
     double seconds;
 } decoded;
 
@@ -130,10 +130,18 @@ static void put_chunk(buf *b, const char *type, const void *data, size_t n)
 
 static void put_ihdr(buf *b, uint32_t w, uint32_t h, int depth, int ctype)
 {
-    unsigned char d[13] = {(unsigned char)(w >> 24), (unsigned char)(w >> 16), (unsigned char)(w >> 8),
-                           (unsigned char)w,         (unsigned char)(h >> 24), (unsigned char)(h >> 16),
-                           (unsigned char)(h >> 8),  (unsigned char)h,         (unsigned char)depth,
-                           (unsigned char)ctype,     0,                        0,
+    unsigned char d[13] = {(unsigned char)(w >> 24),
+                           (unsigned char)(w >> 16),
+                           (unsigned char)(w >> 8),
+                           (unsigned char)w,
+                           (unsigned char)(h >> 24),
+                           (unsigned char)(h >> 16),
+                           (unsigned char)(h >> 8),
+                           (unsigned char)h,
+                           (unsigned char)depth,
+                           (unsigned char)ctype,
+                           0,
+                           0,
                            0};
     put_chunk(b, "IHDR", d, sizeof d);
 }
@@ -214,10 +222,10 @@ static void assert_small_pixels(const decoded *d)
 /* The image of a 195-byte grade upload that cost 2 GB: a 320x240 IHDR,
  * then a tEXt header declaring 2^31-1 bytes, then "abc" and the end of the
  * file. */
-static const unsigned char upload_2gb[44] = {
-    0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a, 0x00, 0x00, 0x00, 0x0d, 0x49, 0x48, 0x44,
-    0x52, 0x00, 0x00, 0x01, 0x40, 0x00, 0x00, 0x00, 0xf0, 0x08, 0x02, 0x00, 0x00, 0x00, 0xfe,
-    0x4f, 0x2a, 0x3c, 0x7f, 0xff, 0xff, 0xff, 0x74, 0x45, 0x58, 0x74, 0x61, 0x62, 0x63};
+static const unsigned char upload_2gb[44] = {0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a, 0x00, 0x00, 0x00,
+                                             0x0d, 0x49, 0x48, 0x44, 0x52, 0x00, 0x00, 0x01, 0x40, 0x00, 0x00,
+                                             0x00, 0xf0, 0x08, 0x02, 0x00, 0x00, 0x00, 0xfe, 0x4f, 0x2a, 0x3c,
+                                             0x7f, 0xff, 0xff, 0xff, 0x74, 0x45, 0x58, 0x74, 0x61, 0x62, 0x63};
 
 Test(png_limits, upload_with_a_2gb_text_chunk)
 {
@@ -448,8 +456,8 @@ static void check(const buf *m, int w, int h, const unsigned *want, unsigned max
         decoded d = decode(files[f]->data, files[f]->len, 1u << 20);
         const char *which = f ? "with ancillary chunks" : "plain";
         cr_assert_eq(d.rc, RD_OK, "%s: code %d (%s)", which, d.rc, d.err.message);
-        cr_assert(d.img.width == w && d.img.height == h, "%s: %dx%d, expected %dx%d", which, d.img.width,
-                  d.img.height, w, h);
+        cr_assert(d.img.width == w && d.img.height == h, "%s: %dx%d, expected %dx%d", which, d.img.width, d.img.height,
+                  w, h);
         cr_assert_eq(d.img.maxval, maxval, "%s", which);
         cr_assert_eq(d.img.depth, maxval == 65535 ? 16 : 8, "%s", which);
         cr_assert_eq(d.img.had_alpha, had_alpha, "%s", which);

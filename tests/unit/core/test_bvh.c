@@ -24,10 +24,10 @@
 #include "bvh.h"
 #include "rayd/scene.h"
 #include "sphere.h"
-#include "triangle.h"
-#include "world.h"
 #include "support/rng.h"
 #include "support/scene_fixture.h"
+#include "triangle.h"
+#include "world.h"
 
 /* ---- scenes -------------------------------------------------------------------- */
 
@@ -261,8 +261,7 @@ static int check_invariants(const rd_world *w)
             cr_assert(l < b->nnodes && r < b->nnodes && r > it.node, "node %u: children %u, %u of %zu", it.node, l, r,
                       b->nnodes);
             cr_assert(box_contains(nd, b->nodes[l].lo, b->nodes[l].hi), "left child %u outside parent %u", l, it.node);
-            cr_assert(box_contains(nd, b->nodes[r].lo, b->nodes[r].hi), "right child %u outside parent %u", r,
-                      it.node);
+            cr_assert(box_contains(nd, b->nodes[r].lo, b->nodes[r].hi), "right child %u outside parent %u", r, it.node);
             stack[sp++] = (item){r, it.depth + 1};
             stack[sp++] = (item){l, it.depth + 1};
         }
@@ -303,7 +302,7 @@ static rd_vec3 zeroed_dir(test_rng *r)
 }
 
 typedef struct {
-    double lo, hi; /* origin range */
+    double lo, hi;  /* origin range */
     int face_share; /* percent of rays started on node box faces */
     int axis_share; /* percent with zero direction components */
 } ray_mix;
@@ -634,8 +633,8 @@ Test(bvh, ray_in_a_box_face_plane)
             cr_assert_eq(bf.t, 5.0);
             rd_hit h;
             int hit = rd_world_closest(&w, r, INFINITY, &h);
-            cr_expect(hit && h.t == 5.0, "tangent ray at x = %g, d.x = %s0: rd_world_closest %s", xs[k], sgn ? "-" : "+",
-                      hit ? "hit elsewhere" : "missed");
+            cr_expect(hit && h.t == 5.0, "tangent ray at x = %g, d.x = %s0: rd_world_closest %s", xs[k],
+                      sgn ? "-" : "+", hit ? "hit elsewhere" : "missed");
             cr_expect_eq(rd_world_any(&w, r, INFINITY), 1, "tangent ray at x = %g, d.x = %s0: rd_world_any missed",
                          xs[k], sgn ? "-" : "+");
         }

@@ -184,12 +184,10 @@ Test(camera, error_up_parallel_oblique)
                     total++;
                     if (rd_pinhole_make(&p, &cam, 4, 4, &err) != RD_ERR_INVALID) {
                         if (!accepted)
-                            snprintf(first, sizeof first,
-                                     "eye (%d,%d,%d), target 0, up (%d,%d,%d) -> u = (%g, %g, %g)", a, b, c,
-                                     k * a, k * b, k * c, p.u.x, p.u.y, p.u.z);
+                            snprintf(first, sizeof first, "eye (%d,%d,%d), target 0, up (%d,%d,%d) -> u = (%g, %g, %g)",
+                                     a, b, c, k * a, k * b, k * c, p.u.x, p.u.y, p.u.z);
                         accepted++;
                     }
                 }
-    cr_assert_eq(accepted, 0, "%d of %d exactly parallel up vectors were accepted, e.g. %s", accepted, total,
-                 first);
+    cr_assert_eq(accepted, 0, "%d of %d exactly parallel up vectors were accepted, e.g. %s", accepted, total, first);
 }

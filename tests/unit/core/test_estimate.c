@@ -27,12 +27,12 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "compare.h"
 #include "rayd/render.h"
 #include "rayd/scene.h"
 #include "support/load.h"
 #include "support/scene_fixture.h"
 #include "support/true_error.h"
-#include "compare.h"
 
 /* ---- helpers -------------------------------------------------------------------- */
 
@@ -79,8 +79,7 @@ static double bernoulli_cos(double p)
     return y / sqrt(x * x + y * y);
 }
 
-static void bernoulli_scene(rd_scene *s, double p, rd_rgb kd, rd_rgb ambient, double gamma, int samples,
-                            uint64_t seed)
+static void bernoulli_scene(rd_scene *s, double p, rd_rgb kd, rd_rgb ambient, double gamma, int samples, uint64_t seed)
 {
     fixture_scene(s, BW, BH);
     s->render.samples = samples;
@@ -264,8 +263,8 @@ Test(estimate, bernoulli_gamma_predicts_image_rmse)
         if (!(ratio >= 1 / 1.5 && ratio <= 1.5)) {
             bad++;
             size_t len = strlen(msg);
-            snprintf(msg + len, sizeof msg - len, " p=%g: estimate %.5f, true %.5f (ratio %.2f);", p,
-                     st.error_estimate, measured, ratio);
+            snprintf(msg + len, sizeof msg - len, " p=%g: estimate %.5f, true %.5f (ratio %.2f);", p, st.error_estimate,
+                     measured, ratio);
         }
         rd_image_free(&img);
         rd_scene_free(&s);
@@ -483,10 +482,7 @@ static double error_estimate_for(int samples)
     return st.error_estimate;
 }
 
-Test(estimate, soft_shadow_zero_with_one_sample)
-{
-    cr_assert_eq(error_estimate_for(1), 0.0);
-}
+Test(estimate, soft_shadow_zero_with_one_sample) { cr_assert_eq(error_estimate_for(1), 0.0); }
 
 Test(estimate, soft_shadow_falls_as_one_over_root_samples)
 {

@@ -54,10 +54,8 @@ Test(fresnel, matches_snell_formula_air_to_glass)
         double ct_ref, ct = -1;
         double want = ref_fresnel(th, 1.0, 1.5, &ct_ref);
         double R = rd_fresnel_dielectric(cos(th), 1.0, 1.5, &ct);
-        cr_assert(fabs(R - want) <= 1e-12, "at %.1f°: R = %.17g, Snell/Fresnel gives %.17g", i / 10.0,
-                  R, want);
-        cr_assert(fabs(ct - ct_ref) <= 1e-12, "at %.1f°: cos θt = %.17g, expected %.17g", i / 10.0, ct,
-                  ct_ref);
+        cr_assert(fabs(R - want) <= 1e-12, "at %.1f°: R = %.17g, Snell/Fresnel gives %.17g", i / 10.0, R, want);
+        cr_assert(fabs(ct - ct_ref) <= 1e-12, "at %.1f°: cos θt = %.17g, expected %.17g", i / 10.0, ct, ct_ref);
         cr_assert(R >= 0 && R <= 1);
     }
 }
@@ -73,10 +71,8 @@ Test(fresnel, matches_snell_formula_glass_to_air_below_critical)
         double ct_ref, ct = -1;
         double want = ref_fresnel(th, 1.5, 1.0, &ct_ref);
         double R = rd_fresnel_dielectric(cos(th), 1.5, 1.0, &ct);
-        cr_assert(fabs(R - want) <= 1e-12, "at %.1f°: R = %.17g, Snell/Fresnel gives %.17g", i / 10.0,
-                  R, want);
-        cr_assert(fabs(ct - ct_ref) <= 1e-12, "at %.1f°: cos θt = %.17g, expected %.17g", i / 10.0, ct,
-                  ct_ref);
+        cr_assert(fabs(R - want) <= 1e-12, "at %.1f°: R = %.17g, Snell/Fresnel gives %.17g", i / 10.0, R, want);
+        cr_assert(fabs(ct - ct_ref) <= 1e-12, "at %.1f°: cos θt = %.17g, expected %.17g", i / 10.0, ct, ct_ref);
     }
 }
 
@@ -97,8 +93,7 @@ Test(fresnel, total_internal_reflection_past_critical_angle)
     for (size_t i = 0; i < sizeof below / sizeof *below; i++) {
         double cost = -1;
         double R = rd_fresnel_dielectric(cos(below[i]), 1.5, 1.0, &cost);
-        cr_assert(R < 1.0 && R > 0.0, "at %.12f°: R = %.17g, expected in (0, 1)", below[i] * 180 / M_PI,
-                  R);
+        cr_assert(R < 1.0 && R > 0.0, "at %.12f°: R = %.17g, expected in (0, 1)", below[i] * 180 / M_PI, R);
         cr_assert(cost > 0.0);
     }
 }
@@ -125,8 +120,7 @@ Test(fresnel, monotone_toward_one_at_critical_angle)
     prev = -1;
     for (int i = 0; i <= 9000; i++) {
         double R2 = rd_fresnel_dielectric(cos(deg(i / 100.0)), 1.0, 1.5, &c);
-        cr_assert(R2 >= prev - 1e-15, "R(1 -> 1.5) falls at %.2f°: %.17g after %.17g", i / 100.0, R2,
-                  prev);
+        cr_assert(R2 >= prev - 1e-15, "R(1 -> 1.5) falls at %.2f°: %.17g after %.17g", i / 100.0, R2, prev);
         prev = R2;
     }
 }
@@ -138,8 +132,8 @@ Test(fresnel, index_one_reflects_nothing)
         double th = deg(i / 10.0), cost = -1;
         double R = rd_fresnel_dielectric(cos(th), 1.0, 1.0, &cost);
         cr_assert(R >= 0 && R <= 1e-15, "ior 1 at %.1f°: R = %.17g, expected 0", i / 10.0, R);
-        cr_assert(fabs(cost - cos(th)) <= 1e-9, "ior 1 at %.1f°: cos θt = %.17g, expected %.17g", i / 10.0,
-                  cost, cos(th));
+        cr_assert(fabs(cost - cos(th)) <= 1e-9, "ior 1 at %.1f°: cos θt = %.17g, expected %.17g", i / 10.0, cost,
+                  cos(th));
     }
     double R = rd_fresnel_dielectric(1.0, 1.7, 1.7, &(double){0});
     cr_assert(R == 0.0, "n1 = n2 = 1.7 at normal incidence: R = %.17g", R);

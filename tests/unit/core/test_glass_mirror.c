@@ -61,8 +61,8 @@ Test(glass_mirror, ior_one_glass_is_invisible_under_ambient_light)
     cr_assert_gt(sb.secondary_rays, 500);
     size_t n = (size_t)ia.width * ia.height * 3;
     for (size_t i = 0; i < n; i++)
-        cr_assert_eq(ba[i], bb[i], "pixel (%zu,%zu) channel %zu: %d without the glass, %d with it",
-                     (i / 3) % 64, (i / 3) / 64, i % 3, ba[i], bb[i]);
+        cr_assert_eq(ba[i], bb[i], "pixel (%zu,%zu) channel %zu: %d without the glass, %d with it", (i / 3) % 64,
+                     (i / 3) / 64, i % 3, ba[i], bb[i]);
     free(ba);
     free(bb);
     rd_image_free(&ia);
@@ -246,9 +246,8 @@ Test(glass_mirror, facing_mirrors_give_the_geometric_series)
                 /* Both sums have D+1 terms of at most 0.2: rounding stays
                  * below 1e-15, while one term more or less is >= 0.05·0.25^6
                  * = 1.2e-5. */
-                cr_assert(fabs(got - want[ch]) < 1e-15,
-                          "max_depth %d, pixel %d channel %d: %.17g, series gives %.17g", D, px, ch, got,
-                          want[ch]);
+                cr_assert(fabs(got - want[ch]) < 1e-15, "max_depth %d, pixel %d channel %d: %.17g, series gives %.17g",
+                          D, px, ch, got, want[ch]);
                 cr_assert_eq(b[px * 3 + ch], expect_byte(want[ch]));
             }
         /* One secondary ray per bounce, none toward the light. */

@@ -19,10 +19,10 @@
 #include "plane.h"
 #include "ray.h"
 #include "sphere.h"
-#include "world.h"
 #include "support/assert.h"
 #include "support/rng.h"
 #include "support/scene_fixture.h"
+#include "world.h"
 
 /* A unit direction d with d·n = sign·c (c in (0, 1]), otherwise random. */
 static rd_vec3 dir_with_cos(test_rng *g, rd_vec3 n, double c)
@@ -589,8 +589,8 @@ Test(intersect, triangle_watertight_shared_vertex)
             double rad = rng_range(&g, 0.5, 3);
             /* A bit off-plane: a gently curved fan. */
             double off = rng_range(&g, -0.05, 0.05);
-            pos[1 + i] = v3_add(pos[0], v3_add(v3_add(v3_scale(a, rad * cos(ang)), v3_scale(bb, rad * sin(ang))),
-                                               v3_scale(nrm, off)));
+            pos[1 + i] = v3_add(
+                pos[0], v3_add(v3_add(v3_scale(a, rad * cos(ang)), v3_scale(bb, rad * sin(ang))), v3_scale(nrm, off)));
         }
         uint32_t faces[7][3];
         for (uint32_t i = 0; i < 7; i++) {
@@ -648,8 +648,8 @@ Test(intersect, triangle_zero_area_never_hits)
             double t = world_hit(&tw, ray_of(o, d), INFINITY, &h);
             if (t != 0) {
                 if (!hits)
-                    snprintf(first, sizeof first, "o=(%.17g,%.17g,%.17g) d=(%.17g,%.17g,%.17g) t=%g b=(%g,%g,%g)",
-                             o.x, o.y, o.z, d.x, d.y, d.z, t, h.bary[0], h.bary[1], h.bary[2]);
+                    snprintf(first, sizeof first, "o=(%.17g,%.17g,%.17g) d=(%.17g,%.17g,%.17g) t=%g b=(%g,%g,%g)", o.x,
+                             o.y, o.z, d.x, d.y, d.z, t, h.bary[0], h.bary[1], h.bary[2]);
                 hits++;
             }
         }
@@ -681,8 +681,8 @@ static void sphere_offset_at_scale(double scale, uint64_t seed)
         rd_sphere s = {v3_scale(rng_point(&g, -50, 50), scale), scale * exp(rng_range(&g, log(0.01), log(10)))};
         rd_vec3 nstar = rng_unit(&g);
         rd_vec3 pstar = v3_add(s.c, v3_scale(nstar, s.r));
-        rd_vec3 o = v3_add(pstar, v3_scale(dir_with_cos(&g, nstar, rng_range(&g, 0.05, 1)),
-                                           scale * rng_range(&g, 0.1, 200)));
+        rd_vec3 o =
+            v3_add(pstar, v3_scale(dir_with_cos(&g, nstar, rng_range(&g, 0.05, 1)), scale * rng_range(&g, 0.1, 200)));
         rd_ray r = ray_of(o, v3_normalize(v3_sub(pstar, o)));
         rd_hit h;
         memset(&h, 0, sizeof h);
@@ -719,8 +719,8 @@ static void sphere_offset_at_scale(double scale, uint64_t seed)
         }
     }
     cr_assert(tested > 3500, "scale %g: only %d hits generated", scale, tested);
-    cr_assert_eq(rehits + bad_chords, 0, "scale %g: %d outward self-hits, %d wrong inward hits of %d; first: %s",
-                 scale, rehits, bad_chords, tested, first);
+    cr_assert_eq(rehits + bad_chords, 0, "scale %g: %d outward self-hits, %d wrong inward hits of %d; first: %s", scale,
+                 rehits, bad_chords, tested, first);
 }
 
 Test(intersect, offset_sphere_scale_1e_minus9) { sphere_offset_at_scale(1e-9, 1); }
@@ -741,8 +741,8 @@ static void plane_offset_at_scale(double scale, uint64_t seed)
         rd_vec3 pstar = v3_add(pl.q, v3_add(v3_scale(pl.tu, scale * rng_range(&g, -100, 100)),
                                             v3_scale(pl.tv, scale * rng_range(&g, -100, 100))));
         rd_vec3 side = rng_uniform(&g) < 0.5 ? pl.n : v3_neg(pl.n);
-        rd_vec3 o = v3_add(pstar, v3_scale(dir_with_cos(&g, side, rng_range(&g, 0.05, 1)),
-                                           scale * rng_range(&g, 0.1, 200)));
+        rd_vec3 o =
+            v3_add(pstar, v3_scale(dir_with_cos(&g, side, rng_range(&g, 0.05, 1)), scale * rng_range(&g, 0.1, 200)));
         rd_ray r = ray_of(o, v3_normalize(v3_sub(pstar, o)));
         rd_hit h;
         memset(&h, 0, sizeof h);

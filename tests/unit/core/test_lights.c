@@ -17,8 +17,8 @@
 #include "light.h"
 #include "rayd/render.h"
 #include "rayd/scene.h"
-#include "trace.h"
 #include "support/scene_fixture.h"
+#include "trace.h"
 
 /* Radiance along the ray from the eye through world point x, and the ray
  * counts it took. */
@@ -133,8 +133,8 @@ Test(lights, spot_cutoff_is_exact)
         cr_assert(fabs(in.x - 0.5 * ca) < 1e-12 && fabs(in.y - 0.25 * ca) < 1e-12 && fabs(in.z - 0.75 * ca) < 1e-12,
                   "29.999° off axis (azimuth %d): (%.17g, %.17g, %.17g), expected kd·%.17g", az, in.x, in.y, in.z, ca);
         cr_assert_eq(cin.shadow, 1);
-        cr_assert(out.x == 0 && out.y == 0 && out.z == 0,
-                  "30.001° off axis (azimuth %d) is lit: (%.17g, %.17g, %.17g)", az, out.x, out.y, out.z);
+        cr_assert(out.x == 0 && out.y == 0 && out.z == 0, "30.001° off axis (azimuth %d) is lit: (%.17g, %.17g, %.17g)",
+                  az, out.x, out.y, out.z);
     }
     rd_scene_free(&s);
 }
@@ -191,8 +191,8 @@ Test(lights, spot_falloff_by_hand)
     rd_rgb want = v3(0.8 * 0.5 * f, 0.6 * 0.25 * f, 1.0 * 0.75 * f);
     rd_rgb got = trace_to(&s, v3(1.5, 0.5, 0), NULL);
     cr_assert(fabs(got.x - want.x) < 1e-12 && fabs(got.y - want.y) < 1e-12 && fabs(got.z - want.z) < 1e-12,
-              "spot with falloff 3: (%.17g, %.17g, %.17g), by hand (%.17g, %.17g, %.17g)", got.x, got.y, got.z,
-              want.x, want.y, want.z);
+              "spot with falloff 3: (%.17g, %.17g, %.17g), by hand (%.17g, %.17g, %.17g)", got.x, got.y, got.z, want.x,
+              want.y, want.z);
     /* Falloff 0.5 at the same point: c^0.5. */
     s.lights[0].falloff = 0.5;
     f = sqrt(c) * ca;
@@ -313,10 +313,9 @@ Test(lights, directional_light_has_no_distance_falloff)
         cr_assert_eq(st.shadow_rays, 9 * 7);
         for (int i = 0; i < 9 * 7; i++) {
             const double *p = &img.rgb[3 * i];
-            cr_assert(fabs(p[0] - kd.x * ca) < 1e-15 && fabs(p[1] - kd.y * ca) < 1e-15 &&
-                          fabs(p[2] - kd.z * ca) < 1e-15,
-                      "plane at z = %g, pixel %d: (%.17g, %.17g, %.17g), expected kd·%.17g", zs[k], i, p[0], p[1],
-                      p[2], ca);
+            cr_assert(
+                fabs(p[0] - kd.x * ca) < 1e-15 && fabs(p[1] - kd.y * ca) < 1e-15 && fabs(p[2] - kd.z * ca) < 1e-15,
+                "plane at z = %g, pixel %d: (%.17g, %.17g, %.17g), expected kd·%.17g", zs[k], i, p[0], p[1], p[2], ca);
         }
         rd_image_free(&img);
         rd_scene_free(&s);

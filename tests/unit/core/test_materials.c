@@ -104,8 +104,8 @@ Test(materials, phong_shininess_50)
     rd_hit h = hit_up();
     /* Light at 30° -> R at -30°; viewer at -20°: angle 10°,
      * cos(10°)^50 = 0.98480775^50 = exp(50·ln 0.98480775) = exp(-0.765442) = 0.46512850. */
-    assert_vec_near(rd_calc_reflected_light(&m, &h, light_at(30), view_at(-20)), 0.465128497295494,
-                    0.465128497295494, 0.465128497295494, 1e-13);
+    assert_vec_near(rd_calc_reflected_light(&m, &h, light_at(30), view_at(-20)), 0.465128497295494, 0.465128497295494,
+                    0.465128497295494, 1e-13);
     /* And it is Phong, not Blinn: Blinn would give cos(5°)^50 = 0.8264. */
 }
 
@@ -122,8 +122,8 @@ Test(materials, blinn_phong_half_vector_by_hand)
      * directions to the viewer (-30°) and to the light (+60°): H at 15°.
      * N·H = cos 15°, spec = cos⁴15° = ((1 + cos 30°)/2)² = (0.93301270)² = 0.87051270.
      * Result = kd·0.5 + ks·0.87051270 = (1.12051270, 0.68525635, 0.25). */
-    assert_vec_near(rd_calc_reflected_light(&m, &h, light_at(60), view_at(-30)), 1.120512701892219,
-                    0.685256350946110, 0.25, 1e-14);
+    assert_vec_near(rd_calc_reflected_light(&m, &h, light_at(60), view_at(-30)), 1.120512701892219, 0.685256350946110,
+                    0.25, 1e-14);
     /* Viewer at the mirror direction: H = N, spec = 1. */
     assert_vec_near(rd_calc_reflected_light(&m, &h, light_at(60), view_at(-60)), 1.25, 0.75, 0.25, 1e-14);
 }
@@ -263,9 +263,9 @@ Test(materials, cook_torrance_finite_as_nv_to_zero_and_roughness_to_1e6)
             double e = pow(10, -k);
             rd_vec3 V = v3_normalize(v3(1, 0, e)); /* N·V = e */
             rd_vec3 Ls[4] = {
-                v3_normalize(v3(1, 0, -e)),  /* mirror: grazing light from -x */
+                v3_normalize(v3(1, 0, -e)), /* mirror: grazing light from -x */
                 v3_normalize(v3(1, 0, -2 * e)),
-                light_at(0),                 /* overhead */
+                light_at(0), /* overhead */
                 light_at(60),
             };
             for (int li = 0; li < 4; li++) {
@@ -273,9 +273,10 @@ Test(materials, cook_torrance_finite_as_nv_to_zero_and_roughness_to_1e6)
                 n++;
                 if (!finite_nonneg(c)) {
                     if (!bad)
-                        snprintf(first, sizeof first,
-                                 "roughness %g, N·V = 1e-%d, L = (%.17g, %.17g, %.17g), V = (1, 0, 1e-%d) -> (%g, %g, %g)",
-                                 rough[ri], k, Ls[li].x, Ls[li].y, Ls[li].z, k, c.x, c.y, c.z);
+                        snprintf(
+                            first, sizeof first,
+                            "roughness %g, N·V = 1e-%d, L = (%.17g, %.17g, %.17g), V = (1, 0, 1e-%d) -> (%g, %g, %g)",
+                            rough[ri], k, Ls[li].x, Ls[li].y, Ls[li].z, k, c.x, c.y, c.z);
                     bad++;
                 }
             }
@@ -449,8 +450,12 @@ Test(materials, any_material_light_behind_gives_exact_zero)
      * that would see the strongest highlight if it leaked: the reflection of
      * L, -L, the normal, and grazing. Shininess 0 makes max(·,0)^0 = 1,
      * so a missing cos α test would show ks even there. */
-    rd_vec3 Ls[] = {v3(0, 0, 1), light_at(120), light_at(179), v3(-1, 0, 0),
-                    v3_normalize(v3(-1, 0, 1e-17)), v3_normalize(v3(0.3, -0.4, 0.5))};
+    rd_vec3 Ls[] = {v3(0, 0, 1),
+                    light_at(120),
+                    light_at(179),
+                    v3(-1, 0, 0),
+                    v3_normalize(v3(-1, 0, 1e-17)),
+                    v3_normalize(v3(0.3, -0.4, 0.5))};
     double shin[] = {0, 1, 100};
     rd_hit h = hit_up();
     for (int t = 0; t < RD_MAT_COUNT; t++) {
@@ -469,8 +474,7 @@ Test(materials, any_material_light_behind_gives_exact_zero)
                     rd_rgb c = rd_calc_reflected_light(&m, &h, L, V);
                     cr_assert(c.x == 0 && c.y == 0 && c.z == 0,
                               "%s, shininess %g: L=(%g,%g,%g) V=(%g,%g,%g) gave (%g,%g,%g), expected exactly 0",
-                              rd_material_type_words[t], shin[si], L.x, L.y, L.z, V.x, V.y, V.z,
-                              c.x, c.y, c.z);
+                              rd_material_type_words[t], shin[si], L.x, L.y, L.z, V.x, V.y, V.z, c.x, c.y, c.z);
                 }
             }
         }
@@ -511,8 +515,8 @@ Test(materials, any_material_finite_nonnegative_and_bounded_by_kd_when_no_ks)
         m.kd = v3(rng_uniform(&g), rng_uniform(&g), rng_uniform(&g));
         int zero_ks = (i / 4) % 3 == 0;
         m.ks = zero_ks ? v3(0, 0, 0) : v3(rng_uniform(&g), rng_uniform(&g), rng_uniform(&g));
-        m.shininess = pow(10, 9 * rng_uniform(&g));     /* 1 .. 1e9 */
-        m.roughness = pow(10, -6 * rng_uniform(&g));    /* 1e-6 .. 1 */
+        m.shininess = pow(10, 9 * rng_uniform(&g));  /* 1 .. 1e9 */
+        m.roughness = pow(10, -6 * rng_uniform(&g)); /* 1e-6 .. 1 */
         rd_hit h = hit_up();
         h.n = rng_unit(&g);
         rd_vec3 L = rng_unit(&g), V = rng_unit(&g);
@@ -567,7 +571,9 @@ Test(materials, pow_cos_matches_pow_where_pow_is_accurate)
     /* For n up to 1e6 and moderate angles pow(cos θ, n) is accurate to
      * about n·ε relative: compare to 1e-9 relative. */
     rd_vec3 a = v3(0, 0, 1);
-    struct { double n, th; } cs[] = {
+    struct {
+        double n, th;
+    } cs[] = {
         {2, 0.7}, {10, 0.3}, {1e3, 0.01}, {1e3, 0.05}, {1e6, 1e-3}, {1e6, 5e-4}, {1e6, 2e-3},
     };
     for (size_t i = 0; i < sizeof cs / sizeof cs[0]; i++) {

@@ -39,8 +39,8 @@ static void load_small(const char *path, rd_scene *s)
 static void check_curve(const rd_render_stats *st, int cap, int adaptive, int progressive, const char *what)
 {
     cr_assert(st->passes >= 1, "%s: %d passes", what, st->passes);
-    cr_assert_eq(st->curve_len, st->passes < RD_CURVE_MAX ? st->passes : RD_CURVE_MAX, "%s: %d points, %d passes",
-                 what, st->curve_len, st->passes);
+    cr_assert_eq(st->curve_len, st->passes < RD_CURVE_MAX ? st->passes : RD_CURVE_MAX, "%s: %d points, %d passes", what,
+                 st->curve_len, st->passes);
     for (int i = 0; i < st->curve_len; i++) {
         const rd_curve_point *c = &st->curve[i];
         cr_assert(isfinite(c->ms) && c->ms >= 0 && isfinite(c->error) && c->error >= 0, "%s: point %d", what, i);
@@ -48,8 +48,8 @@ static void check_curve(const rd_render_stats *st, int cap, int adaptive, int pr
         if (i > 0) {
             cr_assert(c->ms > st->curve[i - 1].ms, "%s: ms not increasing at %d: %g then %g", what, i,
                       st->curve[i - 1].ms, c->ms);
-            cr_assert(c->samples > st->curve[i - 1].samples, "%s: samples not increasing at %d: %g then %g", what,
-                      i, st->curve[i - 1].samples, c->samples);
+            cr_assert(c->samples > st->curve[i - 1].samples, "%s: samples not increasing at %d: %g then %g", what, i,
+                      st->curve[i - 1].samples, c->samples);
         }
         if (!adaptive) {
             double want = !progressive ? cap : (i == 0 ? (cap < 2 ? cap : 2) : fmin(2 * st->curve[i - 1].samples, cap));
@@ -69,7 +69,6 @@ static void check_curve(const rd_render_stats *st, int cap, int adaptive, int pr
                  st->error_estimate);
     cr_assert_eq(st->samples, (int)floor(st->mean_samples + 0.5));
 }
-
 
 /* ---- time budget ------------------------------------------------------------------------ */
 
@@ -116,20 +115,11 @@ static void check_budget(double budget)
     rd_scene_free(&s);
 }
 
-Test(progressive, time_budget_50ms, .timeout = 60)
-{
-    check_budget(50);
-}
+Test(progressive, time_budget_50ms, .timeout = 60) { check_budget(50); }
 
-Test(progressive, time_budget_200ms, .timeout = 60)
-{
-    check_budget(200);
-}
+Test(progressive, time_budget_200ms, .timeout = 60) { check_budget(200); }
 
-Test(progressive, time_budget_800ms, .timeout = 60)
-{
-    check_budget(800);
-}
+Test(progressive, time_budget_800ms, .timeout = 60) { check_budget(800); }
 
 /* ---- the pass schedule for a given history ----------------------------------------------
  *
@@ -199,8 +189,8 @@ Test(progressive, schedule_constant_cost_fills_the_budget)
                 for (int k = 1; k < sc.passes; k++) {
                     cr_assert(sc.n[k] == spp || (k == sc.passes - 1 && sc.n[k] < spp),
                               "%s: pass %d of %d samples after %d", what, k, sc.n[k], spp);
-                    cr_assert_leq(sc.start[k] + sc.ms[k], budget * (1 + 1e-12), "%s: pass %d ends at %.17g ms",
-                                  what, k, sc.start[k] + sc.ms[k]);
+                    cr_assert_leq(sc.start[k] + sc.ms[k], budget * (1 + 1e-12), "%s: pass %d ends at %.17g ms", what, k,
+                                  sc.start[k] + sc.ms[k]);
                     spp += sc.n[k];
                 }
                 cr_assert_gt(sc.end_ms + c, budget * (1 - 1e-12), "%s: stopped at %.17g ms with room for more", what,
@@ -238,8 +228,8 @@ Test(progressive, schedule_follows_the_last_pass_whatever_the_load)
             for (int k = 1; k < sc.passes; k++) {
                 double rate = sc.ms[k - 1] / sc.n[k - 1];
                 cr_assert_leq(sc.start[k] + rate * sc.n[k], budget * (1 + 1e-12),
-                              "variant %d budget %g: pass %d started at %g though predicted to end at %g", v, budget,
-                              k, sc.start[k], sc.start[k] + rate * sc.n[k]);
+                              "variant %d budget %g: pass %d started at %g though predicted to end at %g", v, budget, k,
+                              sc.start[k], sc.start[k] + rate * sc.n[k]);
             }
             int L = sc.passes - 1;
             double rate = sc.ms[L] / sc.n[L];
@@ -258,8 +248,8 @@ Test(progressive, schedule_caps_and_targets)
     schedule sc;
     run_schedule(&ps, 0, constant_cost, &c, &sc);
     cr_assert_eq(sc.why, RD_STOP_SAMPLES);
-    cr_assert(sc.passes == 4 && sc.n[0] == 2 && sc.n[1] == 2 && sc.n[2] == 4 && sc.n[3] == 2,
-              "%d passes: %d %d %d %d", sc.passes, sc.n[0], sc.n[1], sc.n[2], sc.n[3]);
+    cr_assert(sc.passes == 4 && sc.n[0] == 2 && sc.n[1] == 2 && sc.n[2] == 4 && sc.n[3] == 2, "%d passes: %d %d %d %d",
+              sc.passes, sc.n[0], sc.n[1], sc.n[2], sc.n[3]);
     /* A first pass that overruns the whole budget still runs, and is the only one. */
     rd_progress_settings tight = {1 << 20, 5, 0, 0};
     c = 10;
@@ -270,8 +260,8 @@ Test(progressive, schedule_caps_and_targets)
     rd_progress_settings fixed = {6, 0, 0, 0};
     c = 1;
     run_schedule(&fixed, 0, constant_cost, &c, &sc);
-    cr_assert(sc.passes == 1 && sc.n[0] == 6 && sc.why == RD_STOP_SAMPLES, "%d passes of %d, stopped by %s",
-              sc.passes, sc.n[0], rd_stop_reason_name(sc.why));
+    cr_assert(sc.passes == 1 && sc.n[0] == 6 && sc.why == RD_STOP_SAMPLES, "%d passes of %d, stopped by %s", sc.passes,
+              sc.n[0], rd_stop_reason_name(sc.why));
 }
 
 Test(progressive, time_budget_samples_run_out_first)
@@ -319,8 +309,8 @@ Test(progressive, target_error_is_met, .timeout = 60)
         cr_assert(st.error_estimate <= targets[i], "%s: final estimate %g", what, st.error_estimate);
         /* It stopped at the first pass that met the target. */
         for (int k = 0; k + 1 < st.curve_len; k++)
-            cr_assert(st.curve[k].error > targets[i], "%s: the target was met after pass %d (%g) but it went on",
-                      what, k, st.curve[k].error);
+            cr_assert(st.curve[k].error > targets[i], "%s: the target was met after pass %d (%g) but it went on", what,
+                      k, st.curve[k].error);
         rd_image_free(&img);
         rd_scene_free(&s);
     }
@@ -367,8 +357,7 @@ Test(progressive, samples_cap_reached)
             char what[64];
             snprintf(what, sizeof what, "cap %d%s", caps[i], adaptive ? " adaptive" : "");
             check_curve(&st, caps[i], adaptive, 1, what);
-            cr_assert_eq(st.stopped_by, RD_STOP_SAMPLES, "%s: stopped by %s", what,
-                         rd_stop_reason_name(st.stopped_by));
+            cr_assert_eq(st.stopped_by, RD_STOP_SAMPLES, "%s: stopped by %s", what, rd_stop_reason_name(st.stopped_by));
             cr_assert_eq(st.passes, passes[i], "%s: %d passes", what, st.passes);
             if (!adaptive)
                 cr_assert_eq(st.mean_samples, (double)caps[i], "%s: %g samples", what, st.mean_samples);
@@ -525,8 +514,7 @@ Test(progressive, same_seed_same_bytes_any_threads_and_tiles, .timeout = 120)
  * belong to the benchmark (bench/), which measures time on a quiet machine;
  * here two timed renders would not get the same CPU. */
 
-static double run_true(rd_scene *s, const rd_render_options *o, const double *ref, double ref_est,
-                       rd_render_stats *st)
+static double run_true(rd_scene *s, const rd_render_options *o, const double *ref, double ref_est, rd_render_stats *st)
 {
     rd_image img;
     render_ok(s, o, &img, st);
@@ -577,8 +565,8 @@ static void compare_adaptive(const char *path)
         if (!(ta_eq < tn)) {
             worse++;
             size_t len = strlen(msg);
-            snprintf(msg + len, sizeof msg - len, " %.1f spp: adaptive %.6f vs uniform %.6f;", sa.mean_samples,
-                     ta_eq, tn);
+            snprintf(msg + len, sizeof msg - len, " %.1f spp: adaptive %.6f vs uniform %.6f;", sa.mean_samples, ta_eq,
+                     tn);
         }
     }
     cr_expect_eq(worse, 0, "%s: adaptive sampling is not better than uniform at equal samples:%s", path, msg);
@@ -586,15 +574,9 @@ static void compare_adaptive(const char *path)
     rd_scene_free(&s);
 }
 
-Test(progressive, adaptive_beats_uniform_area_light, .timeout = 120)
-{
-    compare_adaptive("scenes/area_light.cfg");
-}
+Test(progressive, adaptive_beats_uniform_area_light, .timeout = 120) { compare_adaptive("scenes/area_light.cfg"); }
 
-Test(progressive, adaptive_beats_uniform_antialiased_edges, .timeout = 120)
-{
-    compare_adaptive("scenes/phong.cfg");
-}
+Test(progressive, adaptive_beats_uniform_antialiased_edges, .timeout = 120) { compare_adaptive("scenes/phong.cfg"); }
 
 /* The estimate of an adaptive render against its true error.
  *
@@ -631,13 +613,13 @@ Test(progressive, adaptive_estimate_predicts_true_error, .timeout = 120)
             double r = sa.error_estimate / ta;
             printf("  %s adaptive cap %2d: %.2f spp, estimate %.6f, true %.6f, est/true %.3f | uniform %.0f spp: "
                    "estimate %.6f, true %.6f, est/true %.3f\n",
-                   paths[p], caps[c], sa.mean_samples, sa.error_estimate, ta, r, sn.mean_samples, sn.error_estimate,
-                   tn, sn.error_estimate / tn);
+                   paths[p], caps[c], sa.mean_samples, sa.error_estimate, ta, r, sn.mean_samples, sn.error_estimate, tn,
+                   sn.error_estimate / tn);
             if (!(r >= 1 / 2.0 && r <= 2.0)) {
                 bad++;
                 size_t len = strlen(msg);
-                snprintf(msg + len, sizeof msg - len, " %s cap %d (%.1f spp): estimate %.6f, true %.6f;",
-                         paths[p] + 7, caps[c], sa.mean_samples, sa.error_estimate, ta);
+                snprintf(msg + len, sizeof msg - len, " %s cap %d (%.1f spp): estimate %.6f, true %.6f;", paths[p] + 7,
+                         caps[c], sa.mean_samples, sa.error_estimate, ta);
             }
         }
         free(refd);

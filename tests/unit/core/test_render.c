@@ -22,11 +22,11 @@
 #include "rayd/scene.h"
 #include "support/scene_fixture.h"
 
-#define assert_px(bytes, w, x, y, r, g, b)                                                                        \
-    do {                                                                                                          \
-        const uint8_t *p_ = &(bytes)[((size_t)(y) * (size_t)(w) + (size_t)(x)) * 3];                              \
-        cr_assert(p_[0] == (r) && p_[1] == (g) && p_[2] == (b), "pixel (%d,%d) = (%d,%d,%d), expected (%d,%d,%d)", \
-                  (int)(x), (int)(y), p_[0], p_[1], p_[2], (int)(r), (int)(g), (int)(b));                         \
+#define assert_px(bytes, w, x, y, r, g, b)                                                                             \
+    do {                                                                                                               \
+        const uint8_t *p_ = &(bytes)[((size_t)(y) * (size_t)(w) + (size_t)(x)) * 3];                                   \
+        cr_assert(p_[0] == (r) && p_[1] == (g) && p_[2] == (b), "pixel (%d,%d) = (%d,%d,%d), expected (%d,%d,%d)",     \
+                  (int)(x), (int)(y), p_[0], p_[1], p_[2], (int)(r), (int)(g), (int)(b));                              \
     } while (0)
 
 /* ---- (1) exact pixel values -------------------------------------------------- */
@@ -320,9 +320,12 @@ static void all_materials_scene(rd_scene *s, int w, int h)
     s->render.background = v3(0.1, 0.2, 0.3);
     s->render.max_depth = 8;
     s->render.seed = 17;
-    rd_material_type ts[] = {RD_MAT_DIFFUSE,          RD_MAT_PHONG,
-                             RD_MAT_BLINN_PHONG,      RD_MAT_COOK_TORRANCE,
-                             RD_MAT_PERFECT_SPECULAR, RD_MAT_SPECULAR_REFRACTION,
+    rd_material_type ts[] = {RD_MAT_DIFFUSE,
+                             RD_MAT_PHONG,
+                             RD_MAT_BLINN_PHONG,
+                             RD_MAT_COOK_TORRANCE,
+                             RD_MAT_PERFECT_SPECULAR,
+                             RD_MAT_SPECULAR_REFRACTION,
                              RD_MAT_PSEUDO_NORMAL_COLOR};
     int ms[7];
     for (int i = 0; i < 7; i++) {
@@ -469,11 +472,11 @@ static void scaled_scene(rd_scene *s, double f)
         rd_vec3 c = v3(2.5 * cos(a), -1.8, -6 + 2.5 * sin(a));
         add_sphere(s, v3_scale(c, f), 0.2 * f, i % 2 ? ph : dif);
         add_triangle(s, v3_scale(v3_add(c, v3(0, 0.3, 0)), f), v3_scale(v3_add(c, v3(0.3, 0.6, 0.1)), f),
-                v3_scale(v3_add(c, v3(-0.2, 0.7, -0.1)), f), i % 3 ? ct : mir);
+                     v3_scale(v3_add(c, v3(-0.2, 0.7, -0.1)), f), i % 3 ? ct : mir);
     }
     add_point_light(s, v3_scale(v3(3, 4, 0), f), v3(0.8, 0.8, 0.8));
     add_area_light(s, v3_scale(v3(-2, 3, -4), f), v3_scale(v3(1.5, 0, 0), f), v3_scale(v3(0, 0, 1.5), f), 3,
-             v3(0.6, 0.6, 0.6));
+                   v3(0.6, 0.6, 0.6));
     rd_light *sp = add_point_light(s, v3_scale(v3(-3, 2, -2), f), v3(0.5, 0.4, 0.3));
     sp->type = RD_LIGHT_SPOT;
     sp->direction = v3(0.5, -0.7, -0.6);

@@ -21,8 +21,8 @@
 #include "rayd/scene.h"
 #include "scene_assets.h"
 #include "scene_limits.h"
-#include "texture.h"
 #include "support/png_fixture.h"
+#include "texture.h"
 
 /* ---- rd_texture_sample ---------------------------------------------------- */
 
@@ -45,9 +45,8 @@ static rd_texture make_tex(int w, int h)
 
 static double texel(const rd_texture *t, int i, int j, int k) { return t->rgb[3 * (j * t->width + i) + k]; }
 
-#define assert_rgb(c, r, g, b, tol, ...)                                                                   \
-    cr_assert(fabs((c).x - (r)) <= (tol) && fabs((c).y - (g)) <= (tol) && fabs((c).z - (b)) <= (tol),      \
-              __VA_ARGS__)
+#define assert_rgb(c, r, g, b, tol, ...)                                                                               \
+    cr_assert(fabs((c).x - (r)) <= (tol) && fabs((c).y - (g)) <= (tol) && fabs((c).z - (b)) <= (tol), __VA_ARGS__)
 
 Test(texture, sample_texel_centres_are_exact)
 {
@@ -175,8 +174,7 @@ Test(texture, sample_v_zero_is_the_top_row)
     rd_texture t = make_tex(2, 4);
     rd_rgb top = rd_texture_sample(&t, 0.25, 0.125), bottom = rd_texture_sample(&t, 0.25, 0.875);
     cr_assert(top.x == texel(&t, 0, 0, 0), "v = 1/8 reads %.17g, row 0 holds %.17g", top.x, texel(&t, 0, 0, 0));
-    cr_assert(bottom.x == texel(&t, 0, 3, 0), "v = 7/8 reads %.17g, row 3 holds %.17g", bottom.x,
-              texel(&t, 0, 3, 0));
+    cr_assert(bottom.x == texel(&t, 0, 3, 0), "v = 7/8 reads %.17g, row 3 holds %.17g", bottom.x, texel(&t, 0, 3, 0));
     free(t.rgb);
 }
 
@@ -204,16 +202,16 @@ static void check_decode(const membuf *m, int w, int h, const unsigned *want, un
     cr_assert_eq(img.was_palette, was_palette);
     cr_assert_eq(img.was_grey, was_grey);
     for (int i = 0; i < w * h * 3; i++)
-        cr_assert_eq(img.rgb[i], want[i], "pixel (%d,%d) channel %d: %u, expected %u", (i / 3) % w, (i / 3) / w,
-                     i % 3, img.rgb[i], want[i]);
+        cr_assert_eq(img.rgb[i], want[i], "pixel (%d,%d) channel %d: %u, expected %u", (i / 3) % w, (i / 3) / w, i % 3,
+                     img.rgb[i], want[i]);
     free(img.rgb);
     rd_texture t;
     rc = rd_texture_from_png(m->data, m->len, 1u << 20, &t, &err);
     cr_assert_eq(rc, RD_OK, "rd_texture_from_png: %s", err.message);
     cr_assert(t.width == w && t.height == h);
     for (int i = 0; i < w * h * 3; i++)
-        cr_assert(t.rgb[i] == (float)((double)want[i] / maxval), "texture value %d: %.9g, expected %u/%u", i,
-                  t.rgb[i], want[i], maxval);
+        cr_assert(t.rgb[i] == (float)((double)want[i] / maxval), "texture value %d: %.9g, expected %u/%u", i, t.rgb[i],
+                  want[i], maxval);
     free(t.rgb);
 }
 
@@ -337,8 +335,8 @@ Test(texture, png_palette_with_and_without_trns)
     int w = 6, h = 2;
     for (int with_trns = 0; with_trns < 2; with_trns++) {
         png_byte alpha[3] = {0, 128, 255};
-        png_layout L = {w, h, PNG_COLOR_TYPE_PALETTE, 8, 0, test_palette, 5, with_trns ? alpha : NULL,
-                        with_trns ? 3 : 0, NULL};
+        png_layout L = {
+            w, h, PNG_COLOR_TYPE_PALETTE, 8, 0, test_palette, 5, with_trns ? alpha : NULL, with_trns ? 3 : 0, NULL};
         unsigned char **rows = alloc_rows(h, (size_t)w);
         unsigned want[6 * 2 * 3];
         for (int y = 0; y < h; y++)
@@ -570,8 +568,7 @@ Test(texture, png_over_the_pixel_limit_before_decoding)
     free_rows(rows, h);
     rd_png_image img;
     rd_error err = {0};
-    cr_assert_eq(rd_png_decode(m.data, m.len, 10000, "--max-texture-pixels", &img, &err), RD_OK, "%s",
-                 err.message);
+    cr_assert_eq(rd_png_decode(m.data, m.len, 10000, "--max-texture-pixels", &img, &err), RD_OK, "%s", err.message);
     free(img.rgb);
     rd_error_code rc = rd_png_decode(m.data, m.len, 9999, "--max-texture-pixels", &img, &err);
     cr_assert_eq(rc, RD_ERR_LIMIT, "code %d (%s)", rc, err.message);

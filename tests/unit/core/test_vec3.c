@@ -66,9 +66,9 @@ Test(vec3, normalize_subnormal_vector)
     rd_vec3 n = v3_normalize(v3(3e-309, 4e-309, 0));
     cr_assert(v3_is_finite(n), "normalize(3e-309, 4e-309, 0) = (%g, %g, %g): not finite", n.x, n.y, n.z);
     assert_vec_near(n, 0.6, 0.8, 0.0, 1e-6); /* 3e-309 is subnormal: ~1e-9 relative precision */
-    n = v3_normalize(v3(5e-324, 0, 0)); /* the smallest positive double */
-    cr_assert(n.x == 1 && n.y == 0 && n.z == 0, "normalize(5e-324, 0, 0) = (%g, %g, %g), expected (1, 0, 0)",
-              n.x, n.y, n.z);
+    n = v3_normalize(v3(5e-324, 0, 0));      /* the smallest positive double */
+    cr_assert(n.x == 1 && n.y == 0 && n.z == 0, "normalize(5e-324, 0, 0) = (%g, %g, %g), expected (1, 0, 0)", n.x, n.y,
+              n.z);
 }
 
 Test(vec3, normalize_zero_and_infinite_give_zero)

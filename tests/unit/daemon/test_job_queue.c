@@ -9,9 +9,9 @@
 #include <string.h>
 #include <time.h>
 
+#include "job_queue.h"
 #include "rayd/clock.h"
 #include "rayd/job.h"
-#include "job_queue.h"
 #include "scene_load.h"
 
 static const char small_scene[] = "[render]\nwidth = 8\nheight = 8\n"

@@ -230,8 +230,8 @@ static int same_scene(const result *ra, const result *rb)
         return 0;
     char *ta = NULL, *tb = NULL;
     rd_error err;
-    int same = rd_scene_write_cfg(a, &ta, &err) == RD_OK && rd_scene_write_cfg(b, &tb, &err) == RD_OK &&
-               strcmp(ta, tb) == 0;
+    int same =
+        rd_scene_write_cfg(a, &ta, &err) == RD_OK && rd_scene_write_cfg(b, &tb, &err) == RD_OK && strcmp(ta, tb) == 0;
     free(ta);
     free(tb);
     for (size_t i = 0; same && i < a->material_count; i++)
@@ -432,8 +432,9 @@ Test(oom, render_progressive) { render_test("render progressive, adaptive", FIXT
 Test(oom, render_many_spheres)
 {
     static char text[16384];
-    int n = snprintf(text, sizeof text, "[render]\nwidth = 8\nheight = 6\n[light]\nposition = 0 10 10\n"
-                                        "[material m]\ntype = diffuse\n");
+    int n = snprintf(text, sizeof text,
+                     "[render]\nwidth = 8\nheight = 6\n[light]\nposition = 0 10 10\n"
+                     "[material m]\ntype = diffuse\n");
     uint32_t x = 2463534242u;
     double v[4];
     for (int i = 0; i < 125; i++) {
@@ -442,8 +443,8 @@ Test(oom, render_many_spheres)
             v[k] = (double)(x >> 8) / (1u << 24);
         }
         n += snprintf(text + n, sizeof text - (size_t)n,
-                      "[sphere]\ncenter = %.3f %.3f %.3f\nradius = %.3f\nmaterial = m\n", 6 * v[0] - 3,
-                      6 * v[1] - 3, -8 * v[2], 0.05 + 0.25 * v[3]);
+                      "[sphere]\ncenter = %.3f %.3f %.3f\nradius = %.3f\nmaterial = m\n", 6 * v[0] - 3, 6 * v[1] - 3,
+                      -8 * v[2], 0.05 + 0.25 * v[3]);
     }
     rd_error err;
     rd_scene_init(&g_scene);
@@ -498,8 +499,8 @@ static int same_png(const result *a, const result *b)
 {
     const rd_png_image *x = &a->png, *y = &b->png;
     return x->width == y->width && x->height == y->height && x->depth == y->depth && x->maxval == y->maxval &&
-           x->had_alpha == y->had_alpha && x->was_palette == y->was_palette && x->was_grey == y->was_grey &&
-           x->rgb && y->rgb && !memcmp(x->rgb, y->rgb, (size_t)x->width * x->height * 3 * sizeof *x->rgb);
+           x->had_alpha == y->had_alpha && x->was_palette == y->was_palette && x->was_grey == y->was_grey && x->rgb &&
+           y->rgb && !memcmp(x->rgb, y->rgb, (size_t)x->width * x->height * 3 * sizeof *x->rgb);
 }
 
 static const char *png_after_error(const result *r) { return r->png.rgb ? "pixels came back" : NULL; }
