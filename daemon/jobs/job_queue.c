@@ -131,13 +131,6 @@ static void unref_locked(rd_jq_job *j)
         unref_locked(held);
 }
 
-void rd_jq_job_ref(rd_jq_job *j)
-{
-    pthread_mutex_lock(&j->q->mu);
-    j->refs++;
-    pthread_mutex_unlock(&j->q->mu);
-}
-
 void rd_jq_job_unref(rd_jq_job *j)
 {
     rd_jq *q = j->q;

@@ -17,8 +17,8 @@
  *
  * Thread safety: every function may be called from any thread.
  * Ownership: the queue owns its jobs and their tasks' arguments; callers
- * hold references (rd_jq_job_ref / rd_jq_job_unref) to keep a job alive
- * while they use it. */
+ * get a reference with every job they are handed (rd_jq_submit,
+ * rd_jq_find) and give it back with rd_jq_job_unref. */
 #ifndef RD_JOB_QUEUE_H
 #define RD_JOB_QUEUE_H
 
@@ -105,7 +105,6 @@ void *rd_jq_task_arg(rd_jq_job *j);
 /* Finds a job by id and returns it with a new reference, or NULL. */
 rd_jq_job *rd_jq_find(rd_jq *q, const char *id);
 
-void rd_jq_job_ref(rd_jq_job *j);
 void rd_jq_job_unref(rd_jq_job *j);
 
 /* Forgets a job's done callback and watched socket: its client is gone. */
