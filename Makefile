@@ -134,7 +134,7 @@ test: deps
 # fixes a file).
 FORMATTED = $(shell git ls-files '*.c' '*.h' 2>/dev/null | grep -v '^tests/fuzz/\(regressions\|seeds\)/')
 format-check:
-	@clang-format --dry-run -Werror $(FORMATTED)
+	@$(if $(FORMATTED),clang-format --dry-run -Werror $(FORMATTED),echo "format-check: not a git checkout, nothing checked")
 
 # Hostile clients against one daemon while a probe renders (tests/fault/).
 FAULT_SECONDS ?= 40
