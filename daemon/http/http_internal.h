@@ -107,6 +107,13 @@ enum MHD_Result rd_reply_with(rd_req *r, unsigned status, const char *type, void
 void rd_req_on_done(rd_jq_job *job, void *user);
 int rd_req_wait(rd_req *r, rd_jq_job *job);
 
+/* Submits task as r's job, watching r's connection for a hang-up and
+ * resuming r when it ends (or, with so->notify_prepared, once prepared):
+ * 503 queue_full or unavailable when it cannot be queued; the route's
+ * resumed answer when the job has already ended; else MHD_YES with r
+ * suspended. so's other fields are the caller's. */
+enum MHD_Result rd_req_submit(rd_req *r, const rd_jq_task *task, rd_jq_submit_options *so);
+
 /* The client's socket, for the job to watch for a hang-up; -1 if unknown. */
 int rd_req_socket(rd_req *r);
 

@@ -340,6 +340,25 @@ int rd_req_wait(rd_req *r, rd_jq_job *job)
     return finished;
 }
 
+enum MHD_Result rd_req_submit(rd_req *r, const rd_jq_task *task, rd_jq_submit_options *so)
+{
+    so->watch_fd = rd_req_socket(r);
+    so->watch_http11 = r->http11;
+    so->done = rd_req_on_done;
+    so->user = r;
+    rd_jq_job *job;
+    rd_error err = {0};
+    rd_error_code rc = rd_jq_submit(r->srv->jobs, task, so, &job, &err);
+    if (rc == RD_ERR_BUSY)
+        return rd_reply_error_hdr(r, 503, "queue_full", err.message, "Retry-After", "1");
+    if (rc)
+        return rd_reply_error(r, 503, "unavailable", &err, NULL);
+    rd_jq_info info;
+    rd_jq_info_get(r->srv->jobs, job, &info);
+    snprintf(r->job_id, sizeof r->job_id, "%s", info.id);
+    return rd_req_wait(r, job) ? r->route->resumed(r) : MHD_YES;
+}
+
 int rd_req_socket(rd_req *r)
 {
     const union MHD_ConnectionInfo *ci = MHD_get_connection_info(r->conn, MHD_CONNECTION_INFO_CONNECTION_FD);

@@ -378,19 +378,8 @@ enum MHD_Result rd_route_grade(rd_req *r, const char *rest)
     memcpy(t->assignment, g->assignment, sizeof t->assignment);
     g->image = g->scene = NULL;
     rd_jq_task task = {prepare_grade, finish_grade, free_grade, t, t->image_len + t->scene_len};
-    rd_jq_submit_options so = {
-        .watch_fd = rd_req_socket(r), .watch_http11 = r->http11, .done = rd_req_on_done, .user = r};
-    rd_jq_job *job;
-    rd_error err = {0};
-    rd_error_code rc = rd_jq_submit(srv->jobs, &task, &so, &job, &err);
-    if (rc == RD_ERR_BUSY)
-        return rd_reply_error_hdr(r, 503, "queue_full", err.message, "Retry-After", "1");
-    if (rc)
-        return rd_reply_error(r, 503, "unavailable", &err, NULL);
-    rd_jq_info info;
-    rd_jq_info_get(srv->jobs, job, &info);
-    snprintf(r->job_id, sizeof r->job_id, "%s", info.id);
-    return rd_req_wait(r, job) ? rd_route_grade_resumed(r) : MHD_YES;
+    rd_jq_submit_options so = {0};
+    return rd_req_submit(r, &task, &so);
 }
 
 enum MHD_Result rd_route_grade_resumed(rd_req *r)

@@ -191,22 +191,9 @@ static enum MHD_Result render(rd_req *r, int async)
     /* Both wait on the connection: an asynchronous submission until its
      * scene is read (so a bad one still gets its 4xx), a synchronous one
      * until its image is ready. */
-    so.watch_fd = rd_req_socket(r);
-    so.watch_http11 = r->http11;
-    so.done = rd_req_on_done;
-    so.user = r;
     so.notify_prepared = async;
-    rd_jq_job *job;
-    rd_error_code rc = rd_jq_submit(srv->jobs, &task, &so, &job, &err);
-    if (rc == RD_ERR_BUSY)
-        return rd_reply_error_hdr(r, 503, "queue_full", err.message, "Retry-After", "1");
-    if (rc)
-        return rd_reply_error(r, 503, "unavailable", &err, NULL);
     r->async = async;
-    rd_jq_info info;
-    rd_jq_info_get(srv->jobs, job, &info);
-    snprintf(r->job_id, sizeof r->job_id, "%s", info.id);
-    return rd_req_wait(r, job) ? rd_route_render_resumed(r) : MHD_YES;
+    return rd_req_submit(r, &task, &so);
 }
 
 /* The answer for a job that failed or was cancelled. */
