@@ -60,19 +60,22 @@ TEST_OBJ   := $(patsubst %.c,$(BUILD)/%.o,$(TEST_SRC))
 # The job queue's objects: tests/unit/daemon drives it without HTTP.
 JOBS_OBJ   := $(patsubst %.c,$(BUILD)/%.o,$(wildcard daemon/jobs/*.c))
 
-.PHONY: all deps test check run bench bench-quick clean scenes fuzz stability tsan fault print-includes format-check
+# The first rule: `make` alone builds build/rayd.
+all: deps
+	@$(MAKE) --no-print-directory $(BUILD)/rayd
 
 # Large inputs are generated, not kept in git.
 GENERATED := scenes/generated/knot.obj
 
 scenes: $(GENERATED)
 
+.PHONY: all deps test check run bench bench-quick clean scenes fuzz stability tsan fault print-includes format-check
+
+
 scenes/generated/knot.obj: scenes/gen.py
 	@mkdir -p scenes/generated
 	/usr/bin/python3 scenes/gen.py knot $@ 800 64
 
-all: deps
-	@$(MAKE) --no-print-directory $(BUILD)/rayd
 
 deps:
 	@sh deploy/deps.sh
@@ -89,6 +92,18 @@ $(BUILD)/gen/web_page.c: daemon/http/web/index.html daemon/http/web/embed.py
 
 $(BUILD)/gen/web_page.o: $(BUILD)/gen/web_page.c
 	@$(CC) $(CFLAGS) -c $< -o $@
+
+# The version: a release tarball's VERSION file, else `git describe`. The
+# stamp changes only with the string, so a new commit rebuilds one object.
+VERSION := $(shell cat VERSION 2>/dev/null || git describe --tags --always --dirty 2>/dev/null || echo unknown)
+VERSION := $(patsubst v%,%,$(VERSION))
+$(BUILD)/gen/version.stamp: FORCE
+	@mkdir -p $(dir $@)
+	@echo '$(VERSION)' | cmp -s - $@ || echo '$(VERSION)' > $@
+FORCE:
+
+$(BUILD)/api/util/version.o: CPPFLAGS += -DRD_VERSION=\"$(VERSION)\"
+$(BUILD)/api/util/version.o: $(BUILD)/gen/version.stamp
 
 $(BUILD)/api/grading/reference.o: CPPFLAGS += -DRD_CORE_HASH=\"$(CORE_HASH)\"
 $(BUILD)/api/grading/reference.o: $(CORE_FILES)

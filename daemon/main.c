@@ -2,6 +2,7 @@
 #include <string.h>
 
 #include "cli.h"
+#include "version.h"
 
 static const char help[] = "usage: rayd COMMAND [options]\n"
                            "\n"
@@ -17,6 +18,7 @@ static const char help[] = "usage: rayd COMMAND [options]\n"
                            "  compare A.png B.png       how two images differ (RMSE, PSNR, pixels), as JSON\n"
                            "  limits                    list the size limits and their defaults\n"
                            "  schema                    print the JSON Schema of JSON scenes\n"
+                           "  version                   print the version (also --version)\n"
                            "\n"
                            "'rayd COMMAND --help' explains a command's options.\n";
 
@@ -36,6 +38,10 @@ int main(int argc, char **argv)
     }
     if (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0 || strcmp(argv[1], "help") == 0) {
         fputs(help, stdout);
+        return RD_EXIT_OK;
+    }
+    if (strcmp(argv[1], "--version") == 0 || strcmp(argv[1], "version") == 0) {
+        printf("rayd %s\n", rd_version());
         return RD_EXIT_OK;
     }
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)

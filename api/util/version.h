@@ -1,0 +1,9 @@
+/* The build's identity: `git describe` when it was built from a checkout,
+ * the VERSION file of a release tarball otherwise (the Makefile decides). */
+#ifndef RD_VERSION_H
+#define RD_VERSION_H
+
+/* A static string such as "0.1.0-12-g395d23a"; never NULL. */
+const char *rd_version(void);
+
+#endif
