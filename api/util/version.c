@@ -3,5 +3,14 @@
 #ifndef RD_VERSION
 #define RD_VERSION "unknown"
 #endif
+#ifndef RD_DATA_DIR
+#define RD_DATA_DIR "."
+#endif
 
 const char *rd_version(void) { return RD_VERSION; }
+
+const char *rd_data_dir(void) { return RD_DATA_DIR; }
+
+const char *rd_default_scenes_dir(void) { return RD_DATA_DIR "/scenes"; }
+
+const char *rd_default_assignments_dir(void) { return RD_DATA_DIR "/scenes/assignments"; }

@@ -6,4 +6,11 @@
 /* A static string such as "0.1.0-12-g395d23a"; never NULL. */
 const char *rd_version(void);
 
+/* The data folder compiled in: the source tree for build/rayd,
+ * $(PREFIX)/share/rayd for an installed rayd. The bundled scenes are in
+ * its scenes/, the assignments in scenes/assignments/. Static strings. */
+const char *rd_data_dir(void);
+const char *rd_default_scenes_dir(void);
+const char *rd_default_assignments_dir(void);
+
 #endif

@@ -22,6 +22,10 @@ int rd_cmd_compare(int argc, char **argv);
  * printing a message prefixed with who. */
 int rd_cli_take_limits(int *argc, char **argv, rd_scene_limits *lim, const char *who, const char *own);
 
+/* Each limit from its environment variable, RAYD_ and the flag's name in
+ * capitals (--max-depth: RAYD_MAX_DEPTH), when set; 0 or RD_EXIT_USAGE. */
+int rd_cli_limits_from_env(rd_scene_limits *lim, const char *who);
+
 /* Prints the limits and their defaults. */
 int rd_cmd_limits(int argc, char **argv);
 

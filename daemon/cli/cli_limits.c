@@ -1,9 +1,25 @@
+#include <ctype.h>
 #include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "cli.h"
+
+/* A positive integer into the limit; 1 after a message naming from. */
+static int set_limit(rd_scene_limits *lim, const rd_limit_info *info, const char *value, const char *who,
+                     const char *from)
+{
+    char *end;
+    errno = 0;
+    unsigned long long v = value && *value && *value != '-' ? strtoull(value, &end, 10) : 0;
+    if (!value || !*value || *value == '-' || *end || errno || v == 0) {
+        fprintf(stderr, "%s: %s: expected a positive integer, got '%s'\n", who, from, value ? value : "");
+        return 1;
+    }
+    *(size_t *)((char *)lim + info->offset) = (size_t)v;
+    return 0;
+}
 
 int rd_cli_take_limits(int *argc, char **argv, rd_scene_limits *lim, const char *who, const char *own)
 {
@@ -36,18 +52,29 @@ int rd_cli_take_limits(int *argc, char **argv, rd_scene_limits *lim, const char 
             argv[out++] = argv[i];
             continue;
         }
-        char *end;
-        errno = 0;
-        unsigned long long v = value && *value && *value != '-' ? strtoull(value, &end, 10) : 0;
-        if (!value || !*value || *value == '-' || *end || errno || v == 0) {
-            fprintf(stderr, "%s: %s: expected a positive integer, got '%s'\n", who, hit->flag, value ? value : "");
+        if (set_limit(lim, hit, value, who, hit->flag))
             return RD_EXIT_USAGE;
-        }
-        *(size_t *)((char *)lim + hit->offset) = (size_t)v;
         i += used - 1;
     }
     argv[out] = NULL;
     *argc = out;
+    return 0;
+}
+
+int rd_cli_limits_from_env(rd_scene_limits *lim, const char *who)
+{
+    size_t n;
+    const rd_limit_info *info = rd_limits_info(&n);
+    for (size_t k = 0; k < n; k++) {
+        char env[64];
+        size_t len = (size_t)snprintf(env, sizeof env, "RAYD_");
+        for (const char *f = info[k].flag + 2; *f && len + 1 < sizeof env; f++)
+            env[len++] = *f == '-' ? '_' : (char)toupper((unsigned char)*f);
+        env[len] = 0;
+        const char *v = getenv(env);
+        if (v && set_limit(lim, &info[k], v, who, env))
+            return RD_EXIT_USAGE;
+    }
     return 0;
 }
 

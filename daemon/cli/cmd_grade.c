@@ -9,26 +9,28 @@
 #include "grading.h"
 #include "json_text.h"
 #include "png_write.h"
+#include "version.h"
 
-static const char grade_help[] = "usage: rayd grade (--assignment NAME | --scene FILE) --image FILE [options]\n"
-                                 "\n"
-                                 "Compares a student's rendering with rayd's reference for the same scene and\n"
-                                 "prints the verdict as JSON (docs/grading.md): pass or fail, RMSE, PSNR, SSIM,\n"
-                                 "the failed pixels and where they are.\n"
-                                 "\n"
-                                 "  --assignment NAME    an assignment of --assignments (e.g. phong)\n"
-                                 "  --scene FILE         or any scene file\n"
-                                 "  --image FILE         the student's PNG (any layout: grey, palette, alpha, 16-bit)\n"
-                                 "  --diff OUT.png       write the heat map of where the image differs\n"
-                                 "  --assignments DIR    the assignments folder (default scenes/assignments)\n"
-                                 "  --cache-dir DIR      where references are cached (default: none)\n"
-                                 "  --threads N          render threads for the reference (default: the cores)\n"
-                                 "  --max-...  N         a size limit; 'rayd limits' lists them with defaults\n"
-                                 "\n"
-                                 "Exit status: 0 pass; 4 graded, fail; 1 usage or no such assignment; 2 bad\n"
-                                 "scene, assignment or image (not a PNG, damaged, wrong size); 3 a file could\n"
-                                 "not be read or written. Errors are those of POST /v1/grade for the same\n"
-                                 "input (docs/grading.md).\n";
+static const char grade_help[] =
+    "usage: rayd grade (--assignment NAME | --scene FILE) --image FILE [options]\n"
+    "\n"
+    "Compares a student's rendering with rayd's reference for the same scene and\n"
+    "prints the verdict as JSON (docs/grading.md): pass or fail, RMSE, PSNR, SSIM,\n"
+    "the failed pixels and where they are.\n"
+    "\n"
+    "  --assignment NAME    an assignment of --assignments (e.g. phong)\n"
+    "  --scene FILE         or any scene file\n"
+    "  --image FILE         the student's PNG (any layout: grey, palette, alpha, 16-bit)\n"
+    "  --diff OUT.png       write the heat map of where the image differs\n"
+    "  --assignments DIR    the assignments folder (default: scenes/assignments in the data folder)\n"
+    "  --cache-dir DIR      where references are cached (default: none)\n"
+    "  --threads N          render threads for the reference (default: the cores)\n"
+    "  --max-...  N         a size limit; 'rayd limits' lists them with defaults\n"
+    "\n"
+    "Exit status: 0 pass; 4 graded, fail; 1 usage or no such assignment; 2 bad\n"
+    "scene, assignment or image (not a PNG, damaged, wrong size); 3 a file could\n"
+    "not be read or written. Errors are those of POST /v1/grade for the same\n"
+    "input (docs/grading.md).\n";
 
 /* The heat map of where the image differs, as a PNG file. */
 static rd_error_code write_diff(const rd_grade_output *o, const char *path, rd_error *err)
@@ -81,7 +83,7 @@ int rd_cmd_grade(int argc, char **argv)
                                          {NULL, 0, NULL, 0}};
     rd_grade_input in = {0};
     const char *image = NULL, *diff = NULL, *cache_dir = NULL;
-    rd_grader g = {.assignments_dir = "scenes/assignments", .limits = rd_scene_limits_default()};
+    rd_grader g = {.assignments_dir = rd_default_assignments_dir(), .limits = rd_scene_limits_default()};
     int lrc = rd_cli_take_limits(&argc, argv, &g.limits, "rayd grade", NULL);
     if (lrc)
         return lrc;
@@ -138,7 +140,10 @@ int rd_cmd_grade(int argc, char **argv)
     free(png);
     int status;
     if (rc) {
+        /* The daemon never names its folders; the command line does. */
         fprintf(stderr, "rayd grade: %s\n", err.message);
+        if (rc == RD_ERR_NOT_FOUND && in.assignment)
+            fprintf(stderr, "rayd grade: searched %s (--assignments DIR names another folder)\n", g.assignments_dir);
         status = rd_grade_error_answer(out.stage, rc).exit;
     } else {
         status = report(&out, diff);

@@ -30,6 +30,8 @@ struct rd_server {
     int reaper_on, reaper_stop;
     atomic_ullong deadline_closed; /* connections closed by a header or body deadline */
     atomic_ullong raw_refused;     /* requests refused before libmicrohttpd parsed them */
+    struct rd_access *access;      /* request ids, clients, the access log (access.h) */
+    atomic_int ready;              /* the start-up checks passed and it listens */
 };
 
 typedef struct rd_route rd_route;
@@ -40,6 +42,11 @@ typedef struct rd_req {
     double t0;
     char method[16];
     char path[200];
+    char query[1024];    /* for the log, as key=value&... */
+    char request_id[72]; /* echoed as X-Request-Id */
+    char client[64];     /* the peer, or the client a trusted proxy names */
+    char user_agent[256];
+    int admitted; /* counted against --max-per-ip (access.h) */
     unsigned status;
     size_t bytes;
     char job_id[24];
@@ -147,6 +154,15 @@ enum MHD_Result rd_route_grade(rd_req *r, const char *rest);
 enum MHD_Result rd_route_grade_resumed(rd_req *r);
 /* GET /v1/grades/{id}/{diff,reference,image}.png */
 enum MHD_Result rd_route_grade_files(rd_req *r, const char *rest);
+
+/* An image that never changes under its name: ETag etag (quoted here),
+ * Cache-Control for max_age_s seconds, and 304 without a body when the
+ * client's If-None-Match already names it. Takes ownership like rd_reply. */
+enum MHD_Result rd_reply_immutable(rd_req *r, const char *type, void *body, size_t len, int must_free, const char *etag,
+                                   double max_age_s);
+
+/* GET /readyz: 200 once started, 503 while starting or draining. */
+enum MHD_Result rd_route_ready(rd_req *r, const char *rest);
 
 /* The 413 of a body over --max-body-bytes. */
 enum MHD_Result rd_reply_too_large(rd_req *r, const char *what);

@@ -2,18 +2,22 @@
 #include <arpa/inet.h>
 #include <cJSON.h>
 #include <errno.h>
+#include <netdb.h>
 #include <netinet/in.h>
 #include <poll.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
+#include "access.h"
 #include "http_internal.h"
 #include "rayd/clock.h"
 #include "timed_wait.h"
+#include "version.h"
 
 /* An open connection. libmicrohttpd's own timeout counts idle time, which
  * every trickled byte resets; these deadlines count from when the headers
@@ -187,6 +191,8 @@ static enum MHD_Result reply_raw(rd_req *r, int fd, unsigned status, const char 
         n += (size_t)snprintf(head + n, sizeof head - n, "Content-Type: %s\r\n", type);
     if (r->job_id[0])
         n += (size_t)snprintf(head + n, sizeof head - n, "X-Rayd-Job: %s\r\n", r->job_id);
+    if (r->request_id[0])
+        n += (size_t)snprintf(head + n, sizeof head - n, "X-Request-Id: %s\r\n", r->request_id);
     for (int i = 0; headers && headers[i] && headers[i + 1] && n < sizeof head; i += 2)
         n += (size_t)snprintf(head + n, sizeof head - n, "%s: %s\r\n", headers[i], headers[i + 1]);
     if (n + 2 >= sizeof head)
@@ -200,6 +206,20 @@ static enum MHD_Result reply_raw(rd_req *r, int fd, unsigned status, const char 
     }
     r->answered = 1;
     return MHD_NO;
+}
+
+/* Headers a browser on --cors-origin needs to read the answer. */
+static void add_cors(rd_req *r, struct MHD_Response *resp)
+{
+    const char *origin = r->srv->opt.cors_origin;
+    if (!origin)
+        return;
+    MHD_add_response_header(resp, "Access-Control-Allow-Origin", origin);
+    MHD_add_response_header(resp, "Access-Control-Expose-Headers",
+                            "X-Request-Id, X-Rayd-Job, X-Rayd-Render-Ms, X-Rayd-Samples, X-Rayd-Passes, "
+                            "X-Rayd-Error-Estimate, X-Rayd-Stopped-By, Retry-After, ETag");
+    if (strcmp(origin, "*") != 0)
+        MHD_add_response_header(resp, MHD_HTTP_HEADER_VARY, "Origin");
 }
 
 enum MHD_Result rd_reply_with(rd_req *r, unsigned status, const char *type, void *body, size_t len, int must_free,
@@ -222,6 +242,9 @@ enum MHD_Result rd_reply_with(rd_req *r, unsigned status, const char *type, void
         MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, type);
     if (r->job_id[0])
         MHD_add_response_header(resp, "X-Rayd-Job", r->job_id);
+    if (r->request_id[0])
+        MHD_add_response_header(resp, "X-Request-Id", r->request_id);
+    add_cors(r, resp);
     for (int i = 0; headers && headers[i] && headers[i + 1]; i += 2)
         MHD_add_response_header(resp, headers[i], headers[i + 1]);
     r->status = status;
@@ -235,6 +258,54 @@ enum MHD_Result rd_reply_with(rd_req *r, unsigned status, const char *type, void
 enum MHD_Result rd_reply(rd_req *r, unsigned status, const char *type, void *body, size_t len, int must_free)
 {
     return rd_reply_with(r, status, type, body, len, must_free, NULL);
+}
+
+/* 1 when an If-None-Match list holds tag (or is "*"). */
+static int etag_matches(const char *inm, const char *tag)
+{
+    if (!inm)
+        return 0;
+    if (strcmp(inm, "*") == 0)
+        return 1;
+    size_t n = strlen(tag);
+    for (const char *p = inm; (p = strstr(p, tag)); p += n)
+        if ((p == inm || p[-1] == ' ' || p[-1] == ',' || p[-1] == '/') && (p[n] == 0 || p[n] == ',' || p[n] == ' '))
+            return 1;
+    return 0;
+}
+
+enum MHD_Result rd_reply_immutable(rd_req *r, const char *type, void *body, size_t len, int must_free, const char *etag,
+                                   double max_age_s)
+{
+    char tag[96], cache[96];
+    snprintf(tag, sizeof tag, "\"%s\"", etag);
+    snprintf(cache, sizeof cache, "private, max-age=%.0f, immutable", max_age_s > 0 ? max_age_s : 0);
+    const char *headers[] = {MHD_HTTP_HEADER_ETAG, tag, MHD_HTTP_HEADER_CACHE_CONTROL, cache, NULL};
+    if (etag_matches(MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_IF_NONE_MATCH), tag)) {
+        if (must_free)
+            free(body);
+        return rd_reply_with(r, 304, NULL, (void *)"", 0, 0, headers);
+    }
+    return rd_reply_with(r, 200, type, body, len, must_free, headers);
+}
+
+/* OPTIONS: what the route takes, and a browser's preflight answer. */
+static enum MHD_Result reply_options(rd_req *r, const char *allow)
+{
+    const char *cors = r->srv->opt.cors_origin;
+    char methods[96];
+    snprintf(methods, sizeof methods, "%s, OPTIONS", allow);
+    /* Without --cors-origin the list ends after Allow. */
+    const char *headers[] = {MHD_HTTP_HEADER_ALLOW,
+                             methods,
+                             cors ? "Access-Control-Allow-Methods" : NULL,
+                             methods,
+                             "Access-Control-Allow-Headers",
+                             "Content-Type, Accept, X-Request-Id, Authorization",
+                             "Access-Control-Max-Age",
+                             "600",
+                             NULL};
+    return rd_reply_with(r, 204, NULL, (void *)"", 0, 0, headers);
 }
 
 static char *error_json(const char *code, const char *message, const rd_error *err)
@@ -391,9 +462,17 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
         snprintf(r->path, sizeof r->path, "%s", url);
         set_deadline(srv, conn, srv->opt.body_timeout_ms);
         atomic_fetch_add(&srv->requests, 1);
+        rd_access_begin(srv->access, r);
         r->route = rd_route_find(url, &r->rest);
+        if (!rd_access_admit(srv->access, r))
+            return rd_reply_error_hdr(r, 429, "too_many_requests", "this client has --max-per-ip requests open already",
+                                      "Retry-After", "1");
         if (!r->route)
             return MHD_YES; /* answered 404 once the request is in */
+        if (strcmp(method, "OPTIONS") == 0) {
+            const char *all = r->route->allow_for ? r->route->allow_for(url + r->rest) : r->route->methods;
+            return reply_options(r, all);
+        }
         const char *allow = rd_route_allowed(r->route, method, url + r->rest);
         if (allow)
             return rd_reply_error_hdr(r, 405, "method_not_allowed", "method not allowed on this route",
@@ -448,41 +527,6 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
     return r->route->complete(r, url + r->rest);
 }
 
-static void log_request(rd_server *srv, rd_req *r, enum MHD_RequestTerminationCode toe)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_REALTIME, &ts);
-    struct tm tm;
-    gmtime_r(&ts.tv_sec, &tm);
-    char when[96];
-    snprintf(when, sizeof when, "%04d-%02d-%02dT%02d:%02d:%02d.%03ldZ", tm.tm_year + 1900, tm.tm_mon + 1, tm.tm_mday,
-             tm.tm_hour, tm.tm_min, tm.tm_sec, ts.tv_nsec / 1000000);
-    double ms = rd_now_ms() - r->t0;
-    const char *end = toe == MHD_REQUEST_TERMINATED_COMPLETED_OK ? "" : " (connection closed early)";
-    if (srv->opt.log_json) {
-        cJSON *o = cJSON_CreateObject();
-        cJSON_AddStringToObject(o, "time", when);
-        cJSON_AddStringToObject(o, "method", r->method);
-        cJSON_AddStringToObject(o, "path", r->path);
-        cJSON_AddNumberToObject(o, "status", r->status);
-        cJSON_AddNumberToObject(o, "bytes", (double)r->bytes);
-        cJSON_AddNumberToObject(o, "ms", ms);
-        if (r->job_id[0])
-            cJSON_AddStringToObject(o, "job", r->job_id);
-        if (*end)
-            cJSON_AddBoolToObject(o, "aborted", 1);
-        char *t = cJSON_PrintUnformatted(o);
-        cJSON_Delete(o);
-        if (t) {
-            fprintf(stderr, "%s\n", t);
-            free(t);
-        }
-    } else {
-        fprintf(stderr, "%s %s %s %u %zu %.1fms%s%s%s\n", when, r->method, r->path, r->status, r->bytes, ms,
-                r->job_id[0] ? " job=" : "", r->job_id, end);
-    }
-}
-
 static void on_completed(void *cls, struct MHD_Connection *conn, void **con_cls, enum MHD_RequestTerminationCode toe)
 {
     rd_server *srv = cls;
@@ -495,7 +539,8 @@ static void on_completed(void *cls, struct MHD_Connection *conn, void **con_cls,
     set_deadline(srv, conn, srv->opt.connection_timeout_s * 1e3 + srv->opt.header_timeout_ms);
     if (r->status >= 100 && r->status < 600)
         atomic_fetch_add(&srv->http_count[r->status / 100], 1);
-    log_request(srv, r, toe);
+    rd_access_log(&srv->opt, r, rd_now_ms() - r->t0, toe != MHD_REQUEST_TERMINATED_COMPLETED_OK);
+    rd_access_end(srv->access, r);
     if (r->job) {
         /* A client that went away no longer wants its render. */
         rd_jq_detach(srv->jobs, r->job);
@@ -540,8 +585,8 @@ rd_server_options rd_server_options_default(void)
     o.body_timeout_ms = 60000;
     o.max_query_args = 64;
     o.grade_cache_bytes = 256u << 20;
-    o.scenes_dir = "scenes";
-    o.assignments_dir = "scenes/assignments";
+    o.scenes_dir = rd_default_scenes_dir();
+    o.assignments_dir = rd_default_assignments_dir();
     return o;
 }
 
@@ -557,13 +602,91 @@ static void free_server(rd_server *s)
     /* Workers may be finishing grades: the queue stops first. */
     rd_jq_stop(s->jobs);
     rd_grades_free(s->grades);
+    rd_access_free(s->access);
     pthread_mutex_destroy(&s->conn_mu);
     pthread_cond_destroy(&s->conn_cv);
     free(s);
 }
 
+rd_error_code rd_listen_resolve(const char *host, uint16_t port, rd_listen_addr *out, rd_error *err)
+{
+    char service[8];
+    snprintf(service, sizeof service, "%u", (unsigned)port);
+    struct addrinfo hints = {.ai_family = AF_UNSPEC, .ai_socktype = SOCK_STREAM, .ai_flags = AI_PASSIVE}, *res = NULL;
+    int rc = getaddrinfo(host && *host ? host : NULL, service, &hints, &res);
+    if (rc != 0 || !res || res->ai_addrlen > sizeof out->addr) {
+        if (res)
+            freeaddrinfo(res);
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "--listen: '%s' does not resolve (%s)", host,
+                            rc ? gai_strerror(rc) : "no address");
+    }
+    memcpy(&out->addr, res->ai_addr, res->ai_addrlen);
+    out->len = res->ai_addrlen;
+    freeaddrinfo(res);
+    return RD_OK;
+}
+
+static rd_error_code need_dir(const char *dir, const char *flag, rd_error *err)
+{
+    struct stat st;
+    if (stat(dir, &st) != 0 || !S_ISDIR(st.st_mode))
+        return rd_error_set(err, RD_ERR_IO, 0, 0, "the folder %s (%s) %s", dir, flag,
+                            errno == ENOENT ? "does not exist" : "is not a readable folder");
+    return RD_OK;
+}
+
+/* mkdir -p, for --cache-dir. */
+static rd_error_code make_dir(const char *dir, rd_error *err)
+{
+    char path[4096];
+    if (snprintf(path, sizeof path, "%s", dir) >= (int)sizeof path)
+        return rd_error_set(err, RD_ERR_IO, 0, 0, "--cache-dir: the path is too long");
+    for (char *p = path + 1;; p++) {
+        if (*p != '/' && *p)
+            continue;
+        char c = *p;
+        *p = 0;
+        if (mkdir(path, 0750) != 0 && errno != EEXIST)
+            return rd_error_set(err, RD_ERR_IO, 0, 0, "cannot create the folder %s (--cache-dir): %s", path,
+                                strerror(errno));
+        *p = c;
+        if (!c)
+            break;
+    }
+    return need_dir(dir, "--cache-dir", err);
+}
+
+/* What must hold before the daemon listens: its folders are there. */
+static rd_error_code start_checks(const rd_server_options *opt, rd_error *err)
+{
+    if (need_dir(opt->scenes_dir, "--scenes", err) || need_dir(opt->assignments_dir, "--assignments", err))
+        return err->code;
+    return opt->cache_dir ? make_dir(opt->cache_dir, err) : RD_OK;
+}
+
+static int start_mhd(rd_server *s, const rd_listen_addr *la)
+{
+    const rd_server_options *opt = &s->opt;
+    unsigned flags = MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_EPOLL | MHD_ALLOW_SUSPEND_RESUME | MHD_USE_ERROR_LOG;
+    if (la->addr.ss_family == AF_INET6)
+        flags |= MHD_USE_IPv6;
+    /* Behind trusted proxies every connection comes from a proxy: the
+     * limit counts real clients instead (access.h). */
+    unsigned per_ip = rd_access_trusts_proxies(s->access) ? 0 : opt->max_per_ip;
+    s->mhd = MHD_start_daemon(
+        flags, opt->port, NULL, NULL, on_request, s, MHD_OPTION_SOCK_ADDR, (const struct sockaddr *)&la->addr,
+        MHD_OPTION_THREAD_POOL_SIZE, (unsigned)(opt->http_threads < 2 ? 2 : opt->http_threads),
+        MHD_OPTION_CONNECTION_LIMIT, opt->max_connections, MHD_OPTION_PER_IP_CONNECTION_LIMIT, per_ip,
+        MHD_OPTION_CONNECTION_TIMEOUT, opt->connection_timeout_s, MHD_OPTION_URI_LOG_CALLBACK, on_uri, s,
+        MHD_OPTION_NOTIFY_CONNECTION, on_connection, s, MHD_OPTION_NOTIFY_COMPLETED, on_completed, s, MHD_OPTION_END);
+    return s->mhd != NULL;
+}
+
 rd_server *rd_server_start(const rd_server_options *opt, rd_error *err)
 {
+    rd_listen_addr la;
+    if (start_checks(opt, err) || rd_listen_resolve(opt->listen_host, opt->port, &la, err))
+        return NULL;
     rd_server *s = calloc(1, sizeof *s);
     if (!s) {
         rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
@@ -572,7 +695,8 @@ rd_server *rd_server_start(const rd_server_options *opt, rd_error *err)
     s->opt = *opt;
     pthread_mutex_init(&s->conn_mu, NULL);
     pthread_cond_init(&s->conn_cv, NULL);
-    s->jobs = rd_jq_start(&opt->jobs, err);
+    s->access = rd_access_new(opt, err);
+    s->jobs = s->access ? rd_jq_start(&opt->jobs, err) : NULL;
     s->grades = s->jobs ? rd_grades_new(s->jobs, &s->opt) : NULL;
     if (!s->grades || pthread_create(&s->reaper, NULL, reaper, s) != 0) {
         if (s->jobs && !s->grades)
@@ -581,29 +705,14 @@ rd_server *rd_server_start(const rd_server_options *opt, rd_error *err)
         return NULL;
     }
     s->reaper_on = 1;
-    struct sockaddr_in addr;
-    memset(&addr, 0, sizeof addr);
-    addr.sin_family = AF_INET;
-    addr.sin_port = htons(opt->port);
-    if (inet_pton(AF_INET, opt->listen_host, &addr.sin_addr) != 1) {
+    if (!start_mhd(s, &la)) {
         free_server(s);
-        rd_error_set(err, RD_ERR_INVALID, 0, 0, "--listen: '%s' is not an IPv4 address", opt->listen_host);
-        return NULL;
-    }
-    unsigned flags = MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_EPOLL | MHD_ALLOW_SUSPEND_RESUME | MHD_USE_ERROR_LOG;
-    s->mhd = MHD_start_daemon(
-        flags, opt->port, NULL, NULL, on_request, s, MHD_OPTION_SOCK_ADDR, (const struct sockaddr *)&addr,
-        MHD_OPTION_THREAD_POOL_SIZE, (unsigned)(opt->http_threads < 2 ? 2 : opt->http_threads),
-        MHD_OPTION_CONNECTION_LIMIT, opt->max_connections, MHD_OPTION_PER_IP_CONNECTION_LIMIT, opt->max_per_ip,
-        MHD_OPTION_CONNECTION_TIMEOUT, opt->connection_timeout_s, MHD_OPTION_URI_LOG_CALLBACK, on_uri, s,
-        MHD_OPTION_NOTIFY_CONNECTION, on_connection, s, MHD_OPTION_NOTIFY_COMPLETED, on_completed, s, MHD_OPTION_END);
-    if (!s->mhd) {
-        free_server(s);
-        rd_error_set(err, RD_ERR_IO, 0, 0, "cannot listen on %s:%u", opt->listen_host, (unsigned)opt->port);
+        rd_error_set(err, RD_ERR_IO, 0, 0, "cannot listen on %s port %u", opt->listen_host, (unsigned)opt->port);
         return NULL;
     }
     const union MHD_DaemonInfo *info = MHD_get_daemon_info(s->mhd, MHD_DAEMON_INFO_BIND_PORT);
     s->port = info ? info->port : opt->port;
+    atomic_store(&s->ready, 1);
     return s;
 }
 

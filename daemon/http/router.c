@@ -12,6 +12,17 @@ static enum MHD_Result health(rd_req *r, const char *rest)
     return rd_reply(r, 200, "application/json", (void *)ok, sizeof ok - 1, 0);
 }
 
+enum MHD_Result rd_route_ready(rd_req *r, const char *rest)
+{
+    (void)rest;
+    static const char ok[] = "{\"status\":\"ready\"}\n";
+    static const char starting[] = "{\"status\":\"not_ready\",\"reasons\":[\"starting\"]}\n";
+    static const char draining[] = "{\"status\":\"not_ready\",\"reasons\":[\"draining\"]}\n";
+    const char *t = atomic_load(&r->srv->draining) ? draining : !atomic_load(&r->srv->ready) ? starting : ok;
+    const char *headers[] = {"Retry-After", "5", NULL};
+    return rd_reply_with(r, t == ok ? 200 : 503, "application/json", (void *)t, strlen(t), 0, t == ok ? NULL : headers);
+}
+
 /* GET /v1/jobs/{id} may also be deleted; its image only read. */
 static const char *job_allow(const char *rest) { return strchr(rest + 1, '/') ? "GET" : "GET, DELETE"; }
 
@@ -26,6 +37,7 @@ static const rd_route routes[] = {
     {"/v1/grades", RD_ROUTE_BELOW, "GET", NULL, NULL, NULL, 0, rd_route_grade_files, NULL},
     {"/v1/scenes", RD_ROUTE_EXACT_OR_BELOW, "GET", NULL, NULL, NULL, 0, rd_route_scenes, NULL},
     {"/healthz", RD_ROUTE_EXACT, "GET", NULL, NULL, NULL, 0, health, NULL},
+    {"/readyz", RD_ROUTE_EXACT, "GET", NULL, NULL, NULL, 0, rd_route_ready, NULL},
     {"/metrics", RD_ROUTE_EXACT, "GET", NULL, NULL, NULL, 0, rd_route_metrics, NULL},
     {"/", RD_ROUTE_EXACT, "GET", NULL, NULL, NULL, 0, rd_route_page, NULL},
     {"/index.html", RD_ROUTE_EXACT, "GET", NULL, NULL, NULL, 0, rd_route_page, NULL},

@@ -437,7 +437,11 @@ enum MHD_Result rd_route_grade_files(rd_req *r, const char *path)
     pthread_mutex_unlock(&g->mu);
     if (!copy)
         return rd_reply_error(r, 404, "not_found", NULL, "no such grade image (the last 256 grades are kept)");
-    return rd_reply(r, 200, "image/png", copy, len, 1);
+    /* A grade's images never change under its id; they stay while the
+     * last GRADES_KEPT grades do, so an hour of caching is safe enough. */
+    char tag[64];
+    snprintf(tag, sizeof tag, "%s-%s", id, what);
+    return rd_reply_immutable(r, "image/png", copy, len, 1, tag, 3600);
 }
 
 /* One assignment of the list: name, title, size, thresholds, scene address. */

@@ -325,7 +325,8 @@ enum MHD_Result rd_route_job_image_resumed(rd_req *r)
     if (info.status == RD_JQ_DONE && t->png) {
         unsigned char *png = t->png;
         t->png = NULL;
-        return rd_reply(r, 200, "image/png", png, t->len, 1);
+        static const char *const no_store[] = {MHD_HTTP_HEADER_CACHE_CONTROL, "no-store", NULL};
+        return rd_reply_with(r, 200, "image/png", png, t->len, 1, no_store);
     }
     if (info.status == RD_JQ_FAILED)
         return rd_reply_error(r, 409, "not_ready", &info.error, NULL);
@@ -393,8 +394,14 @@ enum MHD_Result rd_route_job(rd_req *r, const char *path)
                 ret = rd_reply_error(r, 409, "not_ready", &err, NULL);
             else
                 ret = rd_reply_error(r, 409, "no_image", &err, NULL);
+        } else if (now.status == RD_JQ_DONE) {
+            /* A finished job's image never changes under its id. */
+            char tag[40];
+            snprintf(tag, sizeof tag, "%s.png", now.id);
+            ret = rd_reply_immutable(r, "image/png", png, len, 1, tag, srv->opt.jobs.result_ttl_ms / 1e3);
         } else {
-            ret = rd_reply(r, 200, "image/png", png, len, 1);
+            static const char *const no_store[] = {MHD_HTTP_HEADER_CACHE_CONTROL, "no-store", NULL};
+            ret = rd_reply_with(r, 200, "image/png", png, len, 1, no_store);
         }
     } else {
         ret = rd_reply_error(r, 404, "not_found", NULL, "no such route");

@@ -5,12 +5,13 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <sys/socket.h>
 
 #include "job_queue.h"
 #include "scene_limits.h"
 
 typedef struct {
-    const char *listen_host; /* "127.0.0.1" */
+    const char *listen_host; /* "127.0.0.1", "::1", "localhost"; "": every address */
     uint16_t port;           /* 0: any free port */
     int http_threads;        /* libmicrohttpd's thread pool, >= 2 */
     rd_jq_options jobs;
@@ -27,7 +28,21 @@ typedef struct {
     const char *assignments_dir; /* graded assignments */
     const char *cache_dir;       /* grading references on disk; NULL: memory only */
     int log_json;
+    struct rd_log *log;      /* the daemon's log (log.h); NULL: text on stderr */
+    const char *trust_proxy; /* comma-separated proxy addresses whose X-Forwarded-For is believed */
+    const char *cors_origin; /* Access-Control-Allow-Origin; NULL: no CORS headers */
 } rd_server_options;
+
+/* A resolved listening address. */
+typedef struct {
+    struct sockaddr_storage addr;
+    socklen_t len;
+} rd_listen_addr;
+
+/* host (a name or an address; "" for every address) and port through
+ * getaddrinfo, the first answer; RD_ERR_INVALID with a message when it
+ * does not resolve. */
+rd_error_code rd_listen_resolve(const char *host, uint16_t port, rd_listen_addr *out, rd_error *err);
 
 typedef struct rd_server rd_server;
 

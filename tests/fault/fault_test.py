@@ -802,7 +802,7 @@ class Load:
             self.notes.append("the synchronous runaway render was answered before its client left (%s);"
                               " not counted" % (answered or "closed"))
             return
-        pat = re.compile(r"POST /v1/render \S+ \S+ \S+ job=([0-9a-f]+) \(connection closed early\)")
+        pat = re.compile(r"POST /v1/render\S* \S+ \S+ \S+ id=\S+ job=([0-9a-f]+) .*\(connection closed early\)")
         checked = set()
         last = "no log line says a /v1/render connection closed early"
         while time.monotonic() - t < 2.0 and not self.d.dead.is_set():

@@ -60,8 +60,13 @@ expect_exit 1 "serve: bad number" -- "$RAYD" serve --threads x
 grep -q -- "--threads: expected an integer in 1..1024, got 'x'" "$T/err" && ok || bad "serve --threads x: $(cat "$T/err")"
 expect_exit 1 "serve: bad --listen" -- "$RAYD" serve --listen nowhere
 expect_exit 1 "serve: unknown option" -- "$RAYD" serve --colour red
+expect_exit 0 "--version" -- "$RAYD" --version
+cp "$T/out" "$T/version1"
+grep -Eq '^rayd [0-9]+\.[0-9]+\.[0-9]+' "$T/out" && ok || bad "--version prints 'rayd X.Y.Z...': $(cat "$T/out")"
+expect_exit 0 "version" -- "$RAYD" version
+cmp -s "$T/out" "$T/version1" && ok || bad "rayd version and rayd --version differ"
 expect_exit 0 "serve --help" -- "$RAYD" serve --help
-grep -q -- "--memory-budget N" "$T/out" && grep -q "(default 64)" "$T/out" && ok || bad "serve --help lacks flags or defaults"
+grep -q -- "--memory-budget N" "$T/out" && grep -q "(default 64; RAYD_QUEUE)" "$T/out" && ok || bad "serve --help lacks flags or defaults"
 expect_exit 0 "limits" -- "$RAYD" limits
 grep -q -- "--max-samples *65536" "$T/out" && ok || bad "rayd limits: $(head -c 300 "$T/out")"
 expect_exit 1 "converge: --max-samples is its last row" -- "$RAYD" converge scenes/diffuse.cfg --max-samples 0

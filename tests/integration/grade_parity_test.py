@@ -180,7 +180,14 @@ def main():
             got = answer.get("error", {})
             check(got.get("code") == want_code, "%s: error code %s, expected %s" % (name, got.get("code"), want_code))
             message = got.get("message", "")
-            cli_message = err.strip()
+            # The command line adds a line naming the folder it searched,
+            # which the daemon never shows.
+            cli_lines = err.strip().splitlines()
+            cli_message = cli_lines[0] if cli_lines else ""
+            if want_code == "not_found" and "--assignment" in cli_args:
+                check(len(cli_lines) == 2 and cli_lines[1].startswith("rayd grade: searched ") and
+                      cli_args[cli_args.index("--assignments") + 1] in cli_lines[1],
+                      "%s: rayd grade names the folder it searched: %r" % (name, err))
             if cli_message.startswith("rayd grade: "):
                 cli_message = cli_message[len("rayd grade: "):]
             if "--scene" in cli_args:

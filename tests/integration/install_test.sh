@@ -1,0 +1,97 @@
+#!/bin/sh
+# make install and make uninstall, and an installed rayd used from another
+# folder: it finds its scenes and assignments in its compiled-in data
+# folder (serve, render, grade), a staged install (DESTDIR) holds every
+# file under the prefix, messages about a missing folder name it, and
+# uninstall leaves nothing behind.
+# Usage (from the repository root): sh tests/integration/install_test.sh
+set -u
+root=$(pwd)
+T=$(mktemp -d)
+pass=0
+fail=0
+ok() { pass=$((pass + 1)); }
+bad() {
+    fail=$((fail + 1))
+    echo "FAIL: $*"
+}
+daemon=""
+cleanup() {
+    [ -n "$daemon" ] && kill "$daemon" 2>/dev/null
+    rm -rf "$T"
+}
+trap cleanup EXIT
+
+prefix="$T/prefix"
+make --no-print-directory -s install PREFIX="$prefix" >"$T/make.log" 2>&1 || bad "make install PREFIX=$prefix: $(tail -5 "$T/make.log")"
+rayd="$prefix/bin/rayd"
+for f in bin/rayd share/man/man1/rayd.1 lib/systemd/system/rayd@.service share/doc/rayd/LICENSE \
+    share/rayd/scenes/phong.cfg share/rayd/scenes/assignments/phong.cfg share/rayd/scenes/generated/knot.obj; do
+    [ -f "$prefix/$f" ] && ok || bad "make install did not install $f"
+done
+
+# From a folder that has no scenes in it.
+mkdir "$T/elsewhere"
+cd "$T/elsewhere" || exit 1
+"$rayd" --version | grep -Eq '^rayd [0-9]' && ok || bad "the installed rayd --version: $("$rayd" --version)"
+"$rayd" render "$prefix/share/rayd/scenes/assignments/phong.cfg" -o phong.png 2>err && [ -s phong.png ] && ok ||
+    bad "the installed rayd renders: $(cat err)"
+"$rayd" render "$prefix/share/rayd/scenes/mesh.cfg" -o mesh.png --width 64 --height 48 2>err && ok ||
+    bad "a bundled scene's mesh resolves beside it: $(cat err)"
+"$rayd" grade --assignment phong --image phong.png >grade.out 2>err
+rc=$?
+[ "$rc" -eq 0 ] && grep -q '"pass":[[:space:]]*true' grade.out && ok ||
+    bad "the installed rayd grades against its own assignments (exit $rc): $(cat err)"
+
+"$rayd" serve --listen 127.0.0.1:0 --port-file "$T/port" 2>"$T/serve.log" &
+daemon=$!
+i=0
+while [ ! -s "$T/port" ] && [ $i -lt 100 ]; do sleep 0.1; i=$((i + 1)); done
+port=$(cat "$T/port" 2>/dev/null)
+url="http://127.0.0.1:$port"
+curl -sf "$url/v1/scenes" | grep -q '"phong.cfg"' && ok || bad "the installed daemon lists its bundled scenes"
+curl -sf "$url/v1/assignments" | grep -q '"phong"' && ok || bad "the installed daemon lists its assignments"
+code=$(curl -s -o grade.json -w '%{http_code}' -F assignment=phong -F image=@phong.png "$url/v1/grade")
+[ "$code" = 200 ] && grep -q '"pass":true' grade.json && ok || bad "the installed daemon grades (HTTP $code): $(head -c 300 grade.json)"
+grep -q "$prefix/share/rayd/scenes" "$T/serve.log" && ok || bad "the start-up line names the data folders: $(cat "$T/serve.log")"
+kill "$daemon"
+wait "$daemon" && ok || bad "the installed daemon stops on SIGTERM with 0"
+daemon=""
+
+# The man page says what --help says.
+man=$prefix/share/man/man1/rayd.1
+for want in '^\.TH RAYD' 'rayd serve' 'RAYD_THREADS' '\\-\\-assignments' 'limit'; do
+    grep -q -- "$want" "$man" && ok || bad "the man page lacks $want"
+done
+if command -v man >/dev/null 2>&1; then
+    MANWIDTH=100 man -l "$man" 2>/dev/null | grep -q -- "--memory-budget" && ok || bad "man -l rayd.1 does not show serve's flags"
+fi
+grep -q "ExecStart=$prefix/bin/rayd serve" "$prefix/lib/systemd/system/rayd@.service" && ok ||
+    bad "the unit runs the installed binary"
+
+# A staged install: every file under DESTDIR/PREFIX, nothing else; the
+# binary looks in PREFIX, and says so when it is not there yet.
+cd "$root" || exit 1
+stage="$T/stage"
+make --no-print-directory -s install DESTDIR="$stage" PREFIX=/opt/rayd-test >"$T/make2.log" 2>&1 || bad "make install DESTDIR: $(tail -5 "$T/make2.log")"
+outside=$(find "$stage" -type f | grep -cv "^$stage/opt/rayd-test/")
+[ "$outside" -eq 0 ] && ok || bad "$outside staged files lie outside DESTDIR/PREFIX"
+cd "$T/elsewhere" || exit 1
+staged="$stage/opt/rayd-test/bin/rayd"
+"$staged" serve --listen 127.0.0.1:0 2>err
+rc=$?
+[ "$rc" -eq 3 ] && grep -q "/opt/rayd-test/share/rayd/scenes" err && ok ||
+    bad "a missing data folder is named at start (exit $rc): $(cat err)"
+"$staged" grade --assignment phong --image phong.png 2>err >/dev/null
+grep -q "/opt/rayd-test/share/rayd/scenes/assignments" err && ok || bad "rayd grade names the folder it searched: $(cat err)"
+"$staged" grade --assignment phong --image phong.png --assignments "$stage/opt/rayd-test/share/rayd/scenes/assignments" \
+    >/dev/null 2>err && ok || bad "--assignments overrides the data folder: $(cat err)"
+
+# uninstall leaves nothing.
+cd "$root" || exit 1
+make --no-print-directory -s uninstall PREFIX="$prefix" >/dev/null 2>&1
+left=$(find "$prefix" -type f | wc -l)
+[ "$left" -eq 0 ] && ok || bad "make uninstall left $left files: $(find "$prefix" -type f | head -3)"
+
+echo "install: $pass passed, $fail failed"
+[ "$fail" -eq 0 ]
