@@ -5,6 +5,7 @@
 #include <netdb.h>
 #include <netinet/in.h>
 #include <poll.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -15,6 +16,7 @@
 
 #include "access.h"
 #include "http_internal.h"
+#include "log.h"
 #include "rayd/clock.h"
 #include "timed_wait.h"
 #include "version.h"
@@ -664,6 +666,19 @@ static rd_error_code start_checks(const rd_server_options *opt, rd_error *err)
     return opt->cache_dir ? make_dir(opt->cache_dir, err) : RD_OK;
 }
 
+/* libmicrohttpd's own messages go through the log, so a JSON log stays
+ * JSON on every line. */
+static void mhd_log(void *cls, const char *fmt, va_list ap)
+{
+    rd_server *s = cls;
+    char msg[1024];
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    size_t n = strlen(msg);
+    while (n > 0 && (msg[n - 1] == '\n' || msg[n - 1] == '\r'))
+        msg[--n] = 0;
+    rd_log_msg(s->opt.log, "warning", "libmicrohttpd: %s", msg);
+}
+
 static int start_mhd(rd_server *s, const rd_listen_addr *la)
 {
     const rd_server_options *opt = &s->opt;
@@ -673,12 +688,13 @@ static int start_mhd(rd_server *s, const rd_listen_addr *la)
     /* Behind trusted proxies every connection comes from a proxy: the
      * limit counts real clients instead (access.h). */
     unsigned per_ip = rd_access_trusts_proxies(s->access) ? 0 : opt->max_per_ip;
-    s->mhd = MHD_start_daemon(
-        flags, opt->port, NULL, NULL, on_request, s, MHD_OPTION_SOCK_ADDR, (const struct sockaddr *)&la->addr,
-        MHD_OPTION_THREAD_POOL_SIZE, (unsigned)(opt->http_threads < 2 ? 2 : opt->http_threads),
-        MHD_OPTION_CONNECTION_LIMIT, opt->max_connections, MHD_OPTION_PER_IP_CONNECTION_LIMIT, per_ip,
-        MHD_OPTION_CONNECTION_TIMEOUT, opt->connection_timeout_s, MHD_OPTION_URI_LOG_CALLBACK, on_uri, s,
-        MHD_OPTION_NOTIFY_CONNECTION, on_connection, s, MHD_OPTION_NOTIFY_COMPLETED, on_completed, s, MHD_OPTION_END);
+    s->mhd = MHD_start_daemon(flags, opt->port, NULL, NULL, on_request, s, MHD_OPTION_SOCK_ADDR,
+                              (const struct sockaddr *)&la->addr, MHD_OPTION_THREAD_POOL_SIZE,
+                              (unsigned)(opt->http_threads < 2 ? 2 : opt->http_threads), MHD_OPTION_CONNECTION_LIMIT,
+                              opt->max_connections, MHD_OPTION_PER_IP_CONNECTION_LIMIT, per_ip,
+                              MHD_OPTION_CONNECTION_TIMEOUT, opt->connection_timeout_s, MHD_OPTION_URI_LOG_CALLBACK,
+                              on_uri, s, MHD_OPTION_NOTIFY_CONNECTION, on_connection, s, MHD_OPTION_NOTIFY_COMPLETED,
+                              on_completed, s, MHD_OPTION_EXTERNAL_LOGGER, mhd_log, s, MHD_OPTION_END);
     return s->mhd != NULL;
 }
 

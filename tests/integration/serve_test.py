@@ -182,6 +182,22 @@ def test_json_log():
                 "the access line has client, user agent, request id and status: %r" % a)
 
 
+def test_library_messages_in_json():
+    # libmicrohttpd says something when a connection is refused at the
+    # limit; that line must be JSON too.
+    with Daemon(["--log-format", "json", "--max-connections", "1"]) as d:
+        a = socket.create_connection(("127.0.0.1", d.port))
+        b = socket.create_connection(("127.0.0.1", d.port))
+        time.sleep(0.5)
+        a.close()
+        b.close()
+    lines = [l for l in d.log().splitlines() if l.strip()]
+    lib = [l for l in lines if "libmicrohttpd" in l]
+    t.check(len(lib) >= 1, "the connection limit made libmicrohttpd say something: %r" % lines[-3:])
+    t.check(all(l.startswith("{") and json.loads(l).get("level") == "warning" for l in lib),
+            "libmicrohttpd's messages are JSON warnings: %r" % lib[:2])
+
+
 def test_text_log_and_proxy():
     with Daemon(["--trust-proxy", "127.0.0.1"]) as d:
         d.request("GET", "/healthz", headers={"X-Forwarded-For": "198.51.100.7, 127.0.0.1"})
@@ -275,6 +291,9 @@ def test_sighup():
 
 
 for test in [test_listen_forms, test_options_and_environment, test_start_checks, test_readyz, test_json_log,
-             test_text_log_and_proxy, test_per_client_limit, test_caching_headers, test_cors, test_sighup]:
-    test()
+             test_library_messages_in_json, test_text_log_and_proxy, test_per_client_limit, test_caching_headers, test_cors, test_sighup]:
+    try:
+        test()
+    except Exception as e:  # one broken feature must not hide the others' results
+        t.check(False, "%s raised %r" % (test.__name__, e))
 sys.exit(t.report())
