@@ -17,7 +17,7 @@ struct rd_server {
     rd_jq *jobs;
     atomic_int draining;
     uint16_t port;
-    atomic_ullong http_count[6]; /* 1xx..5xx answers, index = class; [0] unused */
+    struct rd_metrics *metrics; /* what /metrics reports of the HTTP side (metrics.h) */
     atomic_ullong requests;
     atomic_int waiting; /* suspended synchronous renders */
     atomic_int stopped;

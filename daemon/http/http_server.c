@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include "http_internal.h"
+#include "metrics.h"
 #include "rayd/clock.h"
 #include "timed_wait.h"
 
@@ -130,7 +131,7 @@ static void *on_uri(void *cls, const char *uri, struct MHD_Connection *conn)
     if (fd >= 0)
         shutdown(fd, SHUT_WR);
     atomic_fetch_add(&s->raw_refused, 1);
-    atomic_fetch_add(&s->http_count[4], 1);
+    rd_metrics_refused(s);
     return &refused_request;
 }
 
@@ -493,8 +494,7 @@ static void on_completed(void *cls, struct MHD_Connection *conn, void **con_cls,
     /* A kept-alive connection may idle for --connection-timeout, then has
      * the header deadline for its next request. */
     set_deadline(srv, conn, srv->opt.connection_timeout_s * 1e3 + srv->opt.header_timeout_ms);
-    if (r->status >= 100 && r->status < 600)
-        atomic_fetch_add(&srv->http_count[r->status / 100], 1);
+    rd_metrics_request_done(srv, r, rd_now_ms() - r->t0);
     log_request(srv, r, toe);
     if (r->job) {
         /* A client that went away no longer wants its render. */
@@ -557,6 +557,7 @@ static void free_server(rd_server *s)
     /* Workers may be finishing grades: the queue stops first. */
     rd_jq_stop(s->jobs);
     rd_grades_free(s->grades);
+    rd_metrics_free(s->metrics);
     pthread_mutex_destroy(&s->conn_mu);
     pthread_cond_destroy(&s->conn_cv);
     free(s);
@@ -574,8 +575,9 @@ rd_server *rd_server_start(const rd_server_options *opt, rd_error *err)
     pthread_cond_init(&s->conn_cv, NULL);
     s->jobs = rd_jq_start(&opt->jobs, err);
     s->grades = s->jobs ? rd_grades_new(s->jobs, &s->opt) : NULL;
-    if (!s->grades || pthread_create(&s->reaper, NULL, reaper, s) != 0) {
-        if (s->jobs && !s->grades)
+    s->metrics = s->grades ? rd_metrics_new(rd_jq_hist_cover(opt->jobs.job_timeout_ms)) : NULL;
+    if (!s->metrics || pthread_create(&s->reaper, NULL, reaper, s) != 0) {
+        if (s->jobs && !s->metrics)
             rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
         free_server(s);
         return NULL;
