@@ -27,6 +27,7 @@ static const rd_route routes[] = {
     {"/v1/scenes", RD_ROUTE_EXACT_OR_BELOW, "GET", NULL, NULL, NULL, 0, rd_route_scenes, NULL},
     {"/healthz", RD_ROUTE_EXACT, "GET", NULL, NULL, NULL, 0, health, NULL},
     {"/metrics", RD_ROUTE_EXACT, "GET", NULL, NULL, NULL, 0, rd_route_metrics, NULL},
+    {"/openapi.json", RD_ROUTE_EXACT, "GET", NULL, NULL, NULL, 0, rd_route_openapi, NULL},
     {"/", RD_ROUTE_EXACT, "GET", NULL, NULL, NULL, 0, rd_route_page, NULL},
     {"/index.html", RD_ROUTE_EXACT, "GET", NULL, NULL, NULL, 0, rd_route_page, NULL},
 };

@@ -79,3 +79,9 @@ enum MHD_Result rd_route_page(rd_req *r, const char *rest)
     (void)rest;
     return rd_reply(r, 200, "text/html; charset=utf-8", (void *)rd_web_index_html, strlen(rd_web_index_html), 0);
 }
+
+enum MHD_Result rd_route_openapi(rd_req *r, const char *rest)
+{
+    (void)rest;
+    return rd_reply(r, 200, "application/json", (void *)rd_openapi_json, strlen(rd_openapi_json), 0);
+}

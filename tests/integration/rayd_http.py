@@ -52,6 +52,13 @@ class Daemon:
         self.proc.kill()
         sys.exit("the daemon did not start; see %s" % self.log_path)
 
+    terminated = False
+
+    def terminate(self):
+        """SIGTERM: it drains, then exits."""
+        self.terminated = True
+        self.proc.send_signal(signal.SIGTERM)
+
     @property
     def pid(self):
         return self.proc.pid
@@ -67,8 +74,10 @@ class Daemon:
             c.close()
 
     def stop(self):
-        """SIGTERM to its pid; the exit status (-1 if it had to be killed)."""
-        self.proc.send_signal(signal.SIGTERM)
+        """SIGTERM to its pid (unless already sent); the exit status (-1 if
+        it had to be killed)."""
+        if not self.terminated:
+            self.terminate()
         try:
             rc = self.proc.wait(timeout=60)
         except subprocess.TimeoutExpired:
