@@ -126,52 +126,33 @@ static void family(rd_strbuf *out, const char *name, const char *type, const cha
     PUT("# HELP %s %s\n# TYPE %s %s\n", name, help, name, type);
 }
 
-/* A label value as the format wants it: backslash, quote and newline
- * escaped. */
-static void label_value(rd_strbuf *out, const char *v)
+/* A label value as the format wants it, into buf: backslash, quote and
+ * newline escaped. Cut short (at a whole character) rather than overrun. */
+static const char *escaped(char *buf, size_t size, const char *v)
 {
-    for (; *v; v++) {
-        if (*v == '\\' || *v == '"')
-            PUT("\\%c", *v);
-        else if (*v == '\n')
-            PUT("\\n");
-        else
-            PUT("%c", *v);
+    size_t n = 0;
+    for (; *v && n + 3 < size; v++) {
+        if (*v == '\\' || *v == '"' || *v == '\n')
+            buf[n++] = '\\';
+        buf[n++] = *v == '\n' ? 'n' : *v;
     }
+    buf[n] = 0;
+    return buf;
 }
 
-/* One histogram's samples; label, when not NULL, is name="value" put
- * before le. %.15g writes every bound exactly (0.005, 30, 7680). */
-static void histogram(rd_strbuf *out, const char *name, const char *label, const char *value, const rd_hist *h)
+/* One histogram's samples. labels: "" or the series' labels, escaped
+ * (route="/healthz"). %.15g writes every bound exactly (0.005, 30, 7680). */
+static void histogram(rd_strbuf *out, const char *name, const char *labels, const rd_hist *h)
 {
-    char pre[64] = "";
-    if (label)
-        snprintf(pre, sizeof pre, "%s=\"", label);
+    const char *sep = *labels ? "," : "", *open = *labels ? "{" : "", *close = *labels ? "}" : "";
     uint64_t cum = 0;
-    for (int b = 0; b <= h->n; b++) {
-        cum = b < h->n ? cum + h->count[b] : h->total;
-        PUT("%s_bucket{%s", name, pre);
-        if (label) {
-            label_value(out, value);
-            PUT("\",");
-        }
-        if (b < h->n)
-            PUT("le=\"%.15g\"} %llu\n", h->le[b], (unsigned long long)cum);
-        else
-            PUT("le=\"+Inf\"} %llu\n", (unsigned long long)cum);
+    for (int b = 0; b < h->n; b++) {
+        cum += h->count[b];
+        PUT("%s_bucket{%s%sle=\"%.15g\"} %llu\n", name, labels, sep, h->le[b], (unsigned long long)cum);
     }
-    for (int k = 0; k < 2; k++) {
-        PUT("%s_%s", name, k ? "count" : "sum");
-        if (label) {
-            PUT("{%s", pre);
-            label_value(out, value);
-            PUT("\"}");
-        }
-        if (k)
-            PUT(" %llu\n", (unsigned long long)h->total);
-        else
-            PUT(" %.6f\n", h->sum);
-    }
+    PUT("%s_bucket{%s%sle=\"+Inf\"} %llu\n", name, labels, sep, (unsigned long long)h->total);
+    PUT("%s_sum%s%s%s %.6f\n", name, open, labels, close, h->sum);
+    PUT("%s_count%s%s%s %llu\n", name, open, labels, close, (unsigned long long)h->total);
 }
 
 static void gauge(rd_strbuf *out, const char *name, const char *help, size_t v)
@@ -195,10 +176,10 @@ static void queue_metrics(rd_strbuf *out, const rd_jq_metrics *m)
     PUT("rayd_jobs_total{outcome=\"failed\"} %llu\n", (unsigned long long)m->failed);
     PUT("rayd_jobs_total{outcome=\"cancelled\"} %llu\n", (unsigned long long)m->cancelled);
     family(out, "rayd_render_seconds", "histogram", "Time from a job's start to its image.");
-    histogram(out, "rayd_render_seconds", NULL, NULL, &m->render_seconds);
+    histogram(out, "rayd_render_seconds", "", &m->render_seconds);
     family(out, "rayd_queue_wait_seconds", "histogram",
            "Time a job waited from its submission until a render thread started it.");
-    histogram(out, "rayd_queue_wait_seconds", NULL, NULL, &m->queue_wait_seconds);
+    histogram(out, "rayd_queue_wait_seconds", "", &m->queue_wait_seconds);
     counter(out, "rayd_rays_traced_total", "Camera, shadow and secondary rays traced.", m->rays);
     gauge(out, "rayd_result_bytes", "PNG bytes kept for finished jobs.", m->result_bytes);
     gauge(out, "rayd_jobs_kept", "Jobs whose status can still be read.", m->jobs_kept);
@@ -215,20 +196,21 @@ static void http_metrics(rd_strbuf *out, const rd_metrics *m)
         PUT("rayd_http_responses_total{code=\"%dxx\"} %llu\n", c, (unsigned long long)m->classes[c]);
     family(out, "rayd_http_requests_total", "counter",
            "HTTP answers by status and route (the route table's path; other: none matched).");
+    char route[256], labels[300];
     for (int i = 0; i < m->nroutes; i++)
-        for (int c = CODE_MIN; c <= CODE_MAX; c++) {
-            uint64_t n = m->routes[i].codes[c - CODE_MIN];
-            if (!n)
-                continue;
-            PUT("rayd_http_requests_total{code=\"%d\",route=\"", c);
-            label_value(out, m->routes[i].route);
-            PUT("\"} %llu\n", (unsigned long long)n);
-        }
+        for (int c = CODE_MIN; c <= CODE_MAX; c++)
+            if (m->routes[i].codes[c - CODE_MIN])
+                PUT("rayd_http_requests_total{code=\"%d\",route=\"%s\"} %llu\n", c,
+                    escaped(route, sizeof route, m->routes[i].route),
+                    (unsigned long long)m->routes[i].codes[c - CODE_MIN]);
     family(out, "rayd_http_request_duration_seconds", "histogram",
            "Time from a request's headers to its completion, by route.");
-    for (int i = 0; i < m->nroutes; i++)
-        if (m->routes[i].duration.total)
-            histogram(out, "rayd_http_request_duration_seconds", "route", m->routes[i].route, &m->routes[i].duration);
+    for (int i = 0; i < m->nroutes; i++) {
+        if (!m->routes[i].duration.total)
+            continue;
+        snprintf(labels, sizeof labels, "route=\"%s\"", escaped(route, sizeof route, m->routes[i].route));
+        histogram(out, "rayd_http_request_duration_seconds", labels, &m->routes[i].duration);
+    }
 }
 
 static void grade_metrics(rd_strbuf *out, const rd_metrics *m)
@@ -356,10 +338,9 @@ enum MHD_Result rd_route_metrics(rd_req *r, const char *rest)
     grade_metrics(&out, copy);
     free(copy);
     process_metrics(&out);
+    char version[256];
     family(&out, "rayd_build_info", "gauge", "The running build: its version as a label, value 1.");
-    rd_strbuf_printf(&out, "rayd_build_info{version=\"");
-    label_value(&out, rd_version());
-    rd_strbuf_printf(&out, "\"} 1\n");
+    rd_strbuf_printf(&out, "rayd_build_info{version=\"%s\"} 1\n", escaped(version, sizeof version, rd_version()));
     size_t n;
     char *text = rd_strbuf_take(&out, &n);
     if (!text)
