@@ -137,7 +137,7 @@ def validate(template, method, status, headers, body, url):
         resp, ptr = component_response("MethodNotAllowed")
         documented = {m.upper() for m in DOC["paths"].get(template, {}) if m in METHODS and m != "options"}
         allowed = {m.strip() for m in headers.get("allow", "").split(",") if m.strip()}
-        check(allowed and allowed <= documented,
+        check(allowed and allowed <= documented | {"HEAD", "OPTIONS"},
               "%s: Allow %s, the document lists %s" % (what, sorted(allowed), sorted(documented)))
         check(method.upper() not in documented or method == "options",
               "%s: 405 for a documented method" % what)
@@ -365,11 +365,11 @@ def listings(c):
     c.call("get", "/index.html", expect=200)
     status, _, data = c.call("get", "/openapi.json", expect=200)
     check(data == DOC_BYTES, "GET /openapi.json is not docs/openapi.json (rebuild after editing it)")
-    status, _, _ = c.call("get", "/readyz", validate_it=False)
+    status, hdrs, data = c.d.request("GET", "/readyz")
     if status == 404:
         print("openapi: note: GET /readyz answers 404 in this tree; not validated")
     else:
-        validate("/readyz", "get", status, *c.d.request("GET", "/readyz")[1:], url="/readyz")
+        validate("/readyz", "get", status, hdrs, data, "/readyz")
 
 
 def wrong_methods(c):
