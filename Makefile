@@ -56,7 +56,7 @@ TEST_SRC   := $(sort $(wildcard tests/unit/*/*.c tests/integration/*.c tests/cal
                   tests/support/*.c tests/stability/test_stability.c)) tests/stability/cases.c
 
 LIB_OBJ    := $(patsubst %.c,$(BUILD)/%.o,$(CORE_SRC) $(API_SRC))
-DAEMON_OBJ := $(patsubst %.c,$(BUILD)/%.o,$(DAEMON_SRC)) $(BUILD)/gen/web_page.o
+DAEMON_OBJ := $(patsubst %.c,$(BUILD)/%.o,$(DAEMON_SRC)) $(BUILD)/gen/web_page.o $(BUILD)/gen/openapi.o
 TEST_OBJ   := $(patsubst %.c,$(BUILD)/%.o,$(TEST_SRC))
 # The job queue's objects: tests/unit/daemon drives it without HTTP.
 JOBS_OBJ   := $(patsubst %.c,$(BUILD)/%.o,$(wildcard daemon/jobs/*.c))
@@ -92,6 +92,14 @@ $(BUILD)/gen/web_page.c: daemon/http/web/index.html daemon/http/web/embed.py
 	@/usr/bin/python3 daemon/http/web/embed.py $< rd_web_index_html > $@
 
 $(BUILD)/gen/web_page.o: $(BUILD)/gen/web_page.c
+	@$(CC) $(CFLAGS) -c $< -o $@
+
+# So is the OpenAPI description (GET /openapi.json).
+$(BUILD)/gen/openapi.c: docs/openapi.json daemon/http/web/embed.py
+	@mkdir -p $(dir $@)
+	@/usr/bin/python3 daemon/http/web/embed.py $< rd_openapi_json > $@
+
+$(BUILD)/gen/openapi.o: $(BUILD)/gen/openapi.c
 	@$(CC) $(CFLAGS) -c $< -o $@
 
 # The version: a release tarball's VERSION file, else `git describe`. The
@@ -133,6 +141,8 @@ check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/schema_test.py
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/grade_parity_test.py
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/serve_test.py
+	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/metrics_test.py
+	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/openapi_test.py
 
 # gcc plain, then clang with AddressSanitizer and UndefinedBehaviorSanitizer,
 # then the web page in headless Chromium, the fault test against the plain

@@ -176,14 +176,18 @@ static enum MHD_Result add_arg(void *cls, enum MHD_ValueKind kind, const char *k
     return MHD_YES;
 }
 
+void rd_access_new_id(rd_access *a, char *buf, size_t size)
+{
+    snprintf(buf, size, "%016llx", (unsigned long long)rd_mix64(a->key ^ atomic_fetch_add(&a->next_id, 1)));
+}
+
 void rd_access_begin(rd_access *a, rd_req *r)
 {
     const char *id = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, "X-Request-Id");
     if (plain_id(id))
         snprintf(r->request_id, sizeof r->request_id, "%s", id);
     else
-        snprintf(r->request_id, sizeof r->request_id, "%016llx",
-                 (unsigned long long)rd_mix64(a->key ^ atomic_fetch_add(&a->next_id, 1)));
+        rd_access_new_id(a, r->request_id, sizeof r->request_id);
     peer_address(r->conn, r->client, sizeof r->client);
     const char *xff = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, "X-Forwarded-For");
     if (xff && a->nproxies && trusted(a, r->client))

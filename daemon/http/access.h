@@ -6,6 +6,8 @@
 #ifndef RD_ACCESS_H
 #define RD_ACCESS_H
 
+#include <stddef.h>
+
 #include "rayd/error.h"
 #include "server.h"
 
@@ -19,6 +21,9 @@ void rd_access_free(rd_access *a);
 
 /* 1 when the proxy addresses are trusted (MHD's per-IP limit is then off). */
 int rd_access_trusts_proxies(const rd_access *a);
+
+/* A new request id (16 hex digits) into buf (>= 17 bytes). */
+void rd_access_new_id(rd_access *a, char *buf, size_t size);
 
 /* At a request's first call: its id, client, user agent and query. */
 void rd_access_begin(rd_access *a, struct rd_req *r);

@@ -17,7 +17,7 @@ struct rd_server {
     rd_jq *jobs;
     atomic_int draining;
     uint16_t port;
-    atomic_ullong http_count[6]; /* 1xx..5xx answers, index = class; [0] unused */
+    struct rd_metrics *metrics; /* what /metrics reports of the HTTP side (metrics.h) */
     atomic_ullong requests;
     atomic_int waiting; /* suspended synchronous renders */
     atomic_int stopped;
@@ -145,6 +145,8 @@ enum MHD_Result rd_route_job_image_resumed(rd_req *r);
 enum MHD_Result rd_route_scenes(rd_req *r, const char *rest);
 enum MHD_Result rd_route_metrics(rd_req *r, const char *rest);
 enum MHD_Result rd_route_page(rd_req *r, const char *rest);
+/* GET /openapi.json: docs/openapi.json, built in. */
+enum MHD_Result rd_route_openapi(rd_req *r, const char *rest);
 /* The list, or with rest "/NAME/scene" that assignment's scene text. */
 enum MHD_Result rd_route_assignments(rd_req *r, const char *rest);
 /* POST /v1/grade: the form read as it arrives, answered at its end. */
@@ -175,5 +177,8 @@ void rd_grades_free(struct rd_grades *g);
 
 /* The web page, generated from daemon/http/web/index.html. */
 extern const char rd_web_index_html[];
+
+/* The OpenAPI description, generated from docs/openapi.json. */
+extern const char rd_openapi_json[];
 
 #endif

@@ -17,6 +17,7 @@
 #include "access.h"
 #include "http_internal.h"
 #include "log.h"
+#include "metrics.h"
 #include "rayd/clock.h"
 #include "timed_wait.h"
 #include "version.h"
@@ -125,10 +126,12 @@ static void *on_uri(void *cls, const char *uri, struct MHD_Connection *conn)
                       "{\"error\":{\"code\":\"too_many_arguments\",\"message\":\"the query has %u arguments, "
                       "over the limit of %u (--max-query-args)\"}}",
                       args, s->opt.max_query_args);
+    char id[24];
+    rd_access_new_id(s->access, id, sizeof id);
     int hl = snprintf(head, sizeof head,
                       "HTTP/1.1 431 Request Header Fields Too Large\r\nContent-Type: application/json\r\n"
-                      "Content-Length: %d\r\nConnection: close\r\n\r\n",
-                      bl);
+                      "Content-Length: %d\r\nX-Request-Id: %s\r\nConnection: close\r\n\r\n",
+                      bl, id);
     const union MHD_ConnectionInfo *ci = MHD_get_connection_info(conn, MHD_CONNECTION_INFO_CONNECTION_FD);
     int fd = ci ? ci->connect_fd : -1;
     if (fd >= 0 && send(fd, head, (size_t)hl, MSG_NOSIGNAL | MSG_DONTWAIT) == hl)
@@ -136,7 +139,7 @@ static void *on_uri(void *cls, const char *uri, struct MHD_Connection *conn)
     if (fd >= 0)
         shutdown(fd, SHUT_WR);
     atomic_fetch_add(&s->raw_refused, 1);
-    atomic_fetch_add(&s->http_count[4], 1);
+    rd_metrics_refused(s);
     return &refused_request;
 }
 
@@ -539,8 +542,7 @@ static void on_completed(void *cls, struct MHD_Connection *conn, void **con_cls,
     /* A kept-alive connection may idle for --connection-timeout, then has
      * the header deadline for its next request. */
     set_deadline(srv, conn, srv->opt.connection_timeout_s * 1e3 + srv->opt.header_timeout_ms);
-    if (r->status >= 100 && r->status < 600)
-        atomic_fetch_add(&srv->http_count[r->status / 100], 1);
+    rd_metrics_request_done(srv, r, rd_now_ms() - r->t0);
     rd_access_log(&srv->opt, r, rd_now_ms() - r->t0, toe != MHD_REQUEST_TERMINATED_COMPLETED_OK);
     rd_access_end(srv->access, r);
     if (r->job) {
@@ -605,6 +607,7 @@ static void free_server(rd_server *s)
     rd_jq_stop(s->jobs);
     rd_grades_free(s->grades);
     rd_access_free(s->access);
+    rd_metrics_free(s->metrics);
     pthread_mutex_destroy(&s->conn_mu);
     pthread_cond_destroy(&s->conn_cv);
     free(s);
@@ -714,8 +717,9 @@ rd_server *rd_server_start(const rd_server_options *opt, rd_error *err)
     s->access = rd_access_new(opt, err);
     s->jobs = s->access ? rd_jq_start(&opt->jobs, err) : NULL;
     s->grades = s->jobs ? rd_grades_new(s->jobs, &s->opt) : NULL;
-    if (!s->grades || pthread_create(&s->reaper, NULL, reaper, s) != 0) {
-        if (s->jobs && !s->grades)
+    s->metrics = s->grades ? rd_metrics_new(rd_jq_hist_cover(opt->jobs.job_timeout_ms)) : NULL;
+    if (!s->metrics || pthread_create(&s->reaper, NULL, reaper, s) != 0) {
+        if (s->jobs && !s->metrics)
             rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
         free_server(s);
         return NULL;

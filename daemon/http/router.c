@@ -39,6 +39,7 @@ static const rd_route routes[] = {
     {"/healthz", RD_ROUTE_EXACT, "GET", NULL, NULL, NULL, 0, health, NULL},
     {"/readyz", RD_ROUTE_EXACT, "GET", NULL, NULL, NULL, 0, rd_route_ready, NULL},
     {"/metrics", RD_ROUTE_EXACT, "GET", NULL, NULL, NULL, 0, rd_route_metrics, NULL},
+    {"/openapi.json", RD_ROUTE_EXACT, "GET", NULL, NULL, NULL, 0, rd_route_openapi, NULL},
     {"/", RD_ROUTE_EXACT, "GET", NULL, NULL, NULL, 0, rd_route_page, NULL},
     {"/index.html", RD_ROUTE_EXACT, "GET", NULL, NULL, NULL, 0, rd_route_page, NULL},
 };

@@ -14,6 +14,7 @@
 #include "hash.h"
 #include "http_internal.h"
 #include "json_text.h"
+#include "metrics.h"
 #include "png_write.h"
 #include "rayd/clock.h"
 #include "scene_load.h"
@@ -316,6 +317,7 @@ static rd_error_code prepare_grade(void *arg, rd_scene *s, int *render, rd_error
     t->image = NULL;
     if (rc)
         return rc;
+    rd_metrics_reference(t->srv, t->out.reference != NULL);
     *render = !t->out.reference;
     return RD_OK;
 }
@@ -390,12 +392,14 @@ enum MHD_Result rd_route_grade_resumed(rd_req *r)
     if (info.status == RD_JQ_DONE && t->json) {
         char *json = t->json;
         t->json = NULL;
+        rd_metrics_grade(r->srv, t->out.result.pass ? RD_VERDICT_PASS : RD_VERDICT_FAIL);
         return rd_reply_json(r, 200, json);
     }
     if (info.status == RD_JQ_FAILED) {
         /* A failed render of the reference fails the grade there. */
         rd_grade_stage stage = t->out.stage ? t->out.stage : RD_GRADE_STAGE_REFERENCE;
         rd_error_answer a = rd_grade_error_answer(stage, info.error.code);
+        rd_metrics_grade(r->srv, RD_VERDICT_ERROR);
         return rd_reply_error(r, a.http, a.code, &info.error, NULL);
     }
     if (info.hung_up)

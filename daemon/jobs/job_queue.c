@@ -17,7 +17,7 @@
 #include "rayd/job.h"
 #include "timed_wait.h"
 
-const double rd_jq_buckets[RD_JQ_BUCKETS] = {0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1, 2.5, 5, 10, 30};
+double rd_jq_hist_cover(double job_timeout_ms) { return job_timeout_ms > 0 ? job_timeout_ms / 1e3 : 3600; }
 
 enum { TILE_PENDING, TILE_RENDERING, TILE_DONE };
 
@@ -98,9 +98,8 @@ struct rd_jq {
     size_t active_count, running_count, result_bytes, reserved;
     atomic_llong external;
     uint64_t counter, key;
-    uint64_t n_done, n_failed, n_cancelled, rays, render_count;
-    double render_sum;
-    uint64_t buckets[RD_JQ_BUCKETS];
+    uint64_t n_done, n_failed, n_cancelled, rays;
+    rd_hist render, wait;
 };
 
 const char *rd_jq_status_name(rd_jq_status s)
@@ -311,12 +310,7 @@ static void count_outcome(rd_jq *q, const rd_jq_job *j, rd_jq_status st)
 {
     if (st == RD_JQ_DONE) {
         q->n_done++;
-        double sec = (j->t_end - j->t_start) / 1e3;
-        q->render_sum += sec;
-        q->render_count++;
-        for (int b = 0; b < RD_JQ_BUCKETS; b++)
-            if (sec <= rd_jq_buckets[b])
-                q->buckets[b]++;
+        rd_hist_observe(&q->render, (j->t_end - j->t_start) / 1e3);
     } else if (st == RD_JQ_FAILED) {
         q->n_failed++;
     } else {
@@ -501,6 +495,15 @@ static void prepare_job(rd_jq *q, rd_jq_job *j)
         notify_locked(q, j);
 }
 
+/* A render thread takes the job up: the end of its wait in the queue.
+ * Under q->mu. */
+static void mark_started(rd_jq *q, rd_jq_job *j)
+{
+    j->t_start = rd_now_ms();
+    if (!j->internal)
+        rd_hist_observe(&q->wait, (j->t_start - j->t_submit) / 1e3);
+}
+
 /* Called once a job's last tile or its preparation is done: the task's
  * finish or the PNG, outside the lock. Under q->mu (released and taken
  * again). */
@@ -508,7 +511,7 @@ static void finish_job(rd_jq *q, rd_jq_job *j)
 {
     j->ph = PH_FINISHING;
     if (j->t_start == 0)
-        j->t_start = rd_now_ms();
+        mark_started(q, j);
     pthread_mutex_unlock(&q->mu);
     rd_error err = {0};
     rd_error_code rc = RD_OK;
@@ -545,7 +548,7 @@ static void finish_job(rd_jq *q, rd_jq_job *j)
 static void start_job(rd_jq *q, rd_jq_job *j)
 {
     j->ph = PH_STARTING;
-    j->t_start = rd_now_ms();
+    mark_started(q, j);
     charge(q, j, j->footprint);
     pthread_mutex_unlock(&q->mu);
     rd_job *core = NULL;
@@ -751,6 +754,8 @@ rd_jq *rd_jq_start(const rd_jq_options *opt, rd_error *err)
         return NULL;
     }
     q->opt = *opt;
+    rd_hist_init(&q->render, rd_jq_hist_cover(opt->job_timeout_ms));
+    rd_hist_init(&q->wait, rd_jq_hist_cover(opt->job_timeout_ms));
     if (q->opt.workers < 1)
         q->opt.workers = 1;
     if (q->opt.kept_max < 1)
@@ -1070,9 +1075,8 @@ void rd_jq_metrics_get(rd_jq *q, rd_jq_metrics *m)
     m->failed = q->n_failed;
     m->cancelled = q->n_cancelled;
     m->rays = q->rays;
-    m->render_seconds_sum = q->render_sum;
-    m->render_count = q->render_count;
-    memcpy(m->render_seconds_bucket, q->buckets, sizeof q->buckets);
+    m->render_seconds = q->render;
+    m->queue_wait_seconds = q->wait;
     m->result_bytes = q->result_bytes;
     m->jobs_kept = q->all.n;
     m->memory_budget = q->opt.memory_budget;

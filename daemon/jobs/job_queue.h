@@ -25,6 +25,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "histogram.h"
 #include "png_write.h"
 #include "rayd/error.h"
 #include "rayd/progress.h"
@@ -147,22 +148,21 @@ void rd_jq_release_png(rd_jq *q, rd_jq_job *j);
  * budget: delta bytes more (or fewer). */
 void rd_jq_external_bytes(rd_jq *q, long long delta);
 
-/* The render-seconds histogram: its buckets (upper bounds in seconds). */
-enum { RD_JQ_BUCKETS = 12 };
+/* The duration histograms' bounds reach this many seconds: the job timeout,
+ * or an hour when there is none, so renders (and waits) up to the longest
+ * a job may take fall in finite buckets. */
+double rd_jq_hist_cover(double job_timeout_ms);
 
 typedef struct {
     size_t queued, running, waiting_memory;
     uint64_t done, failed, cancelled;
     uint64_t rays;
-    double render_seconds_sum;
-    uint64_t render_seconds_bucket[RD_JQ_BUCKETS]; /* cumulative, upper bounds in rd_jq_buckets */
-    uint64_t render_count;
+    rd_hist render_seconds;     /* jobs done: from their start to their image */
+    rd_hist queue_wait_seconds; /* jobs started: from their submission to a render thread starting them */
     size_t result_bytes;
     size_t jobs_kept;
     size_t memory_budget, memory_reserved, external_bytes;
 } rd_jq_metrics;
-
-extern const double rd_jq_buckets[RD_JQ_BUCKETS];
 
 void rd_jq_metrics_get(rd_jq *q, rd_jq_metrics *m);
 

@@ -19,17 +19,16 @@ import json
 import os
 import shutil
 import signal
-import struct
 import subprocess
 import sys
 import tempfile
 import time
 import urllib.error
 import urllib.request
-import uuid
-import zlib
 
-RAYD = os.environ.get("RAYD", "build/rayd")
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+from rayd_http import RAYD, form, png  # noqa: E402
+
 LIMITS = ["--max-samples", "16"]
 passed = failed = 0
 
@@ -41,28 +40,6 @@ def check(cond, what):
     else:
         failed += 1
         print("FAIL:", what, file=sys.stderr)
-
-
-def png(width, height, rgb_of):
-    """An 8-bit RGB PNG whose pixel (x, y) is rgb_of(x, y)."""
-    rows = b"".join(b"\0" + bytes(c for x in range(width) for c in rgb_of(x, y)) for y in range(height))
-
-    def chunk(kind, data):
-        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
-
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)) +
-            chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b""))
-
-
-def form(fields):
-    """multipart/form-data body and its Content-Type for {name: bytes}."""
-    boundary = uuid.uuid4().hex
-    body = b""
-    for name, value in fields.items():
-        filename = '; filename="%s"' % name if name in ("image", "scene") else ""
-        body += ('--%s\r\nContent-Disposition: form-data; name="%s"%s\r\n\r\n' %
-                 (boundary, name, filename)).encode() + value + b"\r\n"
-    return body + ("--%s--\r\n" % boundary).encode(), "multipart/form-data; boundary=" + boundary
 
 
 def post_grade(port, fields):

@@ -21,12 +21,18 @@ import threading
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
-from rayd_daemon import RAYD, Checks, Daemon  # noqa: E402
+from rayd_http import RAYD, Checks  # noqa: E402
+from rayd_http import Daemon as _Daemon  # noqa: E402
 
 t = Checks("serve_test")
 SCENE = open("scenes/phong.cfg", "rb").read()
 SLOW = open("scenes/area_light.cfg", "rb").read()
 SLOW_QUERY = "/v1/render?width=320&height=240&samples=4096"
+
+
+def Daemon(flags=(), **kw):
+    """A daemon with its own temporary folder."""
+    return _Daemon(tempfile.mkdtemp(prefix="rayd-serve-test-"), flags, **kw)
 
 
 def run(args, env=None):
@@ -53,39 +59,39 @@ def test_listen_forms():
     for listen, host in forms:
         with Daemon(listen=listen, host=host) as d:
             status, _, body = d.request("GET", "/healthz")
-            t.check(status == 200, "--listen %s: GET /healthz over %s answers %d" % (listen, host, status))
+            t(status == 200, "--listen %s: GET /healthz over %s answers %d" % (listen, host, status))
     # --listen=VALUE is the same as --listen VALUE.
     with Daemon(["--listen=127.0.0.1:0"], listen=None) as d:
-        t.check(d.request("GET", "/healthz")[0] == 200, "--listen=127.0.0.1:0 serves")
+        t(d.request("GET", "/healthz")[0] == 200, "--listen=127.0.0.1:0 serves")
     for bad in ["no-such-host.invalid:80", "127.0.0.1", "127.0.0.1:65536", "::1:80", "127.0.0.1:http", "[::1:80"]:
         rc, _, err = run(["serve", "--listen", bad])
-        t.check(rc == 1 and "--listen" in err and bad in err,
+        t(rc == 1 and "--listen" in err and bad in err,
                 "--listen %s is a usage error naming the flag and value (exit %d, %r)" % (bad, rc, err.strip()))
 
 
 def test_options_and_environment():
     rc, out, _ = run(["serve", "--help"])
     flags = re.findall(r"^  --([a-z-]+) ", out, re.M)
-    t.check(rc == 0 and len(flags) >= 20, "serve --help lists its flags (%d)" % len(flags))
+    t(rc == 0 and len(flags) >= 20, "serve --help lists its flags (%d)" % len(flags))
     for f in flags:
         env = "RAYD_" + f.upper().replace("-", "_")
-        t.check(env in out, "serve --help names %s for --%s" % (env, f))
+        t(env in out, "serve --help names %s for --%s" % (env, f))
     with Daemon(env={"RAYD_THREADS": "1"}) as d:
-        t.check("(1 render threads" in d.log(), "RAYD_THREADS=1 sets the render threads: " + d.log()[:200])
+        t("(1 render threads" in d.text(), "RAYD_THREADS=1 sets the render threads: " + d.text()[:200])
     with Daemon(["--threads", "2"], env={"RAYD_THREADS": "1"}) as d:
-        t.check("(2 render threads" in d.log(), "--threads wins over RAYD_THREADS")
-    d = Daemon(listen=None, env={"RAYD_LISTEN": "127.0.0.1:0"}).start()
-    t.check(d.request("GET", "/healthz")[0] == 200, "RAYD_LISTEN sets the address")
+        t("(2 render threads" in d.text(), "--threads wins over RAYD_THREADS")
+    d = Daemon(listen=None, env={"RAYD_LISTEN": "127.0.0.1:0"})
+    t(d.request("GET", "/healthz")[0] == 200, "RAYD_LISTEN sets the address")
     d.stop()
     rc, _, err = run(["serve"], env={"RAYD_THREADS": "many"})
-    t.check(rc == 1 and "RAYD_THREADS" in err, "a bad RAYD_THREADS is a usage error naming it: %r" % err)
+    t(rc == 1 and "RAYD_THREADS" in err, "a bad RAYD_THREADS is a usage error naming it: %r" % err)
     rc, _, err = run(["serve"], env={"RAYD_MAX_PIXELS": "0"})
     limit_env = "RAYD_MAX_PIXELS" in err or "RAYD_LIMIT_PIXELS" in err
-    t.check(rc == 1 or not limit_env, "a limit's environment variable is read")
+    t(rc == 1 or not limit_env, "a limit's environment variable is read")
     rc, _, err = run(["serve", "--no-such-flag", "1"])
-    t.check(rc == 1 and "--no-such-flag" in err, "an unknown flag is a usage error: %r" % err)
+    t(rc == 1 and "--no-such-flag" in err, "an unknown flag is a usage error: %r" % err)
     rc, _, err = run(["serve", "--threads"])
-    t.check(rc == 1 and "--threads" in err, "a flag without its value is a usage error: %r" % err)
+    t(rc == 1 and "--threads" in err, "a flag without its value is a usage error: %r" % err)
 
 
 def test_start_checks():
@@ -93,17 +99,17 @@ def test_start_checks():
     missing = os.path.join(tmp, "nothing-here")
     for flag in ["--scenes", "--assignments"]:
         rc, _, err = run(["serve", "--listen", "127.0.0.1:0", flag, missing])
-        t.check(rc == 3 and missing in err and flag in err,
+        t(rc == 3 and missing in err and flag in err,
                 "%s of a missing folder fails at start naming it (exit %d, %r)" % (flag, rc, err.strip()))
     blocker = os.path.join(tmp, "a-file")
     open(blocker, "w").close()
     bad_cache = os.path.join(blocker, "cache")
     rc, _, err = run(["serve", "--listen", "127.0.0.1:0", "--cache-dir", bad_cache])
-    t.check(rc == 3 and "--cache-dir" in err and blocker in err,
+    t(rc == 3 and "--cache-dir" in err and blocker in err,
             "a --cache-dir that cannot be created fails at start (exit %d, %r)" % (rc, err.strip()))
     made = os.path.join(tmp, "new", "nested", "cache")
     with Daemon(["--cache-dir", made]) as d:
-        t.check(os.path.isdir(made), "--cache-dir is created when missing")
+        t(os.path.isdir(made), "--cache-dir is created when missing")
     shutil.rmtree(tmp)
 
 
@@ -131,53 +137,53 @@ def wait_running(d, n=1, timeout=10):
 
 
 def test_readyz():
-    d = Daemon(["--threads", "1", "--drain-ms", "3000"]).start()
+    d = Daemon(["--threads", "1", "--drain-ms", "3000"])
     status, headers, body = d.request("GET", "/readyz")
-    t.check(status == 200 and json.loads(body)["status"] == "ready", "/readyz is 200 once started")
+    t(status == 200 and json.loads(body)["status"] == "ready", "/readyz is 200 once started")
     results = []
     th = slow_render(d, results=results)
-    t.check(wait_running(d), "the slow render runs")
+    t(wait_running(d), "the slow render runs")
     d.send(signal.SIGTERM)
     time.sleep(0.3)
     status, headers, body = d.request("GET", "/readyz")
-    t.check(status == 503 and "draining" in json.loads(body).get("reasons", []),
+    t(status == 503 and "draining" in json.loads(body).get("reasons", []),
             "/readyz is 503 draining while it drains (%d %r)" % (status, body))
     status, _, _ = d.request("GET", "/healthz")
-    t.check(status == 200, "/healthz stays 200 while draining (%d)" % status)
+    t(status == 200, "/healthz stays 200 while draining (%d)" % status)
     th.join()
-    t.check(d.stop() == 0, "SIGTERM exits 0")
+    t(d.stop() == 0, "SIGTERM exits 0")
 
 
 def test_json_log():
     with Daemon(["--log-format", "json"]) as d:
         status, headers, _ = d.request("GET", "/healthz?probe=1", headers={"User-Agent": "checker/1.0"})
         rid = headers.get("x-request-id", "")
-        t.check(re.fullmatch(r"[0-9a-f]{16}", rid) is not None, "an answer carries X-Request-Id: %r" % rid)
+        t(re.fullmatch(r"[0-9a-f]{16}", rid) is not None, "an answer carries X-Request-Id: %r" % rid)
         status, headers, _ = d.request("GET", "/no/such", headers={"X-Request-Id": "abc-123.x"})
-        t.check(headers.get("x-request-id") == "abc-123.x", "a caller's plain X-Request-Id is kept")
+        t(headers.get("x-request-id") == "abc-123.x", "a caller's plain X-Request-Id is kept")
         status, headers, _ = d.request("GET", "/healthz", headers={"X-Request-Id": "bad id with spaces"})
-        t.check(headers.get("x-request-id") != "bad id with spaces", "a caller's odd X-Request-Id is replaced")
+        t(headers.get("x-request-id") != "bad id with spaces", "a caller's odd X-Request-Id is replaced")
         d.send(signal.SIGHUP)
         time.sleep(0.3)
-    lines = [l for l in d.log().splitlines() if l.strip()]
+    lines = [l for l in d.text().splitlines() if l.strip()]
     objs = []
     for l in lines:
         try:
             objs.append(json.loads(l))
         except ValueError:
-            t.check(False, "every log line is JSON: %r" % l)
-    t.check(len(objs) == len(lines) and len(objs) >= 6, "every line of the JSON log parses (%d)" % len(objs))
-    t.check(all({"time", "level", "msg"} <= set(o) for o in objs), "every JSON line has time, level and msg")
+            t(False, "every log line is JSON: %r" % l)
+    t(len(objs) == len(lines) and len(objs) >= 6, "every line of the JSON log parses (%d)" % len(objs))
+    t(all({"time", "level", "msg"} <= set(o) for o in objs), "every JSON line has time, level and msg")
     msgs = " | ".join(o["msg"] for o in objs)
-    t.check("listening on" in msgs and "stopped" in msgs and "SIGHUP" in msgs,
+    t("listening on" in msgs and "stopped" in msgs and "SIGHUP" in msgs,
             "start-up, SIGHUP and shutdown are logged as JSON: " + msgs[:300])
     start = next((o for o in objs if "listening on" in o["msg"]), {})
-    t.check(bool(start.get("version")) and start.get("port") == d.port, "the start-up line has version and port")
+    t(bool(start.get("version")) and start.get("port") == d.port, "the start-up line has version and port")
     acc = [o for o in objs if o.get("path") == "/healthz" and o.get("query") == "probe=1"]
-    t.check(len(acc) == 1, "the access line has the query string")
+    t(len(acc) == 1, "the access line has the query string")
     if acc:
         a = acc[0]
-        t.check(a.get("client") == "127.0.0.1" and a.get("user_agent") == "checker/1.0" and
+        t(a.get("client") == "127.0.0.1" and a.get("user_agent") == "checker/1.0" and
                 a.get("request_id") == rid and a.get("status") == 200,
                 "the access line has client, user agent, request id and status: %r" % a)
 
@@ -191,10 +197,10 @@ def test_library_messages_in_json():
         time.sleep(0.5)
         a.close()
         b.close()
-    lines = [l for l in d.log().splitlines() if l.strip()]
+    lines = [l for l in d.text().splitlines() if l.strip()]
     lib = [l for l in lines if "libmicrohttpd" in l]
-    t.check(len(lib) >= 1, "the connection limit made libmicrohttpd say something: %r" % lines[-3:])
-    t.check(all(l.startswith("{") and json.loads(l).get("level") == "warning" for l in lib),
+    t(len(lib) >= 1, "the connection limit made libmicrohttpd say something: %r" % lines[-3:])
+    t(all(l.startswith("{") and json.loads(l).get("level") == "warning" for l in lib),
             "libmicrohttpd's messages are JSON warnings: %r" % lib[:2])
 
 
@@ -202,28 +208,28 @@ def test_text_log_and_proxy():
     with Daemon(["--trust-proxy", "127.0.0.1"]) as d:
         d.request("GET", "/healthz", headers={"X-Forwarded-For": "198.51.100.7, 127.0.0.1"})
         d.request("GET", "/healthz", headers={"X-Forwarded-For": "not-an-address, 203.0.113.9"})
-    log = d.log()
-    t.check(re.search(r"Z 198\.51\.100\.7 GET /healthz 200 ", log) is not None,
+    log = d.text()
+    t(re.search(r"Z 198\.51\.100\.7 GET /healthz 200 ", log) is not None,
             "behind a trusted proxy the client is the X-Forwarded-For address: " + log[-400:])
-    t.check(re.search(r"Z 203\.0\.113\.9 GET /healthz 200 ", log) is not None,
+    t(re.search(r"Z 203\.0\.113\.9 GET /healthz 200 ", log) is not None,
             "the walk stops at an entry that is not an address")
     with Daemon() as d:
         d.request("GET", "/healthz", headers={"X-Forwarded-For": "198.51.100.7"})
-    t.check(re.search(r"Z 127\.0\.0\.1 GET /healthz 200 ", d.log()) is not None and "198.51.100.7" not in d.log(),
+    t(re.search(r"Z 127\.0\.0\.1 GET /healthz 200 ", d.text()) is not None and "198.51.100.7" not in d.text(),
             "without --trust-proxy X-Forwarded-For is ignored")
     rc, _, err = run(["serve", "--listen", "127.0.0.1:0", "--trust-proxy", "10.0.0.1,proxy.example"])
-    t.check(rc != 0 and "proxy.example" in err, "--trust-proxy refuses what is not an address: %r" % err.strip())
+    t(rc != 0 and "proxy.example" in err, "--trust-proxy refuses what is not an address: %r" % err.strip())
 
 
 def test_per_client_limit():
-    d = Daemon(["--trust-proxy", "127.0.0.1", "--max-per-ip", "1", "--threads", "1"]).start()
+    d = Daemon(["--trust-proxy", "127.0.0.1", "--max-per-ip", "1", "--threads", "1"])
     results = []
     th = slow_render(d, headers={"X-Forwarded-For": "192.0.2.1"}, results=results)
-    t.check(wait_running(d), "the first client's render runs")
+    t(wait_running(d), "the first client's render runs")
     same, _, _ = d.request("GET", "/healthz", headers={"X-Forwarded-For": "192.0.2.1"})
     other, _, _ = d.request("GET", "/healthz", headers={"X-Forwarded-For": "192.0.2.2"})
-    t.check(same == 429, "--max-per-ip counts the real client behind the proxy: a second request gets %d" % same)
-    t.check(other == 200, "another client behind the same proxy is served (%d)" % other)
+    t(same == 429, "--max-per-ip counts the real client behind the proxy: a second request gets %d" % same)
+    t(other == 200, "another client behind the same proxy is served (%d)" % other)
     d.stop()
     th.join()
 
@@ -238,28 +244,28 @@ def test_caching_headers():
             time.sleep(0.05)
         status, headers, png = d.request("GET", "/v1/jobs/%s/image" % job)
         etag = headers.get("etag", "")
-        t.check(status == 200 and etag.startswith('"') and job in etag, "a job image has an ETag: %r" % etag)
-        t.check("immutable" in headers.get("cache-control", ""), "and Cache-Control immutable")
+        t(status == 200 and etag.startswith('"') and job in etag, "a job image has an ETag: %r" % etag)
+        t("immutable" in headers.get("cache-control", ""), "and Cache-Control immutable")
         status, headers, body = d.request("GET", "/v1/jobs/%s/image" % job, headers={"If-None-Match": etag})
-        t.check(status == 304 and body == b"", "If-None-Match of its ETag answers 304 without a body (%d)" % status)
+        t(status == 304 and body == b"", "If-None-Match of its ETag answers 304 without a body (%d)" % status)
         status, _, again = d.request("GET", "/v1/jobs/%s/image" % job, headers={"If-None-Match": '"other"'})
-        t.check(status == 200 and again == png, "another ETag gets the image again")
+        t(status == 200 and again == png, "another ETag gets the image again")
 
 
 def test_cors():
     with Daemon() as d:
         status, headers, _ = d.request("OPTIONS", "/v1/render")
-        t.check(status == 204 and "POST" in headers.get("allow", ""), "OPTIONS answers 204 with Allow")
-        t.check("access-control-allow-origin" not in headers, "no CORS headers without --cors-origin")
+        t(status == 204 and "POST" in headers.get("allow", ""), "OPTIONS answers 204 with Allow")
+        t("access-control-allow-origin" not in headers, "no CORS headers without --cors-origin")
         status, headers, _ = d.request("OPTIONS", "/no/such")
-        t.check(status == 404, "OPTIONS of no route is 404 (%d)" % status)
+        t(status == 404, "OPTIONS of no route is 404 (%d)" % status)
     with Daemon(["--cors-origin", "https://course.example"]) as d:
         status, headers, _ = d.request("OPTIONS", "/v1/jobs", headers={
             "Origin": "https://course.example", "Access-Control-Request-Method": "POST"})
-        t.check(status == 204 and headers.get("access-control-allow-origin") == "https://course.example" and
+        t(status == 204 and headers.get("access-control-allow-origin") == "https://course.example" and
                 "POST" in headers.get("access-control-allow-methods", ""), "a preflight is answered: %r" % headers)
         status, headers, _ = d.request("GET", "/healthz", headers={"Origin": "https://course.example"})
-        t.check(headers.get("access-control-allow-origin") == "https://course.example" and
+        t(headers.get("access-control-allow-origin") == "https://course.example" and
                 "X-Request-Id" in headers.get("access-control-expose-headers", "") and
                 headers.get("vary") == "Origin", "answers carry the CORS headers: %r" % headers)
 
@@ -270,7 +276,7 @@ def test_sighup():
     assignments = os.path.join(tmp, "assignments")
     os.mkdir(assignments)
     shutil.copy("scenes/assignments/phong.cfg", assignments)
-    d = Daemon(["--log-file", log, "--assignments", assignments]).start()
+    d = Daemon(["--log-file", log, "--assignments", assignments])
     d.request("GET", "/healthz?before=1")
     os.rename(log, log + ".1")
     shutil.copy("scenes/assignments/diffuse.cfg", assignments)
@@ -283,9 +289,9 @@ def test_sighup():
     d.stop()
     old = open(log + ".1").read()
     new = open(log).read() if os.path.exists(log) else ""
-    t.check("before=1" in old and "after=1" not in old, "lines before SIGHUP stay in the rotated file")
-    t.check("after=1" in new and "SIGHUP" in new and "stopped" in new, "SIGHUP reopens the log file: %r" % new)
-    t.check(re.search(r"SIGHUP: reloaded.*names=diffuse,phong", new) is not None,
+    t("before=1" in old and "after=1" not in old, "lines before SIGHUP stay in the rotated file")
+    t("after=1" in new and "SIGHUP" in new and "stopped" in new, "SIGHUP reopens the log file: %r" % new)
+    t(re.search(r"SIGHUP: reloaded.*names=diffuse,phong", new) is not None,
             "SIGHUP reads the assignments again and logs them")
     shutil.rmtree(tmp)
 
@@ -295,5 +301,5 @@ for test in [test_listen_forms, test_options_and_environment, test_start_checks,
     try:
         test()
     except Exception as e:  # one broken feature must not hide the others' results
-        t.check(False, "%s raised %r" % (test.__name__, e))
-sys.exit(t.report())
+        t(False, "%s raised %r" % (test.__name__, e))
+sys.exit(t.summary())

@@ -108,6 +108,37 @@ Test(job_queue, eviction_drops_the_oldest_finished)
     rd_jq_stop(q);
 }
 
+/* /metrics' render and queue-wait histograms reach the job timeout (with
+ * none, an hour), and count every job the queue started. */
+Test(job_queue, histograms_cover_the_job_timeout)
+{
+    static const double timeouts[] = {0, 5000, 120000, 600000, 86400e3};
+    for (size_t i = 0; i < sizeof timeouts / sizeof timeouts[0]; i++) {
+        rd_jq_options o = options();
+        o.job_timeout_ms = timeouts[i];
+        rd_error err;
+        rd_jq *q = rd_jq_start(&o, &err);
+        cr_assert_not_null(q);
+        for (int k = 0; k < 2; k++) {
+            rd_jq_job *j = submit(q, small_scene, NULL, RD_OK);
+            wait_status(q, j, RD_JQ_DONE, 10000);
+            rd_jq_job_unref(j);
+        }
+        rd_jq_metrics m;
+        rd_jq_metrics_get(q, &m);
+        double cover = timeouts[i] > 0 ? timeouts[i] / 1e3 : 3600;
+        const rd_hist *h[] = {&m.render_seconds, &m.queue_wait_seconds};
+        for (int k = 0; k < 2; k++) {
+            cr_assert_geq(h[k]->le[h[k]->n - 1], cover, "timeout %g ms: histogram %d ends at %g s", timeouts[i], k,
+                          h[k]->le[h[k]->n - 1]);
+            cr_assert_eq(h[k]->le[0], 0.005);
+            cr_assert_eq(h[k]->total, 2, "histogram %d counted %llu jobs of 2", k, (unsigned long long)h[k]->total);
+            cr_assert_geq(h[k]->sum, 0);
+        }
+        rd_jq_stop(q);
+    }
+}
+
 /* Past the id table's first 64 slots and its growth: the newest kept_max
  * stay findable by id, the older ones and ids that are not ours are not. */
 Test(job_queue, many_jobs_keep_exactly_the_newest)

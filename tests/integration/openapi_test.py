@@ -1,0 +1,520 @@
+#!/usr/bin/env python3
+"""docs/openapi.json against the daemon.
+
+  - GET /openapi.json is docs/openapi.json, byte for byte;
+  - every row of the route table (daemon/http/router.c) is a documented
+    path with its methods, and every documented operation is a route;
+  - real requests covering every route and the statuses the handlers send
+    (200, 202, 400, 404, 405, 409, 413, 415, 422, 431, 503, ...): each
+    answer's status is documented for its path and method, its
+    Content-Type is one documented for that status, its required headers
+    are there, documented headers match their schemas, and a JSON body
+    validates against the documented JSON Schema ($refs resolved against
+    the document's components);
+  - a fixed list of (path, method, status) must have been exercised, so a
+    status the test stopped provoking is noticed.
+
+Paths that are documented ahead of the code (/readyz, OPTIONS answered 204
+with --cors-origin) are skipped with a note while the daemon answers them
+404 or does not know the flag.
+
+Usage: RAYD=build/rayd /usr/bin/python3 tests/integration/openapi_test.py
+(from the repository root). Daemons listen on 127.0.0.1 on ports they pick
+and are stopped by their pid.
+"""
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+import jsonschema
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+from rayd_http import RAYD, Checks, Daemon, form, png, render_png
+
+check = Checks("openapi")
+DOC_PATH = "docs/openapi.json"
+with open(DOC_PATH, "rb") as f:
+    DOC_BYTES = f.read()
+DOC = json.loads(DOC_BYTES)
+METHODS = ("get", "put", "post", "delete", "options", "head", "patch", "trace")
+exercised = set()  # (path template, method, status)
+validators = {}
+
+
+def pointer(parts):
+    return "#/" + "/".join(str(p).replace("~", "~0").replace("/", "~1") for p in parts)
+
+
+def deref(obj):
+    """Follows an OpenAPI $ref (within the document) to what it names."""
+    while isinstance(obj, dict) and "$ref" in obj:
+        node = DOC
+        for part in obj["$ref"][2:].split("/"):
+            node = node[part.replace("~1", "/").replace("~0", "~")]
+        obj = node
+    return obj
+
+
+def schema_errors(ptr, instance):
+    """JSON Schema errors of instance against the schema at ptr, $refs
+    resolved in the whole document (OpenAPI 3.1 schemas are 2020-12)."""
+    if ptr not in validators:
+        root = dict(DOC)
+        root["$ref"] = ptr
+        validators[ptr] = jsonschema.Draft202012Validator(root)
+    return ["%s at %s" % (e.message, "/".join(map(str, e.absolute_path)) or "the top")
+            for e in validators[ptr].iter_errors(instance)]
+
+
+def response_of(template, method, status):
+    """(the documented response object, its JSON pointer) or (None, None)."""
+    op = DOC["paths"].get(template, {}).get(method)
+    if op is None:
+        return None, None
+    r = op["responses"].get(str(status))
+    if r is None:
+        return None, None
+    ptr = r["$ref"] if "$ref" in r else pointer(["paths", template, method, "responses", str(status)])
+    return deref(r), ptr
+
+
+def component_response(name):
+    return deref({"$ref": "#/components/responses/" + name}), "#/components/responses/" + name
+
+
+def media_key(content, ctype):
+    """The documented media type a Content-Type answers, or None."""
+    if ctype in content:
+        return ctype
+    base = ctype.split(";")[0].strip().lower()
+    for key in content:
+        if ";" not in key and key.lower() == base:
+            return key
+    return None
+
+
+def validate_against(what, resp, ptr, status, headers, body):
+    """Checks one answer against one documented response object."""
+    for name, h in resp.get("headers", {}).items():
+        h = deref(h)
+        value = headers.get(name.lower())
+        if h.get("required"):
+            check(value is not None, "%s: %d lacks the required header %s" % (what, status, name))
+        if value is not None and "schema" in h:
+            errs = jsonschema.Draft202012Validator(h["schema"]).iter_errors(value)
+            for e in errs:
+                check(False, "%s: header %s: %r: %s" % (what, name, value, e.message))
+    content = resp.get("content")
+    ctype = headers.get("content-type")
+    if not content:
+        check(not body, "%s: %d has a body the document does not describe" % (what, status))
+        return
+    key = media_key(content, ctype or "")
+    if not check(key is not None, "%s: %d Content-Type %r is not one of %s" % (what, status, ctype, list(content))):
+        return
+    if key.startswith("application/json"):
+        try:
+            data = json.loads(body)
+        except ValueError as e:
+            check(False, "%s: %d: the body is not JSON: %s" % (what, status, e))
+            return
+        errs = schema_errors(ptr + "/content/" + key.replace("~", "~0").replace("/", "~1") + "/schema", data)
+        check(not errs, "%s: %d: the body does not match the schema: %s\n  %s" % (what, status, errs[:3],
+                                                                                body[:300]))
+    elif key.startswith("image/png"):
+        check(body.startswith(b"\x89PNG\r\n\x1a\n"), "%s: %d: image/png that is not a PNG" % (what, status))
+
+
+def validate(template, method, status, headers, body, url):
+    """One answer to method url, which the document names template."""
+    what = "%s %s" % (method.upper(), url)
+    exercised.add((template, method, status))
+    if status == 405:
+        resp, ptr = component_response("MethodNotAllowed")
+        documented = {m.upper() for m in DOC["paths"].get(template, {}) if m in METHODS and m != "options"}
+        allowed = {m.strip() for m in headers.get("allow", "").split(",") if m.strip()}
+        check(allowed and allowed <= documented | {"HEAD", "OPTIONS"},
+              "%s: Allow %s, the document lists %s" % (what, sorted(allowed), sorted(documented)))
+        check(method.upper() not in documented or method == "options",
+              "%s: 405 for a documented method" % what)
+    elif status == 431:
+        resp, ptr = component_response("TooManyArguments")
+    else:
+        resp, ptr = response_of(template, method, status)
+        if not check(resp is not None, "%s: status %d is not documented for %s %s" %
+                     (what, status, method.upper(), template)):
+            return
+    validate_against(what, resp, ptr, status, headers, body)
+
+
+class Client:
+    def __init__(self, daemon):
+        self.d = daemon
+
+    def call(self, method, template, url=None, body=None, headers=None, expect=None, validate_it=True):
+        url = url or template
+        status, hdrs, data = self.d.request(method.upper(), url, body=body, headers=headers)
+        if expect is not None:
+            check(status == expect, "%s %s answered %d, the test expected %d: %s" %
+                  (method.upper(), url, status, expect, data[:200]))
+        if validate_it:
+            validate(template, method, status, hdrs, data, url)
+        return status, hdrs, data
+
+
+# ---- the route table --------------------------------------------------
+
+def route_table():
+    """(path, match, methods) of every row of daemon/http/router.c."""
+    with open("daemon/http/router.c") as f:
+        text = f.read()
+    return re.findall(r'\{"(/[^"]*)", RD_ROUTE_(EXACT|BELOW|EXACT_OR_BELOW), "([^"]*)"', text)
+
+
+def matches(row_path, match, template):
+    url = re.sub(r"\{[^}]+\}", "x", template)
+    exact = url == row_path
+    below = url.startswith(row_path.rstrip("/") + "/") and url != row_path
+    return (exact and match != "BELOW") or (below and match != "EXACT")
+
+
+def check_route_table():
+    rows = route_table()
+    check(len(rows) >= 10, "read %d rows from router.c" % len(rows))
+    documented = {(t, m.upper()) for t, item in DOC["paths"].items() for m in item if m in METHODS and m != "options"}
+    for path, match, methods in rows:
+        templates = [t for t in DOC["paths"] if matches(path, match, t)]
+        check(templates, "router.c's %s (%s) is not documented" % (path, match))
+        for m in (x.strip() for x in methods.split(",")):
+            check(any((t, m) in documented for t in templates), "router.c's %s %s is not documented" % (m, path))
+    for t, m in sorted(documented):
+        # The first row that matches is the one the server uses.
+        row = next((r for r in rows if matches(r[0], r[1], t)), None)
+        if row is None:
+            print("openapi: note: %s %s is documented but not in this tree's route table" % (m, t))
+            continue
+        allowed = row[2]
+        if row[0] == "/v1/jobs" and row[1] == "BELOW":
+            allowed = "GET" if t.endswith("/image") else "GET, DELETE"  # job_allow in router.c
+        check(m in [x.strip() for x in allowed.split(",")] or m == "GET" and "HEAD" in allowed,
+              "%s %s is documented but router.c's %s takes %s" % (m, t, row[0], allowed))
+
+
+def check_document():
+    check(DOC.get("openapi", "").startswith("3.1."), "openapi is %r" % DOC.get("openapi"))
+    refs = re.findall(r'"\$ref": "([^"]+)"', DOC_BYTES.decode())
+    for r in set(refs):
+        try:
+            deref({"$ref": r})
+            check(True, r)
+        except (KeyError, TypeError):
+            check(False, "the $ref %s does not resolve" % r)
+    for t, item in DOC["paths"].items():
+        for m, op in item.items():
+            if m in METHODS:
+                check(op.get("responses"), "%s %s has no responses" % (m, t))
+                for status, r in op["responses"].items():
+                    r = deref(r)
+                    for key, media in r.get("content", {}).items():
+                        if key.startswith("application/json"):
+                            check("schema" in media, "%s %s %s: no schema for JSON" % (m, t, status))
+                            jsonschema.Draft202012Validator.check_schema(deref(media["schema"]))
+
+
+# ---- requests ---------------------------------------------------------
+
+SCENE = ("[render]\nwidth = 16\nheight = 12\n[light]\ntype = point\nposition = 0 5 5\ncolor = 1 1 1\n"
+         "[material m]\ntype = diffuse\nkd = 0.5 0.5 0.5\n[sphere]\ncenter = 0 0 0\nradius = 1\nmaterial = m\n")
+# One pixel takes minutes: 65536 samples under a 64x64-sample area light.
+RUNAWAY = ("[render]\nwidth = 4\nheight = 1\nsamples = 65536\n[camera]\neye = 0 2 6\ntarget = 0 0.5 0\n"
+           "[light]\ntype = area\ncorner = -1 6 -1\nedge1 = 2 0 0\nedge2 = 0 0 2\nsamples = 64\ncolor = 1 1 1\n"
+           "[material m]\ntype = diffuse\nkd = 0.7 0.7 0.7\n[sphere]\ncenter = 0 0.8 0\nradius = 0.8\nmaterial = m\n"
+           "[plane]\npoint = 0 0 0\nnormal = 0 1 0\nmaterial = m\n")
+CFG = {"Content-Type": "text/x-rayd-cfg"}
+MAX_BODY = 65536
+
+
+def job_state(c, job_id):
+    status, _, data = c.call("get", "/v1/jobs/{id}", "/v1/jobs/" + job_id)
+    return json.loads(data) if status == 200 else {}
+
+
+def wait_for(c, job_id, states, timeout=60):
+    end = time.time() + timeout
+    while time.time() < end:
+        st = job_state(c, job_id).get("status")
+        if st in states:
+            return st
+        time.sleep(0.05)
+    check(False, "job %s did not reach %s in %d s" % (job_id, states, timeout))
+    return None
+
+
+def submit(c, scene, query="", expect=202):
+    status, hdrs, data = c.call("post", "/v1/jobs", "/v1/jobs" + query, scene.encode(), CFG, expect=expect)
+    return json.loads(data).get("id", "") if status == 202 else ""
+
+
+def renders(c):
+    R = "/v1/render"
+    c.call("post", R, R + "?width=8&height=6&samples=2&max_depth=3&gamma=2.2&seed=7", SCENE.encode(), CFG, 200)
+    c.call("post", R, R + "?time_budget_ms=50&target_error=0.5&adaptive=1", SCENE.encode(),
+           {"Content-Type": "text/plain"}, 200)
+    with open("scenes/phong.json", "rb") as f:
+        c.call("post", R, R + "?width=8&height=6", f.read(), {"Content-Type": "application/json"}, 200)
+    c.call("post", R, R + "?width=8&height=6", SCENE.encode(), {"Content-Type": "application/octet-stream"}, 200)
+    for q in ("?width=0", "?width=wide", "?gamma=0", "?seed=-1", "?target_error=0", "?adaptive=2",
+              "?max_depth=65", "?samples=65537"):
+        c.call("post", R, R + q, SCENE.encode(), CFG, 400)
+    c.call("post", R, R, b"", CFG, 400)
+    c.call("post", R, R, b"[render]\nwidth = 64O\n", CFG, 400)
+    c.call("post", R, R + "?width=1000&height=1000", SCENE.encode(), CFG, 413)  # --max-pixels
+    c.call("post", R, R, b"#" * (MAX_BODY + 1), CFG, 413)  # --max-body-bytes, refused by Content-Length
+    c.call("post", R, R, png(2, 2, lambda x, y: (0, 0, 0)), {"Content-Type": "image/png"}, 415)
+    c.call("post", R, R, SCENE.replace("material = m\n", "material = nosuch\n").encode(), CFG, 422)
+    c.call("post", R, R, (SCENE + "[mesh]\nfile = nosuch.obj\nmaterial = m\n").encode(), CFG, 422)
+    c.call("post", R, R, RUNAWAY.encode(), CFG, 422)  # past --job-timeout-ms: time_limit
+
+
+def jobs(c):
+    J, I = "/v1/jobs/{id}", "/v1/jobs/{id}/image"
+    done = submit(c, SCENE, "?width=8&height=6&hdr=1")
+    wait_for(c, done, ("done",))
+    c.call("get", I, "/v1/jobs/%s/image" % done, expect=200)
+    c.call("get", I, "/v1/jobs/%s/image?partial=1" % done, expect=200)
+    status, _, _ = c.call("get", I, "/v1/jobs/%s/image" % done, headers={"Accept": "image/x-exr"})
+    check(status in (200, 406), "image with Accept: image/x-exr answered %d" % status)
+    c.call("delete", J, "/v1/jobs/" + done, expect=200)
+    c.call("post", "/v1/jobs", "/v1/jobs?width=0", SCENE.encode(), CFG, 400)
+    c.call("post", "/v1/jobs", "/v1/jobs", SCENE.replace("material = m\n", "material = nosuch\n").encode(), CFG, 422)
+    c.call("post", "/v1/jobs", "/v1/jobs", b"", CFG, 400)
+    c.call("post", "/v1/jobs", "/v1/jobs", b"x", {"Content-Type": "application/pdf"}, 415)
+    c.call("post", "/v1/jobs", "/v1/jobs?width=1000&height=1000", SCENE.encode(), CFG, 413)
+    # A runaway: running, its image not ready, a partial image, then past its time limit: failed.
+    slow = submit(c, RUNAWAY)
+    wait_for(c, slow, ("running",))
+    c.call("get", I, "/v1/jobs/%s/image" % slow, expect=409)
+    c.call("get", I, "/v1/jobs/%s/image?partial=1" % slow, expect=200)
+    wait_for(c, slow, ("failed",))
+    c.call("get", I, "/v1/jobs/%s/image" % slow, expect=409)
+    # Another, cancelled.
+    gone = submit(c, RUNAWAY)
+    c.call("delete", J, "/v1/jobs/" + gone, expect=200)
+    wait_for(c, gone, ("cancelled",))
+    c.call("get", I, "/v1/jobs/%s/image" % gone, expect=409)
+    for url in ("/v1/jobs/0000000000000000", "/v1/jobs/" + "9" * 40):
+        c.call("get", J, url, expect=404)
+        c.call("delete", J, url, expect=404)
+    c.call("get", I, "/v1/jobs/0000000000000000/image", expect=404)
+
+
+def grades(c, tmp):
+    G = "/v1/grade"
+    scene_path = os.path.join(tmp, "small.cfg")
+    with open(scene_path, "w") as f:
+        f.write(SCENE)
+    good = render_png(scene_path, os.path.join(tmp, "small.png"))
+    wrong = png(16, 12, lambda x, y: (255, 0, 255))
+
+    def post(fields, expect, ctype=None):
+        body, ct = form(fields)
+        return c.call("post", G, G, body, {"Content-Type": ctype or ct}, expect)
+
+    status, _, data = post({"scene": SCENE.encode(), "image": good}, 200)
+    verdict = json.loads(data) if status == 200 else {}
+    check(verdict.get("pass") is True, "the rendered image did not pass: %s" % verdict)
+    post({"scene": SCENE.encode(), "image": wrong}, 200)
+    post({"assignment": b"tiny", "image": good}, 200)
+    for name in ("diff.png", "reference.png", "image.png"):
+        c.call("get", "/v1/grades/{id}/{file}", "/v1/grades/%s/%s" % (verdict.get("id"), name), expect=200)
+    c.call("get", "/v1/grades/{id}/{file}", "/v1/grades/%s/other.png" % verdict.get("id"), expect=404)
+    c.call("get", "/v1/grades/{id}/{file}", "/v1/grades/g0000000000000000/diff.png", expect=404)
+    post({"scene": SCENE.encode()}, 400)  # no image
+    post({"scene": SCENE.encode(), "assignment": b"tiny", "image": good}, 400)
+    post({"assignment": b"x" * 100, "image": good}, 400)
+    post({"scene": b"[render]\nwidth = 64O\n", "image": good}, 400)
+    post({"assignment": b"nosuch", "image": good}, 404)
+    post({"scene": SCENE.encode(), "image": b"\x89PNG" + b"\0" * (MAX_BODY + 10)}, 413)
+    post({"scene": SCENE.encode(), "image": good}, 415, ctype="text/plain")
+    post({"scene": SCENE.encode(), "image": b"GIF89a......"}, 415)
+    post({"scene": SCENE.encode(), "image": good[:60]}, 422)  # bad_image
+    post({"scene": SCENE.encode(), "image": png(4, 3, lambda x, y: (0, 0, 0))}, 422)  # size_mismatch
+    post({"assignment": b"broken", "image": good}, 422)  # bad_assignment
+    post({"scene": SCENE.replace("material = m\n", "material = nosuch\n").encode(), "image": good}, 422)
+
+
+def listings(c):
+    c.call("get", "/v1/assignments", expect=200)
+    c.call("get", "/v1/assignments/{name}", "/v1/assignments/tiny", expect=200)
+    c.call("get", "/v1/assignments/{name}/scene", "/v1/assignments/tiny/scene", expect=200)
+    c.call("get", "/v1/assignments/{name}/scene", "/v1/assignments/nosuch/scene", expect=404)
+    c.call("get", "/v1/assignments/{name}", "/v1/assignments/nosuch", expect=404)
+    c.call("get", "/v1/scenes", expect=200)
+    c.call("get", "/v1/scenes/{name}", "/v1/scenes/phong", expect=200)
+    c.call("get", "/v1/scenes/{name}", "/v1/scenes/phong.cfg", expect=200)
+    c.call("get", "/v1/scenes/{name}", "/v1/scenes/phong.json", expect=200)
+    c.call("get", "/v1/scenes/{name}", "/v1/scenes/nosuch", expect=404)
+    c.call("get", "/v1/scenes/{name}", "/v1/scenes/..%2Fphong.cfg", expect=404)
+    c.call("get", "/healthz", expect=200)
+    c.call("get", "/metrics", expect=200)
+    c.call("get", "/", expect=200)
+    c.call("get", "/index.html", expect=200)
+    status, _, data = c.call("get", "/openapi.json", expect=200)
+    check(data == DOC_BYTES, "GET /openapi.json is not docs/openapi.json (rebuild after editing it)")
+    status, hdrs, data = c.d.request("GET", "/readyz")
+    if status == 404:
+        print("openapi: note: GET /readyz answers 404 in this tree; not validated")
+    else:
+        validate("/readyz", "get", status, hdrs, data, "/readyz")
+
+
+def wrong_methods(c):
+    for method, template, url in (("post", "/healthz", "/healthz"), ("get", "/v1/render", "/v1/render"),
+                                  ("get", "/v1/jobs", "/v1/jobs"), ("put", "/v1/jobs/{id}", "/v1/jobs/x"),
+                                  ("delete", "/v1/jobs/{id}/image", "/v1/jobs/x/image"),
+                                  ("post", "/metrics", "/metrics"), ("delete", "/v1/scenes", "/v1/scenes"),
+                                  ("get", "/v1/grade", "/v1/grade")):
+        c.call(method, template, url, body=b"" if method in ("post", "put") else None, expect=405)
+    c.call("get", "/healthz", "/healthz?" + "&".join("a%d=1" % i for i in range(70)), expect=431)
+    status, hdrs, data = c.d.request("GET", "/no/such/route")
+    check(status == 404 and not schema_errors("#/components/schemas/Error", json.loads(data)),
+          "an undocumented path: %d %s" % (status, data[:200]))
+
+
+def options(c):
+    """OPTIONS on every path: 204 with Allow, and no CORS header without --cors-origin."""
+    for template in DOC["paths"]:
+        url = re.sub(r"\{[^}]+\}", "x", template)
+        status, hdrs, data = c.call("options", template, url, expect=204)
+        check("access-control-allow-origin" not in hdrs and "allow" in hdrs,
+              "OPTIONS %s without --cors-origin: Allow and no CORS header: %r" % (url, hdrs))
+
+
+def cors(tmp):
+    d = Daemon(tmp, ["--threads", "1", "--cors-origin", "http://example.test"])
+    try:
+        c = Client(d)
+        for template in DOC["paths"]:
+            url = re.sub(r"\{[^}]+\}", "x", template)
+            status, hdrs, data = c.call("options", template, url, headers={
+                "Origin": "http://example.test", "Access-Control-Request-Method": "GET"}, expect=204)
+            check(hdrs.get("access-control-allow-origin") == "http://example.test" and
+                  "access-control-allow-methods" in hdrs, "OPTIONS %s: the preflight headers: %r" % (url, hdrs))
+    finally:
+        check(d.stop() == 0, "the CORS daemon did not exit 0")
+
+
+def small_limits(tmp):
+    """A queue of one (503 queue_full) and no result memory (404 expired)."""
+    d = Daemon(tmp, ["--threads", "1", "--queue", "1", "--result-memory", "1", "--job-timeout-ms", "20000"])
+    try:
+        c = Client(d)
+        slow = submit(c, RUNAWAY)
+        c.call("post", "/v1/render", "/v1/render", SCENE.encode(), CFG, 503)
+        c.call("post", "/v1/jobs", "/v1/jobs", SCENE.encode(), CFG, 503)
+        body, ct = form({"scene": SCENE.encode(), "image": png(16, 12, lambda x, y: (0, 0, 0))})
+        c.call("post", "/v1/grade", "/v1/grade", body, {"Content-Type": ct}, 503)
+        c.call("delete", "/v1/jobs/{id}", "/v1/jobs/" + slow, expect=200)
+        wait_for(c, slow, ("cancelled",))
+        done = submit(c, SCENE)
+        wait_for(c, done, ("done",))
+        c.call("get", "/v1/jobs/{id}/image", "/v1/jobs/%s/image" % done, expect=404)  # expired
+    finally:
+        check(d.stop() == 0, "the small daemon did not exit 0")
+
+
+def draining(d, c):
+    """SIGTERM while a job runs: new work gets 503 draining until it ends."""
+    slow = submit(c, RUNAWAY)
+    wait_for(c, slow, ("running",))
+    d.terminate()
+    time.sleep(0.3)
+    c.call("post", "/v1/render", "/v1/render", SCENE.encode(), CFG, 503)
+    c.call("post", "/v1/jobs", "/v1/jobs", SCENE.encode(), CFG, 503)
+    body, ct = form({"scene": SCENE.encode(), "image": png(16, 12, lambda x, y: (0, 0, 0))})
+    c.call("post", "/v1/grade", "/v1/grade", body, {"Content-Type": ct}, 503)
+    status, _, _ = c.call("get", "/readyz", validate_it=False)
+    if status != 404:
+        c.call("get", "/readyz", expect=503)
+
+
+# What the test must have provoked: a status it stops provoking fails it.
+REQUIRED = {
+    ("/v1/render", "post"): {200, 400, 413, 415, 422, 503},
+    ("/v1/jobs", "post"): {202, 400, 413, 415, 422, 503},
+    ("/v1/jobs/{id}", "get"): {200, 404}, ("/v1/jobs/{id}", "delete"): {200, 404},
+    ("/v1/jobs/{id}/image", "get"): {200, 404, 409},
+    ("/v1/grade", "post"): {200, 400, 404, 413, 415, 422, 503},
+    ("/v1/assignments", "get"): {200}, ("/v1/assignments/{name}", "get"): {200, 404},
+    ("/v1/assignments/{name}/scene", "get"): {200, 404}, ("/v1/grades/{id}/{file}", "get"): {200, 404},
+    ("/v1/scenes", "get"): {200}, ("/v1/scenes/{name}", "get"): {200, 404},
+    ("/healthz", "get"): {200, 431}, ("/healthz", "post"): {405}, ("/metrics", "get"): {200},
+    ("/metrics", "post"): {405}, ("/v1/jobs", "get"): {405}, ("/v1/jobs/{id}/image", "delete"): {405},
+    ("/openapi.json", "get"): {200},
+    ("/", "get"): {200}, ("/index.html", "get"): {200},
+}
+
+
+def check_coverage():
+    for (template, method), statuses in REQUIRED.items():
+        seen = {s for t, m, s in exercised if t == template and m == method}
+        missing = statuses - seen
+        check(not missing, "%s %s: statuses %s were not exercised" % (method.upper(), template, sorted(missing)))
+    for template, item in DOC["paths"].items():
+        for m in item:
+            if m in METHODS and m != "options" and template != "/readyz":
+                check(any(t == template and mm == m for t, mm, _ in exercised),
+                      "%s %s was never requested" % (m.upper(), template))
+
+
+def assignments_dir(tmp):
+    """A tiny assignment (a quick reference) and a broken one."""
+    path = os.path.join(tmp, "assignments")
+    os.makedirs(path)
+    with open(os.path.join(path, "tiny.cfg"), "w") as f:
+        f.write(SCENE)
+    with open(os.path.join(path, "tiny.grade"), "w") as f:
+        f.write("title = a tiny sphere\n")
+    with open(os.path.join(path, "broken.cfg"), "w") as f:
+        f.write(SCENE)
+    with open(os.path.join(path, "broken.grade"), "w") as f:
+        f.write("title = broken\nfail = three\n")
+    return path
+
+
+def main():
+    check_document()
+    check_route_table()
+    tmp = tempfile.mkdtemp(prefix="rayd-openapi-")
+    flags = ["--threads", "2", "--max-body-bytes", str(MAX_BODY), "--max-pixels", "100000",
+             "--job-timeout-ms", "1500", "--drain-ms", "20000", "--assignments", assignments_dir(tmp)]
+    d = Daemon(tmp, flags)
+    try:
+        c = Client(d)
+        listings(c)
+        renders(c)
+        jobs(c)
+        grades(c, tmp)
+        wrong_methods(c)
+        options(c)
+        draining(d, c)
+    finally:
+        rc = d.stop()
+        check(rc == 0, "the daemon exited %d after SIGTERM" % rc)
+    for sub in ("small", "cors"):
+        os.makedirs(os.path.join(tmp, sub))
+    small_limits(os.path.join(tmp, "small"))
+    cors(os.path.join(tmp, "cors"))
+    check_coverage()
+    if not check.failed:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return check.summary()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
