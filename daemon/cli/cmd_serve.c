@@ -149,7 +149,7 @@ static void print_help(void)
         snprintf(line, sizeof line, "%s (default %s)", f->help, dflt);
         print_wrapped(head, line);
     }
-    fputs("  --max-...  N            scene size limits, as for 'rayd render' (see 'rayd limits')\n", stdout);
+    fputs("  --limit-...  N          scene size limits, as for 'rayd render' (see 'rayd limits')\n", stdout);
 }
 
 static int bad_value(const serve_flag *f, const char *v)

@@ -30,7 +30,7 @@ import uuid
 import zlib
 
 RAYD = os.environ.get("RAYD", "build/rayd")
-LIMITS = ["--max-samples", "16"]
+LIMITS = ["--limit-samples", "16"]
 passed = failed = 0
 
 
