@@ -350,8 +350,9 @@ fi
 
 # The README's grading example, as written: render the assignment's scene,
 # then grade it.
-(cd "$T" && "$OLDPWD/$RAYD" render "$OLDPWD/scenes/assignments/phong.cfg" -o my_phong.png 2>/dev/null &&
-    "$OLDPWD/$RAYD" grade --assignments "$OLDPWD/scenes/assignments" --assignment phong --image my_phong.png --diff where.png >grade.json)
+case $RAYD in /*) bin=$RAYD ;; *) bin=$PWD/$RAYD ;; esac
+(cd "$T" && "$bin" render "$OLDPWD/scenes/assignments/phong.cfg" -o my_phong.png 2>/dev/null &&
+    "$bin" grade --assignments "$OLDPWD/scenes/assignments" --assignment phong --image my_phong.png --diff where.png >grade.json)
 [ $? -eq 0 ] && cmpjson "$T/grade.json" 'o["pass"] is True' && png_is "$T/where.png" 320 240 && ok ||
     bad "the README's grade example: $(cat "$T/grade.json")"
 
