@@ -186,6 +186,7 @@ typedef struct {
     int stats_format;
     rd_bar_mode bar;
 } render_args;
+
 enum { HELP_PRINTED = -1 };
 
 /* A number > 0 for --time-budget-ms or --target-error. */
