@@ -7,7 +7,7 @@ CC := gcc
 endif
 BUILD   ?= build
 SAN     ?=
-PKGS    := libpng libcjson zlib libmicrohttpd
+PKGS    := libpng libcjson zlib libmicrohttpd OpenEXR
 TESTPKG := criterion libcurl
 
 SANFLAGS := -fsanitize=address,undefined

@@ -1,14 +1,14 @@
 """cfg2pov.py: a rayd scene written as a POV-Ray 3.7 scene, for the benchmark.
 
 usage: cfg2pov.py SCENE OUT.pov [--width W --height H]
-                  [--area-size N] [--area-adaptive A] [--rayd PATH] [--max-NAME N ...]
+                  [--area-size N] [--area-adaptive A] [--rayd PATH] [--limit-NAME N ...]
 
 SCENE is any scene rayd reads (.cfg or .json). It is read by rayd itself:
 `rayd convert SCENE - --to json --expand` gives every key with its value and
 each mesh as rayd loaded it (world coordinates, polygons fanned), so this
 program has no scene or OBJ parser and no defaults of its own, and the
 POV-Ray file is of the scene rayd renders. --rayd names the binary (default
-build/rayd beside bench/); --max-NAME N (for example --max-objects 2000000
+build/rayd beside bench/); --limit-NAME N (for example --limit-objects 2000000
 for a million triangles) goes to rayd convert.
 
 W x H is the image size the .pov will be rendered at (POV-Ray's camera needs
@@ -346,7 +346,7 @@ def main(argv):
         elif a == "--rayd" and i + 1 < len(args):
             rayd = args[i + 1]
             i += 2
-        elif a.startswith("--max-") and i + 1 < len(args):
+        elif a.startswith("--limit-") and i + 1 < len(args):
             limits += [a, args[i + 1]]
             i += 2
         elif a in ("-h", "--help"):
@@ -360,7 +360,7 @@ def main(argv):
             i += 1
     if len(pos) != 2:
         print("usage: cfg2pov.py SCENE OUT.pov [--width W --height H] [--area-size N] [--area-adaptive A] "
-              "[--rayd PATH] [--max-NAME N ...]", file=sys.stderr)
+              "[--rayd PATH] [--limit-NAME N ...]", file=sys.stderr)
         return 2
     try:
         convert(read_scene(rayd, pos[0], limits), pos[0], pos[1], width, height, (area_n, area_a))

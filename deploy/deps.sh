@@ -10,7 +10,7 @@
 # tests/browser/.node/).
 set -eu
 pkgs="gcc clang clang-format libclang-rt-dev make pkg-config libc6-dev libpng-dev zlib1g-dev libcjson-dev
- libmicrohttpd-dev libcriterion-dev libcurl4-openssl-dev curl python3 python3-jsonschema chromium help2man"
+ libmicrohttpd-dev libopenexr-dev libcriterion-dev libcurl4-openssl-dev curl python3 python3-jsonschema chromium help2man"
 [ "${1:-}" = bench ] && pkgs="$pkgs povray wrk hey git"
 missing=""
 for p in $pkgs; do

@@ -38,7 +38,7 @@ static rd_error_code open_scene(const rd_grader *g, const rd_grade_input *in, rd
     src.len = in->scene_len;
     src.source = in->source;
     src.assets_dir = g->assets_dir;
-    return rd_scene_open(&src, NULL, &g->limits, s, NULL, err);
+    return rd_scene_open(&src, in->ov, &g->limits, s, NULL, err);
 }
 
 /* Width and height from a PNG's IHDR, which the signature check put at a

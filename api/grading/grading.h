@@ -28,6 +28,7 @@
 #include "rayd/scene.h"
 #include "reference.h"
 #include "scene_limits.h"
+#include "scene_overrides.h"
 
 /* The largest student PNG file `rayd grade` reads (the daemon's bound is
  * --max-body-bytes). */
@@ -56,6 +57,9 @@ typedef struct {
     const char *scene_text;
     size_t scene_len;
     const char *source; /* the text's name in messages ("<upload>") */
+    /* Render overrides of a given scene (NULL: none); an assignment's
+     * scene is graded as it is, so they are not applied to it. */
+    const rd_scene_overrides *ov;
     const unsigned char *png;
     size_t png_len;
 } rd_grade_input;

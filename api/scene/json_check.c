@@ -5,6 +5,7 @@
 #include <string.h>
 #include <strings.h>
 
+#include "scene_limits.h"
 #include "utf8.h"
 
 typedef struct {
@@ -63,8 +64,8 @@ static rd_error_code string(checker *c, int key)
             if (key == 1 && n > KEY_BYTES)
                 return fail_at(c, start, RD_ERR_SYNTAX, "a key longer than %d bytes", KEY_BYTES);
             if (key == 2 && n > c->max_name)
-                return fail_at(c, start, RD_ERR_LIMIT,
-                               "a material name longer than the limit of %zu bytes (--max-name-bytes)", c->max_name);
+                return fail_at(c, start, RD_ERR_LIMIT, "a material name longer than the limit of %zu bytes (%s)",
+                               c->max_name, rd_limit_flag(offsetof(rd_scene_limits, max_name)));
             return RD_OK;
         }
         if (ch < 0x20)
@@ -178,7 +179,8 @@ static rd_error_code value(checker *c, size_t depth, int names)
     rd_error_code rc;
     if (ch == '{' || ch == '[') {
         if (depth + 1 > c->max_depth)
-            return fail_at(c, c->p, RD_ERR_LIMIT, "nesting deeper than the limit of %zu (--max-nesting)", c->max_depth);
+            return fail_at(c, c->p, RD_ERR_LIMIT, "nesting deeper than the limit of %zu (%s)", c->max_depth,
+                           rd_limit_flag(offsetof(rd_scene_limits, max_nesting)));
         char close = ch == '{' ? '}' : ']';
         const char *comma = NULL;
         c->p++;

@@ -12,9 +12,9 @@
 
 /* Checks text (len bytes, without a byte-order mark) as one RFC 8259 JSON
  * value. Also refuses nesting deeper than max_depth (RD_ERR_LIMIT naming
- * --max-nesting), \u0000 escapes and lone surrogates, object keys longer
+ * --limit-nesting), \u0000 escapes and lone surrogates, object keys longer
  * than 64 bytes, and material names (the keys of the top-level "materials")
- * longer than max_name (RD_ERR_LIMIT naming --max-name-bytes). Messages
+ * longer than max_name (RD_ERR_LIMIT naming --limit-name-bytes). Messages
  * start "source:line:col: ". */
 rd_error_code rd_json_check(const char *text, size_t len, const char *source, size_t max_depth, size_t max_name,
                             rd_error *err);

@@ -4,19 +4,21 @@
 
 #define F(x) offsetof(rd_scene_limits, x)
 
+/* The old --max-NAME spellings are still read for one release; --max-depth
+ * is not, since it is now the render override of the scene's max_depth. */
 static const rd_limit_info info[] = {
-    {"--max-scene-bytes", F(max_bytes), "bytes of scene text"},
-    {"--max-pixels", F(max_pixels), "pixels in an image (width x height)"},
-    {"--max-samples", F(max_samples), "samples per pixel"},
-    {"--max-depth", F(max_depth), "mirror/refraction bounces"},
-    {"--max-objects", F(max_objects), "spheres, planes and triangles"},
-    {"--max-lights", F(max_lights), "lights"},
-    {"--max-materials", F(max_materials), "materials"},
-    {"--max-name-bytes", F(max_name), "bytes in a name or string"},
-    {"--max-nesting", F(max_nesting), "JSON nesting depth"},
-    {"--max-mesh-bytes", F(max_mesh_bytes), "bytes of one OBJ mesh file"},
-    {"--max-texture-bytes", F(max_texture_bytes), "bytes of one PNG texture file"},
-    {"--max-texture-pixels", F(max_texture_pixels), "pixels of one texture"},
+    {"--limit-scene-bytes", "--max-scene-bytes", F(max_bytes), "bytes of scene text"},
+    {"--limit-pixels", "--max-pixels", F(max_pixels), "pixels in an image (width x height)"},
+    {"--limit-samples", "--max-samples", F(max_samples), "samples per pixel"},
+    {"--limit-depth", NULL, F(max_depth), "mirror/refraction bounces"},
+    {"--limit-objects", "--max-objects", F(max_objects), "spheres, planes and triangles"},
+    {"--limit-lights", "--max-lights", F(max_lights), "lights"},
+    {"--limit-materials", "--max-materials", F(max_materials), "materials"},
+    {"--limit-name-bytes", "--max-name-bytes", F(max_name), "bytes in a name or string"},
+    {"--limit-nesting", "--max-nesting", F(max_nesting), "JSON nesting depth"},
+    {"--limit-mesh-bytes", "--max-mesh-bytes", F(max_mesh_bytes), "bytes of one OBJ mesh file"},
+    {"--limit-texture-bytes", "--max-texture-bytes", F(max_texture_bytes), "bytes of one PNG texture file"},
+    {"--limit-texture-pixels", "--max-texture-pixels", F(max_texture_pixels), "pixels of one texture"},
 };
 
 const rd_limit_info *rd_limits_info(size_t *count)

@@ -1,6 +1,6 @@
 /* Size limits on scene input, shared by the CLI and the daemon. Each limit
- * has a safe default, a command-line flag (--max-...), and errors that name
- * that flag. */
+ * has a safe default, a command-line flag (--limit-...), and errors that
+ * name that flag. */
 #ifndef RD_SCENE_LIMITS_H
 #define RD_SCENE_LIMITS_H
 
@@ -27,7 +27,8 @@ typedef struct {
 /* One limit: its flag, its field and what it bounds, for help texts and
  * parsing flags generically. */
 typedef struct {
-    const char *flag; /* "--max-pixels" */
+    const char *flag; /* "--limit-pixels" */
+    const char *old;  /* the deprecated spelling, "--max-pixels", or NULL */
     size_t offset;    /* into rd_scene_limits */
     const char *what;
 } rd_limit_info;

@@ -51,6 +51,12 @@ rd_error_code rd_override_set(rd_scene_overrides *ov, const char *name, const ch
     return RD_OK;
 }
 
+int rd_override_given(const rd_scene_overrides *ov, const char *name)
+{
+    int i = override_index(name);
+    return i >= 0 && (ov->set & 1u << i);
+}
+
 void rd_overrides_apply(const rd_scene_overrides *ov, rd_scene *s)
 {
     for (int i = 0; rd_override_names[i]; i++) {

@@ -24,6 +24,9 @@ typedef struct {
 rd_error_code rd_override_set(rd_scene_overrides *ov, const char *name, const char *value, const char *what,
                               rd_error *err);
 
+/* Whether the render key name was given. */
+int rd_override_given(const rd_scene_overrides *ov, const char *name);
+
 /* Copies the values given into s's render section. */
 void rd_overrides_apply(const rd_scene_overrides *ov, rd_scene *s);
 

@@ -53,13 +53,42 @@ rd_error_code rd_read_file(const char *path, size_t max_bytes, const char *flag,
     return RD_OK;
 }
 
-rd_error_code rd_write_file(const char *path, const void *data, size_t len, rd_error *err)
+/* The temporary file rd_write_file writes path through, malloc'ed; NULL
+ * when out of memory. */
+static char *temp_name(const char *path)
 {
-    size_t plen = strlen(path);
-    char *tmp = malloc(plen + 16);
+    size_t n = strlen(path) + 32;
+    char *tmp = malloc(n);
+    if (tmp)
+        snprintf(tmp, n, "%s.tmp%ld", path, (long)getpid());
+    return tmp;
+}
+
+rd_error_code rd_check_writable(const char *path, rd_error *err)
+{
+    struct stat st;
+    if (stat(path, &st) == 0 && S_ISDIR(st.st_mode))
+        return rd_error_set(err, RD_ERR_IO, 0, 0, "%s: cannot write: %s", path, strerror(EISDIR));
+    char *tmp = temp_name(path);
     if (!tmp)
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
-    snprintf(tmp, plen + 16, "%s.tmp%ld", path, (long)getpid());
+    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+    rd_error_code rc = RD_OK;
+    if (fd < 0)
+        rc = rd_error_set(err, RD_ERR_IO, 0, 0, "%s: cannot write: %s", path, strerror(errno));
+    else
+        close(fd);
+    if (fd >= 0)
+        remove(tmp);
+    free(tmp);
+    return rc;
+}
+
+rd_error_code rd_write_file(const char *path, const void *data, size_t len, rd_error *err)
+{
+    char *tmp = temp_name(path);
+    if (!tmp)
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
     FILE *f = fopen(tmp, "wb");
     if (!f) {
         rd_error_code rc = rd_error_set(err, RD_ERR_IO, 0, 0, "%s: cannot write: %s", path, strerror(errno));

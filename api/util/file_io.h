@@ -14,8 +14,15 @@
 rd_error_code rd_read_file(const char *path, size_t max_bytes, const char *flag, char **out, size_t *len,
                            rd_error *err);
 
-/* Writes bytes to path, replacing it only once the whole file is written. */
+/* Writes bytes to path, replacing it only once the whole file is written
+ * (through a temporary file in the same folder, renamed at the end). */
 rd_error_code rd_write_file(const char *path, const void *data, size_t len, rd_error *err);
+
+/* Whether rd_write_file could write path now: not a folder, and its
+ * temporary file can be created (and is removed again), so a missing
+ * folder or a missing permission is found before the work that makes the
+ * bytes. RD_ERR_IO with a message naming path. */
+rd_error_code rd_check_writable(const char *path, rd_error *err);
 
 /* The folder part of a path ("scenes" for "scenes/a.cfg", "." for "a.cfg"),
  * malloc'ed; the caller frees it. NULL when out of memory. */

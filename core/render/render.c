@@ -69,6 +69,16 @@ static int run_pass(shared *sh, worker *ws, int threads)
     return started + 1;
 }
 
+static void notify_pass(const rd_render_options *opt, const rd_job *job, int pass, int samples)
+{
+    if (!opt->pass)
+        return;
+    rd_render_stats st;
+    if (pass > 0)
+        rd_job_stats(job, &st);
+    opt->pass(opt->user, pass, samples, pass > 0 ? &st.curve[st.curve_len - 1] : NULL);
+}
+
 rd_error_code rd_render(const rd_scene *s, const rd_render_options *opt_in, rd_image *out, rd_render_stats *stats,
                         rd_error *err)
 {
@@ -96,8 +106,9 @@ rd_error_code rd_render(const rd_scene *s, const rd_render_options *opt_in, rd_i
     sh.job = job;
     sh.opt = &opt;
     sh.tiles_all = rd_job_tile_count(job);
-    int cancelled = 0, used = 1;
+    int cancelled = 0, used = 1, pass = 0;
     for (int n = rd_job_first_pass(job); n > 0; n = rd_job_end_pass(job)) {
+        notify_pass(&opt, job, pass++, n);
         used = run_pass(&sh, ws, threads);
         for (int i = 0; i < threads; i++)
             cancelled |= ws[i].cancelled;
@@ -113,6 +124,8 @@ rd_error_code rd_render(const rd_scene *s, const rd_render_options *opt_in, rd_i
         all.nonfinite += ws[i].counts.nonfinite;
     }
     free(ws);
+    if (!cancelled)
+        notify_pass(&opt, job, pass, 0);
     if (cancelled) {
         rd_job_free(job);
         return rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "render cancelled");

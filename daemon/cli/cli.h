@@ -5,8 +5,11 @@
 #ifndef RD_CLI_H
 #define RD_CLI_H
 
+#include <stdio.h>
+
 #include "error_map.h"
 #include "scene_limits.h"
+#include "scene_overrides.h"
 
 int rd_cmd_render(int argc, char **argv);
 int rd_cmd_convert(int argc, char **argv);
@@ -16,15 +19,27 @@ int rd_cmd_converge(int argc, char **argv);
 int rd_cmd_grade(int argc, char **argv);
 int rd_cmd_compare(int argc, char **argv);
 
-/* Removes every --max-NAME VALUE (or --max-NAME=VALUE) pair of the limits
- * table from argv, setting *lim, but for the flag own (NULL: none), which
- * the command uses for something else; returns 0, or RD_EXIT_USAGE after
+/* Removes every --limit-NAME VALUE (or --limit-NAME=VALUE) pair of the
+ * limits table from argv, setting *lim; the old --max-NAME spellings too,
+ * with a warning on stderr, but for the flag own (NULL: none), which the
+ * command uses for something else; returns 0, or RD_EXIT_USAGE after
  * printing a message prefixed with who. */
 int rd_cli_take_limits(int *argc, char **argv, rd_scene_limits *lim, const char *who, const char *own);
 
 /* Each limit from its environment variable, RAYD_ and the flag's name in
- * capitals (--max-depth: RAYD_MAX_DEPTH), when set; 0 or RD_EXIT_USAGE. */
+ * capitals (--limit-depth: RAYD_LIMIT_DEPTH), when set; 0 or RD_EXIT_USAGE. */
 int rd_cli_limits_from_env(rd_scene_limits *lim, const char *who);
+
+/* Removes every render override from argv: --NAME VALUE (or --NAME=VALUE)
+ * for each of rd_override_names, '_' written '-', and --set render.KEY=VALUE,
+ * read into *ov by rd_override_set (the check of the query parameters).
+ * skip: NULL-terminated names the command sets itself, not taken (NULL:
+ * none). Returns 0, or RD_EXIT_USAGE after printing a message prefixed
+ * with who. */
+int rd_cli_take_overrides(int *argc, char **argv, rd_scene_overrides *ov, const char *who, const char *const *skip);
+
+/* The help text of those flags. */
+void rd_cli_overrides_help(FILE *f, const char *const *skip);
 
 /* Prints the limits and their defaults. */
 int rd_cmd_limits(int argc, char **argv);

@@ -21,40 +21,47 @@ static int set_limit(rd_scene_limits *lim, const rd_limit_info *info, const char
     return 0;
 }
 
-int rd_cli_take_limits(int *argc, char **argv, rd_scene_limits *lim, const char *who, const char *own)
+/* Whether a is flag, alone or as flag=VALUE. */
+static int is_flag(const char *a, const char *flag)
+{
+    size_t n = flag ? strlen(flag) : 0;
+    return n && strncmp(a, flag, n) == 0 && (a[n] == 0 || a[n] == '=');
+}
+
+/* The limit a names, by its name or its old one (but not own); *old is set
+ * when it was the old name. */
+static const rd_limit_info *limit_of(const char *a, const char *own, int *old)
 {
     size_t n;
     const rd_limit_info *info = rd_limits_info(&n);
+    if (is_flag(a, own))
+        return NULL;
+    for (size_t k = 0; k < n; k++) {
+        *old = is_flag(a, info[k].old);
+        if (is_flag(a, info[k].flag) || *old)
+            return &info[k];
+    }
+    return NULL;
+}
+
+int rd_cli_take_limits(int *argc, char **argv, rd_scene_limits *lim, const char *who, const char *own)
+{
     int out = 0;
     for (int i = 0; i < *argc; i++) {
         const char *a = argv[i];
-        const rd_limit_info *hit = NULL;
-        const char *value = NULL;
-        int used = 1;
-        if (strncmp(a, "--max-", 6) == 0 &&
-            !(own && strncmp(a, own, strlen(own)) == 0 && (a[strlen(own)] == 0 || a[strlen(own)] == '='))) {
-            for (size_t k = 0; k < n && !hit; k++) {
-                size_t fl = strlen(info[k].flag);
-                if (strncmp(a, info[k].flag, fl) == 0 && (a[fl] == 0 || a[fl] == '=')) {
-                    hit = &info[k];
-                    if (a[fl] == '=') {
-                        value = a + fl + 1;
-                    } else if (i + 1 < *argc) {
-                        value = argv[i + 1];
-                        used = 2;
-                    }
-                }
-            }
-            /* Not a scene limit: the command's own flag (serve has
-             * --max-body-bytes and others) or a mistake it reports. */
-        }
+        int old = 0;
+        const rd_limit_info *hit = strncmp(a, "--", 2) == 0 ? limit_of(a, own, &old) : NULL;
         if (!hit) {
             argv[out++] = argv[i];
             continue;
         }
-        if (set_limit(lim, hit, value, who, hit->flag))
+        const char *eq = strchr(a, '=');
+        const char *value = eq ? eq + 1 : i + 1 < *argc ? argv[++i] : NULL;
+        if (old)
+            fprintf(stderr, "%s: warning: %s is deprecated and goes in the next release; use %s\n", who, hit->old,
+                    hit->flag);
+        if (set_limit(lim, hit, value, who, old ? hit->old : hit->flag))
             return RD_EXIT_USAGE;
-        i += used - 1;
     }
     argv[out] = NULL;
     *argc = out;
@@ -87,7 +94,9 @@ int rd_cmd_limits(int argc, char **argv)
     rd_scene_limits d = rd_scene_limits_default();
     printf("Size limits on scene input (flags of 'rayd render', 'converge', 'grade' and 'serve'):\n\n");
     for (size_t i = 0; i < n; i++)
-        printf("  %-22s %12zu  %s\n", info[i].flag, *(const size_t *)((const char *)&d + info[i].offset), info[i].what);
+        printf("  %-24s %12zu  %s\n", info[i].flag, *(const size_t *)((const char *)&d + info[i].offset), info[i].what);
+    printf("\nThe old names --max-NAME still work for one release, with a warning, but for\n"
+           "--max-depth: that is now the render override of the scene's max_depth.\n");
     return RD_EXIT_OK;
 }
 

@@ -1,5 +1,6 @@
 #include <cJSON.h>
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -10,7 +11,7 @@
 #include "grade.h"
 #include "json_text.h"
 
-static const char compare_help[] = "usage: rayd compare A.png B.png [--max-pixels N]\n"
+static const char compare_help[] = "usage: rayd compare A.png B.png [--limit-pixels N]\n"
                                    "\n"
                                    "Decodes two PNG images of the same size (any layout: grey, palette, alpha,\n"
                                    "16-bit; compared as 8-bit RGB, alpha dropped) and prints how they differ as\n"
@@ -26,7 +27,7 @@ static const char compare_help[] = "usage: rayd compare A.png B.png [--max-pixel
                                    "  differing_pixels_over_1  of which by more than 1 level in some channel\n"
                                    "  mean_a, mean_b    each image's mean channel value, 0..1\n"
                                    "\n"
-                                   "  --max-pixels N    refuse an image of more pixels before decoding it\n"
+                                   "  --limit-pixels N  refuse an image of more pixels before decoding it\n"
                                    "                    (default as 'rayd limits'); a file longer than any PNG\n"
                                    "                    of N pixels can be is refused before it is read\n"
                                    "\n"
@@ -47,7 +48,8 @@ static int load(const char *path, size_t max_pixels, uint8_t **rgb, int *w, int 
     rd_error err = {0};
     char *data = NULL;
     size_t len = 0;
-    rd_error_code rc = rd_read_file(path, file_cap(max_pixels), "--max-pixels", &data, &len, &err);
+    rd_error_code rc = rd_read_file(path, file_cap(max_pixels), rd_limit_flag(offsetof(rd_scene_limits, max_pixels)),
+                                    &data, &len, &err);
     if (rc) {
         fprintf(stderr, "rayd compare: %s\n", err.message);
         return rc == RD_ERR_IO ? RD_EXIT_IO : RD_EXIT_SCENE;

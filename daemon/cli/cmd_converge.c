@@ -10,6 +10,7 @@
 #include "file_io.h"
 #include "png_read.h"
 #include "png_write.h"
+#include "progress_bar.h"
 #include "rayd/render.h"
 #include "scene_open.h"
 #include "strbuf.h"
@@ -22,24 +23,34 @@ static const char converge_help[] =
     "time, the error estimate the renderer reports, and the true error: the RMSE\n"
     "of its display values (after clamp and gamma, 1 = 255 levels) against a\n"
     "converged reference. The reference is REF.png, or a render of N samples\n"
-    "(default 1024) whose own estimated error is taken out in quadrature. Ends\n"
+    "(default 256) whose own estimated error is taken out in quadrature. Ends\n"
     "with the fitted log-log slopes of both errors against samples.\n"
+    "\n"
+    "Unless --width or --height is given, it renders at half the scene's width\n"
+    "and height, so that the default run takes well under a minute; the full\n"
+    "measure is e.g. --width 640 --height 480 --reference-samples 1024.\n"
     "\n"
     "  --max-samples N        the last row (default 64)\n"
     "  --reference REF.png    compare with this image (same size as the render)\n"
-    "  --reference-samples N  render the reference with N samples (default 1024)\n"
-    "  --width W --height H   override the scene's size\n"
-    "  --max-...  N           a size limit; 'rayd limits' lists them with defaults\n"
-    "                         (but --max-samples is the last row here)\n"
+    "  --reference-samples N  render the reference with N samples (default 256)\n"
+    "  --limit-...  N         a size limit; 'rayd limits' lists them with defaults\n"
     "  --threads N            render threads (default: the number of cores)\n"
     "  --adaptive             use adaptive passes (each row a progressive render)\n"
     "  --svg FILE             write the error-against-time plot as SVG\n"
-    "  --csv FILE             write the table as CSV\n";
+    "  --csv FILE             write the table as CSV\n"
+    "  --progress, --quiet    the progress bar of each render on stderr even when\n"
+    "                         it is not a terminal, or never (the table is on\n"
+    "                         stdout, a row as soon as it is measured)\n"
+    "\n";
+
+/* The row count and the reference set the samples. */
+static const char *const converge_sets[] = {"samples", NULL};
 
 typedef struct {
     long max_samples, ref_samples, threads;
     const char *path, *ref_path, *svg, *csv;
     int adaptive;
+    rd_bar_mode bar;
     rd_scene_limits lim;
     rd_scene_overrides ov;
 } converge_args;
@@ -55,13 +66,13 @@ typedef struct {
 /* 0 with *a filled, HELP_PRINTED, or the exit status of a usage error. */
 static int parse_args(int argc, char **argv, converge_args *a)
 {
-    enum { O_MAX = 256, O_REF, O_REFS, O_W, O_H, O_THREADS, O_SVG, O_CSV, O_ADAPTIVE };
+    enum { O_MAX = 256, O_REF, O_REFS, O_THREADS, O_SVG, O_CSV, O_ADAPTIVE, O_PROGRESS, O_QUIET };
     static const struct option opts[] = {{"max-samples", required_argument, NULL, O_MAX},
                                          {"reference", required_argument, NULL, O_REF},
                                          {"reference-samples", required_argument, NULL, O_REFS},
-                                         {"width", required_argument, NULL, O_W},
-                                         {"height", required_argument, NULL, O_H},
                                          {"threads", required_argument, NULL, O_THREADS},
+                                         {"progress", no_argument, NULL, O_PROGRESS},
+                                         {"quiet", no_argument, NULL, O_QUIET},
                                          {"svg", required_argument, NULL, O_SVG},
                                          {"csv", required_argument, NULL, O_CSV},
                                          {"adaptive", no_argument, NULL, O_ADAPTIVE},
@@ -69,12 +80,14 @@ static int parse_args(int argc, char **argv, converge_args *a)
                                          {NULL, 0, NULL, 0}};
     memset(a, 0, sizeof *a);
     a->max_samples = 64;
-    a->ref_samples = 1024;
+    a->ref_samples = 256;
     a->threads = sysconf(_SC_NPROCESSORS_ONLN);
     if (a->threads < 1)
         a->threads = 1;
     a->lim = rd_scene_limits_default();
     int lrc = rd_cli_take_limits(&argc, argv, &a->lim, "rayd converge", "--max-samples");
+    if (!lrc)
+        lrc = rd_cli_take_overrides(&argc, argv, &a->ov, "rayd converge", converge_sets);
     if (lrc)
         return lrc;
     rd_error err = {0};
@@ -82,11 +95,10 @@ static int parse_args(int argc, char **argv, converge_args *a)
     opterr = 0;
     int c;
     while ((c = getopt_long(argc, argv, ":h", opts, NULL)) != -1) {
-        /* Sizes and sample counts take what the scene keys take. */
-        const char *key = c == O_W ? "width" : c == O_H ? "height" : c == O_MAX || c == O_REFS ? "samples" : NULL;
-        if (key) {
+        /* Sample counts take what the scene key takes. */
+        if (c == O_MAX || c == O_REFS) {
             rd_scene_overrides one = {0};
-            if (rd_override_set(c == O_W || c == O_H ? &a->ov : &one, key, optarg, argv[optind - 2], &err)) {
+            if (rd_override_set(&one, "samples", optarg, c == O_MAX ? "--max-samples" : "--reference-samples", &err)) {
                 fprintf(stderr, "rayd converge: %s\n", err.message);
                 return RD_EXIT_USAGE;
             }
@@ -97,7 +109,10 @@ static int parse_args(int argc, char **argv, converge_args *a)
             continue;
         }
         switch (c) {
-        case 'h': fputs(converge_help, stdout); return HELP_PRINTED;
+        case 'h':
+            fputs(converge_help, stdout);
+            rd_cli_overrides_help(stdout, converge_sets);
+            return HELP_PRINTED;
         case O_THREADS:
             if (rd_cli_int(optarg, 1, 1024, &a->threads)) {
                 fprintf(stderr, "rayd converge: --threads: expected an integer in 1..1024, got '%s'\n", optarg);
@@ -108,6 +123,8 @@ static int parse_args(int argc, char **argv, converge_args *a)
         case O_SVG: a->svg = optarg; break;
         case O_CSV: a->csv = optarg; break;
         case O_ADAPTIVE: a->adaptive = 1; break;
+        case O_PROGRESS: a->bar = RD_BAR_ON; break;
+        case O_QUIET: a->bar = RD_BAR_OFF; break;
         default:
             fprintf(stderr, "rayd converge: bad option '%s' (try 'rayd converge --help')\n", argv[optind - 1]);
             return RD_EXIT_USAGE;
@@ -155,6 +172,19 @@ static rd_error_code read_reference(const char *path, const rd_scene *s, double 
     return RD_OK;
 }
 
+/* One render, its progress on stderr as a asks. */
+static rd_error_code render(const converge_args *a, const rd_scene *s, rd_render_options ro, const char *label,
+                            rd_image *img, rd_render_stats *st, rd_error *err)
+{
+    rd_progress_settings goal = {s->render.samples, ro.time_budget_ms, ro.target_error, ro.adaptive};
+    rd_progress_bar bar;
+    rd_progress_bar_init(&bar, a->bar, &goal, label);
+    rd_progress_bar_attach(&bar, &ro);
+    rd_error_code rc = rd_render(s, &ro, img, st, err);
+    rd_progress_bar_end(&bar);
+    return rc;
+}
+
 /* The reference's display values: read, or rendered with ref_samples. */
 static rd_error_code load_reference(const converge_args *a, rd_scene *s, double *ref, double *ref_err, rd_error *err)
 {
@@ -165,7 +195,7 @@ static rd_error_code load_reference(const converge_args *a, rd_scene *s, double 
     rd_image img;
     rd_render_stats st;
     fprintf(stderr, "rendering the reference (%ld samples per pixel)...\n", a->ref_samples);
-    rd_error_code rc = rd_render(s, &ro, &img, &st, err);
+    rd_error_code rc = render(a, s, ro, "reference", &img, &st, err);
     if (rc)
         return rc;
     for (size_t i = 0; i < (size_t)img.width * (size_t)img.height * 3; i++)
@@ -191,7 +221,9 @@ static void measure_rows(const converge_args *a, rd_scene *s, const double *ref,
         rd_image img;
         rd_render_stats st;
         rd_error err = {0};
-        if (rd_render(s, &ro, &img, &st, &err)) {
+        char label[32];
+        snprintf(label, sizeof label, "row %ld", k);
+        if (render(a, s, ro, label, &img, &st, &err)) {
             fprintf(stderr, "rayd converge: %s\n", err.message);
             break;
         }
@@ -203,6 +235,7 @@ static void measure_rows(const converge_args *a, rd_scene *s, const double *ref,
         t->truth[i] = d > 0 ? sqrt(d) : 0;
         printf("%8.1f %10.1f %12.6f %12.6f %8.3f\n", t->spp[i], t->ms[i], t->est[i], t->truth[i],
                t->truth[i] > 0 ? t->est[i] / t->truth[i] : NAN);
+        fflush(stdout);
         rd_image_free(&img);
     }
     printf("slope of log(true error) against log(samples): %.3f\n", rd_loglog_slope(t->spp, t->truth, t->n));
@@ -253,6 +286,10 @@ int rd_cmd_converge(int argc, char **argv)
         fprintf(stderr, "%s\n", err.message);
         rd_scene_free(&s);
         return rd_error_answer_for(rc).exit;
+    }
+    if (!rd_override_given(&a.ov, "width") && !rd_override_given(&a.ov, "height")) {
+        s.render.width = (s.render.width + 1) / 2;
+        s.render.height = (s.render.height + 1) / 2;
     }
     double *ref = malloc((size_t)s.render.width * (size_t)s.render.height * 3 * sizeof *ref), ref_err = 0;
     rc = ref ? load_reference(&a, &s, ref, &ref_err, &err) : rd_error_set(&err, RD_ERR_NOMEM, 0, 0, "out of memory");

@@ -9,7 +9,7 @@
 #include "scene_open.h"
 #include "scene_write.h"
 
-static const char convert_help[] = "usage: rayd convert IN OUT [--to cfg|json] [--expand [--max-... N]]\n"
+static const char convert_help[] = "usage: rayd convert IN OUT [--to cfg|json] [--expand [--limit-... N]]\n"
                                    "\n"
                                    "Reads the scene IN (.cfg or .json; other names are sniffed) and writes the\n"
                                    "same scene to OUT in the other format, or the one OUT's extension names.\n"
@@ -25,8 +25,8 @@ static const char convert_help[] = "usage: rayd convert IN OUT [--to cfg|json] [
                                    "             ...], \"normals\": [...], \"faces\": [[v0,v1,v2,n0,n1,n2],\n"
                                    "             ...]}, indices from 0, n -1 where a corner has no normal;\n"
                                    "             rayd itself refuses \"loaded\" when reading a scene\n"
-                                   "  --max-...  N  the size limits of 'rayd limits' for the scene and its\n"
-                                   "             meshes (a mesh of a million triangles needs --max-objects)\n"
+                                   "  --limit-...  N  the size limits of 'rayd limits' for the scene and its\n"
+                                   "               meshes (a mesh of a million triangles needs --limit-objects)\n"
                                    "\n"
                                    "Exit status: 0 written; 1 usage error; 2 scene error; 3 I/O error.\n";
 

@@ -25,7 +25,10 @@ static const char grade_help[] =
     "  --assignments DIR    the assignments folder (default: scenes/assignments in the data folder)\n"
     "  --cache-dir DIR      where references are cached (default: none)\n"
     "  --threads N          render threads for the reference (default: the cores)\n"
-    "  --max-...  N         a size limit; 'rayd limits' lists them with defaults\n"
+    "  --limit-...  N       a size limit; 'rayd limits' lists them with defaults\n"
+    "\n"
+    "With --scene, the render overrides below change the scene before its\n"
+    "reference is rendered; an assignment is graded as it is, without them.\n"
     "\n"
     "Exit status: 0 pass; 4 graded, fail; 1 usage or no such assignment; 2 bad\n"
     "scene, assignment or image (not a PNG, damaged, wrong size); 3 a file could\n"
@@ -84,9 +87,13 @@ int rd_cmd_grade(int argc, char **argv)
     rd_grade_input in = {0};
     const char *image = NULL, *diff = NULL, *cache_dir = NULL;
     rd_grader g = {.assignments_dir = rd_default_assignments_dir(), .limits = rd_scene_limits_default()};
+    rd_scene_overrides ov = {0};
     int lrc = rd_cli_take_limits(&argc, argv, &g.limits, "rayd grade", NULL);
+    if (!lrc)
+        lrc = rd_cli_take_overrides(&argc, argv, &ov, "rayd grade", NULL);
     if (lrc)
         return lrc;
+    in.ov = &ov;
     long threads = sysconf(_SC_NPROCESSORS_ONLN);
     if (threads < 1)
         threads = 1;
@@ -95,7 +102,10 @@ int rd_cmd_grade(int argc, char **argv)
     int c;
     while ((c = getopt_long(argc, argv, ":h", opts, NULL)) != -1) {
         switch (c) {
-        case 'h': fputs(grade_help, stdout); return RD_EXIT_OK;
+        case 'h':
+            fputs(grade_help, stdout);
+            rd_cli_overrides_help(stdout, NULL);
+            return RD_EXIT_OK;
         case O_ASSIGN: in.assignment = optarg; break;
         case O_SCENE: in.scene_path = optarg; break;
         case O_IMAGE: image = optarg; break;
@@ -116,6 +126,10 @@ int rd_cmd_grade(int argc, char **argv)
     if (optind != argc || !image || (!in.assignment == !in.scene_path)) {
         fprintf(stderr,
                 "rayd grade: give --image and exactly one of --assignment or --scene (try 'rayd grade --help')\n");
+        return RD_EXIT_USAGE;
+    }
+    if (in.assignment && ov.set) {
+        fprintf(stderr, "rayd grade: an assignment is graded as it is: render overrides go with --scene only\n");
         return RD_EXIT_USAGE;
     }
     rd_error err = {0};

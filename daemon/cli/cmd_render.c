@@ -1,57 +1,75 @@
 #include <cJSON.h>
+#include <errno.h>
 #include <getopt.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <unistd.h>
 
 #include "cli.h"
 #include "file_io.h"
+#include "hdr_write.h"
 #include "png_write.h"
+#include "progress_bar.h"
 #include "rayd/render.h"
 #include "scene_open.h"
 
-static const char render_help[] = "usage: rayd render SCENE -o OUT.png [options]\n"
+static const char render_help[] = "usage: rayd render SCENE -o OUT [options]\n"
                                   "\n"
-                                  "Renders SCENE (.cfg or .json; other names are sniffed) into an 8-bit RGB PNG\n"
-                                  "and prints one line of statistics on stderr.\n"
+                                  "Renders SCENE (.cfg or .json; other names are sniffed) and prints one line of\n"
+                                  "statistics on stderr. OUT's extension says what is written:\n"
+                                  "  .png  8-bit RGB: the linear image clamped, gamma applied, rounded\n"
+                                  "  .exr  OpenEXR, the linear image: RGB 32-bit float, ZIP, scanlines\n"
+                                  "  .pfm  portable float map, the linear image: little-endian, bottom row first\n"
+                                  "  -     the PNG on stdout (the statistics stay on stderr)\n"
+                                  "Any other name is refused before rendering, and an output that cannot be\n"
+                                  "written (missing folder, no permission) too; a file is replaced only once\n"
+                                  "it is whole.\n"
                                   "\n"
-                                  "  -o, --output FILE   where to write the PNG (required)\n"
-                                  "      --width N       image width in pixels, 1..16384 (overrides [render])\n"
-                                  "      --height N      image height in pixels, 1..16384\n"
-                                  "      --samples N     samples per pixel, 1..65536; 1 is the pixel centre\n"
-                                  "      --seed N        sampling seed; same seed gives the same image\n"
+                                  "  -o, --output OUT    where to write the image (required)\n"
                                   "      --threads N     worker threads, 1..1024 (default: the number of cores);\n"
                                   "                      the image does not depend on it\n"
                                   "      --png-level N   zlib level 0..9 for the PNG (default 1)\n"
                                   "      --time-budget-ms T  render in passes and stop before T ms are spent\n"
                                   "      --target-error E    render in passes until the error estimate is <= E\n"
-                                  "                      (either makes --samples the cap, not the count)\n"
+                                  "                      (either makes the samples the cap, not the count)\n"
                                   "      --adaptive      later passes spend samples where the estimated error is\n"
                                   "      --stats-format text|json|both  the statistics as the line below (text,\n"
                                   "                      the default), as one JSON object on one line (json), or\n"
                                   "                      the line and then the object (both)\n"
-                                  "      --max-...  N    a size limit; 'rayd limits' lists them with defaults\n"
+                                  "      --progress      a progress bar on stderr even when it is not a terminal\n"
+                                  "      --quiet         no progress bar or pass lines (the statistics stay)\n"
+                                  "      --limit-...  N  a size limit; 'rayd limits' lists them with defaults\n"
                                   "  -h, --help          this text\n"
-                                  "\n"
-                                  "Exit status: 0 written; 1 usage error; 2 scene error (message on stderr,\n"
-                                  "no image written); 3 file could not be read or written.\n"
-                                  "\n"
-                                  "Statistics line (stderr):\n"
-                                  "  render: WxH samples=N threads=N time_ms=T camera_rays=N shadow_rays=N\n"
-                                  "  secondary_rays=N rays_per_s=R error_estimate=E nonfinite=N prepare_ms=T\n"
-                                  "  bvh_build_ms=T bvh_nodes=N primitives=N world_bytes=B\n"
-                                  "  stopped_by=samples|time_budget|target_error passes=N curve=MS:SPP:ERR,...\n"
-                                  "error_estimate is the estimated RMS error of the image against a converged\n"
-                                  "render, in [0,1] units (1 = 255 levels); 0 with one sample per pixel. curve\n"
-                                  "has one point per pass: elapsed ms, samples per pixel, error estimate.\n"
-                                  "\n"
-                                  "Statistics object (--stats-format json): the same figures under the same\n"
-                                  "names, numbers at full precision: width, height, samples, threads, time_ms,\n"
-                                  "camera_rays, shadow_rays, secondary_rays, rays_per_s, error_estimate,\n"
-                                  "nonfinite, prepare_ms, bvh_build_ms, bvh_nodes, primitives, world_bytes,\n"
-                                  "stopped_by, passes, curve (an array of {ms, samples, error}), and\n"
-                                  "mean_samples (the exact mean per pixel; samples is it rounded).\n";
+                                  "\n";
+
+static const char render_help_tail[] = "\n"
+                                       "Samples 1 is the pixel centre; the same seed gives the same image.\n"
+                                       "\n"
+                                       "Progress: on a terminal, after the first second, a bar redrawn in place\n"
+                                       "(tiles of the pass, samples, error estimate, time spent and left); not on a\n"
+                                       "terminal, one line per pass (render pass N: samples=S error=E ms=T), only\n"
+                                       "when the render has more than one pass.\n"
+                                       "\n"
+                                       "Exit status: 0 written; 1 usage error; 2 scene error (message on stderr,\n"
+                                       "no image written); 3 file could not be read or written.\n"
+                                       "\n"
+                                       "Statistics line (stderr):\n"
+                                       "  render: WxH samples=N threads=N time_ms=T camera_rays=N shadow_rays=N\n"
+                                       "  secondary_rays=N rays_per_s=R error_estimate=E nonfinite=N prepare_ms=T\n"
+                                       "  bvh_build_ms=T bvh_nodes=N primitives=N world_bytes=B\n"
+                                       "  stopped_by=samples|time_budget|target_error passes=N curve=MS:SPP:ERR,...\n"
+                                       "error_estimate is the estimated RMS error of the image against a converged\n"
+                                       "render, in [0,1] units (1 = 255 levels); 0 with one sample per pixel. curve\n"
+                                       "has one point per pass: elapsed ms, samples per pixel, error estimate.\n"
+                                       "\n"
+                                       "Statistics object (--stats-format json): the same figures under the same\n"
+                                       "names, numbers at full precision: width, height, samples, threads, time_ms,\n"
+                                       "camera_rays, shadow_rays, secondary_rays, rays_per_s, error_estimate,\n"
+                                       "nonfinite, prepare_ms, bvh_build_ms, bvh_nodes, primitives, world_bytes,\n"
+                                       "stopped_by, passes, curve (an array of {ms, samples, error}), and\n"
+                                       "mean_samples (the exact mean per pixel; samples is it rounded).\n";
 
 enum { STATS_TEXT = 1, STATS_JSON = 2 };
 
@@ -126,13 +144,47 @@ static int usage_error(const char *fmt, const char *arg)
     return RD_EXIT_USAGE;
 }
 
+/* What rayd writes, by the output's extension. */
+typedef enum { OUT_PNG, OUT_EXR, OUT_PFM } out_kind;
+
+static const struct {
+    const char *ext;
+    out_kind kind;
+} out_kinds[] = {{".png", OUT_PNG}, {".exr", OUT_EXR}, {".pfm", OUT_PFM}};
+
+enum { N_OUT_KINDS = sizeof out_kinds / sizeof out_kinds[0] };
+
+/* 0 with *kind set from the name's extension, or a usage error listing
+ * those rayd writes. */
+static int out_kind_of(const char *path, out_kind *kind)
+{
+    *kind = OUT_PNG;
+    if (strcmp(path, "-") == 0)
+        return 0;
+    const char *dot = strrchr(path, '.');
+    for (int i = 0; dot && !strchr(dot, '/') && i < N_OUT_KINDS; i++)
+        if (strcasecmp(dot, out_kinds[i].ext) == 0) {
+            *kind = out_kinds[i].kind;
+            return 0;
+        }
+    char exts[64] = "";
+    size_t n = 0;
+    for (int i = 0; i < N_OUT_KINDS; i++)
+        n += (size_t)snprintf(exts + n, sizeof exts - n, "%s%s", i ? ", " : "", out_kinds[i].ext);
+    fprintf(stderr, "rayd render: -o %s: rayd writes %s (or - for a PNG on stdout)\n(try 'rayd render --help')\n", path,
+            exts);
+    return RD_EXIT_USAGE;
+}
+
 typedef struct {
     const char *scene, *output;
+    out_kind kind;
     long threads, level;
     rd_scene_overrides ov;
     rd_scene_limits lim;
     rd_render_options ro;
     int stats_format;
+    rd_bar_mode bar;
 } render_args;
 
 enum { HELP_PRINTED = -1 };
@@ -160,33 +212,52 @@ static int stats_format_of(const char *v, int *out)
     return *out ? 0 : usage_error("--stats-format: expected text, json or both, got '%s'", v);
 }
 
+static void print_help(void)
+{
+    fputs(render_help, stdout);
+    rd_cli_overrides_help(stdout, NULL);
+    fputs(render_help_tail, stdout);
+}
+
+/* The options after the limits and the overrides: 0, HELP_PRINTED or the
+ * exit status of a usage error. */
+static int parse_option(int c, const char *arg, render_args *a)
+{
+    switch (c) {
+    case 'o': a->output = arg; return 0;
+    case 'h': print_help(); return HELP_PRINTED;
+    case 't':
+        return rd_cli_int(arg, 1, 1024, &a->threads)
+                   ? usage_error("--threads: expected an integer in 1..1024, got '%s'", arg)
+                   : 0;
+    case 'l':
+        return rd_cli_int(arg, 0, 9, &a->level) ? usage_error("--png-level: expected an integer in 0..9, got '%s'", arg)
+                                                : 0;
+    case 'b': return positive("--time-budget-ms", arg, &a->ro.time_budget_ms);
+    case 'e': return positive("--target-error", arg, &a->ro.target_error);
+    case 'a': a->ro.adaptive = 1; return 0;
+    case 's': return stats_format_of(arg, &a->stats_format);
+    case 'p': a->bar = RD_BAR_ON; return 0;
+    case 'q': a->bar = RD_BAR_OFF; return 0;
+    default: return usage_error(c == ':' ? "%s needs a value" : "unknown option '%s'", arg);
+    }
+}
+
 /* 0 with *a filled, HELP_PRINTED, or the exit status of a usage error. */
 static int parse_args(int argc, char **argv, render_args *a)
 {
-    enum {
-        O_WIDTH = 256,
-        O_HEIGHT,
-        O_SAMPLES,
-        O_SEED,
-        O_THREADS,
-        O_PNG_LEVEL,
-        O_BUDGET,
-        O_TARGET,
-        O_ADAPTIVE,
-        O_STATS_FORMAT
-    };
+    /* The letters are only the options' codes: the short options are -o
+     * and -h alone (the optstring). */
     static const struct option opts[] = {{"output", required_argument, NULL, 'o'},
-                                         {"width", required_argument, NULL, O_WIDTH},
-                                         {"height", required_argument, NULL, O_HEIGHT},
-                                         {"samples", required_argument, NULL, O_SAMPLES},
-                                         {"seed", required_argument, NULL, O_SEED},
-                                         {"threads", required_argument, NULL, O_THREADS},
-                                         {"png-level", required_argument, NULL, O_PNG_LEVEL},
+                                         {"threads", required_argument, NULL, 't'},
+                                         {"png-level", required_argument, NULL, 'l'},
                                          {"help", no_argument, NULL, 'h'},
-                                         {"time-budget-ms", required_argument, NULL, O_BUDGET},
-                                         {"target-error", required_argument, NULL, O_TARGET},
-                                         {"adaptive", no_argument, NULL, O_ADAPTIVE},
-                                         {"stats-format", required_argument, NULL, O_STATS_FORMAT},
+                                         {"time-budget-ms", required_argument, NULL, 'b'},
+                                         {"target-error", required_argument, NULL, 'e'},
+                                         {"adaptive", no_argument, NULL, 'a'},
+                                         {"stats-format", required_argument, NULL, 's'},
+                                         {"progress", no_argument, NULL, 'p'},
+                                         {"quiet", no_argument, NULL, 'q'},
                                          {NULL, 0, NULL, 0}};
     memset(a, 0, sizeof *a);
     a->threads = sysconf(_SC_NPROCESSORS_ONLN);
@@ -196,75 +267,77 @@ static int parse_args(int argc, char **argv, render_args *a)
     a->stats_format = STATS_TEXT;
     a->lim = rd_scene_limits_default();
     int rc = rd_cli_take_limits(&argc, argv, &a->lim, "rayd render", NULL);
+    if (!rc)
+        rc = rd_cli_take_overrides(&argc, argv, &a->ov, "rayd render", NULL);
     if (rc)
         return rc;
-    rd_error err = {0};
     optind = 1;
     opterr = 0;
     int c;
     while ((c = getopt_long(argc, argv, ":o:h", opts, NULL)) != -1) {
-        const char *key = c == O_WIDTH     ? "width"
-                          : c == O_HEIGHT  ? "height"
-                          : c == O_SAMPLES ? "samples"
-                          : c == O_SEED    ? "seed"
-                                           : NULL;
-        char what[32];
-        if (key) {
-            snprintf(what, sizeof what, "--%s", key);
-            rc = rd_override_set(&a->ov, key, optarg, what, &err) ? usage_error("%s", err.message) : 0;
-        } else if (c == 'o') {
-            a->output = optarg;
-        } else if (c == 'h') {
-            fputs(render_help, stdout);
-            return HELP_PRINTED;
-        } else if (c == O_THREADS) {
-            rc = rd_cli_int(optarg, 1, 1024, &a->threads)
-                     ? usage_error("--threads: expected an integer in 1..1024, got '%s'", optarg)
-                     : 0;
-        } else if (c == O_PNG_LEVEL) {
-            rc = rd_cli_int(optarg, 0, 9, &a->level)
-                     ? usage_error("--png-level: expected an integer in 0..9, got '%s'", optarg)
-                     : 0;
-        } else if (c == O_BUDGET) {
-            rc = positive("--time-budget-ms", optarg, &a->ro.time_budget_ms);
-        } else if (c == O_TARGET) {
-            rc = positive("--target-error", optarg, &a->ro.target_error);
-        } else if (c == O_ADAPTIVE) {
-            a->ro.adaptive = 1;
-        } else if (c == O_STATS_FORMAT) {
-            rc = stats_format_of(optarg, &a->stats_format);
-        } else {
-            rc = usage_error(c == ':' ? "%s needs a value" : "unknown option '%s'", argv[optind - 1]);
-        }
+        rc = parse_option(c, c == '?' || c == ':' ? argv[optind - 1] : optarg, a);
         if (rc)
             return rc;
     }
     if (optind != argc - 1)
         return usage_error("%s", optind >= argc ? "expected one SCENE file" : "expected exactly one SCENE file");
     if (!a->output)
-        return usage_error("%s", "missing -o OUT.png");
+        return usage_error("%s", "missing -o OUT (a .png, .exr or .pfm file, or -)");
+    if ((rc = out_kind_of(a->output, &a->kind)))
+        return rc;
+    if (strcmp(a->output, "-") == 0 && isatty(STDOUT_FILENO))
+        return usage_error("%s", "-o -: stdout is a terminal; redirect it to a file or a program");
     a->scene = argv[optind];
     a->ro.threads = (int)a->threads;
     return 0;
 }
 
-/* The image as a PNG file. */
-static rd_error_code write_png(const rd_image *img, double gamma, const render_args *a, rd_error *err)
+/* The image as a PNG's bytes. */
+static rd_error_code encode_png(const rd_image *img, double gamma, long level, unsigned char **out, size_t *len,
+                                rd_error *err)
 {
     uint8_t *rgb = malloc((size_t)img->width * (size_t)img->height * 3);
     if (!rgb)
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
     rd_image_to_rgb8(img, gamma, rgb);
     rd_png_options po = rd_png_options_default();
-    if (a->level >= 0)
-        po.level = (int)a->level;
-    unsigned char *png = NULL;
-    size_t len = 0;
-    rd_error_code rc = rd_png_encode(rgb, img->width, img->height, &po, &png, &len, err);
+    if (level >= 0)
+        po.level = (int)level;
+    rd_error_code rc = rd_png_encode(rgb, img->width, img->height, &po, out, len, err);
     free(rgb);
+    return rc;
+}
+
+static rd_error_code write_stdout(const unsigned char *data, size_t len, rd_error *err)
+{
+    if (fwrite(data, 1, len, stdout) != len || fflush(stdout) != 0)
+        return rd_error_set(err, RD_ERR_IO, 0, 0, "-: cannot write to stdout: %s", strerror(errno));
+    return RD_OK;
+}
+
+/* The image as OUT says: PNG, EXR or PFM, to the file or stdout. */
+static rd_error_code write_output(const rd_image *img, double gamma, const render_args *a, rd_error *err)
+{
+    unsigned char *data = NULL;
+    size_t len = 0;
+    rd_error_code rc = a->kind == OUT_EXR   ? rd_exr_encode(img, &data, &len, err)
+                       : a->kind == OUT_PFM ? rd_pfm_encode(img, &data, &len, err)
+                                            : encode_png(img, gamma, a->level, &data, &len, err);
     if (!rc)
-        rc = rd_write_file(a->output, png, len, err);
-    free(png);
+        rc = strcmp(a->output, "-") == 0 ? write_stdout(data, len, err) : rd_write_file(a->output, data, len, err);
+    free(data);
+    return rc;
+}
+
+/* Renders with the progress a asks for. */
+static rd_error_code render(const rd_scene *scene, render_args *a, rd_image *img, rd_render_stats *st, rd_error *err)
+{
+    rd_progress_settings goal = {scene->render.samples, a->ro.time_budget_ms, a->ro.target_error, a->ro.adaptive};
+    rd_progress_bar bar;
+    rd_progress_bar_init(&bar, a->bar, &goal, "render");
+    rd_progress_bar_attach(&bar, &a->ro);
+    rd_error_code rc = rd_render(scene, &a->ro, img, st, err);
+    rd_progress_bar_end(&bar);
     return rc;
 }
 
@@ -274,17 +347,22 @@ int rd_cmd_render(int argc, char **argv)
     int prc = parse_args(argc, argv, &a);
     if (prc)
         return prc == HELP_PRINTED ? RD_EXIT_OK : prc;
+    rd_error err = {0};
+    /* An output that cannot be written fails now, not after the render. */
+    if (strcmp(a.output, "-") != 0 && rd_check_writable(a.output, &err)) {
+        fprintf(stderr, "rayd render: %s\n", err.message);
+        return RD_EXIT_IO;
+    }
     rd_scene scene;
     rd_scene_init(&scene);
     rd_scene_source src = {.path = a.scene};
     rd_warnings warnings = {0, ""};
-    rd_error err = {0};
     rd_error_code rc = rd_scene_open(&src, &a.ov, &a.lim, &scene, &warnings, &err);
     if (warnings.count)
         fprintf(stderr, "%s%s", warnings.text, warnings.count > 5 ? "(more warnings not shown)\n" : "");
     rd_image img;
     rd_render_stats st;
-    if (!rc && (rc = rd_render(&scene, &a.ro, &img, &st, &err)))
+    if (!rc && (rc = render(&scene, &a, &img, &st, &err)))
         fprintf(stderr, "%s: %s\n", a.scene, err.message);
     else if (rc)
         fprintf(stderr, "%s\n", err.message);
@@ -292,7 +370,7 @@ int rd_cmd_render(int argc, char **argv)
         rd_scene_free(&scene);
         return rd_error_answer_for(rc).exit;
     }
-    rc = write_png(&img, scene.render.gamma, &a, &err);
+    rc = write_output(&img, scene.render.gamma, &a, &err);
     if (a.stats_format & STATS_TEXT)
         stats_text(&img, &st);
     if ((a.stats_format & STATS_JSON) && stats_json(&img, &st) && !rc)

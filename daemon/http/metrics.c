@@ -181,7 +181,7 @@ static void queue_metrics(rd_strbuf *out, const rd_jq_metrics *m)
            "Time a job waited from its submission until a render thread started it.");
     histogram(out, "rayd_queue_wait_seconds", "", &m->queue_wait_seconds);
     counter(out, "rayd_rays_traced_total", "Camera, shadow and secondary rays traced.", m->rays);
-    gauge(out, "rayd_result_bytes", "PNG bytes kept for finished jobs.", m->result_bytes);
+    gauge(out, "rayd_result_bytes", "PNG (and EXR) bytes kept for finished jobs.", m->result_bytes);
     gauge(out, "rayd_jobs_kept", "Jobs whose status can still be read.", m->jobs_kept);
     gauge(out, "rayd_memory_budget_bytes", "The --memory-budget (0: none).", m->memory_budget);
     gauge(out, "rayd_memory_reserved_bytes", "Estimated bytes held by queued and running jobs.", m->memory_reserved);

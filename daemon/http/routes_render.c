@@ -86,6 +86,38 @@ static int progress_params(struct MHD_Connection *c, rd_progress_settings *p, rd
     return 0;
 }
 
+/* Whether the Accept header names image/x-exr (q-values are not weighed:
+ * naming it asks for it). */
+static int accepts_exr(struct MHD_Connection *c)
+{
+    const char *a = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_ACCEPT);
+    static const char exr[] = "image/x-exr";
+    for (const char *p = a; p && *p;) {
+        p += strspn(p, " \t,");
+        size_t n = strcspn(p, ";, \t");
+        if (n == sizeof exr - 1 && strncasecmp(p, exr, n) == 0)
+            return 1;
+        p += strcspn(p, ",");
+    }
+    return 0;
+}
+
+/* hdr=1 in the query, or Accept: image/x-exr: keep the job's EXR. */
+static int hdr_param(struct MHD_Connection *c, int *hdr, rd_error *err)
+{
+    const char *v = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "hdr");
+    *hdr = accepts_exr(c);
+    if (!v)
+        return 0;
+    if (strcmp(v, "1") == 0 || strcmp(v, "true") == 0)
+        *hdr = 1;
+    else if (strcmp(v, "0") != 0 && strcmp(v, "false") != 0) {
+        rd_error_set(err, RD_ERR_SYNTAX, 0, 0, "query parameter hdr: expected 0 or 1, got '%.40s'", v);
+        return 1;
+    }
+    return 0;
+}
+
 static char *job_json(const rd_jq_info *in)
 {
     cJSON *o = cJSON_CreateObject();
@@ -180,7 +212,8 @@ static enum MHD_Result render(rd_req *r, int async)
     else if (ct && (strncasecmp(ct, "text/plain", 10) == 0 || strncasecmp(ct, "text/x-rayd-cfg", 15) == 0))
         t->fmt = RD_FMT_CFG;
     t->opt = &srv->opt;
-    if (progress_params(r->conn, &so.progress, &err) || read_overrides(r->conn, &t->ov, &err)) {
+    if (progress_params(r->conn, &so.progress, &err) || read_overrides(r->conn, &t->ov, &err) ||
+        hdr_param(r->conn, &so.hdr, &err)) {
         free(t);
         return rd_reply_error(r, 400, "parse_error", &err, NULL);
     }
@@ -242,7 +275,10 @@ enum MHD_Result rd_route_render_resumed(rd_req *r)
     unsigned char *png;
     size_t len;
     rd_error err = {0};
-    if (rd_jq_png(srv->jobs, r->job, 0, &png, &len, &err))
+    int exr = accepts_exr(r->conn);
+    rd_error_code rc =
+        exr ? rd_jq_exr(srv->jobs, r->job, &png, &len, &err) : rd_jq_png(srv->jobs, r->job, 0, &png, &len, &err);
+    if (rc)
         return rd_reply_error(r, 503, "unavailable", &err, NULL);
     rd_jq_release_png(srv->jobs, r->job);
     char ms[32], spp[32], est[32], passes[32];
@@ -261,7 +297,7 @@ enum MHD_Result rd_route_render_resumed(rd_req *r)
                              "X-Rayd-Passes",
                              passes,
                              NULL};
-    return rd_reply_with(r, 200, "image/png", png, len, 1, headers);
+    return rd_reply_with(r, 200, exr ? "image/x-exr" : "image/png", png, len, 1, headers);
 }
 
 /* A running job's image so far, encoded on a render thread. */
@@ -347,6 +383,39 @@ enum MHD_Result rd_route_jobs_post(rd_req *r, const char *rest)
     return render(r, 1);
 }
 
+/* Why a job has no image to give. */
+static enum MHD_Result no_image(rd_req *r, rd_jq_job *job, const rd_error *err)
+{
+    rd_jq_info info;
+    rd_jq_info_get(r->srv->jobs, job, &info);
+    if (info.status == RD_JQ_DONE)
+        return rd_reply_error(r, 404, "expired", err, NULL);
+    if (info.status == RD_JQ_QUEUED || info.status == RD_JQ_RUNNING)
+        return rd_reply_error(r, 409, "not_ready", err, NULL);
+    return rd_reply_error(r, 409, "no_image", err, NULL);
+}
+
+/* GET /v1/jobs/{id}/image with Accept: image/x-exr: only a job submitted
+ * with hdr kept one (encoding an EXR for every job would cost every
+ * client for what few ask for). */
+static enum MHD_Result reply_job_exr(rd_req *r, rd_jq_job *job)
+{
+    rd_jq_info info;
+    rd_jq_info_get(r->srv->jobs, job, &info);
+    if (!info.hdr)
+        return rd_reply_error(r, 406, "not_acceptable", NULL,
+                              "this job keeps no EXR: submit it with POST /v1/jobs?hdr=1 to get its image as "
+                              "image/x-exr");
+    unsigned char *exr;
+    size_t len;
+    rd_error err = {0};
+    if (rd_jq_exr(r->srv->jobs, job, &exr, &len, &err))
+        return no_image(r, job, &err);
+    char tag[40];
+    snprintf(tag, sizeof tag, "%s.exr", info.id);
+    return rd_reply_immutable(r, "image/x-exr", exr, len, 1, tag, r->srv->opt.jobs.result_ttl_ms / 1e3);
+}
+
 static const char no_job[] = "no job with that id (finished jobs expire, see --result-ttl)";
 
 /* rest: "/{id}" or "/{id}/image". */
@@ -375,6 +444,8 @@ enum MHD_Result rd_route_job(rd_req *r, const char *path)
         rd_jq_info info;
         rd_jq_info_get(srv->jobs, job, &info);
         ret = rd_reply_json(r, 200, job_json(&info));
+    } else if (strcmp(rest, "/image") == 0 && accepts_exr(r->conn)) {
+        ret = reply_job_exr(r, job);
     } else if (strcmp(rest, "/image") == 0) {
         const char *p = MHD_lookup_connection_value(r->conn, MHD_GET_ARGUMENT_KIND, "partial");
         int partial = p && strcmp(p, "0") != 0;
@@ -386,14 +457,7 @@ enum MHD_Result rd_route_job(rd_req *r, const char *path)
         size_t len;
         rd_error err = {0};
         if (rd_jq_png(srv->jobs, job, partial, &png, &len, &err)) {
-            rd_jq_info info;
-            rd_jq_info_get(srv->jobs, job, &info);
-            if (info.status == RD_JQ_DONE)
-                ret = rd_reply_error(r, 404, "expired", &err, NULL);
-            else if (info.status == RD_JQ_QUEUED || info.status == RD_JQ_RUNNING)
-                ret = rd_reply_error(r, 409, "not_ready", &err, NULL);
-            else
-                ret = rd_reply_error(r, 409, "no_image", &err, NULL);
+            ret = no_image(r, job, &err);
         } else if (now.status == RD_JQ_DONE) {
             /* A finished job's image never changes under its id. */
             char tag[40];

@@ -13,6 +13,7 @@
 #include <time.h>
 
 #include "hash.h"
+#include "hdr_write.h"
 #include "rayd/clock.h"
 #include "rayd/job.h"
 #include "timed_wait.h"
@@ -70,6 +71,9 @@ struct rd_jq_job {
     rd_render_stats stats; /* what the core measured so far (rd_job_stats) */
     unsigned char *png;
     size_t png_len;
+    int hdr;            /* keeps exr beside png */
+    unsigned char *exr; /* the linear image, with hdr */
+    size_t exr_len;
     rd_error error;
     size_t charged;   /* bytes of the budget it holds */
     size_t footprint; /* what it will hold once admitted */
@@ -114,6 +118,7 @@ static void job_free(rd_jq_job *j)
     rd_scene_free(&j->scene);
     free(j->tile_state);
     free(j->png);
+    free(j->exr);
     if (j->task.free)
         j->task.free(j->task.arg);
     free(j);
@@ -251,9 +256,12 @@ static void drop_result(rd_jq *q, rd_jq_job *j)
 {
     list_remove(&q->results, j);
     if (j->png) {
-        q->result_bytes -= j->png_len;
+        q->result_bytes -= j->png_len + j->exr_len;
         free(j->png);
         j->png = NULL;
+        free(j->exr);
+        j->exr = NULL;
+        j->exr_len = 0;
     }
 }
 
@@ -337,7 +345,7 @@ static void finish_locked(rd_jq *q, rd_jq_job *j, rd_jq_status st)
     charge(q, j, 0);
     j->watch_fd = -1;
     if (j->png)
-        q->result_bytes += j->png_len;
+        q->result_bytes += j->png_len + j->exr_len;
     make_evictable(q, j);
     sweep(q);
     pthread_cond_broadcast(&q->idle_cv);
@@ -504,9 +512,20 @@ static void mark_started(rd_jq *q, rd_jq_job *j)
         rd_hist_observe(&q->wait, (j->t_start - j->t_submit) / 1e3);
 }
 
+/* The linear image as EXR, for a job submitted with hdr. It is moved out
+ * of the core, whose pixels are not needed after the 8-bit copy. */
+static rd_error_code encode_exr(rd_job *core, unsigned char **exr, size_t *len, rd_error *err)
+{
+    rd_image img;
+    rd_job_take_image(core, &img);
+    rd_error_code rc = rd_exr_encode(&img, exr, len, err);
+    rd_image_free(&img);
+    return rc;
+}
+
 /* Called once a job's last tile or its preparation is done: the task's
- * finish or the PNG, outside the lock. Under q->mu (released and taken
- * again). */
+ * finish or the PNG (and EXR), outside the lock. Under q->mu (released and
+ * taken again). */
 static void finish_job(rd_jq *q, rd_jq_job *j)
 {
     j->ph = PH_FINISHING;
@@ -528,6 +547,12 @@ static void finish_job(rd_jq *q, rd_jq_job *j)
     else if (!rc && rgb)
         rc = rd_png_encode(rgb, w, h, &q->opt.png, &png, &len, &err);
     free(rgb);
+    unsigned char *exr = NULL;
+    size_t exr_len = 0;
+    if (!rc && png && j->hdr && (rc = encode_exr(j->core, &exr, &exr_len, &err))) {
+        free(png);
+        png = NULL;
+    }
     rd_render_stats st = j->stats;
     if (j->core)
         rd_job_stats(j->core, &st);
@@ -538,6 +563,8 @@ static void finish_job(rd_jq *q, rd_jq_job *j)
     } else {
         j->png = png;
         j->png_len = len;
+        j->exr = exr;
+        j->exr_len = exr_len;
         finish_locked(q, j, RD_JQ_DONE);
     }
     notify_locked(q, j);
@@ -851,6 +878,7 @@ rd_error_code rd_jq_submit(rd_jq *q, const rd_jq_task *task, const rd_jq_submit_
         j->notify_prepared = so->notify_prepared;
         j->internal = so->internal;
         j->hold = so->hold;
+        j->hdr = so->hdr;
     } else {
         j->watch_fd = -1;
     }
@@ -1004,6 +1032,7 @@ void rd_jq_info_get(rd_jq *q, rd_jq_job *j, rd_jq_info *out)
     out->height = j->height;
     out->hung_up = j->hung_up;
     out->prepared = j->ph >= PH_WAITING;
+    out->hdr = j->hdr;
     pthread_mutex_unlock(&q->mu);
 }
 
@@ -1042,6 +1071,27 @@ rd_error_code rd_jq_png(rd_jq *q, rd_jq_job *j, int partial, unsigned char **png
     rd_error_code rc = rd_png_encode(rgb, w, h, &q->opt.png, png, len, err);
     free(rgb);
     return rc;
+}
+
+rd_error_code rd_jq_exr(rd_jq *q, rd_jq_job *j, unsigned char **exr, size_t *len, rd_error *err)
+{
+    *exr = NULL;
+    *len = 0;
+    pthread_mutex_lock(&q->mu);
+    rd_jq_status st = j->status;
+    unsigned char *copy = j->exr ? malloc(j->exr_len) : NULL;
+    if (copy) {
+        memcpy(copy, j->exr, j->exr_len);
+        *exr = copy;
+        *len = j->exr_len;
+    }
+    int had = j->exr != NULL;
+    pthread_mutex_unlock(&q->mu);
+    if (had)
+        return copy ? RD_OK : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    if (st == RD_JQ_DONE)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "the image has expired (--result-memory)");
+    return rd_error_set(err, RD_ERR_INVALID, 0, 0, "job is %s: no image yet", rd_jq_status_name(st));
 }
 
 void rd_jq_release_png(rd_jq *q, rd_jq_job *j)

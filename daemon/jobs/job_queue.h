@@ -80,6 +80,7 @@ typedef struct {
     int notify_prepared; /* call done once prepared (an asynchronous submission) */
     int internal;        /* work for a request, not a job of its own: no id to find, not in the metrics */
     rd_jq_job *hold;     /* a reference the job takes over and drops when it is freed; may be NULL */
+    int hdr;             /* also keep the linear image as an EXR beside the PNG (a task without finish) */
 } rd_jq_submit_options;
 
 rd_jq *rd_jq_start(const rd_jq_options *opt, rd_error *err);
@@ -133,6 +134,7 @@ typedef struct {
     int passes;
     rd_curve_point curve[RD_CURVE_MAX];
     int curve_len;
+    int hdr; /* submitted with hdr: its result has an EXR */
 } rd_jq_info;
 
 void rd_jq_info_get(rd_jq *q, rd_jq_job *j, rd_jq_info *out);
@@ -141,7 +143,12 @@ void rd_jq_info_get(rd_jq *q, rd_jq_job *j, rd_jq_info *out);
  * the image so far while it runs. RD_ERR_INVALID when there is none. */
 rd_error_code rd_jq_png(rd_jq *q, rd_jq_job *j, int partial, unsigned char **png, size_t *len, rd_error *err);
 
-/* Drops a finished job's PNG (a synchronous answer has been sent). */
+/* The finished EXR of a job submitted with hdr (malloc'ed copy, caller
+ * frees); RD_ERR_INVALID when there is none. Kept and evicted with the PNG,
+ * both counted in the result memory. */
+rd_error_code rd_jq_exr(rd_jq *q, rd_jq_job *j, unsigned char **exr, size_t *len, rd_error *err);
+
+/* Drops a finished job's PNG and EXR (a synchronous answer has been sent). */
 void rd_jq_release_png(rd_jq *q, rd_jq_job *j);
 
 /* Memory held outside the queue (grading caches) that counts against the

@@ -130,7 +130,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     rd_warnings w = {0, ""};
     rd_error err;
     rd_fuzz_error_init(&err);
-    rd_error_code rc = rd_obj_parse(text, size, SOURCE, MAX_TRIANGLES, "--max-objects", &m, &w, &err);
+    rd_error_code rc = rd_obj_parse(text, size, SOURCE, MAX_TRIANGLES, "--limit-objects", &m, &w, &err);
     if (rc == RD_OK)
         check_mesh(&m, MAX_TRIANGLES, 1);
     else

@@ -34,10 +34,10 @@
 #include "grade.h"
 #include "png_read.h"
 
-/* The daemon's --max-pixels is larger; a megapixel already reaches every
+/* The daemon's --limit-pixels is larger; a megapixel already reaches every
  * code path and keeps each input within milliseconds. */
 #define MAX_PIXELS ((size_t)1 << 20)
-#define FLAG "--max-pixels"
+#define FLAG "--limit-pixels"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 

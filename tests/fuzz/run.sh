@@ -77,7 +77,7 @@ for t in $TARGETS; do
     *" $t "*) need_daemon=1 ;;
     esac
 done
-PKGS="libpng libcjson zlib"
+PKGS="libpng libcjson zlib OpenEXR"
 [ "$need_daemon" -eq 0 ] || PKGS="$PKGS libmicrohttpd"
 # The library headers come with the project's other build dependencies;
 # deploy/deps.sh installs them as `make` would, and is quiet when they exist.

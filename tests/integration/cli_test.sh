@@ -68,11 +68,12 @@ cmp -s "$T/out" "$T/version1" && ok || bad "rayd version and rayd --version diff
 expect_exit 0 "serve --help" -- "$RAYD" serve --help
 grep -q -- "--memory-budget N" "$T/out" && grep -q "(default 64; RAYD_QUEUE)" "$T/out" && ok || bad "serve --help lacks flags or defaults"
 expect_exit 0 "limits" -- "$RAYD" limits
-grep -q -- "--max-samples *65536" "$T/out" && ok || bad "rayd limits: $(head -c 300 "$T/out")"
+grep -q -- "--limit-samples *65536" "$T/out" && ok || bad "rayd limits: $(head -c 300 "$T/out")"
+grep -q -- "--max-samples *65536" "$T/out" && bad "rayd limits lists the old names" || ok
 expect_exit 1 "converge: --max-samples is its last row" -- "$RAYD" converge scenes/diffuse.cfg --max-samples 0
 grep -q -- "--max-samples: expected an integer in 1..65536" "$T/err" && ok || bad "converge --max-samples 0: $(cat "$T/err")"
-expect_exit 2 "converge: a limit applies" -- "$RAYD" converge scenes/diffuse.cfg --max-pixels 100
-grep -q -- "--max-pixels" "$T/err" && ok || bad "converge limit message: $(cat "$T/err")"
+expect_exit 2 "converge: a limit applies" -- "$RAYD" converge scenes/diffuse.cfg --limit-pixels 100
+grep -q -- "--limit-pixels" "$T/err" && ok || bad "converge limit message: $(cat "$T/err")"
 expect_exit 1 "converge: --width out of range" -- "$RAYD" converge scenes/diffuse.cfg --width 0
 grep -q "expected an integer in 1..16384" "$T/err" && ok || bad "converge --width 0: $(cat "$T/err")"
 expect_exit 0 "schema" -- "$RAYD" schema
@@ -191,11 +192,11 @@ cmpjson "$T/out" 'abs(o["rmse"] - 51 / (255 * 12 ** 0.5)) < 1e-15 and abs(o["psn
 expect_exit 1 "compare one image" -- "$RAYD" compare "$T/a.png"
 expect_exit 1 "compare three images" -- "$RAYD" compare "$T/a.png" "$T/b.png" "$T/c.png"
 expect_exit 1 "compare unknown option" -- "$RAYD" compare "$T/a.png" "$T/b.png" --fast
-expect_exit 1 "compare bad limit" -- "$RAYD" compare "$T/a.png" "$T/b.png" --max-pixels x
+expect_exit 1 "compare bad limit" -- "$RAYD" compare "$T/a.png" "$T/b.png" --limit-pixels x
 expect_exit 2 "compare sizes differ" -- "$RAYD" compare "$T/a.png" "$T/s.png"
 grep -q "sizes differ" "$T/err" && ok || bad "compare size message: $(cat "$T/err")"
-expect_exit 2 "compare over --max-pixels" -- "$RAYD" compare "$T/a.png" "$T/b.png" --max-pixels 100
-grep -q -- "--max-pixels" "$T/err" && ok || bad "compare limit message: $(cat "$T/err")"
+expect_exit 2 "compare over --limit-pixels" -- "$RAYD" compare "$T/a.png" "$T/b.png" --limit-pixels 100
+grep -q -- "--limit-pixels" "$T/err" && ok || bad "compare limit message: $(cat "$T/err")"
 printf 'not a png at all' >"$T/junk.png"
 expect_exit 2 "compare not a PNG" -- "$RAYD" compare "$T/a.png" "$T/junk.png"
 head -c 100 "$T/a.png" >"$T/cut.png"
@@ -230,9 +231,135 @@ assert all(len(f) == 6 and 0 <= min(f[:3]) and max(f[:3]) < np and -1 <= min(f[3
            for f in m["faces"])
 ' "$T/mx.json" "$T/mx.err" && ok || bad "convert --expand: the mesh is not the one rayd renders"
 expect_exit 2 "an expanded mesh is not read back" -- "$RAYD" render "$T/mx.json" -o "$T/mx2.png"
-expect_exit 2 "convert --expand over --max-objects" -- "$RAYD" convert scenes/mesh.cfg "$T/mx3.json" --expand --max-objects 1000
-grep -q -- "--max-objects" "$T/err" && ok || bad "convert --expand limit message: $(cat "$T/err")"
+expect_exit 2 "convert --expand over --limit-objects" -- "$RAYD" convert scenes/mesh.cfg "$T/mx3.json" --expand --limit-objects 1000
+grep -q -- "--limit-objects" "$T/err" && ok || bad "convert --expand limit message: $(cat "$T/err")"
 expect_exit 1 "convert --expand to cfg" -- "$RAYD" convert scenes/phong.cfg "$T/px.cfg" --expand
+
+# The size limits are --limit-NAME; the old --max-NAME still works, with a
+# warning, but --max-depth is now the render override.
+expect_exit 2 "an old limit name still applies" -- "$RAYD" render scenes/phong.cfg -o "$T/l.png" --max-pixels 100
+grep -q -- "warning: --max-pixels is deprecated.*use --limit-pixels" "$T/err" && grep -q -- "(--limit-pixels)" "$T/err" &&
+    ok || bad "old limit name: $(cat "$T/err")"
+expect_exit 1 "a bad limit value" -- "$RAYD" render scenes/phong.cfg -o "$T/l.png" --limit-pixels=x
+grep -q -- "--limit-pixels: expected a positive integer, got 'x'" "$T/err" && ok || bad "limit value: $(cat "$T/err")"
+expect_exit 2 "--limit-depth" -- "$RAYD" render scenes/phong.cfg -o "$T/l.png" --limit-depth 1 --max-depth 2
+grep -q "max_depth 2, over the limit of 1 (--limit-depth)" "$T/err" && ok || bad "--limit-depth: $(cat "$T/err")"
+expect_exit 1 "--max-depth is the override" -- "$RAYD" render scenes/phong.cfg -o "$T/l.png" --max-depth 65
+grep -q -- "--max-depth: expected an integer in 0..64, got '65'" "$T/err" && ! grep -q deprecated "$T/err" && ok ||
+    bad "--max-depth 65: $(cat "$T/err")"
+
+# Every override of the query is a flag, and --set render.KEY=VALUE the same.
+expect_exit 0 "rayd render --help" -- "$RAYD" render --help
+for opt in --gamma --max-depth --seed --set --limit- --progress --quiet .exr .pfm; do
+    grep -q -- "$opt" "$T/out" && ok || bad "render --help does not explain $opt"
+done
+r() { "$RAYD" render scenes/perfect_specular.cfg --width 40 --height 30 "$@" 2>"$T/err"; }
+r -o "$T/o0.png"
+r -o "$T/o1.png" --max-depth 0 --gamma 2.2
+r -o "$T/o2.png" --set render.max_depth=0 --set=render.gamma=2.2
+r -o "$T/o3.png" --max-depth=0 --gamma=2.2
+cmp -s "$T/o1.png" "$T/o2.png" && cmp -s "$T/o1.png" "$T/o3.png" && ok || bad "--set and the flags give different images"
+cmp -s "$T/o0.png" "$T/o1.png" && bad "--max-depth 0 --gamma 2.2 change nothing" || ok
+expect_exit 1 "--gamma 0" -- "$RAYD" render scenes/phong.cfg -o "$T/g.png" --gamma 0
+grep -q -- "--gamma: expected a number > 0, got '0'" "$T/err" && ok || bad "--gamma 0: $(cat "$T/err")"
+expect_exit 1 "--set of another section" -- "$RAYD" render scenes/phong.cfg -o "$T/g.png" --set camera.fov=30
+expect_exit 1 "--set of a key that cannot be overridden" -- "$RAYD" render scenes/phong.cfg -o "$T/g.png" --set render.background=1
+grep -q "render.background: not a render setting that can be overridden (these can: width, height" "$T/err" && ok ||
+    bad "--set render.background: $(cat "$T/err")"
+[ ! -e "$T/g.png" ] && ok || bad "a bad override wrote an image"
+expect_exit 1 "grade: overrides with an assignment" -- "$RAYD" grade --assignment phong --image "$T/o0.png" --gamma 2
+expect_exit 1 "converge sets the samples itself" -- "$RAYD" converge scenes/diffuse.cfg --samples 4
+
+# Outputs: - is stdout; only .png, .exr and .pfm; an unwritable output is
+# found before the render, and nothing half-written is left.
+"$RAYD" render scenes/phong.cfg -o - --width 32 --height 24 >"$T/stdout.png" 2>"$T/err"
+"$RAYD" render scenes/phong.cfg -o "$T/file.png" --width 32 --height 24 2>/dev/null
+cmp -s "$T/stdout.png" "$T/file.png" && grep -q "^render: 32x24" "$T/err" && ok || bad "-o - is not the PNG on stdout"
+expect_exit 1 "an output rayd does not write" -- "$RAYD" render scenes/phong.cfg -o "$T/x.jpg"
+grep -q -- "-o $T/x.jpg: rayd writes .png, .exr, .pfm (or - for a PNG on stdout)" "$T/err" && ok ||
+    bad "unknown extension message: $(cat "$T/err")"
+expect_exit 1 "an output without an extension" -- "$RAYD" render scenes/phong.cfg -o "$T/x"
+expect_exit 3 "a missing folder" -- "$RAYD" render scenes/phong.cfg -o "$T/no/such/x.png"
+grep -q "$T/no/such/x.png: cannot write" "$T/err" && ! grep -q "^render: " "$T/err" && ok ||
+    bad "missing folder found after rendering: $(cat "$T/err")"
+mkdir "$T/ro" "$T/dir.png"
+expect_exit 3 "a folder as output" -- "$RAYD" render scenes/phong.cfg -o "$T/dir.png" --width 8 --height 8
+if [ "$(id -u)" -ne 0 ]; then
+    chmod 555 "$T/ro"
+    expect_exit 3 "a read-only folder" -- "$RAYD" render scenes/phong.cfg -o "$T/ro/x.exr"
+    grep -q "$T/ro/x.exr: cannot write: Permission denied" "$T/err" && ! grep -q "^render: " "$T/err" && ok ||
+        bad "read-only folder: $(cat "$T/err")"
+    chmod 755 "$T/ro"
+fi
+[ -z "$(ls "$T/ro")" ] && [ -z "$(ls "$T" | grep '\.tmp')" ] && ok || bad "a failed output left files: $(ls "$T" "$T/ro")"
+
+# .pfm and .exr hold the linear image: the PNG is exactly its clamp, gamma
+# and rounding (rd_display8), and the EXR's floats are the PFM's.
+"$RAYD" render scenes/area_light.cfg -o "$T/h.png" --width 24 --height 18 --samples 8 --gamma 2.2 2>/dev/null
+"$RAYD" render scenes/area_light.cfg -o "$T/h.pfm" --width 24 --height 18 --samples 8 --gamma 2.2 2>/dev/null
+"$RAYD" render scenes/area_light.cfg -o "$T/h.exr" --width 24 --height 18 --samples 8 --gamma 2.2 2>/dev/null
+/usr/bin/python3 - "$T/h.pfm" "$T/h.png" "$T/h.exr" <<'PY' && ok || bad "the PFM is not the PNG's linear image"
+import math, struct, sys, zlib
+pfm = open(sys.argv[1], "rb").read()
+head = pfm.split(b"\n", 3)
+assert head[0] == b"PF" and head[1] == b"24 18" and head[2] == b"-1", head[:3]
+floats = struct.unpack("<%df" % (24 * 18 * 3), head[3])
+png = open(sys.argv[2], "rb").read()
+idat, i = b"", 8
+while i < len(png):
+    n, kind = struct.unpack(">I4s", png[i:i + 8])
+    if kind == b"IDAT":
+        idat += png[i + 8:i + 8 + n]
+    i += 12 + n
+raw, rows, prev = zlib.decompress(idat), [], bytearray(72)
+for y in range(18):  # undo the PNG filters
+    f, line = raw[y * 73], bytearray(raw[y * 73 + 1:(y + 1) * 73])
+    for x in range(72):
+        a = line[x - 3] if x >= 3 else 0
+        b, c = prev[x], prev[x - 3] if x >= 3 else 0
+        p = a + b - c
+        pr = a if abs(p - a) <= abs(p - b) and abs(p - a) <= abs(p - c) else b if abs(p - b) <= abs(p - c) else c
+        line[x] = (line[x] + [0, a, b, (a + b) // 2, pr][f]) & 255
+    rows.append(line)
+    prev = line
+lit = 0
+for y in range(18):
+    for i in range(72):
+        v = floats[(17 - y) * 72 + i]  # PFM rows run bottom to top
+        want = math.floor(min(max(v, 0.0), 1.0) ** (1 / 2.2) * 255 + 0.5)
+        assert rows[y][i] == want, (y, i, v, rows[y][i], want)
+        lit += v > 0
+assert lit > 100, lit
+exr = open(sys.argv[3], "rb").read()
+assert exr[:4] == b"\x76\x2f\x31\x01" and b"zip" not in exr[:0], exr[:4]
+PY
+
+# Progress: one line per pass when stderr is not a terminal and the render
+# has several passes, none for one pass or with --quiet; --progress draws
+# the bar once the render has run for a second.
+"$RAYD" render scenes/area_light.cfg -o "$T/p.png" --width 40 --height 30 --samples 16 --target-error 0.0001 2>"$T/err"
+[ "$(grep -c '^render pass [0-9]*: samples=[0-9.]* error=[0-9.]* ms=[0-9.]*$' "$T/err")" -eq 4 ] && ok ||
+    bad "pass lines: $(cat "$T/err")"
+grep -q "passes=4 " "$T/err" && ok || bad "pass lines of a 4-pass render: $(cat "$T/err")"
+"$RAYD" render scenes/area_light.cfg -o "$T/p.png" --width 40 --height 30 --samples 16 --target-error 0.0001 --quiet 2>"$T/err"
+[ "$(wc -l <"$T/err")" -eq 1 ] && grep -q "^render: 40x30" "$T/err" && ok || bad "--quiet: $(cat "$T/err")"
+"$RAYD" render scenes/area_light.cfg -o "$T/p.png" --width 40 --height 30 --samples 16 2>"$T/err"
+[ "$(wc -l <"$T/err")" -eq 1 ] && ok || bad "a one-pass render printed more than its statistics: $(cat "$T/err")"
+"$RAYD" render scenes/area_light.cfg -o "$T/p.png" --width 200 --height 150 --samples 128 --progress 2>"$T/err"
+ms=$(sed -n 's/.* time_ms=\([0-9]*\).*/\1/p' "$T/err")
+if [ "${ms:-0}" -gt 1300 ]; then
+    grep -q "$(printf '\r')render \[.*\] *[0-9]*% pass 1 tiles [0-9]*/[0-9]* spp [0-9.]* err [0-9.]* [0-9.]*s left [0-9.]*s" "$T/err" &&
+        grep -q "\[####################\] 100% pass 1 tiles 130/130 spp 128.0 err 0.0" "$T/err" && ok ||
+        bad "--progress bar: $(cat -v "$T/err")"
+fi
+
+# The README's grading example, as written: render the assignment's scene,
+# then grade it.
+case $RAYD in /*) bin=$RAYD ;; *) bin=$PWD/$RAYD ;; esac
+(cd "$T" && "$bin" render "$OLDPWD/scenes/assignments/phong.cfg" -o my_phong.png 2>/dev/null &&
+    "$bin" grade --assignments "$OLDPWD/scenes/assignments" --assignment phong --image my_phong.png --diff where.png >grade.json)
+[ $? -eq 0 ] && cmpjson "$T/grade.json" 'o["pass"] is True' && png_is "$T/where.png" 320 240 && ok ||
+    bad "the README's grade example: $(cat "$T/grade.json")"
 
 echo "cli: $pass passed, $fail failed"
 [ "$fail" -eq 0 ]

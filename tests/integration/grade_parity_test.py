@@ -29,7 +29,7 @@ import urllib.request
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
 from rayd_http import RAYD, form, png  # noqa: E402
 
-LIMITS = ["--max-samples", "16"]
+LIMITS = ["--limit-samples", "16"]
 passed = failed = 0
 
 

@@ -409,7 +409,7 @@ def promtool(text):
 def main():
     tmp = tempfile.mkdtemp(prefix="rayd-metrics-")
     check_the_checker()
-    d = Daemon(tmp, ["--threads", "2", "--job-timeout-ms", str(JOB_TIMEOUT_MS), "--max-samples", "16"])
+    d = Daemon(tmp, ["--threads", "2", "--job-timeout-ms", str(JOB_TIMEOUT_MS), "--limit-samples", "16"])
     try:
         _, before = scrape(d)
         check_families(before)

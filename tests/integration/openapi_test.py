@@ -273,7 +273,7 @@ def renders(c):
         c.call("post", R, R + q, SCENE.encode(), CFG, 400)
     c.call("post", R, R, b"", CFG, 400)
     c.call("post", R, R, b"[render]\nwidth = 64O\n", CFG, 400)
-    c.call("post", R, R + "?width=1000&height=1000", SCENE.encode(), CFG, 413)  # --max-pixels
+    c.call("post", R, R + "?width=1000&height=1000", SCENE.encode(), CFG, 413)  # --limit-pixels
     c.call("post", R, R, b"#" * (MAX_BODY + 1), CFG, 413)  # --max-body-bytes, refused by Content-Length
     c.call("post", R, R, png(2, 2, lambda x, y: (0, 0, 0)), {"Content-Type": "image/png"}, 415)
     c.call("post", R, R, SCENE.replace("material = m\n", "material = nosuch\n").encode(), CFG, 422)
@@ -491,7 +491,7 @@ def main():
     check_document()
     check_route_table()
     tmp = tempfile.mkdtemp(prefix="rayd-openapi-")
-    flags = ["--threads", "2", "--max-body-bytes", str(MAX_BODY), "--max-pixels", "100000",
+    flags = ["--threads", "2", "--max-body-bytes", str(MAX_BODY), "--limit-pixels", "100000",
              "--job-timeout-ms", "1500", "--drain-ms", "20000", "--assignments", assignments_dir(tmp)]
     d = Daemon(tmp, flags)
     try:

@@ -28,6 +28,7 @@
 #include <unistd.h>
 
 #include "support/daemon_harness.h"
+#include "support/exr_read.h"
 
 TestSuite(daemon, .init = setup, .fini = teardown, .timeout = 180);
 
@@ -997,5 +998,129 @@ Test(daemon, memory_flat_over_2000_requests, .timeout = 300)
     /* Bound: 5 MB of growth over 1,800 requests (under 3 kB each); a leak
      * of a job, a scene or an image per request would exceed it. */
     cr_assert_lt(rss2000 - rss200, 5 * 1024, "VmRSS grew from %ld kB to %ld kB over 1,800 requests", rss200, rss2000);
+    assert_clean_exit(s, 20);
+}
+
+/* ---- the linear image as EXR ---------------------------------------------- */
+
+static void GET_accept(int port, const char *path, const char *accept, resp *r)
+{
+    req_opts o = {.path = path, .accept = accept};
+    http(port, &o, r);
+}
+
+/* rayd render of the scene at the query's size into dir/cli.EXT. */
+static char *cli_image(const server *s, const char *ext, size_t *len)
+{
+    char out[320];
+    snprintf(out, sizeof out, "%s/cli.%s", s->dir, ext);
+    const char *argv[] = {
+        rayd_path(), "render", "scenes/area_light.cfg", "-o", out, "--width", "40", "--height", "30", "--samples", "8",
+        "--quiet",   NULL};
+    cr_assert_eq(run_cmd(argv, 120), 0, "rayd render -o %s failed", out);
+    char *data = slurp(out, len);
+    unlink(out);
+    cr_assert_not_null(data);
+    return data;
+}
+
+/* The EXR's floats are the PFM's, row for row (the PFM runs bottom up). */
+static void assert_exr_is_pfm(const resp *r, const char *pfm, size_t pfm_len)
+{
+    int w, h;
+    float *rgb;
+    const char *why = "";
+    cr_assert_eq(exr_read_rgb((const unsigned char *)r->body, r->len, &w, &h, &rgb, &why), 0, "decoding: %s", why);
+    static const char head[] = "PF\n40 30\n-1\n";
+    size_t hl = sizeof head - 1;
+    cr_assert(w == 40 && h == 30 && pfm_len == hl + 40 * 30 * 12 && memcmp(pfm, head, hl) == 0);
+    for (int y = 0; y < 30; y++)
+        cr_assert(memcmp(rgb + (size_t)y * 120, pfm + hl + (size_t)(29 - y) * 480, 480) == 0,
+                  "row %d of the job's EXR is not the PFM's", y);
+    free(rgb);
+}
+
+Test(daemon, job_exr_is_the_linear_image_of_rayd_render)
+{
+    server *s = start_server_default();
+    size_t exr_len, pfm_len, len;
+    char *cli_exr = cli_image(s, "exr", &exr_len), *cli_pfm = cli_image(s, "pfm", &pfm_len);
+    char *cfg = scene_text("scenes/area_light.cfg", &len);
+    char ct[64], path[256];
+    /* Asked for by hdr=1, or by Accept: image/x-exr on the POST. */
+    for (int how = 0; how < 2; how++) {
+        char id[64], st[32];
+        if (how == 0) {
+            submit_job(s->port, "?width=40&height=30&samples=8&hdr=1", "text/plain", cfg, len, id, sizeof id);
+        } else {
+            req_opts o = {.method = "POST",
+                          .path = "/v1/jobs?width=40&height=30&samples=8",
+                          .ctype = "text/plain",
+                          .body = cfg,
+                          .len = len,
+                          .accept = "image/x-exr"};
+            resp p;
+            http(s->port, &o, &p);
+            cr_assert(p.code == 202 && json_str(p.body, "id", id, sizeof id), "%ld %.300s", p.code, p.body);
+            resp_free(&p);
+        }
+        cr_assert(wait_job_status(s->port, id, "done", 120, st, sizeof st), "job ended %s", st);
+        snprintf(path, sizeof path, "/v1/jobs/%s/image", id);
+        resp r;
+        GET_accept(s->port, path, "image/png;q=0.5, image/x-exr", &r);
+        cr_assert_eq(r.code, 200, "%ld %.300s", r.code, r.body);
+        cr_assert(header(&r, "Content-Type", ct, sizeof ct) && strcmp(ct, "image/x-exr") == 0, "type %s", ct);
+        cr_assert(r.len == exr_len && memcmp(r.body, cli_exr, exr_len) == 0, "the job's EXR is not rayd render's");
+        assert_exr_is_pfm(&r, cli_pfm, pfm_len);
+        size_t exr_bytes = r.len;
+        resp_free(&r);
+        /* The PNG stays the answer without the Accept, and both count. */
+        GET(s->port, path, &r);
+        assert_png(&r, 40, 30);
+        if (how == 0)
+            cr_assert_eq(get_metric(s->port, "rayd_result_bytes"), (double)(exr_bytes + r.len));
+        resp_free(&r);
+    }
+    /* A synchronous render answers the EXR itself. */
+    req_opts o = {.method = "POST",
+                  .path = "/v1/render?width=40&height=30&samples=8",
+                  .ctype = "text/plain",
+                  .body = cfg,
+                  .len = len,
+                  .accept = "image/x-exr"};
+    resp r;
+    http(s->port, &o, &r);
+    cr_assert_eq(r.code, 200, "%ld %.300s", r.code, r.body);
+    cr_assert(header(&r, "Content-Type", ct, sizeof ct) && strcmp(ct, "image/x-exr") == 0, "type %s", ct);
+    cr_assert(r.len == exr_len && memcmp(r.body, cli_exr, exr_len) == 0, "the sync EXR is not rayd render's");
+    resp_free(&r);
+    free(cfg);
+    free(cli_exr);
+    free(cli_pfm);
+    assert_clean_exit(s, 20);
+}
+
+Test(daemon, job_without_hdr_answers_406_for_exr)
+{
+    server *s = start_server_default();
+    size_t len;
+    char *cfg = scene_text("scenes/phong.cfg", &len);
+    char id[64], st[32], path[256];
+    submit_job(s->port, SMALL_QUERY, "text/plain", cfg, len, id, sizeof id);
+    cr_assert(wait_job_status(s->port, id, "done", 60, st, sizeof st), "job ended %s", st);
+    snprintf(path, sizeof path, "/v1/jobs/%s/image", id);
+    resp r;
+    GET_accept(s->port, path, "image/x-exr", &r);
+    assert_error(&r, 406, "not_acceptable");
+    cr_assert(strstr(r.body, "hdr=1"), "the 406 does not say how: %s", r.body);
+    resp_free(&r);
+    GET(s->port, path, &r);
+    assert_png(&r, 8, 8);
+    resp_free(&r);
+    POST(s->port, "/v1/jobs?hdr=2", "text/plain", cfg, len, &r);
+    assert_error(&r, 400, "parse_error");
+    cr_assert(strstr(r.body, "query parameter hdr: expected 0 or 1, got '2'"), "%s", r.body);
+    resp_free(&r);
+    free(cfg);
     assert_clean_exit(s, 20);
 }

@@ -315,7 +315,7 @@ RD_CASE(
     "refracted ray (core/render/trace.c:141-150), so between several glass surfaces the ray tree is binary. Measured: "
     "50.6 "
     "secondary rays per camera ray at depth 8, 510 at depth 16 (x1.33 per level). At that rate depth 64, which the "
-    "format allows (--max-depth defaults to 64), needs about 5e8 rays per camera ray: a small image of three glass "
+    "format allows (--limit-depth defaults to 64), needs about 5e8 rays per camera ray: a small image of three glass "
     "planes keeps a daemon worker busy for days. Mirrors are linear (mirror_rays_linear). Fix (H), prototype: carry "
     "the path's weight (the product of ks·F or ks·(1 - F) factors) down the recursion and skip a branch whose weight "
     "falls below 2^-12. With ks <= 1 the weights at one depth sum to at most 1, so at most 4096 branches per level "

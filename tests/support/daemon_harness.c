@@ -310,6 +310,11 @@ void http(int port, const req_opts *o, resp *r)
         h = curl_slist_append(h, "Content-Type:");
     }
     h = curl_slist_append(h, "Expect:");
+    char accept[200];
+    if (o->accept) {
+        snprintf(accept, sizeof accept, "Accept: %s", o->accept);
+        h = curl_slist_append(h, accept);
+    }
     const char *m = o->method ? o->method : "GET";
     curl_easy_setopt(e, CURLOPT_URL, url);
     curl_easy_setopt(e, CURLOPT_NOSIGNAL, 1L);

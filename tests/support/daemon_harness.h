@@ -47,8 +47,9 @@ typedef struct {
     const char *ctype;  /* Content-Type; NULL: none at all */
     const void *body;
     size_t len;
-    long timeout_ms; /* 0: 120 s */
-    CURL *easy;      /* reuse this handle (keep-alive); NULL: a new one */
+    long timeout_ms;    /* 0: 120 s */
+    CURL *easy;         /* reuse this handle (keep-alive); NULL: a new one */
+    const char *accept; /* Accept header; NULL: curl's default */
 } req_opts;
 
 /* A request on its own thread (a sync render to interrupt). */

@@ -19,7 +19,7 @@ TOOLS = ("povray",)
 SPHERES = {False: 10000, True: 500}
 KNOT = {False: (4000, 125), True: (100, 25)}
 # A million triangles and the floor are one over rayd's default limit.
-MAX_OBJECTS = ["--max-objects", "2000000"]
+MAX_OBJECTS = ["--limit-objects", "2000000"]
 
 
 def generate(ctx, gen):

@@ -20,7 +20,12 @@ typedef struct {
     const atomic_int *cancel; /* optional: non-zero stops the render within milliseconds */
     /* Optional; called by a worker after each tile, possibly concurrently. */
     void (*progress)(void *user, int tiles_done, int tiles_total);
-    void *user;
+    /* Optional; called by the calling thread before each pass with its
+     * number (0 first) and samples per pixel, and once after the last with
+     * samples 0; ended is the curve point of the pass just ended (NULL
+     * before the first). Not called after a cancel. */
+    void (*pass)(void *user, int pass, int samples, const rd_curve_point *ended);
+    void *user; /* given to progress and pass */
     /* Progressive rendering (progress.h): either makes the render run
      * passes until the scene's samples, the budget or the target error,
      * whichever comes first. */

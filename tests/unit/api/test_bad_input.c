@@ -436,33 +436,33 @@ typedef struct {
       "1:10", T("\xEF\xBB\xBF{'render': x}"), "1:12", "expected a value", NOLIM)                                       \
                                                                                                                        \
     /* ---- size limits (tiny ones set per row); messages name the flag ---- */                                        \
-    X(limit_bytes, E_LIM, "--max-scene-bytes", T("[render]\nwidth = 640\n"), "-", T("{'render': {'width': 640}}"),     \
+    X(limit_bytes, E_LIM, "--limit-scene-bytes", T("[render]\nwidth = 640\n"), "-", T("{'render': {'width': 640}}"),   \
       "-", SAME, LIM(bytes, 10))                                                                                       \
-    X(limit_objects, E_LIM, "--max-objects", T(SPH SPH), "5:1", T("{'objects': [" JSPH ", " JSPH "]}"), "objects[1]",  \
-      SAME, LIM(objects, 1))                                                                                           \
-    X(limit_objects_mixed_kinds, E_LIM, "--max-objects",                                                               \
+    X(limit_objects, E_LIM, "--limit-objects", T(SPH SPH), "5:1", T("{'objects': [" JSPH ", " JSPH "]}"),              \
+      "objects[1]", SAME, LIM(objects, 1))                                                                             \
+    X(limit_objects_mixed_kinds, E_LIM, "--limit-objects",                                                             \
       T(SPH "[plane]\npoint = 0 0 0\nnormal = 0 1 0\nmaterial = m\n" TRI3 "material = m\n"), "9:1",                    \
       T("{'objects': [" JSPH ", {'type': 'plane', 'point': [0, 0, 0], 'normal': [0, 1, 0], "                           \
         "'material': 'm'}, " JTRI3 ", 'material': 'm'}]}"),                                                            \
       "objects[2]", SAME, LIM(objects, 2))                                                                             \
-    X(limit_lights, E_LIM, "--max-lights", T("[light a]\nposition = 0 0 0\n[light b]\nposition = 1 1 1\n"), "3:1",     \
+    X(limit_lights, E_LIM, "--limit-lights", T("[light a]\nposition = 0 0 0\n[light b]\nposition = 1 1 1\n"), "3:1",   \
       T("{'lights': [{'name': 'a', 'position': [0, 0, 0]}, {'name': 'b', 'position': [1, 1, 1]}]}"), "lights[1]",      \
       SAME, LIM(lights, 1))                                                                                            \
-    X(limit_materials, E_LIM, "--max-materials", T("[material a]\ntype = diffuse\n[material b]\ntype = diffuse\n"),    \
+    X(limit_materials, E_LIM, "--limit-materials", T("[material a]\ntype = diffuse\n[material b]\ntype = diffuse\n"),  \
       "3:1", T("{'materials': {'a': {'type': 'diffuse'}, 'b': {'type': 'diffuse'}}}"), "materials.b", SAME,            \
       LIM(materials, 1))                                                                                               \
-    X(limit_material_name, E_LIM, "--max-name-bytes", T("[material abcd]\ntype = diffuse\n"), "1:1",                   \
+    X(limit_material_name, E_LIM, "--limit-name-bytes", T("[material abcd]\ntype = diffuse\n"), "1:1",                 \
       T("{'materials': {'abcd': {'type': 'diffuse'}}}"), "1:16", SAME, LIM(name, 3))                                   \
     X(limit_name_exact_ok, E_OK, "", T("[material abc]\ntype = diffuse\n"), "",                                        \
       T("{'materials': {'abc': {'type': 'diffuse'}}}"), "", SAME, LIM(name, 3))                                        \
-    X(limit_material_reference, E_LIM, "--max-name-bytes", T(SPH_C "radius = 1\nmaterial = abcd\n"), "4:12",           \
+    X(limit_material_reference, E_LIM, "--limit-name-bytes", T(SPH_C "radius = 1\nmaterial = abcd\n"), "4:12",         \
       T("{'objects': [{'type': 'sphere', 'center': [0, 0, 0], 'radius': 1, 'material': 'abcd'}]}"),                    \
       "objects[0].material", SAME, LIM(name, 3))                                                                       \
-    X(limit_light_name, E_LIM, "--max-name-bytes", T("[light abcd]\nposition = 0 0 0\n"), "1:1",                       \
+    X(limit_light_name, E_LIM, "--limit-name-bytes", T("[light abcd]\nposition = 0 0 0\n"), "1:1",                     \
       T("{'lights': [{'name': 'abcd', 'position': [0, 0, 0]}]}"), "lights[0]", SAME, LIM(name, 3))                     \
-    X(limit_object_name, E_LIM, "--max-name-bytes", T("[sphere abcd]\n"), "1:1",                                       \
+    X(limit_object_name, E_LIM, "--limit-name-bytes", T("[sphere abcd]\n"), "1:1",                                     \
       T("{'objects': [{'type': 'sphere', 'name': 'abcd'}]}"), "objects[0]", SAME, LIM(name, 3))                        \
-    X(limit_mesh_file_string, E_LIM, "--max-name-bytes", T("[mesh]\nfile = 'abcdef.obj'\n"), "2:8",                    \
+    X(limit_mesh_file_string, E_LIM, "--limit-name-bytes", T("[mesh]\nfile = 'abcdef.obj'\n"), "2:8",                  \
       T("{'objects': [{'type': 'mesh', 'file': 'abcdef.obj'}]}"), "objects[0].file", SAME, LIM(name, 3))
 
 /* cfg only: what JSON cannot spell. X(name, code, substring, T(cfg), loc, limits) */
@@ -592,9 +592,9 @@ typedef struct {
     X(json_u0000_in_value, E_SYN, "NUL", T("{'objects': [{'material': '\\u0000'}]}"), "1:28", NOLIM)                   \
     X(json_escaped_backslash_u0000_ok, E_OK, "", T("{'materials': {'a\\\\u0000': {'type': 'diffuse'}}}"), "", NOLIM)   \
     /* nesting: 17 deep with the default limit of 16; 16 deep gives the ordinary error */                              \
-    X(json_nesting_17, E_LIM, "--max-nesting", T("{'render': {'background': [" NEST14 "0" UNNEST14 "]}}"), "1:41",     \
+    X(json_nesting_17, E_LIM, "--limit-nesting", T("{'render': {'background': [" NEST14 "0" UNNEST14 "]}}"), "1:41",   \
       NOLIM)                                                                                                           \
-    X(json_nesting_17_objects, E_LIM, "--max-nesting",                                                                 \
+    X(json_nesting_17_objects, E_LIM, "--limit-nesting",                                                               \
       T("{'a': {'b': {'c': {'d': {'e': {'f': {'g': {'h': {'i': {'j': {'k': {'l': {'m': {'n': {'o': "                   \
         "{'p': {'q': {}}}}}}}}}}}}}}}}}}"),                                                                            \
       "1:97", NOLIM)                                                                                                   \
@@ -605,8 +605,8 @@ typedef struct {
         "]]]]]]]]]]]]]"                                                                                                \
         "}}"),                                                                                                         \
       "1:55", NOLIM)                                                                                                   \
-    X(json_nesting_tiny_limit, E_LIM, "--max-nesting", T("{'camera': {'eye': [0, 0, 1]}}"), "1:20", LIM(nesting, 2))   \
-    X(json_nesting_tiny_limit_in_array, E_LIM, "--max-nesting",                                                        \
+    X(json_nesting_tiny_limit, E_LIM, "--limit-nesting", T("{'camera': {'eye': [0, 0, 1]}}"), "1:20", LIM(nesting, 2)) \
+    X(json_nesting_tiny_limit_in_array, E_LIM, "--limit-nesting",                                                      \
       T("{'objects': [{'type': 'sphere', 'center': [0, 0, 0]}]}"), "1:14", LIM(nesting, 2))                            \
     X(json_brackets_in_strings_ok, E_OK, "",                                                                           \
       T("{'materials': {'" BRK20 "': {'type': 'diffuse'}, 'q\\'" BRK20 "': {'type': 'diffuse'}}}"), "", NOLIM)
@@ -1098,7 +1098,7 @@ Test(bad_input, limits_max_bytes_boundary)
         lim.max_bytes = n - 1;
         parse_free(text, n, json, &lim, &p, "max_bytes");
         cr_expect_eq(p.rc, RD_ERR_LIMIT, "%s one byte over: %s", json ? "json" : "cfg", p.err.message);
-        cr_expect(strstr(p.err.message, "--max-scene-bytes") != NULL, "%s", p.err.message);
+        cr_expect(strstr(p.err.message, "--limit-scene-bytes") != NULL, "%s", p.err.message);
     }
 }
 
@@ -1140,7 +1140,7 @@ static void deep(size_t depth, char open, char close)
     cr_expect_eq(p.rc, RD_ERR_LIMIT, "[%s] expected RD_ERR_LIMIT, got %s: %s", what, code_name(p.rc), p.err.message);
     cr_expect(strncmp(p.err.message, prefix, strlen(prefix)) == 0, "[%s] expected '%s...', got '%s'", what, prefix,
               p.err.message);
-    cr_expect(strstr(p.err.message, "--max-nesting") != NULL, "[%s] %s", what, p.err.message);
+    cr_expect(strstr(p.err.message, "--limit-nesting") != NULL, "[%s] %s", what, p.err.message);
     cr_expect(p.seconds < QUICK_CPU_S, "[%s] took %.2f s of CPU", what, p.seconds);
 }
 
@@ -1175,7 +1175,7 @@ static void huge(const char *what, int json, const char *before, const char *aft
     cr_expect(p.rc == RD_ERR_LIMIT || p.rc == RD_ERR_SYNTAX, "[%s] expected a limit or syntax error, got %s: %s", what,
               code_name(p.rc), p.err.message);
     if (need_limit)
-        cr_expect(strstr(p.err.message, "limit") != NULL && strstr(p.err.message, "--max-") != NULL,
+        cr_expect(strstr(p.err.message, "limit") != NULL && strstr(p.err.message, "--limit-") != NULL,
                   "[%s] the message should name the limit and its flag: '%.200s'", what, p.err.message);
     if (sub)
         cr_expect(strstr(p.err.message, sub) != NULL, "[%s] expected the message to contain '%s', got '%.200s'", what,
@@ -1215,7 +1215,7 @@ Test(bad_input, huge_cfg_key_10mb, .timeout = 30)
     huge("cfg key", 0, "[render]\nwidth = 64\n", " = 1\n", "t.cfg:3:1: ", 0, "a key longer than 64 bytes");
 }
 /* A JSON key is held to the same fixed 64 bytes as a cfg key, whatever
- * --max-name-bytes says; the syntax check points at the key's opening quote. */
+ * --limit-name-bytes says; the syntax check points at the key's opening quote. */
 Test(bad_input, huge_json_key_10mb, .timeout = 30)
 {
     huge("json key", 1, "{\"render\": {\"width\": 64, \"", "\": 1}}", "t.json:1:26: ", 0, "a key longer than 64 bytes");

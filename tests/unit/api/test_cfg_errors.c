@@ -414,26 +414,26 @@ static const struct row rows[] = {
 
     /* ---- size limits ---- */
     ROWL("limit_bytes", "[render]\nwidth = 640\nheight = 480\n", LIM, 0, 0,
-         "t.cfg: scene is %zu bytes, over the limit of 20 (--max-scene-bytes)", max_bytes, 20, F_BYTES),
+         "t.cfg: scene is %zu bytes, over the limit of 20 (--limit-scene-bytes)", max_bytes, 20, F_BYTES),
     ROWL("limit_objects",
          "[sphere]\ncenter = 0 0 0\nradius = 1\nmaterial = m\n[plane]\npoint = 0 0 0\nnormal = 0 1 0\nmaterial = m\n"
          "[triangle]\nv0 = 0 0 0\nv1 = 1 0 0\nv2 = 0 1 0\nmaterial = m\n",
-         LIM, 9, 1, "t.cfg:9:1: too many objects (limit 2, --max-objects)", max_objects, 2, 0),
+         LIM, 9, 1, "t.cfg:9:1: too many objects (limit 2, --limit-objects)", max_objects, 2, 0),
     ROWL("limit_lights", "[light a]\nposition = 0 0 0\n[light b]\nposition = 0 0 0\n", LIM, 3, 1,
-         "t.cfg:3:1: too many lights (limit 1, --max-lights)", max_lights, 1, 0),
+         "t.cfg:3:1: too many lights (limit 1, --limit-lights)", max_lights, 1, 0),
     ROWL("limit_materials", "[material a]\ntype = diffuse\n[material b]\ntype = diffuse\n", LIM, 3, 1,
-         "t.cfg:3:1: too many materials (limit 1, --max-materials)", max_materials, 1, 0),
+         "t.cfg:3:1: too many materials (limit 1, --limit-materials)", max_materials, 1, 0),
     ROWL("limit_material_name", "[material abcde]\ntype = diffuse\n", LIM, 1, 1,
-         "t.cfg:1:1: material name is longer than the limit of 4 bytes (--max-name-bytes)", max_name, 4, 0),
+         "t.cfg:1:1: material name is longer than the limit of 4 bytes (--limit-name-bytes)", max_name, 4, 0),
     ROWL("limit_light_name", "[light lamp1]\nposition = 0 0 0\n", LIM, 1, 1,
-         "t.cfg:1:1: light name is longer than the limit of 4 bytes (--max-name-bytes)", max_name, 4, 0),
+         "t.cfg:1:1: light name is longer than the limit of 4 bytes (--limit-name-bytes)", max_name, 4, 0),
     /* Three characters but six bytes: the limit is in bytes. */
     ROWL("limit_name_bytes", "[material ééé]\ntype = diffuse\n", LIM, 1, 1,
-         "t.cfg:1:1: material name is longer than the limit of 4 bytes (--max-name-bytes)", max_name, 4, 0),
+         "t.cfg:1:1: material name is longer than the limit of 4 bytes (--limit-name-bytes)", max_name, 4, 0),
     ROWL("limit_material_reference", "[sphere]\nmaterial = abcde\n", LIM, 2, 12,
-         "t.cfg:2:12: material: longer than the limit of 4 bytes (--max-name-bytes)", max_name, 4, 0),
+         "t.cfg:2:12: material: longer than the limit of 4 bytes (--limit-name-bytes)", max_name, 4, 0),
     ROWL("limit_texture", "[material t]\ntype = textured_phong\ntexture = \"long.png\"\n", LIM, 3, 11,
-         "t.cfg:3:11: texture: longer than the limit of 4 bytes (--max-name-bytes)", max_name, 4, 0),
+         "t.cfg:3:11: texture: longer than the limit of 4 bytes (--limit-name-bytes)", max_name, 4, 0),
 };
 
 #define NROWS (sizeof rows / sizeof rows[0])
@@ -659,7 +659,7 @@ Test(cfg_errors, load_file_over_byte_limit)
     memset(&err, 0, sizeof err);
     rd_error_code rc = rd_scene_load_file("scenes/phong.cfg", &lim, &s, &err);
     char want[200];
-    snprintf(want, sizeof want, "scenes/phong.cfg: %lld bytes, over the limit of 100 (--max-scene-bytes)",
+    snprintf(want, sizeof want, "scenes/phong.cfg: %lld bytes, over the limit of 100 (--limit-scene-bytes)",
              (long long)st.st_size);
     cr_expect_eq(rc, RD_ERR_LIMIT);
     cr_expect_str_eq(err.message, want);

@@ -35,7 +35,7 @@ typedef struct {
 static void parse_n(parsed *p, const char *text, size_t len, size_t max_tris)
 {
     memset(p, 0, sizeof *p);
-    p->rc = rd_obj_parse(text, len, "t.obj", max_tris, "--max-objects", &p->m, &p->w, &p->err);
+    p->rc = rd_obj_parse(text, len, "t.obj", max_tris, "--limit-objects", &p->m, &p->w, &p->err);
 }
 
 static void parse(parsed *p, const char *text) { parse_n(p, text, strlen(text), 1000000); }
@@ -293,8 +293,8 @@ Test(obj, parse_triangle_limit)
     cr_assert_eq(p.rc, RD_OK, "%s", p.err.message);
     cr_assert_eq(p.m.nfaces, 4);
     rd_mesh_free(&p.m);
-    expect_error(text, strlen(text), 3, RD_ERR_LIMIT, 7, 1, "--max-objects");
-    expect_error(text, strlen(text), 0, RD_ERR_LIMIT, 6, 1, "--max-objects");
+    expect_error(text, strlen(text), 3, RD_ERR_LIMIT, 7, 1, "--limit-objects");
+    expect_error(text, strlen(text), 0, RD_ERR_LIMIT, 6, 1, "--limit-objects");
 }
 
 /* ---- rd_mesh_transform ------------------------------------------------------ */
@@ -460,7 +460,7 @@ Test(obj, render_cube_mesh_equals_twelve_triangles)
     cr_assert(a.meshes);
     rd_warnings w = {0};
     rd_error err = {0};
-    cr_assert_eq(rd_obj_parse(cube_obj, strlen(cube_obj), "cube.obj", 1000, "--max-objects", &a.meshes[0], &w, &err),
+    cr_assert_eq(rd_obj_parse(cube_obj, strlen(cube_obj), "cube.obj", 1000, "--limit-objects", &a.meshes[0], &w, &err),
                  RD_OK, "%s", err.message);
     a.mesh_count = 1;
     cr_assert_eq(a.meshes[0].nfaces, 12);
@@ -602,7 +602,7 @@ static rd_error_code folder_read(const char *dir, const char *name, rd_error *er
 {
     rd_asset_source src = rd_asset_folder(dir);
     unsigned char *data = NULL;
-    rd_error_code rc = src.read(&src, name, 1 << 20, "--max-mesh-bytes", &data, len, err);
+    rd_error_code rc = src.read(&src, name, 1 << 20, "--limit-mesh-bytes", &data, len, err);
     *text = (char *)data;
     return rc;
 }

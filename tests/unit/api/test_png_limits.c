@@ -80,7 +80,7 @@ static decoded decode(const unsigned char *data, size_t len, size_t max_pixels)
     memset(&d, 0, sizeof d);
     long before = peak_rss_kb(), vm_before = peak_vm_kb();
     double t0 = now_s();
-    d.rc = rd_png_decode(data, len, max_pixels, "--max-pixels", &d.img, &d.err);
+    d.rc = rd_png_decode(data, len, max_pixels, "--limit-pixels", &d.img, &d.err);
     d.seconds = now_s() - t0;
     d.rss_growth_kb = peak_rss_kb() - before;
     long vm_after = peak_vm_kb();
@@ -379,7 +379,7 @@ Test(png_limits, over_the_pixel_limit_allocates_nothing)
     cr_assert(b.len < 256 * 1024, "the test file is %zu bytes", b.len);
     decoded d = decode(b.data, b.len, (size_t)4096 * 4096 - 1);
     cr_assert_eq(d.rc, RD_ERR_LIMIT, "code %d (%s)", d.rc, d.err.message);
-    cr_assert(strstr(d.err.message, "--max-pixels"), "%s", d.err.message);
+    cr_assert(strstr(d.err.message, "--limit-pixels"), "%s", d.err.message);
     cr_assert_null(d.img.rgb);
     /* Decoding would take 2 x 96 MiB; refusing takes nothing measurable. */
     cr_assert(d.rss_growth_kb < 4 * 1024, "refusing 4096x4096: peak RSS grew by %ld KB", d.rss_growth_kb);

@@ -569,6 +569,52 @@ Test(render, cancel_unset_flag_renders_and_progress_completes)
     rd_scene_free(&s);
 }
 
+typedef struct {
+    int calls, last_pass, samples[RD_CURVE_MAX + 1];
+    rd_curve_point ended[RD_CURVE_MAX + 1];
+    int had_ended[RD_CURVE_MAX + 1];
+} pass_log;
+
+static void log_pass(void *user, int pass, int samples, const rd_curve_point *ended)
+{
+    pass_log *l = user;
+    cr_assert_eq(pass, l->calls, "pass %d reported as call %d", pass, l->calls);
+    l->samples[l->calls] = samples;
+    l->had_ended[l->calls] = ended != NULL;
+    if (ended)
+        l->ended[l->calls] = *ended;
+    l->calls++;
+}
+
+Test(render, pass_callback_sees_every_pass_and_its_curve_point)
+{
+    /* A target error that cannot be met: passes of 2, 2, 4, 8 up to the
+     * cap of 16 samples, then one last call with 0. */
+    rd_scene s;
+    soft_shadow_scene(&s, 16);
+    pass_log l = {0};
+    rd_render_options o = {0};
+    o.threads = 2;
+    o.target_error = 1e-9;
+    o.pass = log_pass;
+    o.user = &l;
+    rd_image img;
+    rd_render_stats st;
+    render_ok(&s, &o, &img, &st);
+    cr_assert_eq(st.passes, 4);
+    cr_assert_eq(l.calls, 5);
+    static const int want[] = {2, 2, 4, 8, 0};
+    for (int i = 0; i < 5; i++) {
+        cr_assert_eq(l.samples[i], want[i], "call %d: %d samples", i, l.samples[i]);
+        cr_assert_eq(l.had_ended[i], i > 0);
+        if (i > 0)
+            cr_assert(memcmp(&l.ended[i], &st.curve[i - 1], sizeof st.curve[0]) == 0, "call %d: not curve point %d", i,
+                      i - 1);
+    }
+    rd_image_free(&img);
+    rd_scene_free(&s);
+}
+
 Test(render, invalid_camera_leaves_image_empty)
 {
     rd_scene s;

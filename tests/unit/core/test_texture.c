@@ -193,7 +193,7 @@ static void check_decode(const membuf *m, int w, int h, const unsigned *want, un
 {
     rd_png_image img;
     rd_error err = {0};
-    rd_error_code rc = rd_png_decode(m->data, m->len, 1u << 20, "--max-texture-pixels", &img, &err);
+    rd_error_code rc = rd_png_decode(m->data, m->len, 1u << 20, "--limit-texture-pixels", &img, &err);
     cr_assert_eq(rc, RD_OK, "rd_png_decode: %s", err.message);
     cr_assert(img.width == w && img.height == h, "decoded %dx%d, expected %dx%d", img.width, img.height, w, h);
     cr_assert_eq(img.maxval, maxval);
@@ -486,7 +486,7 @@ Test(texture, png_truncated_png_is_a_syntax_error)
     for (size_t n = 0; n < m.len; n++) {
         rd_png_image img;
         rd_error err = {0};
-        rd_error_code rc = rd_png_decode(m.data, n, 1u << 20, "--max-texture-pixels", &img, &err);
+        rd_error_code rc = rd_png_decode(m.data, n, 1u << 20, "--limit-texture-pixels", &img, &err);
         cr_assert_eq(rc, RD_ERR_SYNTAX, "%zu of %zu bytes: code %d (%s)", n, m.len, rc, err.message);
         cr_assert_null(img.rgb);
         rd_texture t;
@@ -501,7 +501,7 @@ Test(texture, png_truncated_png_is_a_syntax_error)
     bad[m.len - 12 - 4 - 3] ^= 0x10; /* inside IDAT, just before its CRC */
     rd_png_image img;
     rd_error err = {0};
-    cr_assert_eq(rd_png_decode(bad, m.len, 1u << 20, "--max-texture-pixels", &img, &err), RD_ERR_SYNTAX);
+    cr_assert_eq(rd_png_decode(bad, m.len, 1u << 20, "--limit-texture-pixels", &img, &err), RD_ERR_SYNTAX);
     free(bad);
     free(m.data);
 }
@@ -515,7 +515,7 @@ Test(texture, png_not_a_png_is_a_syntax_error)
         rd_png_image img;
         rd_error err = {0};
         rd_error_code rc =
-            rd_png_decode((const unsigned char *)texts[i], lens[i], 1u << 20, "--max-texture-pixels", &img, &err);
+            rd_png_decode((const unsigned char *)texts[i], lens[i], 1u << 20, "--limit-texture-pixels", &img, &err);
         cr_assert_eq(rc, RD_ERR_SYNTAX, "input %zu: code %d (%s)", i, rc, err.message);
         cr_assert_null(img.rgb);
     }
@@ -568,11 +568,11 @@ Test(texture, png_over_the_pixel_limit_before_decoding)
     free_rows(rows, h);
     rd_png_image img;
     rd_error err = {0};
-    cr_assert_eq(rd_png_decode(m.data, m.len, 10000, "--max-texture-pixels", &img, &err), RD_OK, "%s", err.message);
+    cr_assert_eq(rd_png_decode(m.data, m.len, 10000, "--limit-texture-pixels", &img, &err), RD_OK, "%s", err.message);
     free(img.rgb);
-    rd_error_code rc = rd_png_decode(m.data, m.len, 9999, "--max-texture-pixels", &img, &err);
+    rd_error_code rc = rd_png_decode(m.data, m.len, 9999, "--limit-texture-pixels", &img, &err);
     cr_assert_eq(rc, RD_ERR_LIMIT, "code %d (%s)", rc, err.message);
-    cr_assert(strstr(err.message, "--max-texture-pixels"), "%s", err.message);
+    cr_assert(strstr(err.message, "--limit-texture-pixels"), "%s", err.message);
     cr_assert_null(img.rgb);
     /* The texture loader names its own limit flag. */
     rd_texture t;
@@ -584,14 +584,14 @@ Test(texture, png_over_the_pixel_limit_before_decoding)
 
     /* Header-only images with undecodable data. */
     size_t n = header_only_png(buf, 100, 100);
-    rc = rd_png_decode(buf, n, 10000, "--max-texture-pixels", &img, &err);
+    rc = rd_png_decode(buf, n, 10000, "--limit-texture-pixels", &img, &err);
     cr_assert_eq(rc, RD_ERR_SYNTAX, "the garbage IDAT must fail when within the limit: %d (%s)", rc, err.message);
-    rc = rd_png_decode(buf, n, 9999, "--max-texture-pixels", &img, &err);
+    rc = rd_png_decode(buf, n, 9999, "--limit-texture-pixels", &img, &err);
     cr_assert_eq(rc, RD_ERR_LIMIT, "code %d (%s)", rc, err.message);
     /* Huge declared sizes are refused at once (no attempt to allocate
      * 16 GB of pixels). */
     n = header_only_png(buf, 65536, 65536);
-    rc = rd_png_decode(buf, n, 8192u * 8192u, "--max-texture-pixels", &img, &err);
+    rc = rd_png_decode(buf, n, 8192u * 8192u, "--limit-texture-pixels", &img, &err);
     cr_assert_eq(rc, RD_ERR_LIMIT, "65536x65536: code %d (%s)", rc, err.message);
 }
 
@@ -603,9 +603,9 @@ Test(texture, png_wide_image_over_the_limit_is_a_limit_error)
     size_t n = header_only_png(buf, 3000000, 1);
     rd_png_image img;
     rd_error err = {0};
-    rd_error_code rc = rd_png_decode(buf, n, 1000000, "--max-texture-pixels", &img, &err);
+    rd_error_code rc = rd_png_decode(buf, n, 1000000, "--limit-texture-pixels", &img, &err);
     cr_assert_eq(rc, RD_ERR_LIMIT, "3000000x1 over a 1M-pixel limit: code %d (%s)", rc, err.message);
-    cr_assert(strstr(err.message, "--max-texture-pixels"), "%s", err.message);
+    cr_assert(strstr(err.message, "--limit-texture-pixels"), "%s", err.message);
 }
 
 Test(texture, png_limit_error_without_an_error_record)
@@ -615,9 +615,9 @@ Test(texture, png_limit_error_without_an_error_record)
     unsigned char buf[256];
     size_t n = header_only_png(buf, 100, 100);
     rd_png_image img;
-    cr_assert_eq(rd_png_decode(buf, n, 9999, "--max-texture-pixels", &img, NULL), RD_ERR_LIMIT);
+    cr_assert_eq(rd_png_decode(buf, n, 9999, "--limit-texture-pixels", &img, NULL), RD_ERR_LIMIT);
     /* Cut inside IHDR: damaged before its size is known. (Cut later, the
      * complete header already shows the image is over the limit.) */
-    cr_assert_eq(rd_png_decode(buf, 20, 9999, "--max-texture-pixels", &img, NULL), RD_ERR_SYNTAX);
-    cr_assert_eq(rd_png_decode(buf, n / 2, 9999, "--max-texture-pixels", &img, NULL), RD_ERR_LIMIT);
+    cr_assert_eq(rd_png_decode(buf, 20, 9999, "--limit-texture-pixels", &img, NULL), RD_ERR_SYNTAX);
+    cr_assert_eq(rd_png_decode(buf, n / 2, 9999, "--limit-texture-pixels", &img, NULL), RD_ERR_LIMIT);
 }

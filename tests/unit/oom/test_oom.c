@@ -492,7 +492,7 @@ Test(oom, job)
 
 static rd_error_code run_decode(result *r, rd_error *err)
 {
-    return rd_png_decode((const unsigned char *)g_text, g_len, 1 << 20, "--max-texture-pixels", &r->png, err);
+    return rd_png_decode((const unsigned char *)g_text, g_len, 1 << 20, "--limit-texture-pixels", &r->png, err);
 }
 
 static int same_png(const result *a, const result *b)
