@@ -2,7 +2,8 @@
  * bench's embree and primitives sections (bench/README.md).
  *
  *   embree_trace SCENE [--width W] [--height H] [--threads N[,N]] [--modes single,packet]
- *                [--quality low|medium|high] [--tile 8x2|4x4] [--repeat N] [--max-NAME N]
+ *                [--quality low|medium|high] [--tile 8x2|4x4] [--repeat N] [--build-threads N]
+ *                [--robust] [--max-NAME N]
  *
  * The scene is read as `rayd render SCENE` reads it (rd_scene_open: the same
  * parser, overrides, limits and OBJ loader), moved into rayd's
@@ -29,7 +30,8 @@
  * tile rows from a shared counter. The time covers the whole frame: camera
  * rays, traversal, the hit points, setting up the shadow rays and tracing
  * them; not the build, which is timed apart (rtcCommitScene, on one thread
- * unless --build-threads).
+ * unless --build-threads; Embree's default, not watertight triangle test
+ * unless --robust).
  *
  * Prints one JSON object on stdout: the scene's primitives, the build time,
  * and for each mode and thread count the camera and shadow rays, the hits,
@@ -201,7 +203,7 @@ static void plane_quad(const world *w, const rd_object *o, double extent, rd_vec
     }
 }
 
-static double build_embree(world *w, RTCDevice dev, enum RTCBuildQuality quality)
+static double build_embree(world *w, RTCDevice dev, enum RTCBuildQuality quality, int robust)
 {
     const rd_scene *s = w->s;
     size_t ns = 0, nt = 0, np = 0, nverts = 0;
@@ -245,6 +247,8 @@ static double build_embree(world *w, RTCDevice dev, enum RTCBuildQuality quality
 
     w->scene = rtcNewScene(dev);
     rtcSetSceneBuildQuality(w->scene, quality);
+    if (robust)
+        rtcSetSceneFlags(w->scene, RTC_SCENE_FLAG_ROBUST);
     if (ns) {
         RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_SPHERE_POINT);
         float *p = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, 4 * sizeof(float), ns);
@@ -693,7 +697,7 @@ static void usage(void)
 {
     fprintf(stderr, "usage: embree_trace SCENE [--width W] [--height H] [--threads N[,N]] [--modes single,packet]\n"
                     "                    [--quality low|medium|high] [--tile 8x2|4x4] [--repeat N]\n"
-                    "                    [--build-threads N] [--max-NAME N]\n");
+                    "                    [--build-threads N] [--robust] [--max-NAME N]\n");
     exit(1);
 }
 
@@ -725,7 +729,7 @@ int main(int argc, char **argv)
 {
     const char *path = NULL, *width = NULL, *height = NULL, *quality_name = "high";
     int threads[MAX_THREADS], nthreads = 0, modes[2], nmodes = 0, repeat = 1, build_threads = 1;
-    int tile_w = 8, tile_h = 2;
+    int tile_w = 8, tile_h = 2, robust = 0;
     rd_scene_limits lim = rd_scene_limits_default();
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
@@ -733,6 +737,10 @@ int main(int argc, char **argv)
             if (path)
                 usage();
             path = a;
+            continue;
+        }
+        if (!strcmp(a, "--robust")) {
+            robust = 1;
             continue;
         }
         if (i + 1 >= argc)
@@ -843,7 +851,7 @@ int main(int argc, char **argv)
     if (!dev)
         die(3, "%s", "rtcNewDevice failed");
     rtcSetDeviceErrorFunction(dev, on_embree_error, NULL);
-    double build_s = build_embree(&w, dev, quality);
+    double build_s = build_embree(&w, dev, quality, robust);
 
     printf(
         "{\"embree\": \"%ld.%ld.%ld\", \"scene\": ", (long)rtcGetDeviceProperty(dev, RTC_DEVICE_PROPERTY_VERSION_MAJOR),
@@ -852,9 +860,10 @@ int main(int argc, char **argv)
     json_string(path);
     size_t rayd_prims = w.nspheres + w.ntris - w.nplanes; /* a plane is 1 primitive in rayd, 2 triangles here */
     printf(", \"width\": %d, \"height\": %d, \"spheres\": %zu, \"triangles\": %zu, \"planes_as_triangles\": %zu, "
-           "\"rayd_primitives\": %zu, \"lights\": %d, \"quality\": \"%s\", \"build_threads\": %d, "
+           "\"rayd_primitives\": %zu, \"lights\": %d, \"quality\": \"%s\", \"robust\": %s, \"build_threads\": %d, "
            "\"native_ray16\": %s, \"tile\": \"%dx%d\", \"build_ms\": %.3f, \"runs\": [",
-           w.width, w.height, w.nspheres, w.ntris, w.nplanes, rayd_prims, w.nlights, quality_name, build_threads,
+           w.width, w.height, w.nspheres, w.ntris, w.nplanes, rayd_prims, w.nlights, quality_name,
+           robust ? "true" : "false", build_threads,
            rtcGetDeviceProperty(dev, RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) ? "true" : "false", tile_w, tile_h,
            build_s * 1000.0);
     int first = 1;
