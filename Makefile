@@ -257,12 +257,22 @@ install-test: deps
 # checks the driver itself with small sizes in a minute or two.
 bench: all
 	@sh deploy/deps.sh bench
+	@$(MAKE) --no-print-directory $(BUILD)/bench/embree_trace
 	@PYTHONPATH=bench /usr/bin/python3 -m rayd_bench --rayd $(BUILD)/rayd $(BENCH_ARGS)
 
 bench-quick: all
 	@sh deploy/deps.sh bench
+	@$(MAKE) --no-print-directory $(BUILD)/bench/embree_trace
 	@PYTHONPATH=bench /usr/bin/python3 -m rayd_bench --rayd $(BUILD)/rayd --quick \
 	    --results build/bench/results-quick.json $(BENCH_ARGS)
+
+# The embree and primitives sections' harness: rayd's scene loading
+# (librayd.a) and Embree 3, whose Debian package has no pkg-config file.
+EMBREE_LIBS = $(shell pkg-config --libs embree3 2>/dev/null || echo -lembree3)
+$(BUILD)/bench/embree_trace: bench/embree_trace.c $(BUILD)/librayd.a
+	@mkdir -p $(dir $@)
+	@echo "  LD  $@"
+	@$(CC) $(CPPFLAGS) $(call inc_for,$<) $(PKG_CFLAGS) $(CFLAGS) $< $(BUILD)/librayd.a $(PKG_LIBS) $(EMBREE_LIBS) -o $@
 
 # The include path of every folder at once, for builds outside this file
 # (tests/fuzz/run.sh).

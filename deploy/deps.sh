@@ -11,7 +11,7 @@
 set -eu
 pkgs="gcc clang clang-format libclang-rt-dev make pkg-config libc6-dev libpng-dev zlib1g-dev libcjson-dev
  libmicrohttpd-dev libopenexr-dev libcriterion-dev libcurl4-openssl-dev curl python3 python3-jsonschema chromium help2man"
-[ "${1:-}" = bench ] && pkgs="$pkgs povray wrk hey git"
+[ "${1:-}" = bench ] && pkgs="$pkgs povray wrk hey git libembree-dev"
 missing=""
 for p in $pkgs; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "ok installed" || missing="$missing $p"

@@ -140,6 +140,21 @@ def compare(rayd, a, b, cwd=None):
     return json.loads(r.stdout)
 
 
+def embree_trace(harness, scene, width, height, threads, modes=("single", "packet"), extra=(), cwd=None):
+    """One run of bench/embree_trace (the rays of `rayd render --samples 1`
+    traced by Embree): (Run, its JSON object: build_ms, primitives, and per
+    mode and thread count the rays, hits, checksum and seconds)."""
+    cmd = [harness, scene, "--width", str(width), "--height", str(height), "--threads",
+           ",".join(str(t) for t in (threads if isinstance(threads, (list, tuple)) else [threads])),
+           "--modes", ",".join(modes)] + list(extra)
+    r = run(cmd, cwd=cwd, what="embree_trace")
+    try:
+        out = json.loads(r.stdout)
+    except ValueError:
+        raise Failed("embree_trace printed no JSON object: %s" % "\n  ".join(r.tail()))
+    return r, out
+
+
 # ---------------------------------------------------------------- POV-Ray
 
 POVRAY_FLAGS = ["-D", "+Q9", "File_Gamma=1.0", "-V", "-GR", "-P"]

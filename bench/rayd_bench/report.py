@@ -308,10 +308,100 @@ def t_equal_povray(sec):
                "/POV-Ray"], rows)])
 
 
+def embree_mrays(r, mode):
+    m = r["modes"].get(mode)
+    return None if not m or not m["best_seconds"] else m["rays"] / m["best_seconds"] / 1e6
+
+
+def embree_header(sec):
+    r = sec["rows"][0]
+    w, h = sec["settings"]["size"]
+    return ("%dx%d, `rayd render --samples 1 --threads N`; Embree %s (`bench/embree_trace`: `RTC_BUILD_QUALITY_%s`, "
+            "built on %d thread, %s-pixel packets, native 16-wide packets: %s). Mrays/s = (camera + shadow rays) / "
+            "trace time: rayd's render time without the BVH build (time_ms - prepare_ms), Embree's time to trace "
+            "the frame without its build. **rayd also shades every hit (materials, lights, the pixel's colour) while "
+            "Embree only traces**, so the ratios understate rayd's tracer; rayd/x below 1 means rayd is slower."
+            % (w, h, r["embree_version"], r["quality"].upper(), r["build_threads"], r["tile"],
+               "yes" if r["native_ray16"] else "no"))
+
+
+def same_rays(rayd, other):
+    if rayd == other:
+        return "yes"
+    return "**no** (%+d)" % (other - rayd)
+
+
+def floor_size(sec):
+    fl = {v.get("floor") for v in sec["scenes"].values()}
+    return "(%s)" % ", ".join(sorted(x for x in fl if x)) if fl else ""
+
+
+def t_embree(sec):
+    rows = []
+    for r in sec["rows"]:
+        b = r["best"]
+        rm = mrays(r["rays_rayd"], b["rayd_render_ms"])
+        es, ep = embree_mrays(r, "single"), embree_mrays(r, "packet")
+        rows.append([r["scene"], r["threads"], f(rm, "%.2f"), f(es, "%.2f"), f(ep, "%.2f"), ratio(rm, es),
+                     ratio(rm, ep), f(b["rayd_bvh_build_ms"]), f(b["embree_build_ms"])])
+    what = "; ".join("**%s**: %s" % (k, v["what"]) for k, v in sec["scenes"].items())
+    out = [embree_header(sec), "",
+           "Scenes, each on a floor of two triangles %s: %s. Below 9 spheres and triangles (three) rayd builds no "
+           "BVH and tests each one." % (floor_size(sec), what), "",
+        table(["scene", "threads", "rayd Mrays/s", "Embree rtcIntersect1 Mrays/s", "Embree 16-wide Mrays/s",
+               "rayd/1-ray", "rayd/packets", "rayd BVH build ms", "Embree build ms"], rows)]
+    sp = speedups(sec["rows"], ("rayd_render_ms", "embree_single_s", "embree_packet_s"))
+    if sp:
+        out += ["", table(["speed-up", "rayd", "Embree 1-ray", "Embree 16-wide"], sp)]
+    return "\n".join(out)
+
+
+def t_embree_rays(sec):
+    rows = []
+    for r in sec["rows"]:
+        s, p = r["modes"]["single"], r["modes"]["packet"]
+        rows.append([r["scene"], r["threads"], n(r["primitives"]), n(r["camera_rays"]), n(r["shadow_rays"]),
+                     n(s["camera_rays"]), n(s["shadow_rays"]), same_rays(r["rays_rayd"], s["rays"]),
+                     n(s["hits"]), n(s["occluded"]), "yes" if r["modes_agree"] else "**no**"])
+    return table(["scene", "threads", "primitives", "rayd camera rays", "rayd shadow rays", "Embree camera rays",
+                  "Embree shadow rays", "same rays", "Embree hits", "Embree occluded",
+                  "1-ray = 16-wide (hits, occluded, checksum)"], rows)
+
+
+def t_primitives(sec):
+    rows, cost = [], {}
+    for r in sec["rows"]:
+        b = r["best"]
+        rm = mrays(r["rays_rayd"], b["rayd_render_ms"])
+        es = embree_mrays(r, "single")
+        cost[r["triangles"]] = (1e3 / rm if rm else None, 1e3 / es if es else None)
+        rows.append([n(r["triangles"]), n(r["primitives"]), n(r["rays_rayd"]), same_rays(r["rays_rayd"],
+                                                                                          r["modes"]["single"]["rays"]),
+                     f(rm, "%.2f"), f(cost[r["triangles"]][0]), f(es, "%.2f"), f(cost[r["triangles"]][1]),
+                     ratio(rm, es), f(b["rayd_bvh_build_ms"]), f(b["embree_build_ms"])])
+    w, h = sec["settings"]["size"]
+    out = ["%dx%d, 1 thread; scenes/gen.py bumpy SEGS RINGS: the same bumpy Lambert sphere in 2*SEGS*(RINGS-1) "
+           "flat triangles, on a floor of two triangles, 2 point lights; `rayd render --samples 1` against "
+           "bench/embree_trace's rtcIntersect1/rtcOccluded1 on the same rays. ns/ray = trace time / (camera + "
+           "shadow rays); rayd's also shades." % (w, h), "",
+           table(["triangles", "primitives", "rays", "same rays in Embree", "rayd Mrays/s", "rayd ns/ray",
+                  "Embree 1-ray Mrays/s", "Embree ns/ray", "rayd/Embree", "rayd BVH build ms", "Embree build ms"],
+                 rows)]
+    if len(cost) >= 2:
+        lo, hi = min(cost), max(cost)
+        cr = ratio(cost[hi][0], cost[lo][0])
+        target = sec["settings"].get("target", 3.0)
+        met = cost[hi][0] is not None and cost[lo][0] and cost[hi][0] / cost[lo][0] <= target
+        out += ["", "Cost of a ray at %s triangles over %s: rayd %sx (target: at most %gx, %s), Embree %sx." % (
+            n(hi), n(lo), cr, target, "met" if met else "**not met**", ratio(cost[hi][1], cost[lo][1]))]
+    return "\n".join(out)
+
+
 # marker -> (section, table function)
 MARKERS = {
     "scenes": ("scenes", t_scenes), "large": ("large", t_large), "cfg2pov": ("large", t_cfg2pov),
-    "bvh": ("large", t_bvh), "base": ("base", t_base), "http": ("http", t_http), "overload": ("overload", t_overload),
+    "bvh": ("large", t_bvh), "embree": ("embree", t_embree), "embree-rays": ("embree", t_embree_rays),
+    "primitives": ("primitives", t_primitives), "base": ("base", t_base), "http": ("http", t_http), "overload": ("overload", t_overload),
     "mixed": ("mixed", t_mixed), "converge": ("converge", t_converge),
     "equal-adaptive": ("equal", t_equal_adaptive), "equal-povray": ("equal", t_equal_povray),
 }

@@ -25,6 +25,8 @@ from .sections import SECTIONS
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 FOUNDATION = "8745562"
+EMBREE_SCENES = ("three", "spheres10k", "bumpy1m")
+PRIM_COUNTS = (100, 1000, 10000, 100000, 1000000)
 
 
 def _list(text, conv=str):
@@ -65,7 +67,8 @@ def _positives(text):
 def parser():
     ap = argparse.ArgumentParser(
         prog="python3 -m rayd_bench",
-        description="rayd's benchmark: rayd against POV-Ray, threads, large scenes, the foundation commit, "
+        description="rayd's benchmark: rayd against POV-Ray, threads, large scenes, rayd against Embree on the "
+                    "same rays, rays/s against the primitive count, the foundation commit, "
                     "HTTP load, overload, mixed jobs, convergence and equal time. Sections: "
                     + ", ".join(SECTIONS) + ".")
     ap.add_argument("--rayd", default=os.path.join(ROOT, "build", "rayd"), help="the rayd binary (build/rayd)")
@@ -84,6 +87,13 @@ def parser():
     ap.add_argument("--large", type=_list, default=["spheres10k", "knot1m"], metavar="NAME[,NAME]",
                     help="generated scenes of the large section: spheres10k, knot1m (default both)")
     ap.add_argument("--large-size", type=_size, default=None, metavar="WxH", help="their image size (960x540)")
+    ap.add_argument("--embree-scenes", type=_list, default=list(EMBREE_SCENES), metavar="NAME[,NAME]",
+                    help="scenes of the embree section: %s (default all)" % ", ".join(EMBREE_SCENES))
+    ap.add_argument("--prim-counts", type=_positives, default=list(PRIM_COUNTS), metavar="N[,N]",
+                    help="triangle counts of the primitives section, of %s (default all; --quick: up to 10000)"
+                         % ",".join(map(str, PRIM_COUNTS)))
+    ap.add_argument("--embree-trace", default=os.path.join(ROOT, "build", "bench", "embree_trace"),
+                    help="the Embree harness of embree and primitives (build/bench/embree_trace)")
     ap.add_argument("--base", default=FOUNDATION, metavar="COMMIT",
                     help="the commit of the base section (default the foundation, %s)" % FOUNDATION)
     ap.add_argument("--http-secs", type=_positive, default=None, help="length of each wrk run (10)")
@@ -116,6 +126,10 @@ class Context:
         self.size = (192, 108) if q else (1920, 1080)
         self.large = a.large
         self.large_size = a.large_size or ((192, 108) if q else (960, 540))
+        self.embree_scenes = a.embree_scenes
+        self.prim_counts = a.prim_counts
+        self.embree_trace = os.path.abspath(a.embree_trace)
+        self.keep = a.keep
         self.base = a.base
         self.http_secs = a.http_secs or (1 if q else 10)
         self.http_conc = a.http_conc or ([1, 4] if q else [1, 8, 64])
@@ -197,6 +211,16 @@ def main(argv=None):
     for s in a.large:
         if s not in ("spheres10k", "knot1m"):
             print("rayd_bench: --large: unknown scene '%s' (spheres10k, knot1m)" % s, file=sys.stderr)
+            return 2
+    for s in a.embree_scenes:
+        if s not in EMBREE_SCENES:
+            print("rayd_bench: --embree-scenes: unknown scene '%s' (%s)" % (s, ", ".join(EMBREE_SCENES)),
+                  file=sys.stderr)
+            return 2
+    for c in a.prim_counts:
+        if c not in PRIM_COUNTS:
+            print("rayd_bench: --prim-counts: %d is not one of %s" % (c, ",".join(map(str, PRIM_COUNTS))),
+                  file=sys.stderr)
             return 2
     if not (os.path.isfile(a.rayd) and os.access(a.rayd, os.X_OK)):
         print("rayd_bench: %s: not an executable file (build it with make)" % a.rayd, file=sys.stderr)
