@@ -26,7 +26,7 @@ TOOLS = ()
 SPHERES = {False: 10000, True: 500}
 BUMPY = {False: (1000, 501), True: (50, 21)}
 # A million triangles and the floor are over rayd's default limit.
-MAX_OBJECTS = ["--max-objects", "2000000"]
+MAX_OBJECTS = ["--limit-objects", "2000000"]
 # Half the side of the two-triangle floor that replaces a plane.
 FLOOR_HALF = 200.0
 
