@@ -12,6 +12,7 @@
 #include <stdint.h>
 
 #include "bvh.h"
+#include "bvh4.h"
 #include "plane.h"
 #include "rayd/error.h"
 #include "rayd/scene.h"
@@ -40,7 +41,9 @@ typedef struct {
     size_t nplanes;
     rd_wtri *tris;
     size_t ntris;
-    rd_bvh bvh; /* over spheres (ids < nspheres) then triangles */
+    rd_bvh bvh;   /* over spheres (ids < nspheres) then triangles */
+    rd_bvh4 bvh4; /* the same, four children a node: what rays walk */
+    int avx2;     /* walk it with the AVX2 box test */
     int use_bvh;
     rd_vec3 origin;  /* world position of the camera-relative origin */
     double build_ms; /* time spent building the BVH */
@@ -66,5 +69,11 @@ void rd_world_hit_uv(const rd_world *w, rd_hit *h);
 
 /* 1 when anything lies on the ray at t in (0, tmax); stops at the first. */
 int rd_world_any(const rd_world *w, rd_ray r, double tmax);
+
+/* The same, trying the primitive *last first (0: none; else its BVH id + 1)
+ * and leaving there the one that blocked this ray. Shadow rays towards one
+ * light from neighbouring points are mostly blocked by the same occluder
+ * (POV-Ray's light buffer); the answer is the same with or without it. */
+int rd_world_any_hint(const rd_world *w, rd_ray r, double tmax, uint32_t *last);
 
 #endif

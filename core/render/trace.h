@@ -20,6 +20,8 @@ typedef struct {
     int stochastic; /* area lights draw random numbers per hit */
 } rd_plan;
 
+#define RD_OCCLUDER_LIGHTS 16
+
 typedef struct {
     uint64_t camera, shadow, secondary;
     /* Stopping in bounded time. A glass ray tree is binary and max_depth
@@ -36,6 +38,9 @@ typedef struct {
     int64_t until_check, check_every;
     double last_check_ms;
     int stopped;
+    /* The last occluder of each of the first RD_OCCLUDER_LIGHTS lights'
+     * shadow rays (rd_world_any_hint), per thread like the rest. */
+    uint32_t occluder[RD_OCCLUDER_LIGHTS];
 } rd_ray_counts;
 
 /* Zero counts that stop at deadline_ms (0 = never) or once *cancel is
