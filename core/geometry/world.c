@@ -32,7 +32,28 @@ static rd_error_code nomem(rd_world *w, rd_error *err)
     return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory preparing the scene");
 }
 
+void rd_world_bounds(const rd_world *w, rd_vec3 *lo, rd_vec3 *hi)
+{
+    for (size_t i = 0; i < w->nspheres; i++) {
+        rd_vec3 r = v3(w->spheres[i].r, w->spheres[i].r, w->spheres[i].r);
+        lo[i] = v3_sub(w->spheres[i].c, r);
+        hi[i] = v3_add(w->spheres[i].c, r);
+    }
+    for (size_t i = 0; i < w->ntris; i++) {
+        const rd_vec3 *v = w->tris[i].v;
+        lo[w->nspheres + i] = v3(fmin(v[0].x, fmin(v[1].x, v[2].x)), fmin(v[0].y, fmin(v[1].y, v[2].y)),
+                                 fmin(v[0].z, fmin(v[1].z, v[2].z)));
+        hi[w->nspheres + i] = v3(fmax(v[0].x, fmax(v[1].x, v[2].x)), fmax(v[0].y, fmax(v[1].y, v[2].y)),
+                                 fmax(v[0].z, fmax(v[1].z, v[2].z)));
+    }
+}
+
 rd_error_code rd_world_build(rd_world *w, const rd_scene *s, rd_error *err)
+{
+    return rd_world_build_threads(w, s, 1, err);
+}
+
+rd_error_code rd_world_build_threads(rd_world *w, const rd_scene *s, int threads, rd_error *err)
 {
     memset(w, 0, sizeof *w);
     w->scene = s;
@@ -106,28 +127,22 @@ rd_error_code rd_world_build(rd_world *w, const rd_scene *s, rd_error *err)
             free(hi);
             return nomem(w, err);
         }
-        for (size_t i = 0; i < w->nspheres; i++) {
-            rd_vec3 r = v3(w->spheres[i].r, w->spheres[i].r, w->spheres[i].r);
-            lo[i] = v3_sub(w->spheres[i].c, r);
-            hi[i] = v3_add(w->spheres[i].c, r);
-        }
-        for (size_t i = 0; i < w->ntris; i++) {
-            const rd_vec3 *v = w->tris[i].v;
-            lo[w->nspheres + i] = v3(fmin(v[0].x, fmin(v[1].x, v[2].x)), fmin(v[0].y, fmin(v[1].y, v[2].y)),
-                                     fmin(v[0].z, fmin(v[1].z, v[2].z)));
-            hi[w->nspheres + i] = v3(fmax(v[0].x, fmax(v[1].x, v[2].x)), fmax(v[0].y, fmax(v[1].y, v[2].y)),
-                                     fmax(v[0].z, fmax(v[1].z, v[2].z)));
-        }
-        rd_error_code rc = rd_bvh_build(&w->bvh, lo, hi, nb, err);
+        rd_world_bounds(w, lo, hi);
+        rd_error_code rc = rd_bvh_build_threads(&w->bvh, lo, hi, nb, threads, err);
         free(lo);
         free(hi);
         if (!rc)
             rc = rd_bvh4_build(&w->bvh4, &w->bvh, err);
-        w->avx2 = rd_bvh4_cpu_has_avx2();
         if (rc) {
             rd_world_free(w);
             return rc;
         }
+        /* Rays walk the four-wide tree; of the binary one only the
+         * primitive order is kept. */
+        free(w->bvh.nodes);
+        w->bvh.nodes = NULL;
+        w->bvh.nnodes = 0;
+        w->avx2 = rd_bvh4_cpu_has_avx2();
         w->use_bvh = 1;
         w->build_ms = rd_now_ms() - t0;
     }

@@ -41,7 +41,7 @@ typedef struct {
     size_t nplanes;
     rd_wtri *tris;
     size_t ntris;
-    rd_bvh bvh;   /* over spheres (ids < nspheres) then triangles */
+    rd_bvh bvh;   /* over spheres (ids < nspheres) then triangles; only its prims are kept */
     rd_bvh4 bvh4; /* the same, four children a node: what rays walk */
     int avx2;     /* walk it with the AVX2 box test */
     int use_bvh;
@@ -52,6 +52,13 @@ typedef struct {
 /* Fails (RD_ERR_INVALID) on unresolved materials or meshes the loader has
  * not filled in. */
 rd_error_code rd_world_build(rd_world *w, const rd_scene *s, rd_error *err);
+
+/* The same, building the BVH on up to `threads` threads (the same tree). */
+rd_error_code rd_world_build_threads(rd_world *w, const rd_scene *s, int threads, rd_error *err);
+
+/* The bounds the BVH is built over, of spheres then triangles (nspheres +
+ * ntris entries each, the caller's). */
+void rd_world_bounds(const rd_world *w, rd_vec3 *lo, rd_vec3 *hi);
 void rd_world_free(rd_world *w);
 
 /* Bytes the world holds (surfaces, BVH nodes and indices). */

@@ -25,10 +25,15 @@ static rd_rgb saturate(rd_rgb c)
 
 rd_error_code rd_plan_build(rd_plan *p, const rd_scene *s, rd_error *err)
 {
+    return rd_plan_build_threads(p, s, 1, err);
+}
+
+rd_error_code rd_plan_build_threads(rd_plan *p, const rd_scene *s, int threads, rd_error *err)
+{
     memset(p, 0, sizeof *p);
     p->scene = s;
     /* The world checks that every object has a material. */
-    rd_error_code rc = rd_world_build(&p->world, s, err);
+    rd_error_code rc = rd_world_build_threads(&p->world, s, threads, err);
     if (rc)
         return rc;
     for (size_t j = 0; j < s->object_count; j++) {

@@ -54,6 +54,9 @@ int rd_counts_check(rd_ray_counts *c);
 static inline int rd_counts_tick(rd_ray_counts *c) { return --c->until_check > 0 ? 0 : rd_counts_check(c); }
 
 rd_error_code rd_plan_build(rd_plan *p, const rd_scene *s, rd_error *err);
+
+/* The same with the BVH built on up to `threads` threads. */
+rd_error_code rd_plan_build_threads(rd_plan *p, const rd_scene *s, int threads, rd_error *err);
 void rd_plan_free(rd_plan *p);
 
 /* Radiance along r (unit direction), recursing while depth < max_depth.

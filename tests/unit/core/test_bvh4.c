@@ -214,9 +214,9 @@ Test(bvh4, collapse_keeps_every_primitive_once)
         walk(&w, 0, seen, 0);
         for (size_t i = 0; i < w.bvh.nprims; i++)
             cr_assert_eq(seen[i], 1, "%d prims: leaf index %zu reached %d times", ntris, i, seen[i]);
-        /* Four children a node: far fewer nodes than the binary tree. */
-        cr_assert(w.bvh4.nnodes * 2 <= w.bvh.nnodes, "%zu four-wide nodes for %zu binary ones", w.bvh4.nnodes,
-                  w.bvh.nnodes);
+        /* Four children a node, leaves of up to four primitives. */
+        cr_assert(w.bvh4.nnodes * 4 <= w.bvh.nprims, "%zu four-wide nodes for %zu primitives", w.bvh4.nnodes,
+                  w.bvh.nprims);
         free(seen);
         rd_world_free(&w);
         rd_scene_free(&s);
@@ -262,6 +262,41 @@ Test(bvh4, occluder_hint_never_changes_the_answer)
         }
     }
     cr_assert(blocked > 1000 && hinted > 0, "blocked %ld rays, %ld by the hint", blocked, hinted);
+    rd_world_free(&w);
+    rd_scene_free(&s);
+}
+
+/* Big enough that the build splits over threads (bvh.c: PARALLEL_MIN):
+ * two, three and four threads make the one-thread tree, node for node. */
+Test(bvh4, threads_build_the_same_tree)
+{
+    rd_scene s;
+    soup(&s, 60000, 5);
+    rd_world w;
+    rd_error err = {0};
+    cr_assert_eq(rd_world_build(&w, &s, &err), RD_OK, "%s", err.message);
+    size_t n = w.nspheres + w.ntris;
+    rd_vec3 *lo = malloc(n * sizeof *lo), *hi = malloc(n * sizeof *hi);
+    rd_world_bounds(&w, lo, hi);
+    rd_bvh one;
+    cr_assert_eq(rd_bvh_build(&one, lo, hi, n, &err), RD_OK);
+    for (int t = 2; t <= 4; t++) {
+        rd_bvh many;
+        cr_assert_eq(rd_bvh_build_threads(&many, lo, hi, n, t, &err), RD_OK);
+        cr_assert_eq(many.nnodes, one.nnodes, "%d threads: %zu nodes, one thread %zu", t, many.nnodes, one.nnodes);
+        cr_assert(memcmp(many.nodes, one.nodes, one.nnodes * sizeof *one.nodes) == 0, "%d threads: other nodes", t);
+        cr_assert(memcmp(many.prims, one.prims, n * sizeof *one.prims) == 0, "%d threads: another order", t);
+        rd_bvh_free(&many);
+    }
+    rd_world w2;
+    cr_assert_eq(rd_world_build_threads(&w2, &s, 2, &err), RD_OK);
+    cr_assert(w2.bvh4.nnodes == w.bvh4.nnodes &&
+                  memcmp(w2.bvh4.nodes, w.bvh4.nodes, w.bvh4.nnodes * sizeof *w.bvh4.nodes) == 0,
+              "the world built on two threads walks another tree");
+    rd_bvh_free(&one);
+    free(lo);
+    free(hi);
+    rd_world_free(&w2);
     rd_world_free(&w);
     rd_scene_free(&s);
 }
