@@ -1,12 +1,23 @@
 #include "utf8.h"
 
+#include <stdint.h>
 #include <string.h>
 
 size_t rd_utf8_invalid_at(const char *str, size_t len)
 {
     const unsigned char *s = (const unsigned char *)str;
     size_t i = 0;
+    const uint64_t ones = 0x0101010101010101ull, highs = 0x8080808080808080ull;
     while (i < len) {
+        /* Eight plain ASCII bytes, none of them NUL, at a time. */
+        if (i + 8 <= len) {
+            uint64_t w;
+            memcpy(&w, s + i, 8);
+            if (!(w & highs) && !((w - ones) & ~w & highs)) {
+                i += 8;
+                continue;
+            }
+        }
         unsigned c = s[i];
         if (c == 0)
             return i;

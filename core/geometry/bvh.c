@@ -1,6 +1,7 @@
 #include "bvh.h"
 
 #include <float.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -75,23 +76,27 @@ typedef struct {
     uint32_t id;
 } rec;
 
+/* Builds one subtree into its own node array (its root at 0, left children
+ * next to their parents), so that subtrees can be built on threads and
+ * joined in depth-first order: the tree is the same whatever the threads. */
 typedef struct {
-    rd_bvh *b;
+    rd_bvh_node *nodes;
+    size_t nnodes, cap;
     rec *r;
-    size_t cap;
+    int threads; /* this subtree may use this many */
 } builder;
 
 static uint32_t new_node(builder *bd)
 {
-    if (bd->b->nnodes == bd->cap) {
-        size_t nc = bd->cap * 2;
-        rd_bvh_node *p = realloc(bd->b->nodes, nc * sizeof *p);
+    if (bd->nnodes == bd->cap) {
+        size_t nc = bd->cap ? bd->cap * 2 : 64;
+        rd_bvh_node *p = realloc(bd->nodes, nc * sizeof *p);
         if (!p)
             return UINT32_MAX;
-        bd->b->nodes = p;
+        bd->nodes = p;
         bd->cap = nc;
     }
-    return (uint32_t)bd->b->nnodes++;
+    return (uint32_t)bd->nnodes++;
 }
 
 /* Bounds of the records' boxes and of their centroids. */
@@ -197,12 +202,75 @@ static int make_leaf(rd_bvh_node *n, size_t first, size_t count)
     return 1;
 }
 
+static int build(builder *bd, uint32_t node, size_t first, size_t count, int depth);
+
+/* Below this many records a subtree is not worth a thread. */
+enum { PARALLEL_MIN = 16384 };
+
+typedef struct {
+    builder bd;
+    size_t first, count;
+    int depth, ok;
+} subtree;
+
+static void *subtree_main(void *arg)
+{
+    subtree *t = arg;
+    uint32_t root = new_node(&t->bd);
+    t->ok = root != UINT32_MAX && build(&t->bd, root, t->first, t->count, t->depth);
+    return NULL;
+}
+
+/* Appends t's nodes to bd, moving their child indices along. */
+static int append(builder *bd, const subtree *t, uint32_t *base)
+{
+    while (bd->cap < bd->nnodes + t->bd.nnodes) {
+        size_t nc = bd->cap ? bd->cap * 2 : 64;
+        rd_bvh_node *p = realloc(bd->nodes, nc * sizeof *p);
+        if (!p)
+            return 0;
+        bd->nodes = p;
+        bd->cap = nc;
+    }
+    *base = (uint32_t)bd->nnodes;
+    for (size_t i = 0; i < t->bd.nnodes; i++) {
+        rd_bvh_node n = t->bd.nodes[i];
+        if (!n.count)
+            n.offset += *base;
+        bd->nodes[bd->nnodes++] = n;
+    }
+    return 1;
+}
+
+/* Both children of node at once: the left on a new thread, the right on
+ * this one, each into its own array, then joined left first. */
+static int build_children_parallel(builder *bd, uint32_t node, size_t first, size_t mid, size_t end, int depth)
+{
+    int tl = bd->threads / 2;
+    subtree l = {{NULL, 0, 0, bd->r, tl}, first, mid - first, depth + 1, 0};
+    subtree r = {{NULL, 0, 0, bd->r, bd->threads - tl}, mid, end - mid, depth + 1, 0};
+    pthread_t th;
+    int spawned = pthread_create(&th, NULL, subtree_main, &l) == 0;
+    if (!spawned)
+        subtree_main(&l);
+    subtree_main(&r);
+    if (spawned)
+        pthread_join(th, NULL);
+    uint32_t lb, rb;
+    int ok = l.ok && r.ok && append(bd, &l, &lb) && append(bd, &r, &rb);
+    if (ok)
+        bd->nodes[node].offset = rb;
+    free(l.bd.nodes);
+    free(r.bd.nodes);
+    return ok;
+}
+
 /* Splits prims[first, first+count) recursively; returns 0 on out of memory. */
 static int build(builder *bd, uint32_t node, size_t first, size_t count, int depth)
 {
     box bounds, cb;
     node_bounds(bd->r, first, count, &bounds, &cb);
-    rd_bvh_node *n = &bd->b->nodes[node];
+    rd_bvh_node *n = &bd->nodes[node];
     memcpy(n->lo, bounds.lo, sizeof n->lo);
     memcpy(n->hi, bounds.hi, sizeof n->hi);
     n->axis = 0;
@@ -224,31 +292,37 @@ static int build(builder *bd, uint32_t node, size_t first, size_t count, int dep
         return make_leaf(n, first, count);
     n->axis = (uint16_t)(sp.axis < 0 ? 0 : sp.axis);
     n->count = 0;
+    if (bd->threads > 1 && count >= PARALLEL_MIN)
+        return build_children_parallel(bd, node, first, mid, first + count, depth);
     uint32_t left = new_node(bd);
     if (left == UINT32_MAX || !build(bd, left, first, mid - first, depth + 1))
         return 0;
     uint32_t right = new_node(bd);
     if (right == UINT32_MAX)
         return 0;
-    bd->b->nodes[node].offset = right;
+    bd->nodes[node].offset = right;
     return build(bd, right, mid, first + count - mid, depth + 1);
 }
 
 rd_error_code rd_bvh_build(rd_bvh *b, const rd_vec3 *lo, const rd_vec3 *hi, size_t n, rd_error *err)
+{
+    return rd_bvh_build_threads(b, lo, hi, n, 1, err);
+}
+
+rd_error_code rd_bvh_build_threads(rd_bvh *b, const rd_vec3 *lo, const rd_vec3 *hi, size_t n, int threads,
+                                   rd_error *err)
 {
     memset(b, 0, sizeof *b);
     if (n == 0)
         return RD_OK;
     if (n >= UINT32_MAX / 2)
         return rd_error_set(err, RD_ERR_LIMIT, 0, 0, "too many primitives for one BVH");
-    builder bd;
-    bd.b = b;
-    bd.cap = 2 * n / LEAF_MAX + 16;
-    bd.r = malloc(n * sizeof *bd.r);
+    builder bd = {NULL, 0, 2 * n / LEAF_MAX + 16, malloc(n * sizeof *bd.r), threads < 1 ? 1 : threads};
     b->prims = malloc(n * sizeof *b->prims);
-    b->nodes = malloc(bd.cap * sizeof *b->nodes);
-    if (!bd.r || !b->prims || !b->nodes) {
+    bd.nodes = malloc(bd.cap * sizeof *bd.nodes);
+    if (!bd.r || !b->prims || !bd.nodes) {
         free(bd.r);
+        free(bd.nodes);
         rd_bvh_free(b);
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory building the BVH");
     }
@@ -262,11 +336,13 @@ rd_error_code rd_bvh_build(rd_bvh *b, const rd_vec3 *lo, const rd_vec3 *hi, size
         bd.r[i].id = (uint32_t)i;
     }
     b->nprims = n;
-    b->nnodes = 1;
+    bd.nnodes = 1;
     int ok = build(&bd, 0, 0, n, 0);
     for (size_t i = 0; i < n; i++)
         b->prims[i] = bd.r[i].id;
     free(bd.r);
+    b->nodes = bd.nodes;
+    b->nnodes = bd.nnodes;
     if (!ok) {
         rd_bvh_free(b);
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory building the BVH");

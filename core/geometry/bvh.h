@@ -37,6 +37,11 @@ typedef struct {
 
 /* Builds over n primitives whose double bounds are lo[i], hi[i]. */
 rd_error_code rd_bvh_build(rd_bvh *b, const rd_vec3 *lo, const rd_vec3 *hi, size_t n, rd_error *err);
+
+/* The same on up to `threads` threads: subtrees are built apart and joined
+ * in depth-first order, so the tree is the one rd_bvh_build makes. */
+rd_error_code rd_bvh_build_threads(rd_bvh *b, const rd_vec3 *lo, const rd_vec3 *hi, size_t n, int threads,
+                                   rd_error *err);
 void rd_bvh_free(rd_bvh *b);
 
 /* Precomputed for slab tests: 1/d, and for a zero direction component a

@@ -4,10 +4,11 @@
 
 static double comp(rd_vec3 v, int k) { return k == 0 ? v.x : (k == 1 ? v.y : v.z); }
 
-double rd_tri_intersect(const rd_vec3 v[3], rd_ray r, double tmax, double bary[3])
+rd_tri_ray rd_tri_ray_make(rd_ray r)
 {
     /* Permute so that z is the ray's dominant axis, then shear the
      * triangle into the ray's frame, where the test is 2D. */
+    rd_tri_ray t = {r.o, 0, 0, 0, 0, 0, 0, 0};
     int kz = 0;
     double ax = fabs(r.d.x), ay = fabs(r.d.y), az = fabs(r.d.z);
     if (ay > ax && ay >= az)
@@ -17,14 +18,35 @@ double rd_tri_intersect(const rd_vec3 v[3], rd_ray r, double tmax, double bary[3
     int kx = (kz + 1) % 3, ky = (kx + 1) % 3;
     double dz = comp(r.d, kz);
     if (dz == 0 || !isfinite(dz))
-        return 0;
+        return t;
     if (dz < 0) {
-        int t = kx;
+        int tmp = kx;
         kx = ky;
-        ky = t;
+        ky = tmp;
     }
-    double sx = comp(r.d, kx) / dz, sy = comp(r.d, ky) / dz, sz = 1.0 / dz;
-    rd_vec3 A = v3_sub(v[0], r.o), B = v3_sub(v[1], r.o), C = v3_sub(v[2], r.o);
+    t.kx = kx;
+    t.ky = ky;
+    t.kz = kz;
+    t.ok = 1;
+    t.sx = comp(r.d, kx) / dz;
+    t.sy = comp(r.d, ky) / dz;
+    t.sz = 1.0 / dz;
+    return t;
+}
+
+double rd_tri_intersect(const rd_vec3 v[3], rd_ray r, double tmax, double bary[3])
+{
+    rd_tri_ray t = rd_tri_ray_make(r);
+    return rd_tri_intersect_ray(v, &t, tmax, bary);
+}
+
+double rd_tri_intersect_ray(const rd_vec3 v[3], const rd_tri_ray *r, double tmax, double bary[3])
+{
+    if (!r->ok)
+        return 0;
+    const int kx = r->kx, ky = r->ky, kz = r->kz;
+    const double sx = r->sx, sy = r->sy, sz = r->sz;
+    rd_vec3 A = v3_sub(v[0], r->o), B = v3_sub(v[1], r->o), C = v3_sub(v[2], r->o);
     double Ax = comp(A, kx) - sx * comp(A, kz), Ay = comp(A, ky) - sy * comp(A, kz);
     double Bx = comp(B, kx) - sx * comp(B, kz), By = comp(B, ky) - sy * comp(B, kz);
     double Cx = comp(C, kx) - sx * comp(C, kz), Cy = comp(C, ky) - sy * comp(C, kz);

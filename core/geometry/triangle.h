@@ -11,4 +11,19 @@
  * triangles never hit. The world fills in the hit (world.c, fill_tri). */
 double rd_tri_intersect(const rd_vec3 v[3], rd_ray r, double tmax, double bary[3]);
 
+/* What the test needs of the ray alone (the axis permutation and the
+ * shear), computed once per ray instead of once per triangle. ok is 0 for a
+ * ray no triangle can be hit by (a zero or non-finite dominant component). */
+typedef struct {
+    rd_vec3 o;
+    int kx, ky, kz, ok;
+    double sx, sy, sz;
+} rd_tri_ray;
+
+rd_tri_ray rd_tri_ray_make(rd_ray r);
+
+/* rd_tri_intersect with the ray's part done: the same operations in the
+ * same order, so the same answers to the bit. */
+double rd_tri_intersect_ray(const rd_vec3 v[3], const rd_tri_ray *r, double tmax, double bary[3]);
+
 #endif

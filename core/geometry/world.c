@@ -22,6 +22,7 @@ void rd_world_free(rd_world *w)
     free(w->plane_obj);
     free(w->tris);
     rd_bvh_free(&w->bvh);
+    rd_bvh4_free(&w->bvh4);
     memset(w, 0, sizeof *w);
 }
 
@@ -31,7 +32,28 @@ static rd_error_code nomem(rd_world *w, rd_error *err)
     return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory preparing the scene");
 }
 
+void rd_world_bounds(const rd_world *w, rd_vec3 *lo, rd_vec3 *hi)
+{
+    for (size_t i = 0; i < w->nspheres; i++) {
+        rd_vec3 r = v3(w->spheres[i].r, w->spheres[i].r, w->spheres[i].r);
+        lo[i] = v3_sub(w->spheres[i].c, r);
+        hi[i] = v3_add(w->spheres[i].c, r);
+    }
+    for (size_t i = 0; i < w->ntris; i++) {
+        const rd_vec3 *v = w->tris[i].v;
+        lo[w->nspheres + i] = v3(fmin(v[0].x, fmin(v[1].x, v[2].x)), fmin(v[0].y, fmin(v[1].y, v[2].y)),
+                                 fmin(v[0].z, fmin(v[1].z, v[2].z)));
+        hi[w->nspheres + i] = v3(fmax(v[0].x, fmax(v[1].x, v[2].x)), fmax(v[0].y, fmax(v[1].y, v[2].y)),
+                                 fmax(v[0].z, fmax(v[1].z, v[2].z)));
+    }
+}
+
 rd_error_code rd_world_build(rd_world *w, const rd_scene *s, rd_error *err)
+{
+    return rd_world_build_threads(w, s, 1, err);
+}
+
+rd_error_code rd_world_build_threads(rd_world *w, const rd_scene *s, int threads, rd_error *err)
 {
     memset(w, 0, sizeof *w);
     w->scene = s;
@@ -105,25 +127,22 @@ rd_error_code rd_world_build(rd_world *w, const rd_scene *s, rd_error *err)
             free(hi);
             return nomem(w, err);
         }
-        for (size_t i = 0; i < w->nspheres; i++) {
-            rd_vec3 r = v3(w->spheres[i].r, w->spheres[i].r, w->spheres[i].r);
-            lo[i] = v3_sub(w->spheres[i].c, r);
-            hi[i] = v3_add(w->spheres[i].c, r);
-        }
-        for (size_t i = 0; i < w->ntris; i++) {
-            const rd_vec3 *v = w->tris[i].v;
-            lo[w->nspheres + i] = v3(fmin(v[0].x, fmin(v[1].x, v[2].x)), fmin(v[0].y, fmin(v[1].y, v[2].y)),
-                                     fmin(v[0].z, fmin(v[1].z, v[2].z)));
-            hi[w->nspheres + i] = v3(fmax(v[0].x, fmax(v[1].x, v[2].x)), fmax(v[0].y, fmax(v[1].y, v[2].y)),
-                                     fmax(v[0].z, fmax(v[1].z, v[2].z)));
-        }
-        rd_error_code rc = rd_bvh_build(&w->bvh, lo, hi, nb, err);
+        rd_world_bounds(w, lo, hi);
+        rd_error_code rc = rd_bvh_build_threads(&w->bvh, lo, hi, nb, threads, err);
         free(lo);
         free(hi);
+        if (!rc)
+            rc = rd_bvh4_build(&w->bvh4, &w->bvh, err);
         if (rc) {
             rd_world_free(w);
             return rc;
         }
+        /* Rays walk the four-wide tree; of the binary one only the
+         * primitive order is kept. */
+        free(w->bvh.nodes);
+        w->bvh.nodes = NULL;
+        w->bvh.nnodes = 0;
+        w->avx2 = rd_bvh4_cpu_has_avx2();
         w->use_bvh = 1;
         w->build_ms = rd_now_ms() - t0;
     }
@@ -134,7 +153,8 @@ size_t rd_world_bytes(const rd_world *w)
 {
     return w->nspheres * (sizeof *w->spheres + 2 * sizeof(int32_t)) +
            w->nplanes * (sizeof *w->planes + 2 * sizeof(int32_t)) + w->ntris * sizeof *w->tris +
-           w->bvh.nnodes * sizeof *w->bvh.nodes + w->bvh.nprims * sizeof *w->bvh.prims;
+           w->bvh.nnodes * sizeof *w->bvh.nodes + w->bvh.nprims * sizeof *w->bvh.prims +
+           w->bvh4.nnodes * sizeof *w->bvh4.nodes;
 }
 
 typedef struct {
@@ -144,7 +164,7 @@ typedef struct {
     double bary[3];
 } best_hit;
 
-static void test_prim(const rd_world *w, uint32_t id, rd_ray r, best_hit *b)
+static inline void test_prim(const rd_world *w, uint32_t id, rd_ray r, const rd_tri_ray *tr, best_hit *b)
 {
     if (id < w->nspheres) {
         double t = rd_sphere_intersect(&w->spheres[id], r, b->t);
@@ -156,7 +176,7 @@ static void test_prim(const rd_world *w, uint32_t id, rd_ray r, best_hit *b)
     } else {
         size_t k = id - w->nspheres;
         double bary[3];
-        double t = rd_tri_intersect(w->tris[k].v, r, b->t, bary);
+        double t = rd_tri_intersect_ray(w->tris[k].v, tr, b->t, bary);
         if (t > 0) {
             b->t = t;
             b->kind = K_TRI;
@@ -166,78 +186,111 @@ static void test_prim(const rd_world *w, uint32_t id, rd_ray r, best_hit *b)
     }
 }
 
-static int any_prim(const rd_world *w, uint32_t id, rd_ray r, double tmax)
+static inline int any_prim(const rd_world *w, uint32_t id, rd_ray r, const rd_tri_ray *tr, double tmax)
 {
     if (id < w->nspheres)
         return rd_sphere_intersect(&w->spheres[id], r, tmax) > 0;
     double bary[3];
-    return rd_tri_intersect(w->tris[id - w->nspheres].v, r, tmax, bary) > 0;
+    return rd_tri_intersect_ray(w->tris[id - w->nspheres].v, tr, tmax, bary) > 0;
 }
+
+/* A node or leaf to visit, with the distance at which the ray enters it. */
+typedef struct {
+    uint32_t idx, count;
+    double t;
+} visit;
+
+/* The walks, written once and compiled for each box test: the test is
+ * inlined into its loop. */
+#define RD_WALK_CLOSEST(NAME, ATTR, TEST)                                                                              \
+    ATTR static void NAME(const rd_world *w, rd_ray r, best_hit *b)                                                    \
+    {                                                                                                                  \
+        rd_bvh_ray br = rd_bvh_ray_make(r);                                                                            \
+        rd_tri_ray tr = rd_tri_ray_make(r);                                                                            \
+        visit stack[RD_BVH4_STACK];                                                                                    \
+        int sp = 0;                                                                                                    \
+        stack[sp++] = (visit){0, 0, 0};                                                                                \
+        while (sp > 0) {                                                                                               \
+            visit v = stack[--sp];                                                                                     \
+            /* Entered beyond the closest hit so far: nothing in it is closer. */                                      \
+            if (v.t > b->t)                                                                                            \
+                continue;                                                                                              \
+            if (v.count) {                                                                                             \
+                for (uint32_t i = 0; i < v.count; i++)                                                                 \
+                    test_prim(w, w->bvh.prims[v.idx + i], r, &tr, b);                                                  \
+                continue;                                                                                              \
+            }                                                                                                          \
+            const rd_bvh4_node *n = &w->bvh4.nodes[v.idx];                                                             \
+            double tn[4];                                                                                              \
+            unsigned m = TEST(n, &br, b->t, tn);                                                                       \
+            /* Farthest first onto the stack: the nearest is searched first and shrinks b->t. */                       \
+            int base = sp;                                                                                             \
+            for (int i = 0; i < 4; i++) {                                                                              \
+                if (!(m >> i & 1))                                                                                     \
+                    continue;                                                                                          \
+                visit c = {n->child[i], n->count[i], tn[i]};                                                           \
+                int j = sp++;                                                                                          \
+                while (j > base && stack[j - 1].t < c.t) {                                                             \
+                    stack[j] = stack[j - 1];                                                                           \
+                    j--;                                                                                               \
+                }                                                                                                      \
+                stack[j] = c;                                                                                          \
+            }                                                                                                          \
+        }                                                                                                              \
+    }
+
+#define RD_WALK_ANY(NAME, ATTR, TEST)                                                                                  \
+    ATTR static int NAME(const rd_world *w, rd_ray r, double tmax, uint32_t *last)                                     \
+    {                                                                                                                  \
+        rd_bvh_ray br = rd_bvh_ray_make(r);                                                                            \
+        rd_tri_ray tr = rd_tri_ray_make(r);                                                                            \
+        if (last && *last && any_prim(w, *last - 1, r, &tr, tmax))                                                     \
+            return 1;                                                                                                  \
+        uint32_t stack[RD_BVH4_STACK];                                                                                 \
+        int sp = 0;                                                                                                    \
+        stack[sp++] = 0;                                                                                               \
+        while (sp > 0) {                                                                                               \
+            const rd_bvh4_node *n = &w->bvh4.nodes[stack[--sp]];                                                       \
+            double tn[4];                                                                                              \
+            unsigned m = TEST(n, &br, tmax, tn);                                                                       \
+            for (int i = 0; i < 4; i++) {                                                                              \
+                if (!(m >> i & 1))                                                                                     \
+                    continue;                                                                                          \
+                if (!n->count[i]) {                                                                                    \
+                    stack[sp++] = n->child[i];                                                                         \
+                    continue;                                                                                          \
+                }                                                                                                      \
+                for (uint32_t k = 0; k < n->count[i]; k++) {                                                           \
+                    uint32_t id = w->bvh.prims[n->child[i] + k];                                                       \
+                    if (any_prim(w, id, r, &tr, tmax)) {                                                               \
+                        if (last)                                                                                      \
+                            *last = id + 1;                                                                            \
+                        return 1;                                                                                      \
+                    }                                                                                                  \
+                }                                                                                                      \
+            }                                                                                                          \
+        }                                                                                                              \
+        return 0;                                                                                                      \
+    }
+
+/* Not inlined: their stacks would enlarge every caller's frame, also for
+ * worlds without a BVH. */
+RD_WALK_CLOSEST(closest_sse2, __attribute__((noinline)), rd_bvh4_test_sse2)
+RD_WALK_CLOSEST(closest_avx2, __attribute__((noinline, target("avx2"))), rd_bvh4_test_avx2)
+RD_WALK_ANY(any_sse2, __attribute__((noinline)), rd_bvh4_test_sse2)
+RD_WALK_ANY(any_avx2, __attribute__((noinline, target("avx2"))), rd_bvh4_test_avx2)
 
 static void bvh_closest(const rd_world *w, rd_ray r, best_hit *b)
 {
-    const rd_bvh *bvh = &w->bvh;
-    rd_bvh_ray br = rd_bvh_ray_make(r);
-    uint32_t stack[RD_BVH_STACK];
-    int sp = 0;
-    double tn;
-    if (!rd_bvh_box_hit(&bvh->nodes[0], &br, b->t, &tn))
-        return;
-    stack[sp++] = 0;
-    while (sp > 0) {
-        const rd_bvh_node *n = &bvh->nodes[stack[--sp]];
-        if (n->count) {
-            for (uint32_t i = 0; i < n->count; i++)
-                test_prim(w, bvh->prims[n->offset + i], r, b);
-            continue;
-        }
-        uint32_t l = (uint32_t)(n - bvh->nodes) + 1, rr = n->offset;
-        double tl, tr;
-        int hl = rd_bvh_box_hit(&bvh->nodes[l], &br, b->t, &tl);
-        int hr = rd_bvh_box_hit(&bvh->nodes[rr], &br, b->t, &tr);
-        /* Push the far child first so the near one is searched first and
-         * shrinks b->t for the other. */
-        if (hl && hr) {
-            if (tl <= tr) {
-                stack[sp++] = rr;
-                stack[sp++] = l;
-            } else {
-                stack[sp++] = l;
-                stack[sp++] = rr;
-            }
-        } else if (hl) {
-            stack[sp++] = l;
-        } else if (hr) {
-            stack[sp++] = rr;
-        }
-    }
+    if (w->avx2)
+        closest_avx2(w, r, b);
+    else
+        closest_sse2(w, r, b);
 }
 
-static int bvh_any(const rd_world *w, rd_ray r, double tmax)
+static int bvh_any(const rd_world *w, rd_ray r, double tmax, uint32_t *last)
 {
-    const rd_bvh *bvh = &w->bvh;
-    rd_bvh_ray br = rd_bvh_ray_make(r);
-    uint32_t stack[RD_BVH_STACK];
-    int sp = 0;
-    double tn;
-    if (!rd_bvh_box_hit(&bvh->nodes[0], &br, tmax, &tn))
-        return 0;
-    stack[sp++] = 0;
-    while (sp > 0) {
-        const rd_bvh_node *n = &bvh->nodes[stack[--sp]];
-        if (n->count) {
-            for (uint32_t i = 0; i < n->count; i++)
-                if (any_prim(w, bvh->prims[n->offset + i], r, tmax))
-                    return 1;
-            continue;
-        }
-        uint32_t l = (uint32_t)(n - bvh->nodes) + 1, rr = n->offset;
-        if (rd_bvh_box_hit(&bvh->nodes[rr], &br, tmax, &tn))
-            stack[sp++] = rr;
-        if (rd_bvh_box_hit(&bvh->nodes[l], &br, tmax, &tn))
-            stack[sp++] = l;
-    }
-    return 0;
+    return w->avx2 ? any_avx2(w, r, tmax, last) : any_sse2(w, r, tmax, last);
 }
 
 static void fill_tri(const rd_world *w, const best_hit *b, rd_hit *h)
@@ -306,8 +359,11 @@ int rd_world_closest(const rd_world *w, rd_ray r, double tmax, rd_hit *h)
                 b.idx = i;
             }
         }
+        rd_tri_ray tr;
+        if (w->ntris)
+            tr = rd_tri_ray_make(r);
         for (size_t i = 0; i < w->ntris; i++)
-            test_prim(w, (uint32_t)(w->nspheres + i), r, &b);
+            test_prim(w, (uint32_t)(w->nspheres + i), r, &tr, &b);
     }
     if (b.kind == K_NONE)
         return 0;
@@ -362,13 +418,15 @@ void rd_world_hit_uv(const rd_world *w, rd_hit *h)
     }
 }
 
-int rd_world_any(const rd_world *w, rd_ray r, double tmax)
+int rd_world_any(const rd_world *w, rd_ray r, double tmax) { return rd_world_any_hint(w, r, tmax, NULL); }
+
+int rd_world_any_hint(const rd_world *w, rd_ray r, double tmax, uint32_t *last)
 {
     for (size_t i = 0; i < w->nplanes; i++)
         if (rd_plane_intersect(&w->planes[i], r, tmax) > 0)
             return 1;
     if (w->use_bvh)
-        return bvh_any(w, r, tmax);
+        return bvh_any(w, r, tmax, last);
     for (size_t i = 0; i < w->nspheres; i++)
         if (rd_sphere_intersect(&w->spheres[i], r, tmax) > 0)
             return 1;

@@ -12,6 +12,7 @@
 #include <stdint.h>
 
 #include "bvh.h"
+#include "bvh4.h"
 #include "plane.h"
 #include "rayd/error.h"
 #include "rayd/scene.h"
@@ -40,7 +41,9 @@ typedef struct {
     size_t nplanes;
     rd_wtri *tris;
     size_t ntris;
-    rd_bvh bvh; /* over spheres (ids < nspheres) then triangles */
+    rd_bvh bvh;   /* over spheres (ids < nspheres) then triangles; only its prims are kept */
+    rd_bvh4 bvh4; /* the same, four children a node: what rays walk */
+    int avx2;     /* walk it with the AVX2 box test */
     int use_bvh;
     rd_vec3 origin;  /* world position of the camera-relative origin */
     double build_ms; /* time spent building the BVH */
@@ -49,6 +52,13 @@ typedef struct {
 /* Fails (RD_ERR_INVALID) on unresolved materials or meshes the loader has
  * not filled in. */
 rd_error_code rd_world_build(rd_world *w, const rd_scene *s, rd_error *err);
+
+/* The same, building the BVH on up to `threads` threads (the same tree). */
+rd_error_code rd_world_build_threads(rd_world *w, const rd_scene *s, int threads, rd_error *err);
+
+/* The bounds the BVH is built over, of spheres then triangles (nspheres +
+ * ntris entries each, the caller's). */
+void rd_world_bounds(const rd_world *w, rd_vec3 *lo, rd_vec3 *hi);
 void rd_world_free(rd_world *w);
 
 /* Bytes the world holds (surfaces, BVH nodes and indices). */
@@ -66,5 +76,11 @@ void rd_world_hit_uv(const rd_world *w, rd_hit *h);
 
 /* 1 when anything lies on the ray at t in (0, tmax); stops at the first. */
 int rd_world_any(const rd_world *w, rd_ray r, double tmax);
+
+/* The same, trying the primitive *last first (0: none; else its BVH id + 1)
+ * and leaving there the one that blocked this ray. Shadow rays towards one
+ * light from neighbouring points are mostly blocked by the same occluder
+ * (POV-Ray's light buffer); the answer is the same with or without it. */
+int rd_world_any_hint(const rd_world *w, rd_ray r, double tmax, uint32_t *last);
 
 #endif

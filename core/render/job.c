@@ -88,7 +88,7 @@ rd_error_code rd_job_create(const rd_scene *s, const rd_job_options *opt, rd_job
         free(j);
         return rc;
     }
-    rc = rd_plan_build(&j->plan, s, err);
+    rc = rd_plan_build_threads(&j->plan, s, opt ? opt->build_threads : 1, err);
     if (rc) {
         free(j);
         return rc;
@@ -402,7 +402,7 @@ void rd_job_plan_stats(const rd_job *j, rd_render_stats *st)
 {
     st->prepare_ms = j->plan_ms;
     st->bvh_build_ms = j->plan.world.build_ms;
-    st->bvh_nodes = j->plan.world.bvh.nnodes;
+    st->bvh_nodes = j->plan.world.bvh4.nnodes;
     st->world_bytes = rd_world_bytes(&j->plan.world);
     st->primitives = j->plan.world.nspheres + j->plan.world.nplanes + j->plan.world.ntris;
 }

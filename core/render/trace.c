@@ -25,10 +25,15 @@ static rd_rgb saturate(rd_rgb c)
 
 rd_error_code rd_plan_build(rd_plan *p, const rd_scene *s, rd_error *err)
 {
+    return rd_plan_build_threads(p, s, 1, err);
+}
+
+rd_error_code rd_plan_build_threads(rd_plan *p, const rd_scene *s, int threads, rd_error *err)
+{
     memset(p, 0, sizeof *p);
     p->scene = s;
     /* The world checks that every object has a material. */
-    rd_error_code rc = rd_world_build(&p->world, s, err);
+    rd_error_code rc = rd_world_build_threads(&p->world, s, threads, err);
     if (rc)
         return rc;
     for (size_t j = 0; j < s->object_count; j++) {
@@ -70,14 +75,15 @@ void rd_plan_free(rd_plan *p)
 
 /* Not inlined: it would grow every recursion level's stack frame. */
 __attribute__((noinline)) static int shadowed(const rd_plan *p, const rd_hit *h, const rd_light_sample *ls,
-                                              rd_ray_counts *counts)
+                                              size_t light, rd_ray_counts *counts)
 {
+    uint32_t *last = light < RD_OCCLUDER_LIGHTS ? &counts->occluder[light] : NULL;
     rd_ray sr;
     sr.o = rd_offset_origin(h, ls->to_light);
     counts->shadow++;
     if (ls->infinite) {
         sr.d = ls->to_light;
-        return rd_world_any(&p->world, sr, INFINITY);
+        return rd_world_any_hint(&p->world, sr, INFINITY, last);
     }
     /* Aim from the pushed-off origin, so the ray still ends at the light. */
     rd_vec3 d = v3_add(ls->to_light, v3_sub(h->p, sr.o));
@@ -100,14 +106,14 @@ __attribute__((noinline)) static int shadowed(const rd_plan *p, const rd_hit *h,
     if (e < -1000 || e > 1000) {
         e = ilogb(span);
         sr.d = v3(ldexp(d.x, -e), ldexp(d.y, -e), ldexp(d.z, -e));
-        return rd_world_any(&p->world, sr, ldexp(end, e));
+        return rd_world_any_hint(&p->world, sr, ldexp(end, e), last);
     }
     double down, up;
     uint64_t b1 = (uint64_t)(1023 - e) << 52, b2 = (uint64_t)(1023 + e) << 52;
     memcpy(&down, &b1, sizeof down);
     memcpy(&up, &b2, sizeof up);
     sr.d = v3_scale(d, down);
-    return rd_world_any(&p->world, sr, end * up);
+    return rd_world_any_hint(&p->world, sr, end * up, last);
 }
 
 void rd_counts_init(rd_ray_counts *c, double deadline_ms, const atomic_int *cancel)
@@ -199,7 +205,7 @@ rd_rgb rd_trace(const rd_plan *p, rd_ray r, int depth, rd_rng *rng, rd_ray_count
                 /* A light behind the surface contributes 0: no shadow ray. */
                 if (!(-v3_dot(h.n, ls.L) > 0))
                     continue;
-                if (shadowed(p, &h, &ls, counts))
+                if (shadowed(p, &h, &ls, i, counts))
                     continue;
                 color = saturate(v3_add(color, v3_mul(ls.color, rd_calc_reflected_light(m, &h, ls.L, V))));
             }

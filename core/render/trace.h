@@ -20,6 +20,8 @@ typedef struct {
     int stochastic; /* area lights draw random numbers per hit */
 } rd_plan;
 
+#define RD_OCCLUDER_LIGHTS 16
+
 typedef struct {
     uint64_t camera, shadow, secondary;
     /* Stopping in bounded time. A glass ray tree is binary and max_depth
@@ -36,6 +38,9 @@ typedef struct {
     int64_t until_check, check_every;
     double last_check_ms;
     int stopped;
+    /* The last occluder of each of the first RD_OCCLUDER_LIGHTS lights'
+     * shadow rays (rd_world_any_hint), per thread like the rest. */
+    uint32_t occluder[RD_OCCLUDER_LIGHTS];
 } rd_ray_counts;
 
 /* Zero counts that stop at deadline_ms (0 = never) or once *cancel is
@@ -49,6 +54,9 @@ int rd_counts_check(rd_ray_counts *c);
 static inline int rd_counts_tick(rd_ray_counts *c) { return --c->until_check > 0 ? 0 : rd_counts_check(c); }
 
 rd_error_code rd_plan_build(rd_plan *p, const rd_scene *s, rd_error *err);
+
+/* The same with the BVH built on up to `threads` threads. */
+rd_error_code rd_plan_build_threads(rd_plan *p, const rd_scene *s, int threads, rd_error *err);
 void rd_plan_free(rd_plan *p);
 
 /* Radiance along r (unit direction), recursing while depth < max_depth.

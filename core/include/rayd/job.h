@@ -41,6 +41,9 @@ typedef struct {
      * sample; an adaptive one gives later passes' samples to noisier
      * pixels. */
     rd_progress_settings progress;
+    /* Threads that may build the BVH (the same tree whatever the number);
+     * < 1 means 1. */
+    int build_threads;
 } rd_job_options;
 
 /* The most memory a job of this scene holds, in bytes: the scene itself,

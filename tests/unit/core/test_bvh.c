@@ -209,9 +209,35 @@ static int box_contains(const rd_bvh_node *outer, const float lo[3], const float
 /* Walks the tree from the root: every node reached once, children inside
  * their parent, primitives inside their leaf, leaves partitioning prims,
  * prims a permutation of the primitive ids. Returns the depth. */
+static int check_tree(const rd_world *w, const rd_bvh *b);
+
+/* The world keeps only the binary tree's primitive order: the tree is built
+ * again here from the world's bounds, on one thread and on four, which
+ * must give the same tree and the world's order. */
 static int check_invariants(const rd_world *w)
 {
-    const rd_bvh *b = &w->bvh;
+    size_t n = w->nspheres + w->ntris;
+    rd_vec3 *lo = malloc(n * sizeof *lo), *hi = malloc(n * sizeof *hi);
+    cr_assert(lo && hi);
+    rd_world_bounds(w, lo, hi);
+    rd_bvh one, four;
+    rd_error err = {0};
+    cr_assert_eq(rd_bvh_build(&one, lo, hi, n, &err), RD_OK, "%s", err.message);
+    cr_assert_eq(rd_bvh_build_threads(&four, lo, hi, n, 4, &err), RD_OK, "%s", err.message);
+    cr_assert(one.nnodes == four.nnodes && memcmp(one.nodes, four.nodes, one.nnodes * sizeof *one.nodes) == 0 &&
+                  memcmp(one.prims, four.prims, n * sizeof *one.prims) == 0,
+              "four threads built another tree than one");
+    cr_assert(memcmp(one.prims, w->bvh.prims, n * sizeof *one.prims) == 0, "the world's primitive order differs");
+    int depth = check_tree(w, &one);
+    rd_bvh_free(&one);
+    rd_bvh_free(&four);
+    free(lo);
+    free(hi);
+    return depth;
+}
+
+static int check_tree(const rd_world *w, const rd_bvh *b)
+{
     size_t n = w->nspheres + w->ntris;
     cr_assert(w->use_bvh, "a world of %zu primitives should use its BVH", n);
     cr_assert_eq(b->nprims, n);
@@ -311,10 +337,19 @@ static rd_ray make_ray(const rd_world *w, test_rng *r, const ray_mix *mix)
 {
     rd_ray ray;
     int roll = rng_int(r, 100);
-    if (roll < mix->face_share && w->bvh.nnodes > 0) {
+    if (roll < mix->face_share && w->bvh4.nnodes > 0) {
         /* On a face of a random node's box: one coordinate exactly lo or hi
          * of the float bounds, the others inside (or on) the box. */
-        const rd_bvh_node *nd = &w->bvh.nodes[rng_int(r, (int)w->bvh.nnodes)];
+        const rd_bvh4_node *n4 = &w->bvh4.nodes[rng_int(r, (int)w->bvh4.nnodes)];
+        int slot = rng_int(r, 4);
+        while (!(n4->lo[0][slot] <= n4->hi[0][slot]))
+            slot = (slot + 1) % 4;
+        rd_bvh_node box;
+        for (int a = 0; a < 3; a++) {
+            box.lo[a] = n4->lo[a][slot];
+            box.hi[a] = n4->hi[a][slot];
+        }
+        const rd_bvh_node *nd = &box;
         int k = rng_int(r, 3);
         double o[3];
         for (int j = 0; j < 3; j++) {
@@ -558,9 +593,10 @@ Test(bvh, ten_thousand_identical_centroids)
     /* And leaves stay small although SAH cannot split: no leaf of
      * thousands. */
     size_t biggest = 0;
-    for (size_t i = 0; i < w.bvh.nnodes; i++)
-        if (w.bvh.nodes[i].count > biggest)
-            biggest = w.bvh.nodes[i].count;
+    for (size_t i = 0; i < w.bvh4.nnodes; i++)
+        for (int q = 0; q < 4; q++)
+            if (w.bvh4.nodes[i].count[q] > biggest)
+                biggest = w.bvh4.nodes[i].count[q];
     cr_assert_leq(biggest, 16, "a leaf holds %zu triangles", biggest);
     rd_world_free(&w);
     rd_scene_free(&s);
