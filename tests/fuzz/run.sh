@@ -165,17 +165,15 @@ if [ "$need_daemon" -eq 1 ]; then
             compile "$src" "$obj" $LIB_FLAGS
         fi
     done
-    page=$OBJ/gen/web_page.c
-    mkdir -p "$OBJ/gen"
-    if [ ! -f "$page" ] || [ -n "$(find daemon/http/web/index.html daemon/http/web/embed.py -newer "$page" 2>/dev/null)" ]; then
-        if ! /usr/bin/python3 daemon/http/web/embed.py daemon/http/web/index.html rd_web_index_html >"$page.tmp" ||
-            ! mv "$page.tmp" "$page"; then
-            die "could not generate $page"
+    # The embedded files (the web page, the OpenAPI document) are generated
+    # by the Makefile's own rules, into this build's folder.
+    for gen in web_page openapi; do
+        make --no-print-directory -s BUILD="$OBJ" "$OBJ/gen/$gen.c" || die "could not generate $OBJ/gen/$gen.c"
+        if stale "$OBJ/gen/$gen.o" "$OBJ/gen/$gen.c" ""; then
+            compile "$OBJ/gen/$gen.c" "$OBJ/gen/$gen.o" $LIB_FLAGS
         fi
-        rm -f "$OBJ/gen/web_page.o"
-    fi
-    [ -f "$OBJ/gen/web_page.o" ] || compile "$page" "$OBJ/gen/web_page.o" $LIB_FLAGS
-    DAEMON_OBJS="$DAEMON_OBJS $OBJ/gen/web_page.o"
+        DAEMON_OBJS="$DAEMON_OBJS $OBJ/gen/$gen.o"
+    done
 fi
 for src in tests/fuzz/*.c; do
     obj=$OBJ/${src%.c}.o

@@ -68,6 +68,10 @@ if command -v man >/dev/null 2>&1; then
 fi
 grep -q "ExecStart=$prefix/bin/rayd serve" "$prefix/lib/systemd/system/rayd@.service" && ok ||
     bad "the unit runs the installed binary"
+if command -v systemd-analyze >/dev/null 2>&1; then
+    systemd-analyze verify --man=no "$prefix/lib/systemd/system/rayd@.service" >"$T/verify" 2>&1 && ok ||
+        bad "systemd-analyze verify rejects the unit: $(cat "$T/verify")"
+fi
 
 # A staged install: every file under DESTDIR/PREFIX, nothing else; the
 # binary looks in PREFIX, and says so when it is not there yet.
