@@ -64,11 +64,33 @@ static char *temp_name(const char *path)
     return tmp;
 }
 
+int rd_is_special_file(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode);
+}
+
+/* A special file, written in place. */
+static rd_error_code write_special(const char *path, const void *data, size_t len, rd_error *err)
+{
+    FILE *f = fopen(path, "wb");
+    if (!f)
+        return rd_error_set(err, RD_ERR_IO, 0, 0, "%s: cannot write: %s", path, strerror(errno));
+    size_t put = fwrite(data, 1, len, f);
+    if ((put != len) | (fclose(f) != 0))
+        return rd_error_set(err, RD_ERR_IO, 0, 0, "%s: cannot write: %s", path, strerror(errno));
+    return RD_OK;
+}
+
 rd_error_code rd_check_writable(const char *path, rd_error *err)
 {
     struct stat st;
     if (stat(path, &st) == 0 && S_ISDIR(st.st_mode))
         return rd_error_set(err, RD_ERR_IO, 0, 0, "%s: cannot write: %s", path, strerror(EISDIR));
+    if (rd_is_special_file(path))
+        return access(path, W_OK) == 0
+                   ? RD_OK
+                   : rd_error_set(err, RD_ERR_IO, 0, 0, "%s: cannot write: %s", path, strerror(errno));
     char *tmp = temp_name(path);
     if (!tmp)
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
@@ -86,6 +108,8 @@ rd_error_code rd_check_writable(const char *path, rd_error *err)
 
 rd_error_code rd_write_file(const char *path, const void *data, size_t len, rd_error *err)
 {
+    if (rd_is_special_file(path))
+        return write_special(path, data, len, err);
     char *tmp = temp_name(path);
     if (!tmp)
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");

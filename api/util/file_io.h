@@ -15,7 +15,9 @@ rd_error_code rd_read_file(const char *path, size_t max_bytes, const char *flag,
                            rd_error *err);
 
 /* Writes bytes to path, replacing it only once the whole file is written
- * (through a temporary file in the same folder, renamed at the end). */
+ * (through a temporary file in the same folder, renamed at the end). A
+ * path that is neither a regular file nor a folder (/dev/null, a FIFO, a
+ * terminal) is written directly: renaming over it would replace it. */
 rd_error_code rd_write_file(const char *path, const void *data, size_t len, rd_error *err);
 
 /* Whether rd_write_file could write path now: not a folder, and its
@@ -23,6 +25,9 @@ rd_error_code rd_write_file(const char *path, const void *data, size_t len, rd_e
  * folder or a missing permission is found before the work that makes the
  * bytes. RD_ERR_IO with a message naming path. */
 rd_error_code rd_check_writable(const char *path, rd_error *err);
+
+/* 1 when path exists and is neither a regular file nor a folder. */
+int rd_is_special_file(const char *path);
 
 /* The folder part of a path ("scenes" for "scenes/a.cfg", "." for "a.cfg"),
  * malloc'ed; the caller frees it. NULL when out of memory. */

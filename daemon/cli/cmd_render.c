@@ -23,6 +23,7 @@ static const char render_help[] = "usage: rayd render SCENE -o OUT [options]\n"
                                   "  .exr  OpenEXR, the linear image: RGB 32-bit float, ZIP, scanlines\n"
                                   "  .pfm  portable float map, the linear image: little-endian, bottom row first\n"
                                   "  -     the PNG on stdout (the statistics stay on stderr)\n"
+                                  "  /dev/null, a FIFO: the PNG, written into it in place\n"
                                   "Any other name is refused before rendering, and an output that cannot be\n"
                                   "written (missing folder, no permission) too; a file is replaced only once\n"
                                   "it is whole.\n"
@@ -159,7 +160,8 @@ enum { N_OUT_KINDS = sizeof out_kinds / sizeof out_kinds[0] };
 static int out_kind_of(const char *path, out_kind *kind)
 {
     *kind = OUT_PNG;
-    if (strcmp(path, "-") == 0)
+    /* stdout, /dev/null, a FIFO: a PNG, whatever the name. */
+    if (strcmp(path, "-") == 0 || rd_is_special_file(path))
         return 0;
     const char *dot = strrchr(path, '.');
     for (int i = 0; dot && !strchr(dot, '/') && i < N_OUT_KINDS; i++)

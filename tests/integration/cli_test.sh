@@ -275,6 +275,15 @@ expect_exit 1 "converge sets the samples itself" -- "$RAYD" converge scenes/diff
 "$RAYD" render scenes/phong.cfg -o - --width 32 --height 24 >"$T/stdout.png" 2>"$T/err"
 "$RAYD" render scenes/phong.cfg -o "$T/file.png" --width 32 --height 24 2>/dev/null
 cmp -s "$T/stdout.png" "$T/file.png" && grep -q "^render: 32x24" "$T/err" && ok || bad "-o - is not the PNG on stdout"
+# A special file is written in place, never renamed over (as root a
+# rename would replace /dev/null with a regular file).
+"$RAYD" render scenes/phong.cfg -o /dev/null --width 32 --height 24 2>"$T/err" && [ -c /dev/null ] && ok ||
+    bad "-o /dev/null: $(cat "$T/err"); /dev/null is $(ls -la /dev/null)"
+mkfifo "$T/fifo"
+cat "$T/fifo" >"$T/fifo.png" &
+"$RAYD" render scenes/phong.cfg -o "$T/fifo" --width 32 --height 24 2>"$T/err"
+wait
+cmp -s "$T/fifo.png" "$T/file.png" && [ -p "$T/fifo" ] && ok || bad "-o FIFO does not write the PNG through it: $(cat "$T/err")"
 expect_exit 1 "an output rayd does not write" -- "$RAYD" render scenes/phong.cfg -o "$T/x.jpg"
 grep -q -- "-o $T/x.jpg: rayd writes .png, .exr, .pfm (or - for a PNG on stdout)" "$T/err" && ok ||
     bad "unknown extension message: $(cat "$T/err")"
