@@ -3,7 +3,7 @@
  *
  *   embree_trace SCENE [--width W] [--height H] [--threads N[,N]] [--modes single,packet]
  *                [--quality low|medium|high] [--tile 8x2|4x4] [--repeat N] [--build-threads N]
- *                [--robust] [--max-NAME N]
+ *                [--robust] [--limit-NAME N]
  *
  * The scene is read as `rayd render SCENE` reads it (rd_scene_open: the same
  * parser, overrides, limits and OBJ loader), moved into rayd's
@@ -697,7 +697,7 @@ static void usage(void)
 {
     fprintf(stderr, "usage: embree_trace SCENE [--width W] [--height H] [--threads N[,N]] [--modes single,packet]\n"
                     "                    [--quality low|medium|high] [--tile 8x2|4x4] [--repeat N]\n"
-                    "                    [--build-threads N] [--robust] [--max-NAME N]\n");
+                    "                    [--build-threads N] [--robust] [--limit-NAME N]\n");
     exit(1);
 }
 
@@ -784,7 +784,7 @@ int main(int argc, char **argv)
             repeat = (int)number(v, 1, 1000, "--repeat");
         } else if (!strcmp(a, "--build-threads")) {
             build_threads = (int)number(v, 0, 1024, "--build-threads");
-        } else if (!strncmp(a, "--max-", 6)) {
+        } else if (!strncmp(a, "--limit-", 8)) {
             size_t n;
             const rd_limit_info *info = rd_limits_info(&n), *hit = NULL;
             for (size_t k = 0; k < n; k++)
