@@ -15,6 +15,7 @@ typedef struct rd_asset_source {
                           unsigned char **data, size_t *len, rd_error *err);
     const char *dir; /* folder source: the scene's folder */
     void *user;      /* other sources */
+    int threads;     /* that may parse one mesh (rd_obj_parse_threads); < 1: 1 */
 } rd_asset_source;
 
 /* A source reading files below dir; dir must outlive the source. */

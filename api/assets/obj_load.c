@@ -1,5 +1,6 @@
 #include "obj_load.h"
 
+#include <pthread.h>
 #include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -16,6 +17,7 @@ typedef struct {
     const char *ls;
     rd_mesh *m;
     size_t capv, capn, capt, capf;
+    int fixed; /* the vertex arrays are shared and exactly sized: never grown */
     rd_error *err;
 } obj;
 
@@ -43,6 +45,14 @@ static int grow(void **arr, size_t *cap, size_t count, size_t sz)
     *arr = p;
     *cap = nc;
     return 1;
+}
+
+/* Room for one more vertex entry: grown, or for a shared array only
+ * checked (a range that finds more than it counted is parsed again on one
+ * thread). */
+static int room(obj *o, void **arr, size_t *cap, size_t count, size_t sz)
+{
+    return o->fixed ? count < *cap : grow(arr, cap, count, sz);
 }
 
 static int is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
@@ -159,87 +169,357 @@ static rd_error_code face(obj *o, const char *p, const char *le, size_t max_tris
     return RD_OK;
 }
 
-rd_error_code rd_obj_parse(const char *text, size_t len, const char *source, size_t max_tris, const char *flag,
-                           rd_mesh *out, rd_warnings *w, rd_error *err)
+/* Warnings of a range of lines: said at once (one thread), or kept with
+ * their line and said in line order after the ranges parsed on threads
+ * are joined, so that both ways say the same. mtllib and usemtl are said
+ * once per file. */
+enum { KEPT_WARNINGS = 6 };
+
+typedef struct {
+    int line, mtl;
+    char kw[24];
+    int kl;
+} warning_rec;
+
+typedef struct {
+    rd_warnings *w; /* NULL: keep them */
+    const char *source;
+    int mtl_seen;
+    warning_rec kept[KEPT_WARNINGS];
+    int nkept, unsupported; /* unsupported: all of them, kept or not */
+    int first_mtl;          /* line of the first mtllib or usemtl; 0: none */
+    warning_rec mtl;
+} warn_sink;
+
+static void say(rd_warnings *w, const char *source, const warning_rec *r)
 {
-    memset(out, 0, sizeof *out);
+    if (r->mtl)
+        rd_warn(w, "%s:%d: %.*s ignored: the mesh takes the scene's material", source, r->line, r->kl, r->kw);
+    else
+        rd_warn(w, "%s:%d: '%.*s' statements are not supported and were ignored", source, r->line, r->kl, r->kw);
+}
+
+static void warn_at(warn_sink *ws, int line, const char *kw, size_t kl, int mtl)
+{
+    warning_rec r = {line, mtl, "", (int)(kl > 20 ? 20 : kl)};
+    memcpy(r.kw, kw, (size_t)r.kl);
+    if (mtl && ws->mtl_seen++)
+        return;
+    if (ws->w) {
+        say(ws->w, ws->source, &r);
+        return;
+    }
+    if (mtl) {
+        ws->first_mtl = line;
+        ws->mtl = r;
+        return;
+    }
+    ws->unsupported++;
+    if (ws->nkept < KEPT_WARNINGS)
+        ws->kept[ws->nkept++] = r;
+}
+
+/* One line's statement, p just past the keyword kw (kl bytes). */
+static rd_error_code statement(obj *o, const char *kw, size_t kl, const char *p, const char *le, size_t max_tris,
+                               const char *flag, warn_sink *ws)
+{
+    rd_mesh *out = o->m;
+    double v[3] = {0, 0, 0};
+    const char *badat = NULL;
+    int nonfinite = 0;
+    if (kl == 0 || kw[0] == '#') {
+        /* blank or comment */
+    } else if (kl == 1 && kw[0] == 'v') {
+        int n = numbers(&p, le, v, 3, &badat, &nonfinite);
+        if (n < 0)
+            return fail(o, badat, RD_ERR_SYNTAX, "v: expected a %snumber", nonfinite ? "finite " : "");
+        if (n != 3 && n != 4 && n != 6 && n != 7)
+            return fail(o, kw, RD_ERR_SYNTAX, "v: expected 3 coordinates, got %d numbers", n);
+        if (!room(o, (void **)&out->positions, &o->capv, out->npositions, sizeof *out->positions))
+            return fail(o, kw, RD_ERR_NOMEM, "out of memory");
+        out->positions[out->npositions++] = v3(v[0], v[1], v[2]);
+    } else if (kl == 2 && kw[0] == 'v' && kw[1] == 'n') {
+        int n = numbers(&p, le, v, 3, &badat, &nonfinite);
+        if (n < 0)
+            return fail(o, badat, RD_ERR_SYNTAX, "vn: expected a %snumber", nonfinite ? "finite " : "");
+        if (n != 3)
+            return fail(o, kw, RD_ERR_SYNTAX, "vn: expected 3 numbers, got %d", n);
+        if (!room(o, (void **)&out->normals, &o->capn, out->nnormals, sizeof *out->normals))
+            return fail(o, kw, RD_ERR_NOMEM, "out of memory");
+        out->normals[out->nnormals++] = v3(v[0], v[1], v[2]);
+    } else if (kl == 2 && kw[0] == 'v' && kw[1] == 't') {
+        int n = numbers(&p, le, v, 3, &badat, &nonfinite);
+        if (n < 0)
+            return fail(o, badat, RD_ERR_SYNTAX, "vt: expected a %snumber", nonfinite ? "finite " : "");
+        if (n < 1 || n > 3)
+            return fail(o, kw, RD_ERR_SYNTAX, "vt: expected 1 to 3 numbers, got %d", n);
+        if (!room(o, (void **)&out->uvs, &o->capt, out->nuvs, sizeof *out->uvs))
+            return fail(o, kw, RD_ERR_NOMEM, "out of memory");
+        out->uvs[out->nuvs][0] = v[0];
+        out->uvs[out->nuvs][1] = v[1];
+        out->nuvs++;
+    } else if (kl == 1 && kw[0] == 'f') {
+        return face(o, p, le, max_tris, flag);
+    } else if ((kl == 6 && memcmp(kw, "mtllib", 6) == 0) || (kl == 6 && memcmp(kw, "usemtl", 6) == 0)) {
+        warn_at(ws, o->line, kw, kl, 1);
+    } else if (!(kl == 1 && (kw[0] == 'o' || kw[0] == 'g' || kw[0] == 's'))) {
+        /* o, g and s (names, groups, smoothing) do not change the surface */
+        warn_at(ws, o->line, kw, kl, 0);
+    }
+    return RD_OK;
+}
+
+/* The lines of [p, end): o->line counts from the line before p. */
+static rd_error_code parse_lines(obj *o, const char *text, const char *p, const char *end, size_t bad, size_t max_tris,
+                                 const char *flag, warn_sink *ws)
+{
+    while (p < end) {
+        o->line++;
+        o->ls = p;
+        const char *le = memchr(p, '\n', (size_t)(end - p));
+        const char *next = le ? le + 1 : end;
+        if (!le)
+            le = end;
+        if ((size_t)(le - text) > bad)
+            return fail(o, text + bad, RD_ERR_SYNTAX, text[bad] ? "invalid UTF-8" : "NUL byte");
+        while (p < le && is_space(*p))
+            p++;
+        const char *kw = p;
+        while (p < le && !is_space(*p))
+            p++;
+        rd_error_code rc = statement(o, kw, (size_t)(p - kw), p, le, max_tris, flag, ws);
+        if (rc)
+            return rc;
+        p = next;
+    }
+    return RD_OK;
+}
+
+static rd_error_code parse_one_thread(const char *text, size_t len, const char *source, size_t max_tris,
+                                      const char *flag, rd_mesh *out, rd_warnings *w, rd_error *err)
+{
     obj o;
     memset(&o, 0, sizeof o);
     o.source = source;
     o.m = out;
     o.err = err;
     size_t bad = rd_utf8_invalid_at(text, len);
-    const char *p = text, *end = text + len;
-    int warned_mtl = 0;
-    while (p < end) {
-        o.line++;
-        o.ls = p;
-        const char *le = memchr(p, '\n', (size_t)(end - p));
-        const char *next = le ? le + 1 : end;
-        if (!le)
-            le = end;
-        if ((size_t)(le - text) > bad)
-            return fail(&o, text + bad, RD_ERR_SYNTAX, text[bad] ? "invalid UTF-8" : "NUL byte");
-        while (p < le && is_space(*p))
-            p++;
-        const char *kw = p;
-        while (p < le && !is_space(*p))
-            p++;
-        size_t kl = (size_t)(p - kw);
-        double v[3] = {0, 0, 0};
-        const char *badat = NULL;
-        int nonfinite = 0;
-        if (kl == 0 || kw[0] == '#') {
-            /* blank or comment */
-        } else if (kl == 1 && kw[0] == 'v') {
-            int n = numbers(&p, le, v, 3, &badat, &nonfinite);
-            if (n < 0)
-                return fail(&o, badat, RD_ERR_SYNTAX, "v: expected a %snumber", nonfinite ? "finite " : "");
-            if (n != 3 && n != 4 && n != 6 && n != 7)
-                return fail(&o, kw, RD_ERR_SYNTAX, "v: expected 3 coordinates, got %d numbers", n);
-            if (!grow((void **)&out->positions, &o.capv, out->npositions, sizeof *out->positions))
-                return fail(&o, kw, RD_ERR_NOMEM, "out of memory");
-            out->positions[out->npositions++] = v3(v[0], v[1], v[2]);
-        } else if (kl == 2 && kw[0] == 'v' && kw[1] == 'n') {
-            int n = numbers(&p, le, v, 3, &badat, &nonfinite);
-            if (n < 0)
-                return fail(&o, badat, RD_ERR_SYNTAX, "vn: expected a %snumber", nonfinite ? "finite " : "");
-            if (n != 3)
-                return fail(&o, kw, RD_ERR_SYNTAX, "vn: expected 3 numbers, got %d", n);
-            if (!grow((void **)&out->normals, &o.capn, out->nnormals, sizeof *out->normals))
-                return fail(&o, kw, RD_ERR_NOMEM, "out of memory");
-            out->normals[out->nnormals++] = v3(v[0], v[1], v[2]);
-        } else if (kl == 2 && kw[0] == 'v' && kw[1] == 't') {
-            int n = numbers(&p, le, v, 3, &badat, &nonfinite);
-            if (n < 0)
-                return fail(&o, badat, RD_ERR_SYNTAX, "vt: expected a %snumber", nonfinite ? "finite " : "");
-            if (n < 1 || n > 3)
-                return fail(&o, kw, RD_ERR_SYNTAX, "vt: expected 1 to 3 numbers, got %d", n);
-            if (!grow((void **)&out->uvs, &o.capt, out->nuvs, sizeof *out->uvs))
-                return fail(&o, kw, RD_ERR_NOMEM, "out of memory");
-            out->uvs[out->nuvs][0] = v[0];
-            out->uvs[out->nuvs][1] = v[1];
-            out->nuvs++;
-        } else if (kl == 1 && kw[0] == 'f') {
-            rd_error_code rc = face(&o, p, le, max_tris, flag);
-            if (rc)
-                return rc;
-        } else if ((kl == 6 && memcmp(kw, "mtllib", 6) == 0) || (kl == 6 && memcmp(kw, "usemtl", 6) == 0)) {
-            if (!warned_mtl++)
-                rd_warn(w, "%s:%d: %.*s ignored: the mesh takes the scene's material", source, o.line, (int)kl, kw);
-        } else if ((kl == 1 && (kw[0] == 'o' || kw[0] == 'g' || kw[0] == 's'))) {
-            /* names, groups and smoothing groups do not change the surface */
-        } else {
-            rd_warn(w, "%s:%d: '%.*s' statements are not supported and were ignored", source, o.line,
-                    (int)(kl > 20 ? 20 : kl), kw);
-        }
-        p = next;
-    }
+    warn_sink ws = {w, source, 0, {{0}}, 0, 0, 0, {0}};
+    rd_error_code rc = parse_lines(&o, text, text, text + len, bad, max_tris, flag, &ws);
+    if (rc)
+        return rc;
     if (bad < len) {
         o.ls = text;
         return fail(&o, text + bad, RD_ERR_SYNTAX, "invalid UTF-8");
     }
     return RD_OK;
+}
+
+/* On threads: the text cut at line ends into one range per thread; a
+ * first pass counts each range's lines and v, vn and vt statements, so
+ * that each range knows where its vertices go and what its relative
+ * indices count back from; the second parses the ranges at once into the
+ * shared vertex arrays and their own faces, joined in order. Anything
+ * unusual (an error, a file past a limit, bad UTF-8) is parsed again on one
+ * thread, whose answer and messages are the reference. */
+enum { MAX_RANGES = 16, RANGE_MIN_BYTES = 1 << 20 };
+
+typedef struct {
+    const char *begin, *end;
+    int line0;
+    size_t v, vn, vt; /* statements in the range (first pass) */
+    size_t v0, vn0, vt0;
+    obj o;
+    rd_mesh m;
+    warn_sink ws;
+    rd_error err;
+    rd_error_code rc;
+    const char *text;
+    size_t bad, max_tris;
+    const char *flag;
+} range;
+
+static void count_range(range *r)
+{
+    int lines = 0;
+    for (const char *p = r->begin; p < r->end; lines++) {
+        const char *le = memchr(p, '\n', (size_t)(r->end - p));
+        const char *next = le ? le + 1 : r->end;
+        while (p < next && is_space(*p))
+            p++;
+        if (p + 1 < next && p[0] == 'v' && (is_space(p[1]) || p[1] == '\n'))
+            r->v++;
+        else if (p + 2 < next && p[0] == 'v' && p[1] == 'n' && (is_space(p[2]) || p[2] == '\n'))
+            r->vn++;
+        else if (p + 2 < next && p[0] == 'v' && p[1] == 't' && (is_space(p[2]) || p[2] == '\n'))
+            r->vt++;
+        p = next;
+    }
+    r->line0 = lines; /* until the prefix sum: this range's own line count */
+}
+
+static void *parse_range(void *arg)
+{
+    range *r = arg;
+    r->rc = parse_lines(&r->o, r->text, r->begin, r->end, r->bad, r->max_tris, r->flag, &r->ws);
+    return NULL;
+}
+
+static void *count_main(void *arg)
+{
+    count_range(arg);
+    return NULL;
+}
+
+/* Runs fn over the ranges, one on this thread and the rest on new ones. */
+static void run_ranges(range *rs, int n, void *(*fn)(void *))
+{
+    pthread_t th[MAX_RANGES];
+    int started[MAX_RANGES] = {0};
+    for (int i = 1; i < n; i++)
+        started[i] = pthread_create(&th[i], NULL, fn, &rs[i]) == 0;
+    fn(&rs[0]);
+    for (int i = 1; i < n; i++) {
+        if (started[i])
+            pthread_join(th[i], NULL);
+        else
+            fn(&rs[i]);
+    }
+}
+
+static int cut(const char *text, size_t len, int threads, range *rs)
+{
+    int n = 0;
+    const char *p = text, *end = text + len;
+    for (int i = 0; i < threads && p < end; i++) {
+        const char *e = i == threads - 1 ? end : text + len / (size_t)threads * (size_t)(i + 1);
+        if (e < p)
+            e = p;
+        const char *nl = e < end ? memchr(e, '\n', (size_t)(end - e)) : NULL;
+        e = nl ? nl + 1 : end;
+        memset(&rs[n], 0, sizeof rs[n]);
+        rs[n].begin = p;
+        rs[n].end = e;
+        n++;
+        p = e;
+    }
+    return n;
+}
+
+/* Sets up each range's view of the shared arrays; 0 when out of memory. */
+static int prepare_ranges(range *rs, int n, const char *text, size_t bad, const char *source, size_t max_tris,
+                          const char *flag, rd_mesh *out)
+{
+    size_t v = 0, vn = 0, vt = 0;
+    int line = 0;
+    for (int i = 0; i < n; i++) {
+        int own = rs[i].line0;
+        rs[i].line0 = line;
+        line += own;
+        rs[i].v0 = v, rs[i].vn0 = vn, rs[i].vt0 = vt;
+        v += rs[i].v, vn += rs[i].vn, vt += rs[i].vt;
+    }
+    out->positions = malloc((v + 1) * sizeof *out->positions);
+    out->normals = malloc((vn + 1) * sizeof *out->normals);
+    out->uvs = malloc((vt + 1) * sizeof *out->uvs);
+    if (!out->positions || !out->normals || !out->uvs)
+        return 0;
+    for (int i = 0; i < n; i++) {
+        range *r = &rs[i];
+        r->text = text, r->bad = bad, r->max_tris = max_tris, r->flag = flag;
+        /* A range sees the vertices before it as defined; it writes its own
+         * after them, and never grows the arrays: the counts are exact. */
+        r->m.positions = out->positions, r->m.npositions = r->v0;
+        r->m.normals = out->normals, r->m.nnormals = r->vn0;
+        r->m.uvs = out->uvs, r->m.nuvs = r->vt0;
+        r->o.source = source, r->o.m = &r->m, r->o.err = &r->err, r->o.line = r->line0;
+        r->o.capv = r->v0 + r->v, r->o.capn = r->vn0 + r->vn, r->o.capt = r->vt0 + r->vt;
+        r->o.fixed = 1;
+        r->ws.source = source;
+    }
+    return 1;
+}
+
+/* The faces joined in order, and the warnings said in line order. */
+static int join_ranges(range *rs, int n, size_t max_tris, rd_mesh *out, rd_warnings *w)
+{
+    size_t nf = 0;
+    for (int i = 0; i < n; i++)
+        nf += rs[i].m.nfaces;
+    if (nf > max_tris)
+        return 0;
+    out->faces = malloc((nf + 1) * sizeof *out->faces);
+    if (!out->faces)
+        return 0;
+    for (int i = 0; i < n; i++) {
+        memcpy(out->faces + out->nfaces, rs[i].m.faces, rs[i].m.nfaces * sizeof *out->faces);
+        out->nfaces += rs[i].m.nfaces;
+    }
+    const range *last = &rs[n - 1];
+    out->npositions = last->m.npositions, out->nnormals = last->m.nnormals, out->nuvs = last->m.nuvs;
+    const warning_rec *mtl = NULL;
+    for (int i = 0; i < n && !mtl; i++)
+        mtl = rs[i].ws.first_mtl ? &rs[i].ws.mtl : NULL;
+    for (int i = 0; i < n; i++) {
+        const warn_sink *ws = &rs[i].ws;
+        for (int k = 0; k < ws->nkept; k++) {
+            if (mtl && mtl->line < ws->kept[k].line) {
+                say(w, ws->source, mtl);
+                mtl = NULL;
+            }
+            say(w, ws->source, &ws->kept[k]);
+        }
+        /* Those not kept are only counted, as rd_warn counts past five. */
+        if (w)
+            w->count += ws->unsupported - ws->nkept;
+    }
+    if (mtl)
+        say(w, rs[0].ws.source, mtl);
+    return 1;
+}
+
+static void free_ranges(range *rs, int n)
+{
+    for (int i = 0; i < n; i++)
+        free(rs[i].m.faces);
+}
+
+rd_error_code rd_obj_parse_threads(const char *text, size_t len, const char *source, size_t max_tris, const char *flag,
+                                   int threads, rd_mesh *out, rd_warnings *w, rd_error *err)
+{
+    memset(out, 0, sizeof *out);
+    if (threads > MAX_RANGES)
+        threads = MAX_RANGES;
+    size_t bad = rd_utf8_invalid_at(text, len);
+    if (threads < 2 || len < 2 * (size_t)RANGE_MIN_BYTES || bad < len)
+        return parse_one_thread(text, len, source, max_tris, flag, out, w, err);
+    if ((size_t)threads > len / RANGE_MIN_BYTES)
+        threads = (int)(len / RANGE_MIN_BYTES);
+    range rs[MAX_RANGES];
+    int n = cut(text, len, threads, rs);
+    run_ranges(rs, n, count_main);
+    int ok = prepare_ranges(rs, n, text, bad, source, max_tris, flag, out);
+    if (ok) {
+        run_ranges(rs, n, parse_range);
+        for (int i = 0; i < n; i++)
+            ok = ok && rs[i].rc == RD_OK;
+    }
+    rd_warnings kept = w ? *w : (rd_warnings){0};
+    ok = ok && join_ranges(rs, n, max_tris, out, w);
+    free_ranges(rs, n);
+    if (ok)
+        return RD_OK;
+    if (w)
+        *w = kept;
+    rd_mesh_free(out);
+    memset(out, 0, sizeof *out);
+    return parse_one_thread(text, len, source, max_tris, flag, out, w, err);
+}
+
+rd_error_code rd_obj_parse(const char *text, size_t len, const char *source, size_t max_tris, const char *flag,
+                           rd_mesh *out, rd_warnings *w, rd_error *err)
+{
+    return rd_obj_parse_threads(text, len, source, max_tris, flag, 1, out, w, err);
 }
 
 static rd_vec3 rotate(rd_vec3 p, double cx, double sx, double cy, double sy, double cz, double sz)

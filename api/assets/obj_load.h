@@ -16,6 +16,11 @@
 rd_error_code rd_obj_parse(const char *text, size_t len, const char *source, size_t max_triangles,
                            const char *limit_flag, rd_mesh *out, rd_warnings *w, rd_error *err);
 
+/* The same on up to `threads` threads for a text of a few MiB or more: the
+ * same mesh, answer, messages and warnings. */
+rd_error_code rd_obj_parse_threads(const char *text, size_t len, const char *source, size_t max_triangles,
+                                   const char *limit_flag, int threads, rd_mesh *out, rd_warnings *w, rd_error *err);
+
 /* Moves a mesh into the world: scale, then rotate about x, then y, then z
  * (degrees), then translate. Normals follow the inverse transpose.
  * RD_ERR_INVALID when a scale component is zero or not finite. */

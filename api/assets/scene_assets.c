@@ -81,7 +81,7 @@ rd_error_code rd_scene_load_assets(rd_scene *s, const rd_asset_source *src, cons
             return located(err, rc, o->where, "mesh", o->file);
         rd_mesh *m = &s->meshes[s->mesh_count++];
         size_t room = lim.max_objects > prims ? lim.max_objects - prims : 0;
-        rc = rd_obj_parse((const char *)data, len, o->file, room, obj_flag, m, w, err);
+        rc = rd_obj_parse_threads((const char *)data, len, o->file, room, obj_flag, src->threads, m, w, err);
         free(data);
         if (!rc)
             rc = rd_mesh_transform(m, o->translate, o->scale, o->rotate_deg, err);

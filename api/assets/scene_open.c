@@ -30,6 +30,7 @@ rd_error_code rd_scene_open(const rd_scene_source *src, const rd_scene_overrides
     if (!folder)
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
     rd_asset_source assets = rd_asset_folder(folder);
+    assets.threads = src->threads;
     rc = rd_scene_load_assets(s, &assets, &lim, w, err);
     free(dir);
     return rc;

@@ -28,6 +28,7 @@ typedef struct {
     const char *source;     /* text's name in messages (a file is named by its path) */
     rd_scene_format format; /* RD_FMT_AUTO: by path's extension, else sniffed */
     const char *assets_dir; /* NULL: path's folder ("." for text) */
+    int threads;            /* that may parse a big mesh; < 1: 1 (the same scene either way) */
 } rd_scene_source;
 
 /* Fills s (rd_scene_init'ed by the caller, who frees it either way). ov,

@@ -357,7 +357,7 @@ int rd_cmd_render(int argc, char **argv)
     }
     rd_scene scene;
     rd_scene_init(&scene);
-    rd_scene_source src = {.path = a.scene};
+    rd_scene_source src = {.path = a.scene, .threads = a.ro.threads};
     rd_warnings warnings = {0, ""};
     rd_error_code rc = rd_scene_open(&src, &a.ov, &a.lim, &scene, &warnings, &err);
     if (warnings.count)

@@ -104,7 +104,7 @@ static void through_the_loader(const uint8_t *data, size_t size)
     if (rd_cfg_parse(scene_text, sizeof scene_text - 1, "fuzz.cfg", &lim, &s, &err) != RD_OK)
         rd_fuzz_fail("the fixed scene does not parse: %s", err.message);
     input in = {data, size};
-    rd_asset_source src = {read_input, NULL, &in};
+    rd_asset_source src = {read_input, NULL, &in, 1};
     rd_warnings w = {0, ""};
     rd_error_code rc = rd_scene_load_assets(&s, &src, &lim, &w, &err);
     if (rc == RD_OK) {
