@@ -360,21 +360,3 @@ void rd_bvh_free(rd_bvh *b)
     free(b->prims);
     memset(b, 0, sizeof *b);
 }
-
-rd_bvh_ray rd_bvh_ray_make(rd_ray r)
-{
-    rd_bvh_ray b;
-    b.o = r.o;
-    double d[3] = {r.d.x, r.d.y, r.d.z}, inv[3];
-    for (int k = 0; k < 3; k++) {
-        b.flat[k] = d[k] == 0;
-        inv[k] = b.flat[k] ? 0 : 1.0 / d[k];
-        /* A subnormal component overflows 1/d: huge but finite keeps the
-         * products free of NaN. */
-        if (!isfinite(inv[k]))
-            inv[k] = copysign(DBL_MAX, d[k]);
-        b.neg[k] = inv[k] < 0;
-    }
-    b.inv = v3(inv[0], inv[1], inv[2]);
-    return b;
-}
