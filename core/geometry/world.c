@@ -206,7 +206,8 @@ typedef struct {
     ATTR static void NAME(const rd_world *w, rd_ray r, best_hit *b)                                                    \
     {                                                                                                                  \
         rd_bvh_ray br = rd_bvh_ray_make(r);                                                                            \
-        rd_tri_ray tr = rd_tri_ray_make(r);                                                                            \
+        /* Sphere-only worlds skip the shear and its three divisions. */                                               \
+        rd_tri_ray tr = w->ntris ? rd_tri_ray_make(r) : (rd_tri_ray){r.o, 0, 0, 0, 0, 0, 0, 0};                        \
         visit stack[RD_BVH4_STACK];                                                                                    \
         int sp = 0;                                                                                                    \
         stack[sp++] = (visit){0, 0, 0};                                                                                \
@@ -243,7 +244,8 @@ typedef struct {
     ATTR static int NAME(const rd_world *w, rd_ray r, double tmax, uint32_t *last)                                     \
     {                                                                                                                  \
         rd_bvh_ray br = rd_bvh_ray_make(r);                                                                            \
-        rd_tri_ray tr = rd_tri_ray_make(r);                                                                            \
+        /* Sphere-only worlds skip the shear and its three divisions. */                                               \
+        rd_tri_ray tr = w->ntris ? rd_tri_ray_make(r) : (rd_tri_ray){r.o, 0, 0, 0, 0, 0, 0, 0};                        \
         if (last && *last && any_prim(w, *last - 1, r, &tr, tmax))                                                     \
             return 1;                                                                                                  \
         uint32_t stack[RD_BVH4_STACK];                                                                                 \
