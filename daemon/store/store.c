@@ -442,7 +442,13 @@ rd_error_code rd_store_tile_done(rd_store *s, const char *daemon, const rd_store
     CHECKED(check_bytes("a tile's result", data, len, s->opt.limits.tile_bytes, err));
     if (t->index < 0 || t->pass < 0)
         return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: tile %d of pass %d", t->index, t->pass);
-    LOCKED(s, s->ops->tile_done(s, daemon, t, data, len, outcome, err));
+    rd_store_tile_outcome o;
+    pthread_mutex_lock(&s->lock);
+    rd_error_code c = s->ops->tile_done(s, daemon, t, data, len, &o, err);
+    pthread_mutex_unlock(&s->lock);
+    if (c == RD_OK && outcome)
+        *outcome = o;
+    return c;
 }
 
 rd_error_code rd_store_tiles_get(rd_store *s, const char *id, rd_store_tile_data **out, size_t *n, rd_error *err)

@@ -262,7 +262,7 @@ typedef enum {
 
 /* Stores a claimed tile's result for its pass (replacing the result of the
  * pass before) and ends the lease; exactly one call sees each pass
- * complete. RD_ERR_TIMEOUT when the lease ran out and another daemon
+ * complete (outcome may be NULL). RD_ERR_TIMEOUT when the lease ran out and another daemon
  * claimed the tile (the result is not stored), RD_ERR_CANCELLED when the
  * job has ended. */
 rd_error_code rd_store_tile_done(rd_store *s, const char *daemon, const rd_store_tile *t, const void *data, size_t len,

@@ -707,7 +707,7 @@ static rd_error_code pg_tiles_init(rd_store *s, const char *id, int tiles, int p
 static const char claim_sql[] =
     "WITH picked AS ("
     " SELECT t.job_id, t.tile, j.submitted_ms FROM tiles t JOIN jobs j ON j.id = t.job_id"
-    " WHERE j.status IN ('queued', 'running') AND t.passes_done = j.pass"
+    " WHERE j.status IN ('queued', 'running') AND j.pass < j.passes AND t.passes_done = j.pass"
     " AND (t.owner IS NULL OR t.lease_until < " NOW ")"
     " ORDER BY j.submitted_ms, j.id, t.tile LIMIT $2::int FOR UPDATE OF t SKIP LOCKED),"
     " first AS (SELECT job_id FROM picked ORDER BY submitted_ms, job_id LIMIT 1),"

@@ -523,11 +523,13 @@ static rd_error_code sq_tiles_init(rd_store *s, const char *id, int tiles, int p
 static rd_error_code sq_claimable_job(sq_store *q, int64_t now, char *id, int *pass, int *found, rd_error *err)
 {
     sqlite3_stmt *st;
-    rd_error_code c = sq_prep(q, &st, err,
-                              "SELECT j.id, j.pass FROM jobs j WHERE j.status IN ('queued', 'running') AND EXISTS "
-                              "(SELECT 1 FROM tiles t WHERE t.job_id = j.id AND t.passes_done = j.pass "
-                              "AND (t.owner IS NULL OR t.lease_until < ?)) ORDER BY j.submitted_ms, j.id LIMIT 1",
-                              "I", now);
+    rd_error_code c =
+        sq_prep(q, &st, err,
+                "SELECT j.id, j.pass FROM jobs j WHERE j.status IN ('queued', 'running') AND j.pass < j.passes "
+                "AND EXISTS "
+                "(SELECT 1 FROM tiles t WHERE t.job_id = j.id AND t.passes_done = j.pass "
+                "AND (t.owner IS NULL OR t.lease_until < ?)) ORDER BY j.submitted_ms, j.id LIMIT 1",
+                "I", now);
     if (c)
         return c;
     int r = sq_step(q, st, err);
