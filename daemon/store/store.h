@@ -303,7 +303,8 @@ typedef struct {
 /* Waits up to timeout_ms for another handle's change, and says which. The
  * handle's own changes do not wake it.
  *   PostgreSQL: LISTEN/NOTIFY on channel rayd_jobs; one event per call,
- *     the ones after it stay queued. Events sent while the connection was
+ *     the ones after it stay queued (the newest 64: a handle that never
+ *     waits does not pile them up). Events sent while the connection was
  *     down are lost: a caller also polls (claims) on every timeout.
  *   SQLite: looks at PRAGMA data_version every 10 ms, so any commit of
  *     another handle, in this process or another, wakes it as CHANGED.

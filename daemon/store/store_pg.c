@@ -29,11 +29,18 @@
 /* PostgreSQL takes at most 1 GB in one field. */
 #define PG_FIELD_MAX ((size_t)1 << 30)
 
+/* Notifications kept for rd_store_wait: libpq's own queue grows without
+ * bound on a handle that never waits, so they are moved here, the oldest
+ * dropped when it is full. */
+#define EVENTS_KEPT 64
+
 typedef struct {
     rd_store base;
     PGconn *conn; /* NULL when not connected */
     char *conninfo;
     int backend; /* the server process of conn: its own NOTIFYs are not events */
+    rd_store_event events[EVENTS_KEPT];
+    int first, count;
 } pg_store;
 
 static pg_store *pg(rd_store *s) { return (pg_store *)s; }
@@ -236,13 +243,31 @@ static rd_error_code pg_connect(pg_store *p, rd_error *err)
     return pg_session(p, err);
 }
 
+/* Moves libpq's notifications from other server processes to events. */
+static void pg_collect(pg_store *p)
+{
+    PGnotify *nt;
+    while ((nt = PQnotifies(p->conn))) {
+        if (nt->be_pid != p->backend) {
+            if (p->count == EVENTS_KEPT) {
+                p->first = (p->first + 1) % EVENTS_KEPT;
+                p->count--;
+            }
+            rd_store_event_parse(nt->extra, &p->events[(p->first + p->count++) % EVENTS_KEPT]);
+        }
+        PQfreemem(nt);
+    }
+}
+
 /* Connected and idle: reads what the server sent meanwhile (a shutdown's
  * goodbye, notifications), reconnecting when the connection is gone. */
 static rd_error_code pg_ready(pg_store *p, rd_error *err)
 {
     if (p->conn && PQstatus(p->conn) == CONNECTION_OK && PQconsumeInput(p->conn) &&
-        PQstatus(p->conn) == CONNECTION_OK && PQtransactionStatus(p->conn) == PQTRANS_IDLE)
+        PQstatus(p->conn) == CONNECTION_OK && PQtransactionStatus(p->conn) == PQTRANS_IDLE) {
+        pg_collect(p);
         return RD_OK;
+    }
     return pg_connect(p, err);
 }
 
@@ -875,14 +900,13 @@ static rd_error_code pg_tiles_get(rd_store *s, const char *id, int index, rd_sto
     return RD_OK;
 }
 
-/* The next notification from another server process, if one came. */
+/* The oldest event kept, if any. */
 static void pg_next_event(pg_store *p, rd_store_event *ev)
 {
-    PGnotify *nt;
-    while (ev->kind == RD_STORE_EV_NONE && (nt = PQnotifies(p->conn))) {
-        if (nt->be_pid != p->backend)
-            rd_store_event_parse(nt->extra, ev);
-        PQfreemem(nt);
+    if (p->count) {
+        *ev = p->events[p->first];
+        p->first = (p->first + 1) % EVENTS_KEPT;
+        p->count--;
     }
 }
 

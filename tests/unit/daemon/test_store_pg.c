@@ -183,3 +183,31 @@ Test(store_pg, a_server_restart_fails_fast_then_the_same_handle_recovers)
     rd_store_close(b);
     rd_store_close(s);
 }
+
+/* A handle that never waits keeps the newest 64 events, not all of them. */
+Test(store_pg, events_kept_are_bounded_and_newest)
+{
+    rd_store *a = store_env_open(&g_env), *b = store_env_open(&g_env);
+    char id[16];
+    for (int i = 0; i < 100; i++) {
+        snprintf(id, sizeof id, "n%02d", i);
+        store_put_job(b, id, i, 0, 0);
+    }
+    rd_error err = {0};
+    rd_store_event ev, last = {0};
+    int n = 0;
+    for (double t0 = rd_now_ms(); n < 100 && rd_now_ms() - t0 < 2000;) {
+        cr_assert_eq(rd_store_ping(a, &err), RD_OK, "%s", err.message);
+        cr_assert_eq(rd_store_wait(a, 0, &ev, &err), RD_OK);
+        if (ev.kind == RD_STORE_EV_NONE && last.kind != RD_STORE_EV_NONE && strcmp(last.job_id, "n99") == 0)
+            break;
+        if (ev.kind != RD_STORE_EV_NONE) {
+            last = ev;
+            n++;
+        }
+    }
+    cr_assert(n >= 1 && n <= 64, "%d events kept", n);
+    cr_assert_str_eq(last.job_id, "n99", "the newest is kept");
+    rd_store_close(a);
+    rd_store_close(b);
+}
