@@ -7,7 +7,7 @@ CC := gcc
 endif
 BUILD   ?= build
 SAN     ?=
-PKGS    := libpng libcjson zlib libmicrohttpd OpenEXR
+PKGS    := libpng libcjson zlib libmicrohttpd OpenEXR sqlite3 libpq
 TESTPKG := criterion libcurl
 
 SANFLAGS := -fsanitize=address,undefined
@@ -40,7 +40,8 @@ INC_api_scene     := $(INC_api_util) -Iapi/scene
 INC_api_assets    := $(INC_api_scene) -Iapi/image -Iapi/assets
 INC_api_grading   := $(INC_api_assets) -Iapi/grading
 INC_daemon_errors := $(INC_api_grading) -Idaemon/errors
-INC_daemon_jobs   := $(INC_api_grading) -Idaemon/jobs
+INC_daemon_store  := $(INC_api_util) -Idaemon/store
+INC_daemon_jobs   := $(INC_api_grading) -Idaemon/jobs -Idaemon/store
 INC_daemon_log    := $(INC_api_util) -Idaemon/log
 INC_daemon_http   := $(INC_daemon_jobs) -Idaemon/errors -Idaemon/log -Idaemon/http
 INC_daemon_cli    := $(INC_daemon_http) -Idaemon/cli
@@ -56,10 +57,13 @@ TEST_SRC   := $(sort $(wildcard tests/unit/*/*.c tests/integration/*.c tests/cal
                   tests/support/*.c tests/stability/test_stability.c)) tests/stability/cases.c
 
 LIB_OBJ    := $(patsubst %.c,$(BUILD)/%.o,$(CORE_SRC) $(API_SRC))
-DAEMON_OBJ := $(patsubst %.c,$(BUILD)/%.o,$(DAEMON_SRC)) $(BUILD)/gen/web_page.o $(BUILD)/gen/openapi.o
+DAEMON_OBJ := $(patsubst %.c,$(BUILD)/%.o,$(DAEMON_SRC)) $(BUILD)/gen/web_page.o $(BUILD)/gen/openapi.o \
+              $(BUILD)/gen/migrations.o
 TEST_OBJ   := $(patsubst %.c,$(BUILD)/%.o,$(TEST_SRC))
 # The job queue's objects: tests/unit/daemon drives it without HTTP.
 JOBS_OBJ   := $(patsubst %.c,$(BUILD)/%.o,$(wildcard daemon/jobs/*.c))
+# The job store's, with its migrations: tests/unit/daemon drives it too.
+STORE_OBJ  := $(patsubst %.c,$(BUILD)/%.o,$(wildcard daemon/store/*.c)) $(BUILD)/gen/migrations.o
 
 # The first rule: `make` alone builds build/rayd.
 all: deps
@@ -102,6 +106,15 @@ $(BUILD)/gen/openapi.c: docs/openapi.json daemon/http/web/embed.py
 $(BUILD)/gen/openapi.o: $(BUILD)/gen/openapi.c
 	@$(CC) $(CFLAGS) -c $< -o $@
 
+# And the store's schema: deploy/sql/NNN_*.sql, applied in order at open.
+MIGRATIONS := $(sort $(wildcard deploy/sql/*.sql))
+$(BUILD)/gen/migrations.c: $(MIGRATIONS) daemon/store/embed_sql.py
+	@mkdir -p $(dir $@)
+	@/usr/bin/python3 daemon/store/embed_sql.py $(MIGRATIONS) > $@
+
+$(BUILD)/gen/migrations.o: $(BUILD)/gen/migrations.c daemon/store/migrations.h
+	@$(CC) $(INC_daemon_store) $(CFLAGS) -c $< -o $@
+
 # The version: a release tarball's VERSION file, else `git describe`. The
 # stamp changes only with the string, so a new commit rebuilds one object.
 VERSION := $(shell cat VERSION 2>/dev/null || git describe --tags --always --dirty 2>/dev/null || echo unknown)
@@ -129,9 +142,9 @@ $(BUILD)/rayd: $(DAEMON_OBJ) $(BUILD)/librayd.a
 # can fail the k-th one (the oom suite).
 FAULT_WRAP := -Wl,--wrap=malloc,--wrap=calloc,--wrap=realloc,--wrap=free,--wrap=aligned_alloc,--wrap=strdup,--wrap=strndup
 
-$(BUILD)/unit-tests: $(TEST_OBJ) $(JOBS_OBJ) $(BUILD)/librayd.a
+$(BUILD)/unit-tests: $(TEST_OBJ) $(JOBS_OBJ) $(STORE_OBJ) $(BUILD)/librayd.a
 	@echo "  LD  $@"
-	@$(CC) $(LDFLAGS) $(FAULT_WRAP) -o $@ $(TEST_OBJ) $(JOBS_OBJ) $(BUILD)/librayd.a $(PKG_LIBS) $(shell pkg-config --libs $(TESTPKG))
+	@$(CC) $(LDFLAGS) $(FAULT_WRAP) -o $@ $(TEST_OBJ) $(JOBS_OBJ) $(STORE_OBJ) $(BUILD)/librayd.a $(PKG_LIBS) $(shell pkg-config --libs $(TESTPKG))
 
 # One build and run of the unit suite with the current CC/SAN/BUILD.
 check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)

@@ -1,0 +1,43 @@
+#!/usr/bin/python3
+"""Builds the store's migrations into C: embed_sql.py NNN_name.sql ... > OUT.c
+
+Each file's number is its schema version; they must run 1, 2, 3... without
+gaps, so a missing or misnumbered file stops the build."""
+import os
+import re
+import sys
+
+
+def c_string(text):
+    out, line = [], ""
+    for c in text:
+        if c == "\\":
+            line += "\\\\"
+        elif c == '"':
+            line += '\\"'
+        elif c == "?":
+            line += "\\?"  # no trigraphs
+        elif c == "\n":
+            out.append('        "%s\\n"' % line)
+            line = ""
+        elif 32 <= ord(c) < 127:
+            line += c
+        else:
+            sys.exit("embed_sql.py: only ASCII in migrations (%r)" % c)
+    if line:
+        out.append('        "%s"' % line)
+    return "\n".join(out) if out else '        ""'
+
+
+files = sorted(sys.argv[1:], key=os.path.basename)
+rows = []
+for i, path in enumerate(files, 1):
+    name = os.path.basename(path)
+    m = re.match(r"^(\d{3})_[a-z0-9_]+\.sql$", name)
+    if not m or int(m.group(1)) != i:
+        sys.exit("embed_sql.py: %s should be numbered %03d_NAME.sql" % (name, i))
+    rows.append("    {%d, \"%s\",\n%s},\n" % (i, name, c_string(open(path, encoding="ascii").read())))
+print("/* Generated from deploy/sql/ by daemon/store/embed_sql.py; do not edit. */")
+print('#include "migrations.h"\n')
+print("const rd_store_migration rd_store_migrations[] = {\n%s};" % "".join(rows))
+print("const int rd_store_migration_count = %d;" % len(rows))

@@ -1,0 +1,77 @@
+/* Between store.c (arguments, limits, the mutex) and the two engines
+ * (store_sqlite.c, store_pg.c). The engines get arguments already checked
+ * and run with the handle's mutex held, except wait, which takes it itself
+ * only while it reads. */
+#ifndef RD_STORE_INTERNAL_H
+#define RD_STORE_INTERNAL_H
+
+#include <pthread.h>
+
+#include "store.h"
+
+typedef struct {
+    const char *name;
+    void (*close)(rd_store *s);
+    rd_error_code (*ping)(rd_store *s, rd_error *err);
+    rd_error_code (*job_create)(rd_store *s, const rd_store_job_spec *spec, rd_error *err);
+    rd_error_code (*job_get)(rd_store *s, const char *id, rd_store_job_info *out, rd_error *err);
+    rd_error_code (*job_input)(rd_store *s, const char *id, rd_store_job_input *out, rd_error *err);
+    rd_error_code (*job_start)(rd_store *s, const char *id, rd_error *err);
+    rd_error_code (*job_stats)(rd_store *s, const char *id, const char *stats, rd_error *err);
+    /* Queued or running to `to` (done, failed or cancelled), dropping the
+     * tiles: why for failed, r for done (its stats also for the others).
+     * *changed 0 (and RD_OK) when it had ended. */
+    rd_error_code (*job_end)(rd_store *s, const char *id, rd_store_status to, const rd_error *why,
+                             const rd_store_result *r, int *changed, rd_error *err);
+    rd_error_code (*job_delete)(rd_store *s, const char *id, rd_error *err);
+    rd_error_code (*job_image)(rd_store *s, const char *id, rd_store_image_kind kind, unsigned char **data, size_t *len,
+                               rd_error *err);
+    rd_error_code (*jobs_list)(rd_store *s, unsigned mask, size_t max, rd_store_job_brief **out, size_t *n,
+                               rd_error *err);
+    rd_error_code (*jobs_expire)(rd_store *s, int64_t ttl_ms, size_t *deleted, rd_error *err);
+    rd_error_code (*tiles_init)(rd_store *s, const char *id, int tiles, int passes, rd_error *err);
+    rd_error_code (*claim)(rd_store *s, const char *daemon, int max, int lease_ms, rd_store_tile *out, int *n,
+                           rd_error *err);
+    /* lease_ms < 0: release them. */
+    rd_error_code (*leases)(rd_store *s, const char *daemon, int lease_ms, int *count, rd_error *err);
+    rd_error_code (*tile_done)(rd_store *s, const char *daemon, const rd_store_tile *t, const void *data, size_t len,
+                               rd_store_tile_outcome *outcome, rd_error *err);
+    /* index < 0: every tile that has a result. */
+    rd_error_code (*tiles_get)(rd_store *s, const char *id, int index, rd_store_tile_data **out, size_t *n,
+                               rd_error *err);
+    rd_error_code (*wait)(rd_store *s, int timeout_ms, rd_store_event *ev, rd_error *err);
+} rd_store_ops;
+
+/* The start of every engine's handle. */
+struct rd_store {
+    const rd_store_ops *ops;
+    pthread_mutex_t lock;
+    rd_store_options opt;
+};
+
+/* Engines: a handle with base filled but for ops and lock, or NULL. */
+rd_store *rd_store_sqlite_open(const char *folder, const rd_store_options *opt, rd_error *err);
+rd_store *rd_store_pg_open(const char *conninfo, const rd_store_options *opt, rd_error *err);
+
+/* The statuses' names as the schema spells them; -1 for another text. */
+int rd_store_status_parse(const char *name);
+
+/* The code of a stable error name (rd_error_name); RD_ERR_IO for another. */
+rd_error_code rd_store_code_parse(const char *name);
+
+/* The migration's text with @BLOB@ written blob (BLOB, BYTEA); malloc'ed,
+ * NULL when out of memory. */
+char *rd_store_migration_text(const char *sql, const char *blob);
+
+/* The payload of a NOTIFY ("s:ID" submitted, "t:ID" tiles, "e:ID" ended)
+ * and back. */
+void rd_store_event_payload(char *out, size_t outsz, rd_store_event_kind kind, const char *id);
+void rd_store_event_parse(const char *payload, rd_store_event *ev);
+
+/* A malloc'ed copy of len bytes with a NUL after them; NULL on no memory. */
+void *rd_store_dup(const void *data, size_t len);
+
+/* Milliseconds since the Unix epoch, from this machine's clock. */
+int64_t rd_store_wall_ms(void);
+
+#endif

@@ -1,0 +1,834 @@
+#include "store_cases.h"
+
+#include <criterion/criterion.h>
+#include <pthread.h>
+#include <signal.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "rayd/clock.h"
+#include "store_internal.h"
+
+static const char scene[] = "[render]\nwidth = 8\nheight = 8\n";
+
+rd_store *store_env_open(const store_env *e)
+{
+    rd_error err = {0};
+    rd_store *s = rd_store_open(e->spec, &e->opt, &err);
+    cr_assert(s, "rd_store_open(%s): %s", e->spec, err.message);
+    return s;
+}
+
+void sleep_ms_store(long ms)
+{
+    struct timespec ts = {ms / 1000, (ms % 1000) * 1000000L};
+    nanosleep(&ts, NULL);
+}
+
+#define OK(call)                                                                                                       \
+    do {                                                                                                               \
+        rd_error e_ = {0};                                                                                             \
+        rd_error_code c_ = (call);                                                                                     \
+        cr_assert_eq(c_, RD_OK, "%s: %s (%s)", #call, e_.message, rd_error_name(c_));                                  \
+    } while (0)
+
+/* The call, with `&e_` as its error, fails with code want. */
+#define FAILS(want, call)                                                                                              \
+    do {                                                                                                               \
+        rd_error e_ = {0};                                                                                             \
+        rd_error_code c_ = (call);                                                                                     \
+        cr_assert_eq(c_, (want), "%s: %s, not %s (%s)", #call, rd_error_name(c_), rd_error_name(want), e_.message);    \
+        cr_assert_eq(e_.code, (want), "%s: the error's code", #call);                                                  \
+        cr_assert(e_.message[0], "%s: no message", #call);                                                             \
+    } while (0)
+
+static rd_store_job_spec spec_of(const char *id, int64_t submitted_ms, int tiles, int passes)
+{
+    rd_store_job_spec j = {.id = id,
+                           .scene = scene,
+                           .scene_len = sizeof scene - 1,
+                           .format = "cfg",
+                           .query = "samples=4",
+                           .width = 8,
+                           .height = 8,
+                           .memory_bytes = 4096,
+                           .submitted_ms = submitted_ms,
+                           .tiles = tiles,
+                           .passes = passes};
+    return j;
+}
+
+void store_put_job(rd_store *s, const char *id, int64_t submitted_ms, int tiles, int passes)
+{
+    rd_store_job_spec j = spec_of(id, submitted_ms, tiles, passes);
+    OK(rd_store_job_create(s, &j, &e_));
+}
+
+static rd_store_job_info info_of(rd_store *s, const char *id)
+{
+    rd_store_job_info in;
+    OK(rd_store_job_get(s, id, &in, &e_));
+    return in;
+}
+
+static rd_store_status status_of(rd_store *s, const char *id)
+{
+    rd_store_job_info in = info_of(s, id);
+    rd_store_job_info_free(&in);
+    return in.status;
+}
+
+void case_create_get(const store_env *e)
+{
+    rd_store *s = store_env_open(e);
+    cr_assert(strcmp(rd_store_engine_name(s), "sqlite") == 0 || strcmp(rd_store_engine_name(s), "postgresql") == 0);
+    OK(rd_store_ping(s, &e_));
+    /* Any bytes, a NUL among them; a size past 32 bits. */
+    static const char bytes[] = "{\"a\":\0\xff\x01}";
+    rd_store_job_spec j = {.id = "0123456789abcdef",
+                           .scene = bytes,
+                           .scene_len = sizeof bytes,
+                           .format = "json",
+                           .query = "width=320&samples=4&gamma=2.2",
+                           .hdr = 1,
+                           .width = 320,
+                           .height = 240,
+                           .memory_bytes = 12345678901LL,
+                           .submitted_ms = 1700000000123LL};
+    OK(rd_store_job_create(s, &j, &e_));
+    rd_store_job_info in = info_of(s, j.id);
+    cr_assert_str_eq(in.id, j.id);
+    cr_assert_eq(in.status, RD_STORE_QUEUED);
+    cr_assert_str_eq(in.format, "json");
+    cr_assert(in.hdr == 1 && in.width == 320 && in.height == 240);
+    cr_assert_eq(in.memory_bytes, 12345678901LL);
+    cr_assert_eq(in.submitted_ms, 1700000000123LL);
+    cr_assert(in.started_ms == 0 && in.finished_ms == 0 && in.error.code == RD_OK && !in.stats);
+    cr_assert(in.tiles_total == 0 && in.passes == 0 && in.png_bytes == 0 && in.exr_bytes == 0);
+    rd_store_job_input inp;
+    OK(rd_store_job_input_get(s, j.id, &inp, &e_));
+    cr_assert_eq(inp.scene_len, sizeof bytes);
+    cr_assert_eq(memcmp(inp.scene, bytes, sizeof bytes), 0, "the scene's bytes come back as they went");
+    cr_assert_eq(inp.scene[inp.scene_len], '\0');
+    cr_assert_str_eq(inp.query, j.query);
+    cr_assert_str_eq(inp.format, "json");
+    cr_assert(inp.hdr == 1 && inp.width == 320 && inp.height == 240 && inp.memory_bytes == 12345678901LL &&
+              inp.submitted_ms == j.submitted_ms);
+    rd_store_job_input_free(&inp);
+    FAILS(RD_ERR_INVALID, rd_store_job_create(s, &j, &e_));
+    FAILS(RD_ERR_NOT_FOUND, rd_store_job_get(s, "nosuchjob", &in, &e_));
+    FAILS(RD_ERR_NOT_FOUND, rd_store_job_input_get(s, "nosuchjob", &inp, &e_));
+    /* No query is an empty one. */
+    rd_store_job_spec k = spec_of("noquery", 1, 0, 0);
+    k.query = NULL;
+    OK(rd_store_job_create(s, &k, &e_));
+    OK(rd_store_job_input_get(s, "noquery", &inp, &e_));
+    cr_assert_str_eq(inp.query, "");
+    rd_store_job_input_free(&inp);
+    rd_store_close(s);
+}
+
+static void fill(unsigned char *p, size_t n, unsigned seed)
+{
+    for (size_t i = 0; i < n; i++)
+        p[i] = (unsigned char)((i * 2654435761u + seed) >> 13);
+}
+
+static void check_image(rd_store *s, const char *id, rd_store_image_kind kind, const unsigned char *want, size_t n)
+{
+    unsigned char *d = NULL;
+    size_t len = 0;
+    OK(rd_store_job_image(s, id, kind, &d, &len, &e_));
+    cr_assert_eq(len, n);
+    cr_assert_eq(memcmp(d, want, n), 0, "the image's bytes come back as they went");
+    free(d);
+}
+
+static void lifecycle_done(rd_store *s)
+{
+    static unsigned char png[1000], exr[3000];
+    fill(png, sizeof png, 1);
+    fill(exr, sizeof exr, 2);
+    int64_t before = rd_store_wall_ms();
+    store_put_job(s, "a", 1, 0, 0);
+    unsigned char *d;
+    size_t len;
+    FAILS(RD_ERR_INVALID, rd_store_job_image(s, "a", RD_STORE_PNG, &d, &len, &e_));
+    OK(rd_store_job_start(s, "a", &e_));
+    OK(rd_store_job_start(s, "a", &e_));
+    OK(rd_store_job_stats(s, "a", "{\"samples\":4,\"name\":\"\xc3\xa9\"}", &e_));
+    rd_store_job_info in = info_of(s, "a");
+    cr_assert_eq(in.status, RD_STORE_RUNNING);
+    cr_assert(in.started_ms >= before - 5000 && in.started_ms <= before + 5000, "started %lld, now %lld",
+              (long long)in.started_ms, (long long)before);
+    cr_assert_str_eq(in.stats, "{\"samples\":4,\"name\":\"\xc3\xa9\"}");
+    rd_store_job_info_free(&in);
+    rd_store_result r = {.png = png, .png_len = sizeof png, .exr = exr, .exr_len = sizeof exr, .stats = "{\"rays\":9}"};
+    OK(rd_store_job_finish(s, "a", &r, &e_));
+    in = info_of(s, "a");
+    cr_assert_eq(in.status, RD_STORE_DONE);
+    cr_assert(in.finished_ms >= in.started_ms && in.png_bytes == sizeof png && in.exr_bytes == sizeof exr);
+    cr_assert_str_eq(in.stats, "{\"rays\":9}");
+    rd_store_job_info_free(&in);
+    check_image(s, "a", RD_STORE_PNG, png, sizeof png);
+    check_image(s, "a", RD_STORE_EXR, exr, sizeof exr);
+    /* An ended job stays as it ended. */
+    FAILS(RD_ERR_CANCELLED, rd_store_job_finish(s, "a", &r, &e_));
+    FAILS(RD_ERR_CANCELLED, rd_store_job_start(s, "a", &e_));
+    int changed = 7;
+    OK(rd_store_job_cancel(s, "a", &changed, &e_));
+    cr_assert_eq(changed, 0);
+    cr_assert_eq(status_of(s, "a"), RD_STORE_DONE);
+}
+
+static void lifecycle_others(rd_store *s)
+{
+    unsigned char png[10] = {1, 2, 3};
+    unsigned char *d;
+    size_t len;
+    store_put_job(s, "b", 2, 0, 0);
+    rd_store_result r = {.png = png, .png_len = sizeof png};
+    OK(rd_store_job_finish(s, "b", &r, &e_));
+    FAILS(RD_ERR_INVALID, rd_store_job_image(s, "b", RD_STORE_EXR, &d, &len, &e_));
+    store_put_job(s, "c", 3, 0, 0);
+    rd_error why = {.code = RD_ERR_SYNTAX, .line = 3, .column = 7};
+    snprintf(why.message, sizeof why.message, "<upload>:3:7: expected '='");
+    OK(rd_store_job_fail(s, "c", &why, NULL, &e_));
+    rd_store_job_info in = info_of(s, "c");
+    cr_assert_eq(in.status, RD_STORE_FAILED);
+    cr_assert(in.error.code == RD_ERR_SYNTAX && in.error.line == 3 && in.error.column == 7);
+    cr_assert_str_eq(in.error.message, why.message);
+    cr_assert(in.finished_ms > 0);
+    rd_store_job_info_free(&in);
+    FAILS(RD_ERR_INVALID, rd_store_job_image(s, "c", RD_STORE_PNG, &d, &len, &e_));
+    FAILS(RD_ERR_CANCELLED, rd_store_job_fail(s, "c", &why, NULL, &e_));
+    store_put_job(s, "d", 4, 0, 0);
+    int changed = 0;
+    OK(rd_store_job_cancel(s, "d", &changed, &e_));
+    cr_assert_eq(changed, 1);
+    cr_assert_eq(status_of(s, "d"), RD_STORE_CANCELLED);
+    FAILS(RD_ERR_CANCELLED, rd_store_job_start(s, "d", &e_));
+    FAILS(RD_ERR_CANCELLED, rd_store_job_stats(s, "d", "{}", &e_));
+    FAILS(RD_ERR_CANCELLED, rd_store_job_finish(s, "d", &r, &e_));
+    FAILS(RD_ERR_NOT_FOUND, rd_store_job_start(s, "nosuch", &e_));
+    FAILS(RD_ERR_NOT_FOUND, rd_store_job_finish(s, "nosuch", &r, &e_));
+    FAILS(RD_ERR_NOT_FOUND, rd_store_job_cancel(s, "nosuch", NULL, &e_));
+    FAILS(RD_ERR_NOT_FOUND, rd_store_job_image(s, "nosuch", RD_STORE_PNG, &d, &len, &e_));
+}
+
+void case_lifecycle(const store_env *e)
+{
+    rd_store *s = store_env_open(e);
+    lifecycle_done(s);
+    lifecycle_others(s);
+    rd_store_close(s);
+}
+
+static void end_job(rd_store *s, const char *id)
+{
+    unsigned char png[4] = {9};
+    rd_store_result r = {.png = png, .png_len = sizeof png};
+    OK(rd_store_job_finish(s, id, &r, &e_));
+}
+
+void case_list_expire_delete(const store_env *e)
+{
+    rd_store *s = store_env_open(e);
+    store_put_job(s, "j3", 300, 0, 0);
+    store_put_job(s, "j1", 100, 0, 0);
+    store_put_job(s, "j2", 200, 0, 0);
+    store_put_job(s, "j4", 400, 0, 0);
+    store_put_job(s, "j0", 50, 0, 0);
+    end_job(s, "j1");
+    OK(rd_store_job_cancel(s, "j4", NULL, &e_));
+    rd_store_job_brief *l = NULL;
+    size_t n = 0;
+    OK(rd_store_jobs_list(s, RD_STORE_MASK(RD_STORE_QUEUED), 100, &l, &n, &e_));
+    cr_assert_eq(n, 3);
+    cr_assert(strcmp(l[0].id, "j0") == 0 && strcmp(l[1].id, "j2") == 0 && strcmp(l[2].id, "j3") == 0,
+              "oldest submission first");
+    cr_assert(l[0].status == RD_STORE_QUEUED && l[0].submitted_ms == 50);
+    free(l);
+    OK(rd_store_jobs_list(s, ~0u, 2, &l, &n, &e_));
+    cr_assert(n == 2 && strcmp(l[0].id, "j0") == 0 && strcmp(l[1].id, "j1") == 0 && l[1].status == RD_STORE_DONE);
+    free(l);
+    OK(rd_store_jobs_list(s, RD_STORE_MASK(RD_STORE_FAILED), 10, &l, &n, &e_));
+    cr_assert(n == 0 && l == NULL);
+    size_t gone = 99;
+    OK(rd_store_jobs_expire(s, 3600 * 1000, &gone, &e_));
+    cr_assert_eq(gone, 0, "nothing ended an hour ago");
+    sleep_ms_store(50);
+    OK(rd_store_jobs_expire(s, 10, &gone, &e_));
+    cr_assert_eq(gone, 2, "the two ended jobs, not the queued ones");
+    rd_store_job_info in;
+    FAILS(RD_ERR_NOT_FOUND, rd_store_job_get(s, "j1", &in, &e_));
+    FAILS(RD_ERR_NOT_FOUND, rd_store_job_get(s, "j4", &in, &e_));
+    cr_assert_eq(status_of(s, "j2"), RD_STORE_QUEUED);
+    OK(rd_store_job_delete(s, "j2", &e_));
+    FAILS(RD_ERR_NOT_FOUND, rd_store_job_get(s, "j2", &in, &e_));
+    FAILS(RD_ERR_NOT_FOUND, rd_store_job_delete(s, "j2", &e_));
+    OK(rd_store_jobs_list(s, ~0u, 100, &l, &n, &e_));
+    cr_assert_eq(n, 2);
+    free(l);
+    rd_store_close(s);
+}
+
+static int claim(rd_store *s, const char *daemon, int max, int lease_ms, rd_store_tile *out)
+{
+    int n = -1;
+    OK(rd_store_claim(s, daemon, max, lease_ms, out, &n, &e_));
+    cr_assert(n >= 0 && n <= max);
+    return n;
+}
+
+static rd_store_tile_outcome tile_done(rd_store *s, const char *daemon, const rd_store_tile *t, const char *data)
+{
+    rd_store_tile_outcome o = (rd_store_tile_outcome)-1;
+    OK(rd_store_tile_done(s, daemon, t, data, strlen(data), &o, &e_));
+    return o;
+}
+
+/* Done every claimed tile of a pass with "t<index>p<pass>": the outcomes. */
+static void do_pass(rd_store *s, const char *id, int tiles, int pass)
+{
+    rd_store_tile t[16];
+    int n = claim(s, "d1", 16, 10000, t);
+    cr_assert_eq(n, tiles, "pass %d: all %d tiles claimable, got %d", pass, tiles, n);
+    for (int i = 0; i < n; i++) {
+        cr_assert(strcmp(t[i].job_id, id) == 0 && t[i].index == i && t[i].pass == pass);
+        char data[32];
+        snprintf(data, sizeof data, "t%dp%d", i, pass);
+        rd_store_tile_outcome o = tile_done(s, "d1", &t[i], data);
+        rd_store_tile_outcome want = i < n - 1 ? RD_STORE_TILE_MORE : RD_STORE_TILE_PASS_DONE;
+        if (i == n - 1 && pass == 1)
+            want = RD_STORE_TILE_JOB_DONE;
+        cr_assert_eq(o, want, "tile %d of pass %d: outcome %d", i, pass, (int)o);
+    }
+}
+
+static void check_tiles(rd_store *s, const char *id, int tiles, int passes)
+{
+    rd_store_tile_data *td = NULL;
+    size_t n = 0;
+    OK(rd_store_tiles_get(s, id, &td, &n, &e_));
+    cr_assert_eq(n, (size_t)tiles);
+    for (size_t i = 0; i < n; i++) {
+        char want[48];
+        snprintf(want, sizeof want, "t%zup%d", i, passes - 1);
+        cr_assert(td[i].index == (int)i && td[i].passes == passes && td[i].len == strlen(want));
+        cr_assert_eq(memcmp(td[i].data, want, td[i].len), 0);
+    }
+    rd_store_tiles_free(td, n);
+}
+
+/* The first pass of tj (5 tiles) by hand: claims, a tile done twice, a
+ * pass completed. */
+static void first_pass(rd_store *s)
+{
+    rd_store_job_info in = info_of(s, "tj");
+    cr_assert(in.tiles_total == 5 && in.tiles_done == 0 && in.pass == 0 && in.passes == 2);
+    rd_store_tile_data one;
+    OK(rd_store_tile_get(s, "tj", 4, &one, &e_));
+    cr_assert(one.index == 4 && one.passes == 0 && one.data == NULL);
+    rd_store_tile t[8];
+    cr_assert_eq(claim(s, "d1", 3, 10000, t), 3);
+    cr_assert(t[0].index == 0 && t[1].index == 1 && t[2].index == 2 && t[0].pass == 0);
+    in = info_of(s, "tj");
+    cr_assert(in.status == RD_STORE_RUNNING && in.started_ms > 0, "a claim starts the job");
+    cr_assert_eq(tile_done(s, "d1", &t[1], "x"), RD_STORE_TILE_MORE);
+    in = info_of(s, "tj");
+    cr_assert(in.tiles_done == 1 && in.pass == 0);
+    /* A tile is done once per pass. */
+    FAILS(RD_ERR_TIMEOUT, rd_store_tile_done(s, "d1", &t[1], "y", 1, NULL, &e_));
+    cr_assert_eq(tile_done(s, "d1", &t[0], "t0p0"), RD_STORE_TILE_MORE);
+    cr_assert_eq(tile_done(s, "d1", &t[2], "t2p0"), RD_STORE_TILE_MORE);
+    cr_assert_eq(claim(s, "d1", 8, 10000, t), 2, "the two left");
+    cr_assert(t[0].index == 3 && t[1].index == 4);
+    cr_assert_eq(claim(s, "d1", 8, 10000, t), 0, "nothing until the pass ends");
+    /* The re-done tile 1 of the first claim is no one's. */
+    rd_store_tile t1 = {.index = 1, .pass = 0};
+    snprintf(t1.job_id, sizeof t1.job_id, "tj");
+    cr_assert_eq(tile_done(s, "d1", &t[0], "t3p0"), RD_STORE_TILE_MORE);
+    cr_assert_eq(tile_done(s, "d1", &t[1], "t4p0"), RD_STORE_TILE_PASS_DONE);
+    FAILS(RD_ERR_TIMEOUT, rd_store_tile_done(s, "d1", &t1, "z", 1, NULL, &e_));
+    in = info_of(s, "tj");
+    cr_assert(in.pass == 1 && in.tiles_done == 0, "pass %d, %d tiles", in.pass, in.tiles_done);
+    OK(rd_store_tile_get(s, "tj", 2, &one, &e_));
+    cr_assert(one.passes == 1 && one.len == 4 && memcmp(one.data, "t2p0", 4) == 0);
+    free(one.data);
+}
+
+void case_tiles_and_passes(const store_env *e)
+{
+    rd_store *s = store_env_open(e);
+    store_put_job(s, "tj", 10, 5, 2);
+    first_pass(s);
+    rd_store_tile t[8];
+    rd_store_tile_data one;
+    do_pass(s, "tj", 5, 1);
+    rd_store_job_info in = info_of(s, "tj");
+    cr_assert(in.pass == 2 && in.tiles_done == 5 && in.status == RD_STORE_RUNNING);
+    cr_assert_eq(claim(s, "d1", 8, 10000, t), 0, "a complete job has nothing to claim");
+    check_tiles(s, "tj", 5, 2);
+    end_job(s, "tj");
+    rd_store_tile_data *td = NULL;
+    size_t n = 9;
+    OK(rd_store_tiles_get(s, "tj", &td, &n, &e_));
+    cr_assert(n == 0 && td == NULL, "an ended job's tiles are dropped");
+    FAILS(RD_ERR_NOT_FOUND, rd_store_tile_get(s, "tj", 0, &one, &e_));
+    FAILS(RD_ERR_NOT_FOUND, rd_store_tiles_get(s, "nosuch", &td, &n, &e_));
+    /* Tiles made later, once. */
+    store_put_job(s, "later", 20, 0, 0);
+    cr_assert_eq(claim(s, "d1", 8, 10000, t), 0, "a job without tiles is not claimable");
+    OK(rd_store_tiles_init(s, "later", 3, 1, &e_));
+    FAILS(RD_ERR_INVALID, rd_store_tiles_init(s, "later", 3, 1, &e_));
+    cr_assert_eq(claim(s, "d1", 8, 10000, t), 3);
+    /* Cancelling drops the tiles under their holder. */
+    OK(rd_store_job_cancel(s, "later", NULL, &e_));
+    FAILS(RD_ERR_CANCELLED, rd_store_tile_done(s, "d1", &t[0], "r", 1, NULL, &e_));
+    FAILS(RD_ERR_CANCELLED, rd_store_tiles_init(s, "tj", 3, 1, &e_));
+    FAILS(RD_ERR_NOT_FOUND, rd_store_tiles_init(s, "nosuch", 3, 1, &e_));
+    rd_store_close(s);
+}
+
+void case_claim_oldest_job_first(const store_env *e)
+{
+    rd_store *s = store_env_open(e);
+    store_put_job(s, "young", 2000, 2, 1);
+    store_put_job(s, "old", 1000, 2, 1);
+    store_put_job(s, "notiles", 500, 0, 0);
+    rd_store_tile t[8];
+    cr_assert_eq(claim(s, "d1", 8, 10000, t), 2, "one job per claim");
+    cr_assert(strcmp(t[0].job_id, "old") == 0 && strcmp(t[1].job_id, "old") == 0);
+    cr_assert_eq(claim(s, "d1", 8, 10000, t), 2);
+    cr_assert(strcmp(t[0].job_id, "young") == 0);
+    cr_assert_eq(status_of(s, "notiles"), RD_STORE_QUEUED);
+    rd_store_close(s);
+}
+
+static int disjoint(const rd_store_tile *a, int na, const rd_store_tile *b, int nb)
+{
+    for (int i = 0; i < na; i++)
+        for (int j = 0; j < nb; j++)
+            if (a[i].index == b[j].index)
+                return 0;
+    return 1;
+}
+
+void case_lease_expiry(const store_env *e)
+{
+    rd_store *a = store_env_open(e), *b = store_env_open(e);
+    store_put_job(a, "lj", 1, 6, 1);
+    rd_store_tile ta[8], tb[8], tc[8];
+    cr_assert_eq(claim(a, "daemon-a", 3, 300, ta), 3);
+    cr_assert_eq(claim(b, "daemon-b", 8, 60000, tb), 3, "the other three");
+    cr_assert(disjoint(ta, 3, tb, 3), "a live lease is never handed out again");
+    cr_assert_eq(claim(b, "daemon-b", 8, 60000, tc), 0);
+    sleep_ms_store(500);
+    cr_assert_eq(claim(b, "daemon-b", 8, 60000, tc), 3, "a's leases ran out");
+    cr_assert(!disjoint(ta, 3, tc, 3) && disjoint(tb, 3, tc, 3));
+    FAILS(RD_ERR_TIMEOUT, rd_store_tile_done(a, "daemon-a", &ta[0], "late", 4, NULL, &e_));
+    int renewed = -1;
+    OK(rd_store_renew(a, "daemon-a", 1000, &renewed, &e_));
+    cr_assert_eq(renewed, 0, "a lease taken by another is not renewed");
+    int job_done = 0;
+    for (int i = 0; i < 3; i++) {
+        job_done += tile_done(b, "daemon-b", &tb[i], "b") == RD_STORE_TILE_JOB_DONE;
+        job_done += tile_done(b, "daemon-b", &tc[i], "c") == RD_STORE_TILE_JOB_DONE;
+    }
+    cr_assert_eq(job_done, 1);
+    rd_store_close(a);
+    rd_store_close(b);
+}
+
+void case_renew_and_release(const store_env *e)
+{
+    rd_store *a = store_env_open(e), *b = store_env_open(e);
+    store_put_job(a, "rj", 1, 2, 1);
+    rd_store_tile ta[4], tb[4];
+    double t0 = rd_now_ms();
+    cr_assert_eq(claim(a, "daemon-a", 4, 1000, ta), 2);
+    sleep_ms_store(500);
+    int renewed = 0;
+    OK(rd_store_renew(a, "daemon-a", 1000, &renewed, &e_));
+    cr_assert_eq(renewed, 2);
+    sleep_ms_store(1200 - (long)(rd_now_ms() - t0));
+    /* Past the first lease, within the renewed one. */
+    cr_assert_lt(rd_now_ms() - t0, 1450, "the machine is too slow for this test's margins");
+    cr_assert_eq(claim(b, "daemon-b", 4, 60000, tb), 0, "renewed leases hold");
+    int released = 0;
+    OK(rd_store_release(a, "daemon-a", &released, &e_));
+    cr_assert_eq(released, 2);
+    cr_assert_eq(claim(b, "daemon-b", 4, 60000, tb), 2, "released tiles are claimable at once");
+    FAILS(RD_ERR_TIMEOUT, rd_store_tile_done(a, "daemon-a", &ta[0], "x", 1, NULL, &e_));
+    rd_store_close(a);
+    rd_store_close(b);
+}
+
+/* Concurrent claims. */
+
+#define MAX_TILES 1024
+
+typedef struct {
+    const store_env *env;
+    char daemon[16];
+    atomic_int *claims; /* [pass * tiles + index]: times claimed by live daemons */
+    atomic_int *dones;  /* times done */
+    atomic_int *pass_done, *job_done, *errors;
+    int tiles;
+    double deadline;
+    int claimed; /* by this thread */
+} farm_arg;
+
+static void farm_tile(farm_arg *f, rd_store *s, const rd_store_tile *t)
+{
+    int k = t->pass * f->tiles + t->index;
+    atomic_fetch_add(&f->claims[k], 1);
+    char data[32];
+    snprintf(data, sizeof data, "%s:%d:%d", f->daemon, t->pass, t->index);
+    rd_store_tile_outcome o;
+    rd_error err = {0};
+    if (rd_store_tile_done(s, f->daemon, t, data, strlen(data), &o, &err) != RD_OK) {
+        atomic_fetch_add(f->errors, 1);
+        return;
+    }
+    atomic_fetch_add(&f->dones[k], 1);
+    if (o == RD_STORE_TILE_PASS_DONE)
+        atomic_fetch_add(f->pass_done, 1);
+    if (o == RD_STORE_TILE_JOB_DONE)
+        atomic_fetch_add(f->job_done, 1);
+}
+
+static void *farm_main(void *arg)
+{
+    farm_arg *f = arg;
+    rd_error err = {0};
+    rd_store *s = rd_store_open(f->env->spec, &f->env->opt, &err);
+    if (!s) {
+        atomic_fetch_add(f->errors, 1);
+        return NULL;
+    }
+    rd_store_tile t[4];
+    while (!atomic_load(f->job_done) && rd_now_ms() < f->deadline) {
+        int n = 0;
+        if (rd_store_claim(s, f->daemon, 4, 60000, t, &n, &err) != RD_OK) {
+            atomic_fetch_add(f->errors, 1);
+            break;
+        }
+        for (int i = 0; i < n; i++)
+            farm_tile(f, s, &t[i]);
+        f->claimed += n;
+        if (n == 0)
+            sleep_ms_store(5); /* the pass's last tiles are another's */
+    }
+    rd_store_close(s);
+    return NULL;
+}
+
+/* A daemon that claims tiles with a short lease and dies. */
+static int farm_casualty(const store_env *e)
+{
+    rd_store *s = store_env_open(e);
+    rd_store_tile t[5];
+    int n = claim(s, "casualty", 5, 400, t);
+    rd_store_close(s);
+    return n;
+}
+
+void case_concurrent_claims(const store_env *e, int threads, int tiles, int passes)
+{
+    cr_assert(threads <= 8 && tiles * passes <= MAX_TILES);
+    rd_store *s = store_env_open(e);
+    store_put_job(s, "farm", 1, tiles, passes);
+    static atomic_int claims[MAX_TILES], dones[MAX_TILES];
+    for (int k = 0; k < MAX_TILES; k++) {
+        atomic_store(&claims[k], 0);
+        atomic_store(&dones[k], 0);
+    }
+    atomic_int pass_done = 0, job_done = 0, errors = 0;
+    cr_assert_eq(farm_casualty(e), 5);
+    farm_arg args[8];
+    pthread_t th[8];
+    double t0 = rd_now_ms();
+    for (int i = 0; i < threads; i++) {
+        args[i] = (farm_arg){.env = e,
+                             .claims = claims,
+                             .dones = dones,
+                             .pass_done = &pass_done,
+                             .job_done = &job_done,
+                             .errors = &errors,
+                             .tiles = tiles,
+                             .deadline = t0 + 20000};
+        snprintf(args[i].daemon, sizeof args[i].daemon, "daemon-%d", i);
+        cr_assert_eq(pthread_create(&th[i], NULL, farm_main, &args[i]), 0);
+    }
+    for (int i = 0; i < threads; i++)
+        pthread_join(th[i], NULL);
+    double ms = rd_now_ms() - t0;
+    cr_assert_eq(atomic_load(&errors), 0, "claims and tile results all succeed");
+    for (int k = 0; k < tiles * passes; k++) {
+        cr_assert_eq(atomic_load(&claims[k]), 1, "tile %d of pass %d claimed %d times", k % tiles, k / tiles,
+                     atomic_load(&claims[k]));
+        cr_assert_eq(atomic_load(&dones[k]), 1);
+    }
+    cr_assert_eq(atomic_load(&pass_done), passes - 1);
+    cr_assert_eq(atomic_load(&job_done), 1);
+    int took_part = 0;
+    for (int i = 0; i < threads; i++)
+        took_part += args[i].claimed > 0;
+    cr_assert_geq(took_part, 2, "the work was shared");
+    rd_store_job_info in = info_of(s, "farm");
+    cr_assert(in.pass == passes && in.tiles_done == tiles);
+    if (getenv("RAYD_STORE_REPORT")) {
+        fprintf(stderr, "%s: %d handles, %d tiles x %d passes in %.0f ms (400 of them waiting for a lease):",
+                rd_store_engine_name(s), threads, tiles, passes, ms);
+        for (int i = 0; i < threads; i++)
+            fprintf(stderr, " %d", args[i].claimed);
+        fprintf(stderr, "\n");
+    }
+    rd_store_close(s);
+}
+
+/* Durability. */
+
+void case_durable_across_reopen(const store_env *e)
+{
+    rd_store *s = store_env_open(e);
+    char id[16];
+    for (int i = 0; i < 20; i++) {
+        snprintf(id, sizeof id, "job%02d", i);
+        store_put_job(s, id, 100 + i, 4, 1);
+    }
+    /* Two tiles of each of the first ten done, two held by a daemon that
+     * then stops (releasing them) without finishing anything. */
+    for (int i = 0; i < 10; i++) {
+        rd_store_tile t[4];
+        cr_assert_eq(claim(s, "d1", 4, 60000, t), 4);
+        snprintf(id, sizeof id, "job%02d", i);
+        cr_assert_str_eq(t[0].job_id, id);
+        cr_assert_eq(tile_done(s, "d1", &t[0], "t0p0"), RD_STORE_TILE_MORE);
+        cr_assert_eq(tile_done(s, "d1", &t[1], "t1p0"), RD_STORE_TILE_MORE);
+    }
+    int released = 0;
+    OK(rd_store_release(s, "d1", &released, &e_));
+    cr_assert_eq(released, 20);
+    rd_store_close(s);
+    s = store_env_open(e);
+    rd_store_job_brief *l = NULL;
+    size_t n = 0;
+    OK(rd_store_jobs_list(s, ~0u, 100, &l, &n, &e_));
+    cr_assert_eq(n, 20, "every job is still there");
+    free(l);
+    for (int i = 0; i < 20; i++) {
+        snprintf(id, sizeof id, "job%02d", i);
+        rd_store_job_info in = info_of(s, id);
+        cr_assert_eq(in.tiles_done, i < 10 ? 2 : 0);
+        cr_assert_eq(in.status, i < 10 ? RD_STORE_RUNNING : RD_STORE_QUEUED);
+        rd_store_job_info_free(&in);
+        rd_store_tile_data *td;
+        OK(rd_store_tiles_get(s, id, &td, &n, &e_));
+        cr_assert_eq(n, i < 10 ? 2 : 0);
+        cr_assert(n == 0 || (td[1].len == 4 && memcmp(td[1].data, "t1p0", 4) == 0));
+        rd_store_tiles_free(td, n);
+    }
+    /* The resumed job goes on with the tiles left. */
+    rd_store_tile t[8];
+    cr_assert_eq(claim(s, "d2", 8, 60000, t), 2);
+    cr_assert(strcmp(t[0].job_id, "job00") == 0 && t[0].index == 2 && t[1].index == 3);
+    rd_store_close(s);
+}
+
+void case_survives_kill(const store_env *e)
+{
+    pid_t pid = fork();
+    cr_assert_geq(pid, 0);
+    if (pid == 0) {
+        rd_error err;
+        rd_store *s = rd_store_open(e->spec, &e->opt, &err);
+        rd_store_job_spec j = spec_of("killed0", 1, 2, 1);
+        char id[16];
+        for (int i = 0; s && i < 5; i++) {
+            snprintf(id, sizeof id, "killed%d", i);
+            j.id = id;
+            if (rd_store_job_create(s, &j, &err) != RD_OK)
+                _exit(3);
+        }
+        raise(SIGKILL); /* no close, nothing flushed by hand */
+        _exit(4);
+    }
+    int st = 0;
+    waitpid(pid, &st, 0);
+    cr_assert(WIFSIGNALED(st) && WTERMSIG(st) == SIGKILL, "the child died by SIGKILL (status %d)", st);
+    rd_store *s = store_env_open(e);
+    for (int i = 0; i < 5; i++) {
+        char id[16];
+        snprintf(id, sizeof id, "killed%d", i);
+        cr_assert_eq(status_of(s, id), RD_STORE_QUEUED, "%s survived", id);
+    }
+    rd_store_close(s);
+}
+
+/* Limits and arguments. */
+
+static void limits_refused(const store_env *e)
+{
+    store_env small = *e;
+    small.opt.limits = (rd_store_limits){
+        .scene_bytes = 1000, .text_bytes = 100, .image_bytes = 2000, .tile_bytes = 500, .tiles = 10, .passes = 3};
+    rd_store *s = store_env_open(&small);
+    static char big[4000];
+    memset(big, 'x', sizeof big - 1);
+    rd_store_job_spec j = spec_of("lim", 1, 0, 0);
+    j.scene = big;
+    j.scene_len = 1001;
+    FAILS(RD_ERR_LIMIT, rd_store_job_create(s, &j, &e_));
+    j = spec_of("lim", 1, 0, 0);
+    j.query = big + sizeof big - 102;
+    FAILS(RD_ERR_LIMIT, rd_store_job_create(s, &j, &e_));
+    j = spec_of("lim", 1, 11, 1);
+    FAILS(RD_ERR_LIMIT, rd_store_job_create(s, &j, &e_));
+    j = spec_of("lim", 1, 10, 4);
+    FAILS(RD_ERR_LIMIT, rd_store_job_create(s, &j, &e_));
+    rd_store_job_info in;
+    FAILS(RD_ERR_NOT_FOUND, rd_store_job_get(s, "lim", &in, &e_));
+    store_put_job(s, "lim", 1, 10, 3);
+    FAILS(RD_ERR_LIMIT, rd_store_job_stats(s, "lim", big + sizeof big - 102, &e_));
+    rd_store_tile t[1];
+    cr_assert_eq(claim(s, "d1", 1, 60000, t), 1);
+    FAILS(RD_ERR_LIMIT, rd_store_tile_done(s, "d1", &t[0], big, 501, NULL, &e_));
+    rd_store_result r = {.png = (const unsigned char *)big, .png_len = 2001};
+    FAILS(RD_ERR_LIMIT, rd_store_job_finish(s, "lim", &r, &e_));
+    r = (rd_store_result){
+        .png = (const unsigned char *)big, .png_len = 10, .exr = (const unsigned char *)big, .exr_len = 2001};
+    FAILS(RD_ERR_LIMIT, rd_store_job_finish(s, "lim", &r, &e_));
+    in = info_of(s, "lim");
+    cr_assert(in.status == RD_STORE_RUNNING && in.tiles_done == 0 && !in.stats, "nothing was changed");
+    rd_store_close(s);
+}
+
+static void bad_arguments(const store_env *e)
+{
+    rd_store *s = store_env_open(e);
+    rd_store_job_spec j = spec_of("has space", 1, 0, 0);
+    FAILS(RD_ERR_INVALID, rd_store_job_create(s, &j, &e_));
+    j.id = "0123456789012345678901234567890123456789012345678901234567890123";
+    FAILS(RD_ERR_INVALID, rd_store_job_create(s, &j, &e_));
+    j.id = NULL;
+    FAILS(RD_ERR_INVALID, rd_store_job_create(s, &j, &e_));
+    j = spec_of("ok", 1, 0, 0);
+    j.format = "xml";
+    FAILS(RD_ERR_INVALID, rd_store_job_create(s, &j, &e_));
+    j = spec_of("ok", 1, 0, 0);
+    j.query = "width=\xff";
+    FAILS(RD_ERR_INVALID, rd_store_job_create(s, &j, &e_));
+    j = spec_of("ok", 1, 0, 0);
+    j.width = -1;
+    FAILS(RD_ERR_INVALID, rd_store_job_create(s, &j, &e_));
+    j = spec_of("ok", 1, 3, 0);
+    FAILS(RD_ERR_INVALID, rd_store_job_create(s, &j, &e_));
+    store_put_job(s, "ok", 1, 2, 1);
+    rd_store_tile t[2];
+    int n;
+    FAILS(RD_ERR_INVALID, rd_store_claim(s, "d1", 0, 1000, t, &n, &e_));
+    FAILS(RD_ERR_INVALID, rd_store_claim(s, "d1", 1, 0, t, &n, &e_));
+    FAILS(RD_ERR_INVALID, rd_store_claim(s, "bad daemon", 1, 1000, t, &n, &e_));
+    FAILS(RD_ERR_INVALID, rd_store_renew(s, "d1", -5, &n, &e_));
+    rd_store_tile bad = {.index = -1};
+    snprintf(bad.job_id, sizeof bad.job_id, "ok");
+    FAILS(RD_ERR_INVALID, rd_store_tile_done(s, "d1", &bad, "x", 1, NULL, &e_));
+    rd_error why = {0};
+    FAILS(RD_ERR_INVALID, rd_store_job_fail(s, "ok", &why, NULL, &e_));
+    FAILS(RD_ERR_INVALID, rd_store_job_finish(s, "ok", NULL, &e_));
+    FAILS(RD_ERR_INVALID, rd_store_tiles_init(s, "ok", 0, 1, &e_));
+    FAILS(RD_ERR_INVALID, rd_store_jobs_expire(s, -1, NULL, &e_));
+    FAILS(RD_ERR_INVALID, rd_store_job_stats(s, "ok", "\xc3", &e_));
+    /* Defaults: a scene far over 16 MiB is refused before it is sent. */
+    size_t huge = (size_t)64 << 20;
+    char *h = malloc(huge);
+    cr_assert(h);
+    memset(h, '#', huge);
+    j = spec_of("huge", 1, 0, 0);
+    j.scene = h;
+    j.scene_len = huge;
+    FAILS(RD_ERR_LIMIT, rd_store_job_create(s, &j, &e_));
+    free(h);
+    cr_assert_eq(rd_store_open("", NULL, NULL), NULL);
+    rd_store_close(NULL);
+    rd_store_close(s);
+}
+
+void case_limits_and_bad_arguments(const store_env *e)
+{
+    limits_refused(e);
+    bad_arguments(e);
+}
+
+/* Wake-ups. */
+
+typedef struct {
+    rd_store *s;
+    int timeout_ms;
+    rd_store_event ev;
+    rd_error_code code;
+    double woke_at;
+} waiter;
+
+static void *wait_main(void *arg)
+{
+    waiter *w = arg;
+    rd_error err = {0};
+    w->code = rd_store_wait(w->s, w->timeout_ms, &w->ev, &err);
+    w->woke_at = rd_now_ms();
+    return NULL;
+}
+
+void case_wait_wakes(const store_env *e, double max_ms)
+{
+    rd_store *a = store_env_open(e), *b = store_env_open(e);
+    rd_store_event ev;
+    /* Nothing happens: the whole timeout, then NONE. */
+    double t0 = rd_now_ms();
+    OK(rd_store_wait(a, 200, &ev, &e_));
+    cr_assert(ev.kind == RD_STORE_EV_NONE && rd_now_ms() - t0 >= 195, "%.0f ms", rd_now_ms() - t0);
+    /* Its own commit does not wake it. */
+    store_put_job(a, "own", 1, 0, 0);
+    OK(rd_store_wait(a, 200, &ev, &e_));
+    cr_assert_eq(ev.kind, RD_STORE_EV_NONE, "woken by its own commit (%d)", (int)ev.kind);
+    waiter w = {.s = a, .timeout_ms = 5000};
+    pthread_t th;
+    cr_assert_eq(pthread_create(&th, NULL, wait_main, &w), 0);
+    sleep_ms_store(300);
+    /* The waiting handle's other calls are not held up by its wait. */
+    double t1 = rd_now_ms();
+    OK(rd_store_ping(a, &e_));
+    cr_assert_lt(rd_now_ms() - t1, 1000.0);
+    store_put_job(b, "theirs", 2, 0, 0);
+    double committed = rd_now_ms();
+    pthread_join(th, NULL);
+    cr_assert_eq(w.code, RD_OK);
+    cr_assert_lt(w.woke_at - committed, max_ms, "woke %.1f ms after the commit", w.woke_at - committed);
+    if (e->events_named) {
+        cr_assert_eq(w.ev.kind, RD_STORE_EV_SUBMITTED);
+        cr_assert_str_eq(w.ev.job_id, "theirs");
+        unsigned char png[4] = {1};
+        rd_store_result r = {.png = png, .png_len = 4};
+        OK(rd_store_job_finish(b, "own", &r, &e_));
+        OK(rd_store_wait(a, 2000, &ev, &e_));
+        cr_assert(ev.kind == RD_STORE_EV_ENDED && strcmp(ev.job_id, "own") == 0);
+        OK(rd_store_tiles_init(b, "theirs", 2, 1, &e_));
+        OK(rd_store_wait(a, 2000, &ev, &e_));
+        cr_assert(ev.kind == RD_STORE_EV_TILES && strcmp(ev.job_id, "theirs") == 0);
+    } else {
+        cr_assert_eq(w.ev.kind, RD_STORE_EV_CHANGED);
+    }
+    if (getenv("RAYD_STORE_REPORT"))
+        fprintf(stderr, "%s: woke %.2f ms after another handle's commit\n", rd_store_engine_name(a),
+                w.woke_at - committed);
+    rd_store_close(a);
+    rd_store_close(b);
+}

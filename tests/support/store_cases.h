@@ -1,0 +1,44 @@
+/* The job store's properties, written once and run against each engine
+ * (tests/unit/daemon/test_store.c for SQLite, test_store_pg.c for
+ * PostgreSQL): every case opens its handles from a store_env, so that it
+ * can open several (daemons) or reopen one (a restart). */
+#ifndef RD_TEST_STORE_CASES_H
+#define RD_TEST_STORE_CASES_H
+
+#include "store.h"
+
+typedef struct {
+    char spec[256];
+    rd_store_options opt;
+    /* SQLite: another handle's commit wakes rd_store_wait as CHANGED, with
+     * no job id; PostgreSQL: as what happened, with the id. */
+    int events_named;
+} store_env;
+
+/* A new handle; asserts it opened. */
+rd_store *store_env_open(const store_env *e);
+
+void sleep_ms_store(long ms);
+
+/* A queued job with a small scene; tiles/passes 0 for none. */
+void store_put_job(rd_store *s, const char *id, int64_t submitted_ms, int tiles, int passes);
+
+void case_create_get(const store_env *e);
+void case_lifecycle(const store_env *e);
+void case_list_expire_delete(const store_env *e);
+void case_tiles_and_passes(const store_env *e);
+void case_claim_oldest_job_first(const store_env *e);
+void case_lease_expiry(const store_env *e);
+void case_renew_and_release(const store_env *e);
+/* threads handles render one job together (tiles x passes), and one more
+ * "dies" holding tiles: every tile of every pass is done exactly once and
+ * exactly one call sees each pass end. */
+void case_concurrent_claims(const store_env *e, int threads, int tiles, int passes);
+void case_durable_across_reopen(const store_env *e);
+void case_survives_kill(const store_env *e);
+void case_limits_and_bad_arguments(const store_env *e);
+/* A waiting handle wakes within max_ms of another's commit, not for its
+ * own, and sleeps out its timeout otherwise. */
+void case_wait_wakes(const store_env *e, double max_ms);
+
+#endif
