@@ -74,7 +74,7 @@ GENERATED := scenes/generated/knot.obj
 
 scenes: $(GENERATED)
 
-.PHONY: all deps test check run install uninstall install-test bench bench-quick clean scenes fuzz stability tsan fault print-includes format-check
+.PHONY: all deps test check run install uninstall install-test bench bench-quick clean scenes fuzz stability tsan fault print-includes print-pkgs format-check
 
 
 scenes/generated/knot.obj: scenes/gen.py
@@ -291,6 +291,9 @@ $(BUILD)/bench/embree_trace: bench/embree_trace.c $(BUILD)/librayd.a
 # (tests/fuzz/run.sh).
 print-includes:
 	@echo $(INC_ALL)
+
+print-pkgs:
+	@echo $(PKGS)
 
 clean:
 	rm -rf build out scenes/generated

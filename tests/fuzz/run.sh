@@ -77,8 +77,8 @@ for t in $TARGETS; do
     *" $t "*) need_daemon=1 ;;
     esac
 done
-PKGS="libpng libcjson zlib OpenEXR"
-[ "$need_daemon" -eq 0 ] || PKGS="$PKGS libmicrohttpd"
+# The Makefile's own package list: one place says what rayd links.
+PKGS=$(make --no-print-directory -s print-pkgs) || die "make print-pkgs failed"
 # The library headers come with the project's other build dependencies;
 # deploy/deps.sh installs them as `make` would, and is quiet when they exist.
 if ! pkg-config --exists $PKGS 2>/dev/null; then
@@ -167,7 +167,7 @@ if [ "$need_daemon" -eq 1 ]; then
     done
     # The embedded files (the web page, the OpenAPI document) are generated
     # by the Makefile's own rules, into this build's folder.
-    for gen in web_page openapi; do
+    for gen in web_page openapi migrations; do
         make --no-print-directory -s BUILD="$OBJ" "$OBJ/gen/$gen.c" || die "could not generate $OBJ/gen/$gen.c"
         if stale "$OBJ/gen/$gen.o" "$OBJ/gen/$gen.c" ""; then
             compile "$OBJ/gen/$gen.c" "$OBJ/gen/$gen.o" $LIB_FLAGS
