@@ -21,6 +21,11 @@ static void put(text *t, const char *fmt, ...) __attribute__((format(printf, 2, 
 static void put(text *t, const char *fmt, ...)
 {
     va_list ap;
+    if (!t->buf) {
+        t->cap = 1 << 20;
+        t->buf = malloc(t->cap);
+        cr_assert(t->buf);
+    }
     for (;;) {
         va_start(ap, fmt);
         int n = vsnprintf(t->buf + t->len, t->cap - t->len, fmt, ap);
