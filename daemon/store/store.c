@@ -490,3 +490,11 @@ rd_error_code rd_store_wait(rd_store *s, int timeout_ms, rd_store_event *ev, rd_
     memset(ev, 0, sizeof *ev);
     return s->ops->wait(s, timeout_ms < 0 ? 0 : timeout_ms, ev, err);
 }
+
+rd_error_code rd_store_refusal(rd_store_status st, const char *daemon, const rd_store_tile *t, rd_error *err)
+{
+    if (st != RD_STORE_QUEUED && st != RD_STORE_RUNNING)
+        return rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "store: job %s is %s", t->job_id, rd_store_status_name(st));
+    return rd_error_set(err, RD_ERR_TIMEOUT, 0, 0, "store: tile %d of pass %d of job %s is not leased to %s", t->index,
+                        t->pass, t->job_id, daemon);
+}

@@ -53,6 +53,11 @@ struct rd_store {
 rd_store *rd_store_sqlite_open(const char *folder, const rd_store_options *opt, rd_error *err);
 rd_store *rd_store_pg_open(const char *conninfo, const rd_store_options *opt, rd_error *err);
 
+/* Why tile_done changed no tile, from the job's status st: it ended
+ * (RD_ERR_CANCELLED), or the tile is not, or no longer, daemon's for this
+ * pass (RD_ERR_TIMEOUT). */
+rd_error_code rd_store_refusal(rd_store_status st, const char *daemon, const rd_store_tile *t, rd_error *err);
+
 /* The statuses' names as the schema spells them; -1 for another text. */
 int rd_store_status_parse(const char *name);
 

@@ -795,12 +795,7 @@ static rd_error_code pg_tile_refused(pg_store *p, const char *daemon, const rd_s
 {
     rd_store_status st;
     rd_error_code c = pg_status(p, t->job_id, &st, err);
-    if (c)
-        return c;
-    if (st != RD_STORE_QUEUED && st != RD_STORE_RUNNING)
-        return rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "store: job %s is %s", t->job_id, rd_store_status_name(st));
-    return rd_error_set(err, RD_ERR_TIMEOUT, 0, 0, "store: tile %d of pass %d of job %s is not leased to %s", t->index,
-                        t->pass, t->job_id, daemon);
+    return c ? c : rd_store_refusal(st, daemon, t, err);
 }
 
 static rd_error_code pg_advance(pg_store *p, const rd_store_tile *t, int last, int total, rd_error *err)

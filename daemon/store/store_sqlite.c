@@ -614,12 +614,7 @@ static rd_error_code sq_tile_refused(sq_store *q, const char *daemon, const rd_s
 {
     rd_store_status st;
     rd_error_code c = sq_status(q, t->job_id, &st, err);
-    if (c)
-        return c;
-    if (st != RD_STORE_QUEUED && st != RD_STORE_RUNNING)
-        return rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "store: job %s is %s", t->job_id, rd_store_status_name(st));
-    return rd_error_set(err, RD_ERR_TIMEOUT, 0, 0, "store: tile %d of pass %d of job %s is not leased to %s", t->index,
-                        t->pass, t->job_id, daemon);
+    return c ? c : rd_store_refusal(st, daemon, t, err);
 }
 
 /* Counts a tile of the current pass done; advances the pass when it was

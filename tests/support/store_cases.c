@@ -581,7 +581,11 @@ void case_concurrent_claims(const store_env *e, int threads, int tiles, int pass
     int took_part = 0;
     for (int i = 0; i < threads; i++)
         took_part += args[i].claimed > 0;
-    cr_assert_geq(took_part, 2, "the work was shared");
+    /* SQLite lets one writer in at a time and its busy handler is not fair:
+     * one handle may win every claim. Only PostgreSQL's SKIP LOCKED claims
+     * run side by side, so only there must the work be shared. */
+    if (strcmp(rd_store_engine_name(s), "postgresql") == 0)
+        cr_assert_geq(took_part, 2, "the work was shared");
     rd_store_job_info in = info_of(s, "farm");
     cr_assert(in.pass == passes && in.tiles_done == tiles);
     if (getenv("RAYD_STORE_REPORT")) {
