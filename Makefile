@@ -91,24 +91,24 @@ $(BUILD)/%.o: %.c
 	@$(CC) $(CPPFLAGS) $(call inc_for,$<) $(PKG_CFLAGS) $(CFLAGS) -c $< -o $@
 
 # The web page is served from the binary: no files, no CDN.
-$(BUILD)/gen/web_page.c: daemon/http/web/index.html daemon/http/web/embed.py
+$(BUILD)/gen/web_page.c: daemon/http/web/index.html daemon/embed.py
 	@mkdir -p $(dir $@)
-	@/usr/bin/python3 daemon/http/web/embed.py $< rd_web_index_html > $@
+	@/usr/bin/python3 daemon/embed.py $< rd_web_index_html > $@
 
 $(BUILD)/gen/web_page.o: $(BUILD)/gen/web_page.c
 	@$(CC) $(CFLAGS) -c $< -o $@
 
 # So is the OpenAPI description (GET /openapi.json).
-$(BUILD)/gen/openapi.c: docs/openapi.json daemon/http/web/embed.py
+$(BUILD)/gen/openapi.c: docs/openapi.json daemon/embed.py
 	@mkdir -p $(dir $@)
-	@/usr/bin/python3 daemon/http/web/embed.py $< rd_openapi_json > $@
+	@/usr/bin/python3 daemon/embed.py $< rd_openapi_json > $@
 
 $(BUILD)/gen/openapi.o: $(BUILD)/gen/openapi.c
 	@$(CC) $(CFLAGS) -c $< -o $@
 
 # And the store's schema: deploy/sql/NNN_*.sql, applied in order at open.
 MIGRATIONS := $(sort $(wildcard deploy/sql/*.sql))
-$(BUILD)/gen/migrations.c: $(MIGRATIONS) daemon/store/embed_sql.py
+$(BUILD)/gen/migrations.c: $(MIGRATIONS) daemon/store/embed_sql.py daemon/embed.py
 	@mkdir -p $(dir $@)
 	@/usr/bin/python3 daemon/store/embed_sql.py $(MIGRATIONS) > $@
 

@@ -7,27 +7,8 @@ import os
 import re
 import sys
 
-
-def c_string(text):
-    out, line = [], ""
-    for c in text:
-        if c == "\\":
-            line += "\\\\"
-        elif c == '"':
-            line += '\\"'
-        elif c == "?":
-            line += "\\?"  # no trigraphs
-        elif c == "\n":
-            out.append('        "%s\\n"' % line)
-            line = ""
-        elif 32 <= ord(c) < 127:
-            line += c
-        else:
-            sys.exit("embed_sql.py: only ASCII in migrations (%r)" % c)
-    if line:
-        out.append('        "%s"' % line)
-    return "\n".join(out) if out else '        ""'
-
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+from embed import c_string  # noqa: E402
 
 files = sorted(sys.argv[1:], key=os.path.basename)
 rows = []
@@ -36,7 +17,7 @@ for i, path in enumerate(files, 1):
     m = re.match(r"^(\d{3})_[a-z0-9_]+\.sql$", name)
     if not m or int(m.group(1)) != i:
         sys.exit("embed_sql.py: %s should be numbered %03d_NAME.sql" % (name, i))
-    rows.append("    {%d, \"%s\",\n%s},\n" % (i, name, c_string(open(path, encoding="ascii").read())))
+    rows.append("    {%d, \"%s\",\n%s},\n" % (i, name, c_string(open(path, "rb").read(), "        ")))
 print("/* Generated from deploy/sql/ by daemon/store/embed_sql.py; do not edit. */")
 print('#include "migrations.h"\n')
 print("const rd_store_migration rd_store_migrations[] = {\n%s};" % "".join(rows))
