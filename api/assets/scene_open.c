@@ -14,7 +14,7 @@ rd_error_code rd_scene_open(const rd_scene_source *src, const rd_scene_overrides
     const char *source = src->source ? src->source : src->path ? src->path : "<text>";
     rd_error_code rc;
     if (src->path) {
-        rc = rd_scene_load_file(src->path, &lim, s, err);
+        rc = rd_scene_load_file_named(src->path, source, &lim, s, err);
     } else {
         rc = rd_scene_parse(src->text, src->len, src->format, source, &lim, s, err);
     }

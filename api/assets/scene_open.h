@@ -25,7 +25,7 @@ typedef struct {
     const char *path; /* a file to read, or NULL for text/len: */
     const char *text;
     size_t len;
-    const char *source;     /* text's name in messages (a file is named by its path) */
+    const char *source;     /* the name in messages; NULL: the path (or "<text>") */
     rd_scene_format format; /* RD_FMT_AUTO: by path's extension, else sniffed */
     const char *assets_dir; /* NULL: path's folder ("." for text) */
     int threads;            /* that may parse a big mesh; < 1: 1 (the same scene either way) */

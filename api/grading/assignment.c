@@ -116,12 +116,15 @@ rd_error_code rd_assignment_load(const char *dir, const char *name, rd_assignmen
     size_t len;
     if (access(gpath, F_OK) != 0)
         return RD_OK; /* no .grade file: the default thresholds */
+    /* Messages name the file, not where the folder is: answers over HTTP
+     * never show a server path. */
     if (rd_path_inside(dir, file, real, err) != RD_OK)
-        return rd_error_set(err, RD_ERR_IO, 0, 0, "%s: leads outside the assignments folder", gpath);
+        return rd_error_set(err, RD_ERR_IO, 0, 0, "%s: leads outside the assignments folder", file);
     rd_error_code rc = rd_read_file(gpath, 65536, "(grade files are at most 64 KiB)", &text, &len, err);
     if (rc)
-        return rc;
-    rc = parse_grade(gpath, text, a, err);
+        return rd_error_set(err, rc, 0, 0, "%s: cannot be read%s", file,
+                            rc == RD_ERR_LIMIT ? " (grade files are at most 64 KiB)" : "");
+    rc = parse_grade(file, text, a, err);
     free(text);
     return rc;
 }
@@ -159,10 +162,20 @@ rd_error_code rd_assignment_list(const char *dir, rd_assignment **list, size_t *
             }
             *list = p;
         }
-        rc = rd_assignment_load(dir, name, &(*list)[*n], err);
-        if (rc)
+        rd_assignment *a = &(*list)[(*n)++];
+        rd_error why = {0};
+        rc = rd_assignment_load(dir, name, a, &why);
+        if (rc == RD_ERR_NOMEM) {
+            *err = why;
             break;
-        (*n)++;
+        }
+        /* Not an assignment at all (its scene links out of the folder):
+         * not listed, as the scene route does not serve it. */
+        if (rc == RD_ERR_NOT_FOUND)
+            (*n)--;
+        else if (rc)
+            snprintf(a->error, sizeof a->error, "%s", why.message);
+        rc = RD_OK;
     }
     closedir(d);
     if (rc) {

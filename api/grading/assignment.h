@@ -21,6 +21,10 @@ typedef struct {
     char title[160];
     char scene_path[512];
     rd_grade_thresholds thresholds;
+    /* rd_assignment_list only: why it cannot be graded ("phong.grade:3:1:
+     * ..."), naming files by their names in the folder, never by path;
+     * "" when it can. */
+    char error[512];
 } rd_assignment;
 
 /* Loads assignment `name` (letters, digits, '_' and '-') from dir.
@@ -29,7 +33,10 @@ typedef struct {
  * .grade file (with line and column); RD_ERR_IO when it cannot be read. */
 rd_error_code rd_assignment_load(const char *dir, const char *name, rd_assignment *a, rd_error *err);
 
-/* Every assignment in dir, sorted by name; *list is malloc'ed. */
+/* Every assignment in dir, sorted by name; *list is malloc'ed. One that
+ * does not load is listed with its error, so that a broken .grade file
+ * hides nothing but itself. Fails only when dir cannot be read (RD_ERR_IO)
+ * or on RD_ERR_NOMEM. */
 rd_error_code rd_assignment_list(const char *dir, rd_assignment **list, size_t *n, rd_error *err);
 
 #endif

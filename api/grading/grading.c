@@ -29,7 +29,11 @@ static rd_error_code open_scene(const rd_grader *g, const rd_grade_input *in, rd
         snprintf(o->assignment, sizeof o->assignment, "%s", a.name);
         snprintf(o->title, sizeof o->title, "%s", a.title);
         o->thresholds = a.thresholds;
+        /* Named within the folder: a grade's answer shows no server path. */
+        char name[80];
+        snprintf(name, sizeof name, "%s.cfg", a.name);
         src.path = a.scene_path;
+        src.source = name;
         return rd_scene_open(&src, NULL, &g->limits, s, NULL, err);
     }
     o->stage = RD_GRADE_STAGE_SCENE;

@@ -35,6 +35,12 @@ rd_error_code rd_scene_parse(const char *text, size_t len, rd_scene_format fmt, 
 
 rd_error_code rd_scene_load_file(const char *path, const rd_scene_limits *lim_in, rd_scene *s, rd_error *err)
 {
+    return rd_scene_load_file_named(path, path, lim_in, s, err);
+}
+
+rd_error_code rd_scene_load_file_named(const char *path, const char *name, const rd_scene_limits *lim_in, rd_scene *s,
+                                       rd_error *err)
+{
     rd_scene_limits lim = lim_in ? *lim_in : rd_scene_limits_default();
     char *text;
     size_t len;
@@ -45,7 +51,7 @@ rd_error_code rd_scene_load_file(const char *path, const rd_scene_limits *lim_in
     rd_scene_format fmt = rd_ends_with(path, ".json")  ? RD_FMT_JSON
                           : rd_ends_with(path, ".cfg") ? RD_FMT_CFG
                                                        : RD_FMT_AUTO;
-    rc = rd_scene_parse(text, len, fmt, path, &lim, s, err);
+    rc = rd_scene_parse(text, len, fmt, name, &lim, s, err);
     free(text);
     return rc;
 }

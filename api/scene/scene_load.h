@@ -21,4 +21,9 @@ rd_error_code rd_scene_parse(const char *text, size_t len, rd_scene_format fmt, 
  * sniffed. A file over lim->max_bytes is refused before it is read. */
 rd_error_code rd_scene_load_file(const char *path, const rd_scene_limits *lim, rd_scene *s, rd_error *err);
 
+/* The same, naming the file `name` in messages ("phong.cfg:3:1: ..."), so
+ * that an answer over HTTP shows no server path. */
+rd_error_code rd_scene_load_file_named(const char *path, const char *name, const rd_scene_limits *lim, rd_scene *s,
+                                       rd_error *err);
+
 #endif

@@ -322,11 +322,17 @@ static void log_assignments(rd_log *log, const char *dir, const char *when)
         return;
     }
     char names[1024] = "";
-    for (size_t i = 0; i < n; i++)
-        snprintf(names + strlen(names), sizeof names - strlen(names), "%s%s", i ? "," : "", list[i].name);
+    size_t good = 0;
+    for (size_t i = 0; i < n; i++) {
+        if (list[i].error[0]) {
+            rd_log_msg(log, "warning", "%s assignment %s cannot be graded: %s", when, list[i].name, list[i].error);
+            continue;
+        }
+        snprintf(names + strlen(names), sizeof names - strlen(names), "%s%s", good++ ? "," : "", list[i].name);
+    }
     free(list);
     cJSON *fields = cJSON_CreateObject();
-    cJSON_AddNumberToObject(fields, "assignments", (double)n);
+    cJSON_AddNumberToObject(fields, "assignments", (double)good);
     cJSON_AddStringToObject(fields, "dir", dir);
     cJSON_AddStringToObject(fields, "names", names);
     rd_log_event(log, "info", when, fields);

@@ -691,13 +691,14 @@ static int start_mhd(rd_server *s, const rd_listen_addr *la)
     /* Behind trusted proxies every connection comes from a proxy: the
      * limit counts real clients instead (access.h). */
     unsigned per_ip = rd_access_trusts_proxies(s->access) ? 0 : opt->max_per_ip;
-    s->mhd = MHD_start_daemon(flags, opt->port, NULL, NULL, on_request, s, MHD_OPTION_SOCK_ADDR,
-                              (const struct sockaddr *)&la->addr, MHD_OPTION_THREAD_POOL_SIZE,
+    /* The logger first, so that the options after it log through it. */
+    s->mhd = MHD_start_daemon(flags, opt->port, NULL, NULL, on_request, s, MHD_OPTION_EXTERNAL_LOGGER, mhd_log, s,
+                              MHD_OPTION_SOCK_ADDR, (const struct sockaddr *)&la->addr, MHD_OPTION_THREAD_POOL_SIZE,
                               (unsigned)(opt->http_threads < 2 ? 2 : opt->http_threads), MHD_OPTION_CONNECTION_LIMIT,
                               opt->max_connections, MHD_OPTION_PER_IP_CONNECTION_LIMIT, per_ip,
                               MHD_OPTION_CONNECTION_TIMEOUT, opt->connection_timeout_s, MHD_OPTION_URI_LOG_CALLBACK,
                               on_uri, s, MHD_OPTION_NOTIFY_CONNECTION, on_connection, s, MHD_OPTION_NOTIFY_COMPLETED,
-                              on_completed, s, MHD_OPTION_EXTERNAL_LOGGER, mhd_log, s, MHD_OPTION_END);
+                              on_completed, s, MHD_OPTION_END);
     return s->mhd != NULL;
 }
 

@@ -454,14 +454,25 @@ static cJSON *assignment_json(const rd_assignment *a, int *f)
     cJSON *o = cJSON_CreateObject();
     rd_json_add(o, "name", cJSON_CreateString(a->name), f);
     rd_json_add(o, "title", cJSON_CreateString(a->title), f);
+    if (a->error[0]) {
+        rd_json_add(o, "error", cJSON_CreateString(a->error), f);
+        return o;
+    }
     rd_scene s;
     rd_scene_init(&s);
-    rd_error e2;
-    if (rd_scene_load_file(a->scene_path, NULL, &s, &e2) == RD_OK) {
-        rd_json_add(o, "width", cJSON_CreateNumber(s.render.width), f);
-        rd_json_add(o, "height", cJSON_CreateNumber(s.render.height), f);
-    }
+    rd_error e2 = {0};
+    char name[80];
+    snprintf(name, sizeof name, "%s.cfg", a->name);
+    rd_error_code rc = rd_scene_load_file_named(a->scene_path, name, NULL, &s, &e2);
+    int width = s.render.width, height = s.render.height;
     rd_scene_free(&s);
+    /* A scene that does not parse cannot be graded: said as for a .grade. */
+    if (rc) {
+        rd_json_add(o, "error", cJSON_CreateString(e2.message), f);
+        return o;
+    }
+    rd_json_add(o, "width", cJSON_CreateNumber(width), f);
+    rd_json_add(o, "height", cJSON_CreateNumber(height), f);
     cJSON *t = rd_json_add(o, "thresholds", cJSON_CreateObject(), f);
     rd_json_add(t, "fail", cJSON_CreateNumber(a->thresholds.fail), f);
     rd_json_add(t, "fail_fraction", cJSON_CreateNumber(a->thresholds.fail_fraction), f);

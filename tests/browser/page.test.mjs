@@ -107,8 +107,13 @@ before(async () => {
   const portFile = path.join(tmp, "port");
   daemonLog = path.join(tmp, "rayd-serve.log");
   const logFd = fs.openSync(daemonLog, "w");
+  // The course's assignments and one whose .grade file is broken.
+  const assignments = path.join(tmp, "assignments");
+  fs.cpSync(path.join(ROOT, "scenes/assignments"), assignments, { recursive: true });
+  fs.copyFileSync(path.join(ROOT, "scenes/assignments/phong.cfg"), path.join(assignments, "zz_broken.cfg"));
+  fs.writeFileSync(path.join(assignments, "zz_broken.grade"), "fail = banana\n");
   daemon = spawn(RAYD, ["serve", "--listen", "127.0.0.1:0", "--port-file", portFile,
-    "--scenes", "scenes", "--assignments", "scenes/assignments"],
+    "--scenes", "scenes", "--assignments", assignments],
   { cwd: ROOT, stdio: ["ignore", "ignore", logFd] });
   fs.closeSync(logFd);
   const t0 = Date.now();
@@ -563,6 +568,26 @@ test("(e) at phone width (375×740) the panels stack and nothing scrolls sideway
 // ---- faults the page once had ---------------------------------------------
 // Each test below found a real fault of daemon/http/web/index.html; they now
 // guard the fixes.
+
+test("(f) a broken .grade file is listed greyed out with its error; the other assignments work", {
+  timeout: TEST_MS,
+}, async () => {
+  const { context, page } = await openPage();
+  try {
+    const broken = page.locator("#assignment-pick option[value='zz_broken']");
+    assert.equal(await broken.count(), 1, "the broken assignment is not listed");
+    assert.equal(await broken.isDisabled(), true, "the broken assignment can be picked");
+    const text = await broken.textContent();
+    assert.match(text, /zz_broken\.grade:1:8: fail: expected a number/, text);
+    assert.doesNotMatch(text, /\/tmp\//, "the page shows a server path");
+    assert.notEqual(await page.inputValue("#assignment-pick"), "zz_broken");
+    await page.selectOption("#assignment-pick", "phong");
+    assert.match(await page.textContent("#assignment-info"), /Render it at 320×240/);
+    await shot(page, "f-broken-assignment", false);
+  } finally {
+    await context.close();
+  }
+});
 
 test("(regression) before the first render the Image panel shows no empty image box", {
   timeout: TEST_MS,

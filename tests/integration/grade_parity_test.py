@@ -170,6 +170,19 @@ def main():
             if "--scene" in cli_args:
                 cli_message = cli_message.replace(cli_args[cli_args.index("--scene") + 1], "<upload>")
             check(cli_message == message, "%s: messages differ:\n  cli  %s\n  http %s" % (name, cli_message, message))
+            check(tmp not in message, "%s: the answer shows the server's folder: %s" % (name, message))
+        # A broken assignment hides nothing but itself: listed with its
+        # error (file names only), the others as always.
+        with urllib.request.urlopen("http://127.0.0.1:%d/v1/assignments" % port, timeout=30) as r:
+            listed = {a["name"]: a for a in json.loads(r.read())["assignments"]}
+        check(set(listed) >= {"badgrade", "badscene", "phong", "diffuse"}, "assignments listed: %s" % sorted(listed))
+        bad = listed.get("badgrade", {})
+        check(bad.get("error", "").startswith("badgrade.grade:2:8: ") and "thresholds" not in bad,
+              "the broken .grade file is listed with its error: %r" % bad)
+        check("error" in listed.get("badscene", {}), "the broken scene is listed with its error")
+        check("error" not in listed.get("phong", {}) and "thresholds" in listed.get("phong", {}),
+              "the working assignments are listed as always")
+        check(all(tmp not in json.dumps(a) for a in listed.values()), "no listed error shows the server's folder")
         # The daemon keeps references: the second grade of an assignment does not render.
         status, answer = post_grade(port, {"assignment": b"phong", "image": good})
         check(status == 200 and answer.get("reference_cached") is True,
