@@ -121,9 +121,11 @@ rd_error_code rd_assignment_load(const char *dir, const char *name, rd_assignmen
     if (rd_path_inside(dir, file, real, err) != RD_OK)
         return rd_error_set(err, RD_ERR_IO, 0, 0, "%s: leads outside the assignments folder", file);
     rd_error_code rc = rd_read_file(gpath, 65536, "(grade files are at most 64 KiB)", &text, &len, err);
-    if (rc)
+    if (rc && rc != RD_ERR_NOMEM)
         return rd_error_set(err, rc, 0, 0, "%s: cannot be read%s", file,
                             rc == RD_ERR_LIMIT ? " (grade files are at most 64 KiB)" : "");
+    if (rc)
+        return rc;
     rc = parse_grade(file, text, a, err);
     free(text);
     return rc;
