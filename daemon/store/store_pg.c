@@ -429,27 +429,39 @@ static void pg_info_row(const PGresult *r, rd_store_job_info *o)
     o->exr_bytes = (size_t)pg_int(r, 0, 20);
 }
 
-static rd_error_code pg_get(rd_store *s, const char *id, rd_store_job_info *out, rd_error *err)
+/* The one row sql gives for job id ($1), in text or binary; RD_ERR_NOT_FOUND
+ * when there is no such job. *r is the caller's to PQclear. */
+static rd_error_code pg_job_row(pg_store *p, const char *id, const char *sql, int binary, PGresult **r, rd_error *err)
 {
-    pg_store *p = pg(s);
     pg_params pp = id_params(id);
     rd_error_code c = pg_ready(p, err);
     if (c)
         return c;
-    PGresult *r = pg_run(p,
-                         "SELECT id, status, format, hdr, width, height, memory_bytes, submitted_ms, started_ms, "
-                         "finished_ms, error_code, error_line, error_column, error_message, stats, tiles_total, "
-                         "tiles_done, pass, passes, "
-                         "(SELECT octet_length(data) FROM results WHERE job_id = jobs.id AND kind = 'png'), "
-                         "(SELECT octet_length(data) FROM results WHERE job_id = jobs.id AND kind = 'exr') "
-                         "FROM jobs WHERE id = $1",
-                         &pp, 0, err);
-    if (!r)
+    *r = pg_run(p, sql, &pp, binary, err);
+    if (!*r)
         return err ? err->code : RD_ERR_IO;
-    if (PQntuples(r) == 0) {
-        PQclear(r);
+    if (PQntuples(*r) == 0) {
+        PQclear(*r);
         return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no job %s", id);
     }
+    return RD_OK;
+}
+
+static rd_error_code pg_get(rd_store *s, const char *id, rd_store_job_info *out, rd_error *err)
+{
+    pg_store *p = pg(s);
+    PGresult *r;
+    rd_error_code c =
+        pg_job_row(p, id,
+                   "SELECT id, status, format, hdr, width, height, memory_bytes, submitted_ms, started_ms, "
+                   "finished_ms, error_code, error_line, error_column, error_message, stats, tiles_total, "
+                   "tiles_done, pass, passes, "
+                   "(SELECT octet_length(data) FROM results WHERE job_id = jobs.id AND kind = 'png'), "
+                   "(SELECT octet_length(data) FROM results WHERE job_id = jobs.id AND kind = 'exr') "
+                   "FROM jobs WHERE id = $1",
+                   0, &r, err);
+    if (c)
+        return c;
     rd_store_job_info o;
     pg_info_row(r, &o);
     if (!PQgetisnull(r, 0, 14) && !(o.stats = rd_store_dup(pg_text(r, 0, 14), strlen(pg_text(r, 0, 14)))))
@@ -463,20 +475,13 @@ static rd_error_code pg_get(rd_store *s, const char *id, rd_store_job_info *out,
 static rd_error_code pg_input(rd_store *s, const char *id, rd_store_job_input *out, rd_error *err)
 {
     pg_store *p = pg(s);
-    pg_params pp = id_params(id);
-    rd_error_code c = pg_ready(p, err);
+    PGresult *r;
+    rd_error_code c = pg_job_row(p, id,
+                                 "SELECT scene, format, query, hdr, width, height, memory_bytes, submitted_ms "
+                                 "FROM jobs WHERE id = $1",
+                                 1, &r, err);
     if (c)
         return c;
-    PGresult *r = pg_run(p,
-                         "SELECT scene, format, query, hdr, width, height, memory_bytes, submitted_ms "
-                         "FROM jobs WHERE id = $1",
-                         &pp, 1, err);
-    if (!r)
-        return err ? err->code : RD_ERR_IO;
-    if (PQntuples(r) == 0) {
-        PQclear(r);
-        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no job %s", id);
-    }
     rd_store_job_input in;
     memset(&in, 0, sizeof in);
     in.scene_len = (size_t)PQgetlength(r, 0, 0);

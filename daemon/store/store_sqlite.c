@@ -437,6 +437,20 @@ static rd_error_code sq_image(rd_store *s, const char *id, rd_store_image_kind k
     return r < 0 ? (rd_error_code)-r : c;
 }
 
+/* Room for entry k of a list read row by row, doubling it when full. */
+static rd_error_code room_for(size_t k, size_t *cap, void **list, size_t size, const char *what, rd_error *err)
+{
+    if (k < *cap)
+        return RD_OK;
+    size_t nc = *cap ? 2 * *cap : 16;
+    void *more = realloc(*list, nc * size);
+    if (!more)
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no memory for %s", what);
+    *list = more;
+    *cap = nc;
+    return RD_OK;
+}
+
 static rd_error_code sq_list(rd_store *s, unsigned mask, size_t max, rd_store_job_brief **out, size_t *n, rd_error *err)
 {
     sq_store *q = sq(s);
@@ -453,14 +467,8 @@ static rd_error_code sq_list(rd_store *s, unsigned mask, size_t max, rd_store_jo
     size_t k = 0, cap = 0;
     int r = 0;
     while (!c && (r = sq_step(q, st, err)) == 1) {
-        if (k == cap) {
-            rd_store_job_brief *more = realloc(list, (cap = cap ? 2 * cap : 16) * sizeof *list);
-            if (!more) {
-                c = rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no memory for a job list");
-                break;
-            }
-            list = more;
-        }
+        if ((c = room_for(k, &cap, (void **)&list, sizeof *list, "a job list", err)))
+            break;
         snprintf(list[k].id, sizeof list[k].id, "%s", col_text(st, 0));
         list[k].status = (rd_store_status)rd_store_status_parse(col_text(st, 1));
         list[k++].submitted_ms = sqlite3_column_int64(st, 2);
@@ -696,14 +704,8 @@ static rd_error_code sq_tiles_get(rd_store *s, const char *id, int index, rd_sto
     size_t k = 0, cap = 0;
     int r = 0;
     while (!c && (r = sq_step(q, st, err)) == 1) {
-        if (k == cap) {
-            rd_store_tile_data *more = realloc(list, (cap = cap ? 2 * cap : 64) * sizeof *list);
-            if (!more) {
-                c = rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no memory for tiles");
-                break;
-            }
-            list = more;
-        }
+        if ((c = room_for(k, &cap, (void **)&list, sizeof *list, "tiles", err)))
+            break;
         if (!(c = sq_tile_row(st, &list[k], err)))
             k++;
     }
