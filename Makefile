@@ -115,9 +115,12 @@ $(BUILD)/gen/migrations.c: $(MIGRATIONS) daemon/store/embed_sql.py daemon/embed.
 $(BUILD)/gen/migrations.o: $(BUILD)/gen/migrations.c daemon/store/migrations.h
 	@$(CC) $(INC_daemon_store) $(CFLAGS) -c $< -o $@
 
-# The version: a release tarball's VERSION file, else `git describe`. The
+# The version: a release tarball's VERSION file, else `git describe` of a
+# v* tag, else (a clone without tags) the release below and the commit. The
 # stamp changes only with the string, so a new commit rebuilds one object.
-VERSION := $(shell cat VERSION 2>/dev/null || git describe --tags --always --dirty 2>/dev/null || echo unknown)
+RELEASE := 0.1.0
+VERSION := $(shell cat VERSION 2>/dev/null || git describe --tags --match 'v[0-9]*' --dirty 2>/dev/null || \
+	{ h=$$(git rev-parse --short HEAD 2>/dev/null) && echo "$(RELEASE)-g$$h"; } || echo $(RELEASE))
 VERSION := $(patsubst v%,%,$(VERSION))
 $(BUILD)/gen/version.stamp: FORCE
 	@mkdir -p $(dir $@)
