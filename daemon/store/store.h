@@ -125,6 +125,11 @@ typedef struct {
     int64_t memory_bytes; /* its estimated footprint; 0 unknown */
     int64_t submitted_ms; /* orders the queue */
     int tiles, passes;    /* > 0: its tiles are made in the same transaction (rd_store_tiles_init) */
+    /* Passes after the first become claimable only once rd_store_pass_open
+     * opens them (whoever completes a pass decides whether and how the next
+     * runs); 0: each pass opens as the one before completes. */
+    int gated;
+    const char *schedule; /* the job's schedule text (rd_store_pass_open); NULL: none */
 } rd_store_job_spec;
 
 /* Commits a new job, queued: once this returns RD_OK the job survives the
@@ -145,6 +150,9 @@ typedef struct {
     int tiles_total, tiles_done;                   /* tiles_done: of the pass in progress */
     int pass, passes;                              /* passes completed, of passes */
     size_t png_bytes, exr_bytes;                   /* 0: no such image */
+    int gated;                                     /* as submitted */
+    int open_pass;                                 /* gated: passes opened (1 at the start) */
+    char *schedule;                                /* malloc'ed text; NULL when none */
 } rd_store_job_info;
 
 rd_error_code rd_store_job_get(rd_store *s, const char *id, rd_store_job_info *out, rd_error *err);
@@ -267,6 +275,14 @@ typedef enum {
  * job has ended. */
 rd_error_code rd_store_tile_done(rd_store *s, const char *daemon, const rd_store_tile *t, const void *data, size_t len,
                                  rd_store_tile_outcome *outcome, rd_error *err);
+
+/* Opens pass (>= 1) of a gated job, whose pass before has just completed
+ * (its tile_done said PASS_DONE), and replaces the job's schedule text
+ * (NULL keeps it; at most limits.text_bytes). Exactly one call opens a
+ * pass: RD_ERR_INVALID when pass is not the job's next one (not completed
+ * yet, or opened already) or the job is not gated, RD_ERR_CANCELLED when
+ * it has ended. Wakes waiting handles (TILES). */
+rd_error_code rd_store_pass_open(rd_store *s, const char *id, int pass, const char *schedule, rd_error *err);
 
 typedef struct {
     int index;

@@ -122,6 +122,45 @@ void rd_job_tile_rgb8(const rd_job *j, int t, uint8_t *out);
  * contribute 0. */
 double rd_job_error_estimate(const rd_job *j);
 
+/* A tile's pixels as bytes, so that another process holding a job of the
+ * same scene and options goes on rendering it or assembles the image (a
+ * render farm, a job resumed after a crash). The layout is the core's
+ * per-pixel arrays in this machine's byte order: the same build on the same
+ * architecture reads it. rd_job_tile_state_bytes is the exact size;
+ * rd_job_tile_state_save writes it to out; rd_job_tile_state_load replaces
+ * the tile's pixels with it, after checking it (RD_ERR_INVALID for a wrong
+ * size, a non-finite or negative value, counts that disagree): bytes from a
+ * store are read as hostile. */
+size_t rd_job_tile_state_bytes(const rd_job *j, int t);
+void rd_job_tile_state_save(const rd_job *j, int t, void *out);
+rd_error_code rd_job_tile_state_load(rd_job *j, int t, const void *in, size_t len, rd_error *err);
+
+/* Where the schedule of passes stands, so that the process that ends a
+ * pass tells the others how the next one runs. */
+typedef struct {
+    int pass;           /* the pass in progress, 0-based */
+    int pass_samples;   /* its samples per pixel */
+    double mean_weight; /* adaptive: mean of w_i at its start (rd_job_render_tile) */
+    int spp, passes_done;
+    double error;
+    double last_pass_ms;
+    rd_stop_reason stopped_by;
+    rd_curve_point curve[RD_CURVE_MAX];
+    int curve_len;
+} rd_job_schedule;
+
+void rd_job_schedule_get(const rd_job *j, rd_job_schedule *out);
+
+/* Puts the job where sc says (RD_ERR_INVALID for values out of range: a
+ * negative pass, samples < 1, more passes done than pass, a curve longer
+ * than RD_CURVE_MAX, a non-finite number). Tiles rendered after it render
+ * pass sc->pass. */
+rd_error_code rd_job_schedule_set(rd_job *j, const rd_job_schedule *sc, rd_error *err);
+
+/* rd_job_end_pass with the caller's clock: elapsed_ms since the render
+ * began, pass_ms the pass just ended took (several processes rendered it). */
+int rd_job_end_pass_at(rd_job *j, double elapsed_ms, double pass_ms);
+
 /* Time the plan took to build, BVH figures, memory: for statistics, as
  * soon as the job exists. */
 void rd_job_plan_stats(const rd_job *j, rd_render_stats *st);
