@@ -49,7 +49,7 @@ def main():
     tmp = tempfile.mkdtemp(prefix="rayd-memflood-")
     port_file = os.path.join(tmp, "port")
     cmd = [a.binary, "serve", "--listen", "127.0.0.1:0", "--port-file", port_file, "--scenes", "scenes",
-           "--queue", str(a.jobs), "--job-timeout-ms", "0"]
+           "--queue", str(a.jobs), "--job-timeout-ms", "0", "--data-dir", os.path.join(tmp, "var")]
     if a.budget:
         cmd += ["--memory-budget", str(a.budget)]
     log = open(os.path.join(tmp, "log"), "w")

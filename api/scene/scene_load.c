@@ -14,8 +14,7 @@
 #include "json_parse.h"
 #include "utf8.h"
 
-/* RD_FMT_AUTO: JSON when the first non-space byte after a BOM is '{'. */
-static rd_scene_format sniff(const char *text, size_t len)
+rd_scene_format rd_scene_sniff(const char *text, size_t len)
 {
     size_t i = rd_utf8_bom(text, len);
     while (i < len && (text[i] == ' ' || text[i] == '\t' || text[i] == '\r' || text[i] == '\n'))
@@ -27,7 +26,7 @@ rd_error_code rd_scene_parse(const char *text, size_t len, rd_scene_format fmt, 
                              const rd_scene_limits *lim, rd_scene *s, rd_error *err)
 {
     if (fmt == RD_FMT_AUTO)
-        fmt = sniff(text, len);
+        fmt = rd_scene_sniff(text, len);
     if (fmt == RD_FMT_JSON)
         return rd_json_parse(text, len, source, lim, s, err);
     return rd_cfg_parse(text, len, source, lim, s, err);

@@ -12,6 +12,9 @@
  * means JSON, anything else cfg. */
 typedef enum { RD_FMT_AUTO, RD_FMT_CFG, RD_FMT_JSON } rd_scene_format;
 
+/* The format RD_FMT_AUTO reads text as (never RD_FMT_AUTO). */
+rd_scene_format rd_scene_sniff(const char *text, size_t len);
+
 /* Parses text into s (rd_scene_init'ed by the caller, who frees it either
  * way). source names the input in messages. */
 rd_error_code rd_scene_parse(const char *text, size_t len, rd_scene_format fmt, const char *source,

@@ -72,6 +72,19 @@ static const serve_flag flags[] = {
     {"result-ttl", "N", "seconds a finished job stays readable", NULL, K_DOUBLE, A(o.jobs.result_ttl_ms), 0, 1ull << 30,
      1e3},
     {"drain-ms", "N", "on SIGTERM, how long running renders may finish", NULL, K_DOUBLE, A(drain_ms), 0, 1ull << 30, 1},
+    {"data-dir", "DIR",
+     "the job store: POST /v1/jobs is answered once committed here (SQLite, created if missing)", NULL, K_STRING,
+     A(o.data_dir), 0, 0, 0},
+    {"store", "URL",
+     "keep jobs in PostgreSQL instead (postgresql://... or a libpq conninfo): every daemon on one database shares "
+     "the queue and renders big jobs together",
+     "SQLite in --data-dir", K_STRING, A(o.store), 0, 0, 0},
+    {"lease-ms", "N", "a stored job's tile is given to another daemon N ms after its daemon stops renewing", NULL,
+     K_INT, A(o.lease_ms), 100, 86400000, 0},
+    {"daemon-id", "ID", "this daemon's name in the store's leases, unique among daemons sharing a store",
+     "HOSTNAME:PORT", K_STRING, A(o.daemon_id), 0, 0, 0},
+    {"store-tile", "PX", "tile edge of stored jobs: the grain daemons share a job in", NULL, K_INT, A(o.store_tile),
+     8, 256, 0},
     {"png-level", "N", "zlib level 0..9 of answers", NULL, K_INT, A(o.jobs.png.level), 0, 9, 0},
     {"scenes", "DIR", "bundled scenes, and where scenes' files resolve", NULL, K_STRING, A(o.scenes_dir), 0, 0, 0},
     {"assignments", "DIR", "graded assignments", NULL, K_STRING, A(o.assignments_dir), 0, 0, 0},
@@ -338,15 +351,23 @@ static void log_assignments(rd_log *log, const char *dir, const char *when)
     rd_log_event(log, "info", when, fields);
 }
 
-static void log_listening(rd_log *log, const serve_args *a, unsigned port)
+static void log_listening(rd_log *log, const serve_args *a, const rd_server *srv)
 {
     const rd_server_options *o = &a->o;
+    unsigned port = rd_server_port(srv);
     int v6 = strchr(a->host, ':') != NULL;
-    char url[320], msg[600];
+    char url[320], msg[1200], store[600];
     snprintf(url, sizeof url, "http://%s%s%s:%u/", v6 ? "[" : "", a->host[0] ? a->host : "0.0.0.0", v6 ? "]" : "",
              port);
-    snprintf(msg, sizeof msg, "rayd %s listening on %s (%d render threads, queue %zu, memory budget %zu MiB)",
-             rd_version(), url, o->jobs.workers, o->jobs.queue_length, o->jobs.memory_budget >> 20);
+    /* A PostgreSQL URL may hold a password: the log names the engine only. */
+    if (o->store && *o->store)
+        snprintf(store, sizeof store, "postgresql");
+    else
+        snprintf(store, sizeof store, "sqlite in %.500s", o->data_dir);
+    snprintf(msg, sizeof msg,
+             "rayd %s listening on %s (%d render threads, queue %zu, memory budget %zu MiB, jobs stored in %s as %s)",
+             rd_version(), url, o->jobs.workers, o->jobs.queue_length, o->jobs.memory_budget >> 20, store,
+             rd_server_daemon_id(srv));
     cJSON *fields = cJSON_CreateObject();
     cJSON_AddStringToObject(fields, "version", rd_version());
     cJSON_AddStringToObject(fields, "url", url);
@@ -354,6 +375,8 @@ static void log_listening(rd_log *log, const serve_args *a, unsigned port)
     cJSON_AddNumberToObject(fields, "threads", o->jobs.workers);
     cJSON_AddStringToObject(fields, "scenes", o->scenes_dir);
     cJSON_AddStringToObject(fields, "assignments", o->assignments_dir);
+    cJSON_AddStringToObject(fields, "store", store);
+    cJSON_AddStringToObject(fields, "daemon_id", rd_server_daemon_id(srv));
     if (!rd_log_is_json(log)) {
         cJSON_Delete(fields);
         fields = NULL;
@@ -390,7 +413,7 @@ static int serve(serve_args *args, rd_log *log)
         return RD_EXIT_IO;
     }
     unsigned port = rd_server_port(srv);
-    log_listening(log, args, port);
+    log_listening(log, args, srv);
     log_assignments(log, o.assignments_dir, "loaded");
     if (args->port_file && !write_port_file(args->port_file, port)) {
         rd_log_msg(log, "error", "cannot write %s", args->port_file);

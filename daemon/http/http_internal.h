@@ -15,6 +15,8 @@ struct rd_server {
     rd_server_options opt;
     struct MHD_Daemon *mhd;
     rd_jq *jobs;
+    rd_farm *farm; /* the stored jobs; NULL until it has started */
+    char daemon_id[RD_STORE_ID_MAX];
     atomic_int draining;
     uint16_t port;
     struct rd_metrics *metrics; /* what /metrics reports of the HTTP side (metrics.h) */
@@ -49,7 +51,7 @@ typedef struct rd_req {
     int admitted; /* counted against --max-per-ip (access.h) */
     unsigned status;
     size_t bytes;
-    char job_id[24];
+    char job_id[RD_STORE_ID_MAX];
     /* the upload */
     char *body;
     size_t len, cap;
@@ -171,6 +173,11 @@ enum MHD_Result rd_reply_too_large(rd_req *r, const char *what);
 
 /* The 503 of a server that is stopping. */
 enum MHD_Result rd_reply_draining(rd_req *r);
+
+/* The answer to a store's error (store.h): 503 with Retry-After when it
+ * is unreachable or the queue is full, 404 for no such job, else the
+ * error's own 4xx (a 5xx only as 503). */
+enum MHD_Result rd_reply_store_error(rd_req *r, const rd_error *err);
 
 struct rd_grades *rd_grades_new(rd_jq *jobs, const rd_server_options *opt);
 void rd_grades_free(struct rd_grades *g);

@@ -221,7 +221,7 @@ static void add_cors(rd_req *r, struct MHD_Response *resp)
         return;
     MHD_add_response_header(resp, "Access-Control-Allow-Origin", origin);
     MHD_add_response_header(resp, "Access-Control-Expose-Headers",
-                            "X-Request-Id, X-Rayd-Job, X-Rayd-Render-Ms, X-Rayd-Samples, X-Rayd-Passes, "
+                            "X-Request-Id, X-Rayd-Job, X-Rayd-Daemon, X-Rayd-Render-Ms, X-Rayd-Samples, X-Rayd-Passes, "
                             "X-Rayd-Error-Estimate, X-Rayd-Stopped-By, Retry-After, ETag");
     if (strcmp(origin, "*") != 0)
         MHD_add_response_header(resp, MHD_HTTP_HEADER_VARY, "Origin");
@@ -249,6 +249,9 @@ enum MHD_Result rd_reply_with(rd_req *r, unsigned status, const char *type, void
         MHD_add_response_header(resp, "X-Rayd-Job", r->job_id);
     if (r->request_id[0])
         MHD_add_response_header(resp, "X-Request-Id", r->request_id);
+    /* Which daemon answered, behind a load balancer. */
+    if (r->srv->daemon_id[0])
+        MHD_add_response_header(resp, "X-Rayd-Daemon", r->srv->daemon_id);
     add_cors(r, resp);
     for (int i = 0; headers && headers[i] && headers[i + 1]; i += 2)
         MHD_add_response_header(resp, headers[i], headers[i + 1]);
@@ -365,6 +368,22 @@ enum MHD_Result rd_reply_too_large(rd_req *r, const char *what)
 enum MHD_Result rd_reply_draining(rd_req *r)
 {
     return rd_reply_error_hdr(r, 503, "draining", "the server is shutting down", "Retry-After", "5");
+}
+
+enum MHD_Result rd_reply_store_error(rd_req *r, const rd_error *err)
+{
+    switch (err->code) {
+    case RD_ERR_IO:
+        return rd_reply_error_hdr(r, 503, "store_unavailable", "the job store is unreachable; try again shortly",
+                                  "Retry-After", "5");
+    case RD_ERR_BUSY: return rd_reply_error_hdr(r, 503, "queue_full", err->message, "Retry-After", "1");
+    case RD_ERR_NOT_FOUND:
+        return rd_reply_error(r, 404, "not_found", NULL, "no job with that id (finished jobs expire, see --result-ttl)");
+    default: {
+        rd_error_answer a = rd_error_answer_for(err->code);
+        return rd_reply_error(r, a.http < 500 ? a.http : 503, a.http < 500 ? a.code : "unavailable", err, NULL);
+    }
+    }
 }
 
 /* Answers a half-closed client on the socket, then resumes its connection
@@ -589,6 +608,9 @@ rd_server_options rd_server_options_default(void)
     o.body_timeout_ms = 60000;
     o.max_query_args = 64;
     o.grade_cache_bytes = 256u << 20;
+    o.data_dir = "var";
+    o.lease_ms = 10000;
+    o.store_tile = 64;
     o.scenes_dir = rd_default_scenes_dir();
     o.assignments_dir = rd_default_assignments_dir();
     return o;
@@ -603,8 +625,12 @@ static void free_server(rd_server *s)
         pthread_mutex_unlock(&s->conn_mu);
         pthread_join(s->reaper, NULL);
     }
-    /* Workers may be finishing grades: the queue stops first. */
+    /* The farm's renders count against the queue's budget: they stop
+     * first. Workers may be finishing grades or submissions (which commit
+     * through the farm): the queue stops next, then the farm's store. */
+    rd_farm_stop(s->farm);
     rd_jq_stop(s->jobs);
+    rd_farm_free(s->farm);
     rd_grades_free(s->grades);
     rd_access_free(s->access);
     rd_metrics_free(s->metrics);
@@ -702,6 +728,53 @@ static int start_mhd(rd_server *s, const rd_listen_addr *la)
     return s->mhd != NULL;
 }
 
+/* HOSTNAME:PORT unless --daemon-id names it: unique among daemons that
+ * share a store, and the same again when this one restarts. */
+static void daemon_id_of(rd_server *s)
+{
+    if (s->opt.daemon_id && *s->opt.daemon_id) {
+        snprintf(s->daemon_id, sizeof s->daemon_id, "%s", s->opt.daemon_id);
+        return;
+    }
+    char host[256] = "localhost";
+    if (gethostname(host, sizeof host - 1) != 0)
+        snprintf(host, sizeof host, "localhost");
+    host[sizeof host - 1] = 0;
+    host[strcspn(host, ".")] = 0; /* the short name: ids are at most 63 characters */
+    snprintf(s->daemon_id, sizeof s->daemon_id, "%.48s:%u", host, (unsigned)s->port);
+}
+
+/* Once the port is known (it names the daemon): the store opened, its
+ * migrations applied, the render threads claiming. */
+static rd_error_code start_farm(rd_server *s, rd_error *err)
+{
+    const rd_server_options *o = &s->opt;
+    daemon_id_of(s);
+    rd_farm_options fo = {.store_spec = o->store && *o->store ? o->store : o->data_dir,
+                          .store = rd_store_options_default(),
+                          .daemon_id = s->daemon_id,
+                          .workers = o->jobs.workers,
+                          .lease_ms = o->lease_ms,
+                          .tile = o->store_tile,
+                          .job_timeout_ms = o->jobs.job_timeout_ms,
+                          .result_ttl_ms = o->jobs.result_ttl_ms,
+                          .queue_length = o->jobs.queue_length,
+                          .memory_budget = o->jobs.memory_budget,
+                          .limits = o->limits,
+                          .scenes_dir = o->scenes_dir,
+                          .png = o->jobs.png,
+                          .log = o->log,
+                          .jobs = s->jobs};
+    if (fo.store.limits.scene_bytes < o->max_body_bytes)
+        fo.store.limits.scene_bytes = o->max_body_bytes;
+    rd_error why = {0};
+    s->farm = rd_farm_start(&fo, &why);
+    if (!s->farm)
+        return rd_error_set(err, why.code ? why.code : RD_ERR_IO, 0, 0, "the job store (%s) cannot be used: %s",
+                            o->store && *o->store ? "--store" : "--data-dir", why.message);
+    return RD_OK;
+}
+
 rd_server *rd_server_start(const rd_server_options *opt, rd_error *err)
 {
     rd_listen_addr la;
@@ -733,11 +806,18 @@ rd_server *rd_server_start(const rd_server_options *opt, rd_error *err)
     }
     const union MHD_DaemonInfo *info = MHD_get_daemon_info(s->mhd, MHD_DAEMON_INFO_BIND_PORT);
     s->port = info ? info->port : opt->port;
+    if (start_farm(s, err)) {
+        MHD_stop_daemon(s->mhd);
+        free_server(s);
+        return NULL;
+    }
     atomic_store(&s->ready, 1);
     return s;
 }
 
 uint16_t rd_server_port(const rd_server *s) { return s->port; }
+
+const char *rd_server_daemon_id(const rd_server *s) { return s->daemon_id; }
 
 void rd_server_stop(rd_server *s, double drain_ms)
 {

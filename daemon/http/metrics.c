@@ -189,6 +189,18 @@ static void queue_metrics(rd_strbuf *out, const rd_jq_metrics *m)
     gauge(out, "rayd_jobs_waiting_memory", "Prepared jobs waiting for the memory budget.", m->waiting_memory);
 }
 
+static void farm_metrics(rd_strbuf *out, const rd_farm_metrics *m)
+{
+    counter(out, "rayd_farm_tiles_total", "Tiles of stored jobs this daemon rendered and stored.", m->tiles);
+    counter(out, "rayd_farm_tiles_lost_total",
+            "Tiles rendered here whose lease had passed to another daemon, or whose job had ended.", m->tiles_lost);
+    counter(out, "rayd_farm_passes_total", "Passes of stored jobs this daemon ended.", m->passes);
+    counter(out, "rayd_store_jobs_submitted_total", "Jobs committed to the store through this daemon.", m->submitted);
+    counter(out, "rayd_store_errors_total", "Store calls that found it unreachable.", m->store_errors);
+    gauge(out, "rayd_store_up", "1 when the job store answered the last call, 0 when it did not.",
+          (size_t)m->store_up);
+}
+
 static void http_metrics(rd_strbuf *out, const rd_metrics *m)
 {
     family(out, "rayd_http_responses_total", "counter", "HTTP answers by status class.");
@@ -320,6 +332,14 @@ enum MHD_Result rd_route_metrics(rd_req *r, const char *rest)
     rd_server *srv = r->srv;
     rd_jq_metrics jm;
     rd_jq_metrics_get(srv->jobs, &jm);
+    rd_farm_metrics fm = {0};
+    if (srv->farm)
+        rd_farm_metrics_get(srv->farm, &fm);
+    /* A job ends in the queue (synchronous) or in the store (POST /v1/jobs). */
+    jm.done += fm.done;
+    jm.failed += fm.failed;
+    jm.cancelled += fm.cancelled;
+    jm.rays += fm.rays;
     /* A copy, so that requests completing meanwhile wait for a memcpy, not
      * for the formatting. */
     rd_metrics *copy = malloc(sizeof *copy);
@@ -330,6 +350,7 @@ enum MHD_Result rd_route_metrics(rd_req *r, const char *rest)
     pthread_mutex_unlock(&srv->metrics->mu);
     rd_strbuf out = {0};
     queue_metrics(&out, &jm);
+    farm_metrics(&out, &fm);
     counter(&out, "rayd_http_deadline_closed_total", "Connections closed by the header or body deadline.",
             atomic_load(&srv->deadline_closed));
     counter(&out, "rayd_http_refused_total", "Requests answered 431 before parsing (--max-query-args).",

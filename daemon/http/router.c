@@ -18,7 +18,12 @@ enum MHD_Result rd_route_ready(rd_req *r, const char *rest)
     static const char ok[] = "{\"status\":\"ready\"}\n";
     static const char starting[] = "{\"status\":\"not_ready\",\"reasons\":[\"starting\"]}\n";
     static const char draining[] = "{\"status\":\"not_ready\",\"reasons\":[\"draining\"]}\n";
-    const char *t = atomic_load(&r->srv->draining) ? draining : !atomic_load(&r->srv->ready) ? starting : ok;
+    static const char no_store[] = "{\"status\":\"not_ready\",\"reasons\":[\"store_unreachable\"]}\n";
+    rd_error err = {0};
+    const char *t = atomic_load(&r->srv->draining) ? draining
+                    : !atomic_load(&r->srv->ready) ? starting
+                    : rd_farm_ping(r->srv->farm, &err) ? no_store
+                                                       : ok;
     const char *headers[] = {"Retry-After", "5", NULL};
     return rd_reply_with(r, t == ok ? 200 : 503, "application/json", (void *)t, strlen(t), 0, t == ok ? NULL : headers);
 }

@@ -8,39 +8,30 @@
 #include "http_internal.h"
 #include "scene_open.h"
 
-/* The query's overrides of the scene's render section (http-api.md), read
- * on the HTTP thread (the scene keys' own ranges) and applied once the
- * scene is parsed. 0, or fills err (RD_ERR_SYNTAX) naming the parameter. */
-static int read_overrides(struct MHD_Connection *c, rd_scene_overrides *ov, rd_error *err)
-{
-    memset(ov, 0, sizeof *ov);
-    for (int i = 0; rd_override_names[i]; i++) {
-        const char *v = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, rd_override_names[i]);
-        char what[48];
-        snprintf(what, sizeof what, "query parameter %s", rd_override_names[i]);
-        if (v && rd_override_set(ov, rd_override_names[i], v, what, err))
-            return 1;
-    }
-    return 0;
-}
-
 /* An uploaded scene, parsed and given its assets on a render thread. */
 typedef struct {
     char *body;
     size_t len;
     rd_scene_format fmt;
-    rd_scene_overrides ov;
+    rd_job_params params;
     const rd_server_options *opt;
+    rd_farm *farm;               /* an asynchronous submission: committed to the store once read */
+    char id[RD_STORE_ID_MAX];    /* the stored job's, once committed */
 } render_task;
 
 static rd_error_code prepare_render(void *arg, rd_scene *s, int *render, rd_error *err)
 {
-    (void)render;
     render_task *t = arg;
     rd_scene_source src = {
         .text = t->body, .len = t->len, .source = "<upload>", .format = t->fmt, .assets_dir = t->opt->scenes_dir};
     rd_warnings w = {0, ""};
-    rd_error_code rc = rd_scene_open(&src, &t->ov, &t->opt->limits, s, &w, err);
+    rd_error_code rc = rd_scene_open(&src, &t->params.ov, &t->opt->limits, s, &w, err);
+    if (!rc && t->farm) {
+        /* Rendered by the farm, from the text as sent: nothing for the queue to render. */
+        rd_scene_format f = t->fmt == RD_FMT_AUTO ? rd_scene_sniff(t->body, t->len) : t->fmt;
+        rc = rd_farm_submit(t->farm, t->body, t->len, f == RD_FMT_JSON ? "json" : "cfg", &t->params, s, t->id, err);
+        *render = 0;
+    }
     free(t->body);
     t->body = NULL;
     return rc;
@@ -53,37 +44,6 @@ static void free_render(void *arg)
         free(t->body);
         free(t);
     }
-}
-
-/* time_budget_ms, target_error and adaptive from the query. */
-static int progress_params(struct MHD_Connection *c, rd_progress_settings *p, rd_error *err)
-{
-    memset(p, 0, sizeof *p);
-    static const char *const names[] = {"time_budget_ms", "target_error"};
-    double *dst[] = {&p->time_budget_ms, &p->target_error};
-    for (int i = 0; i < 2; i++) {
-        const char *v = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, names[i]);
-        if (!v)
-            continue;
-        char *end;
-        double x = strtod(v, &end);
-        if (!*v || *end || !(x > 0) || !(x < 1e15)) {
-            rd_error_set(err, RD_ERR_SYNTAX, 0, 0, "query parameter %s: expected a number > 0, got '%.40s'", names[i],
-                         v);
-            return 1;
-        }
-        *dst[i] = x;
-    }
-    const char *a = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "adaptive");
-    if (a) {
-        if (strcmp(a, "1") == 0 || strcmp(a, "true") == 0)
-            p->adaptive = 1;
-        else if (strcmp(a, "0") != 0 && strcmp(a, "false") != 0) {
-            rd_error_set(err, RD_ERR_SYNTAX, 0, 0, "query parameter adaptive: expected 0 or 1, got '%.40s'", a);
-            return 1;
-        }
-    }
-    return 0;
 }
 
 /* Whether the Accept header names image/x-exr (q-values are not weighed:
@@ -102,19 +62,21 @@ static int accepts_exr(struct MHD_Connection *c)
     return 0;
 }
 
-/* hdr=1 in the query, or Accept: image/x-exr: keep the job's EXR. */
-static int hdr_param(struct MHD_Connection *c, int *hdr, rd_error *err)
+/* The query's parameters (http-api.md), read on the HTTP thread (each
+ * with its own range) and applied once the scene is parsed; Accept:
+ * image/x-exr asks for the EXR as hdr=1 does. 0, or fills err
+ * (RD_ERR_SYNTAX) naming the parameter. */
+static int read_params(struct MHD_Connection *c, rd_job_params *p, rd_error *err)
 {
-    const char *v = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, "hdr");
-    *hdr = accepts_exr(c);
-    if (!v)
-        return 0;
-    if (strcmp(v, "1") == 0 || strcmp(v, "true") == 0)
-        *hdr = 1;
-    else if (strcmp(v, "0") != 0 && strcmp(v, "false") != 0) {
-        rd_error_set(err, RD_ERR_SYNTAX, 0, 0, "query parameter hdr: expected 0 or 1, got '%.40s'", v);
-        return 1;
+    rd_job_params_init(p);
+    for (int i = 0; rd_job_param_name(i); i++) {
+        const char *name = rd_job_param_name(i);
+        const char *v = MHD_lookup_connection_value(c, MHD_GET_ARGUMENT_KIND, name);
+        if (v && rd_job_params_set(p, name, v, err))
+            return 1;
     }
+    if (accepts_exr(c) && !p->hdr && rd_job_params_set(p, "hdr", "1", err))
+        return 1;
     return 0;
 }
 
@@ -212,21 +174,52 @@ static enum MHD_Result render(rd_req *r, int async)
     else if (ct && (strncasecmp(ct, "text/plain", 10) == 0 || strncasecmp(ct, "text/x-rayd-cfg", 15) == 0))
         t->fmt = RD_FMT_CFG;
     t->opt = &srv->opt;
-    if (progress_params(r->conn, &so.progress, &err) || read_overrides(r->conn, &t->ov, &err) ||
-        hdr_param(r->conn, &so.hdr, &err)) {
+    if (read_params(r->conn, &t->params, &err)) {
         free(t);
         return rd_reply_error(r, 400, "parse_error", &err, NULL);
     }
+    so.progress = t->params.progress;
+    so.hdr = t->params.hdr;
     t->body = r->body;
     t->len = r->len;
     r->body = NULL;
-    rd_jq_task task = {prepare_render, NULL, free_render, t, t->len};
     /* Both wait on the connection: an asynchronous submission until its
-     * scene is read (so a bad one still gets its 4xx), a synchronous one
-     * until its image is ready. */
-    so.notify_prepared = async;
+     * scene is read and the job committed (so a bad one still gets its 4xx,
+     * and 202 means it survives a crash), a synchronous one until its image
+     * is ready. */
+    if (async) {
+        t->farm = srv->farm;
+        so.internal = 1;
+    }
+    rd_jq_task task = {prepare_render, NULL, free_render, t, t->len};
     r->async = async;
     return rd_req_submit(r, &task, &so);
+}
+
+static enum MHD_Result reply_ended(rd_req *r, const rd_jq_info *info);
+
+/* The answer to POST /v1/jobs once its task has ended: 202 with the
+ * stored job, or why it was not stored. */
+static enum MHD_Result reply_submitted(rd_req *r, const rd_jq_info *info)
+{
+    rd_server *srv = r->srv;
+    render_task *t = rd_jq_task_arg(r->job);
+    rd_error err = info->error;
+    char *text = NULL;
+    rd_error_code rc = RD_OK;
+    if (info->status == RD_JQ_CANCELLED)
+        return reply_ended(r, info);
+    if (info->status == RD_JQ_DONE)
+        rc = rd_farm_job_json(srv->farm, t->id, &text, NULL, &err);
+    else if (err.code != RD_ERR_IO && err.code != RD_ERR_BUSY)
+        return reply_ended(r, info);
+    if (info->status != RD_JQ_DONE || rc)
+        return rd_reply_store_error(r, &err);
+    char loc[16 + RD_STORE_ID_MAX];
+    snprintf(loc, sizeof loc, "/v1/jobs/%s", t->id);
+    snprintf(r->job_id, sizeof r->job_id, "%s", t->id);
+    const char *headers[] = {MHD_HTTP_HEADER_LOCATION, loc, NULL};
+    return rd_reply_with(r, 202, "application/json", text, strlen(text), 1, headers);
 }
 
 /* The answer for a job that failed or was cancelled. */
@@ -244,32 +237,15 @@ static enum MHD_Result reply_ended(rd_req *r, const rd_jq_info *info)
                               "Retry-After", "5");
 }
 
-/* The 202 of an asynchronous submission whose scene was read; the job
- * goes on without this connection. */
-static enum MHD_Result reply_accepted(rd_req *r, const rd_jq_info *info)
-{
-    rd_server *srv = r->srv;
-    char loc[64];
-    snprintf(loc, sizeof loc, "/v1/jobs/%s", info->id);
-    char *text = job_json(info);
-    rd_jq_detach(srv->jobs, r->job);
-    rd_jq_job_unref(r->job);
-    r->job = NULL;
-    if (!text)
-        return MHD_NO;
-    const char *headers[] = {MHD_HTTP_HEADER_LOCATION, loc, NULL};
-    return rd_reply_with(r, 202, "application/json", text, strlen(text), 1, headers);
-}
-
 enum MHD_Result rd_route_render_resumed(rd_req *r)
 {
     rd_server *srv = r->srv;
     rd_jq_info info;
     rd_jq_info_get(srv->jobs, r->job, &info);
+    if (r->async)
+        return reply_submitted(r, &info);
     if (info.status == RD_JQ_FAILED || info.status == RD_JQ_CANCELLED)
         return reply_ended(r, &info);
-    if (r->async)
-        return reply_accepted(r, &info);
     if (info.status != RD_JQ_DONE)
         return rd_reply_error(r, 503, "unavailable", NULL, "the render ended without an image");
     unsigned char *png;
@@ -304,6 +280,8 @@ enum MHD_Result rd_route_render_resumed(rd_req *r)
 typedef struct {
     rd_jq *q;
     rd_jq_job *target; /* held by the snapshot's job (rd_jq_submit_options.hold) */
+    rd_farm *farm;     /* or a stored job's, by id */
+    char id[RD_STORE_ID_MAX];
     unsigned char *png;
     size_t len;
 } partial_task;
@@ -313,6 +291,8 @@ static rd_error_code prepare_partial(void *arg, rd_scene *s, int *render, rd_err
     (void)s;
     partial_task *t = arg;
     *render = 0;
+    if (t->farm)
+        return rd_farm_partial_png(t->farm, t->id, &t->png, &t->len, err);
     return rd_jq_png(t->q, t->target, 1, &t->png, &t->len, err);
 }
 
@@ -325,17 +305,22 @@ static void free_partial(void *arg)
     }
 }
 
-/* Takes over the caller's reference to job. */
-static enum MHD_Result submit_partial(rd_req *r, rd_jq_job *job)
+/* Takes over the caller's reference to job; job NULL: the stored job id. */
+static enum MHD_Result submit_partial(rd_req *r, rd_jq_job *job, const char *id)
 {
     rd_server *srv = r->srv;
     partial_task *t = calloc(1, sizeof *t);
     if (!t) {
-        rd_jq_job_unref(job);
+        if (job)
+            rd_jq_job_unref(job);
         return rd_reply_error(r, 503, "unavailable", NULL, "out of memory");
     }
     t->q = srv->jobs;
     t->target = job;
+    if (!job) {
+        t->farm = srv->farm;
+        snprintf(t->id, sizeof t->id, "%s", id);
+    }
     rd_jq_task task = {prepare_partial, NULL, free_partial, t, 0};
     rd_jq_submit_options so = {.watch_fd = rd_req_socket(r),
                                .watch_http11 = r->http11,
@@ -364,6 +349,8 @@ enum MHD_Result rd_route_job_image_resumed(rd_req *r)
         static const char *const no_store[] = {MHD_HTTP_HEADER_CACHE_CONTROL, "no-store", NULL};
         return rd_reply_with(r, 200, "image/png", png, t->len, 1, no_store);
     }
+    if (info.status == RD_JQ_FAILED && info.error.code == RD_ERR_IO)
+        return rd_reply_store_error(r, &info.error);
     if (info.status == RD_JQ_FAILED)
         return rd_reply_error(r, 409, "not_ready", &info.error, NULL);
     if (info.hung_up)
@@ -418,6 +405,66 @@ static enum MHD_Result reply_job_exr(rd_req *r, rd_jq_job *job)
 
 static const char no_job[] = "no job with that id (finished jobs expire, see --result-ttl)";
 
+/* Why a stored job has no image of the kind asked for. */
+static enum MHD_Result stored_no_image(rd_req *r, rd_store_status st, int exr, int hdr, const rd_error *err)
+{
+    if (exr && st == RD_STORE_DONE && !hdr)
+        return rd_reply_error(r, 406, "not_acceptable", NULL,
+                              "this job keeps no EXR: submit it with POST /v1/jobs?hdr=1 to get its image as "
+                              "image/x-exr");
+    if (st == RD_STORE_QUEUED || st == RD_STORE_RUNNING)
+        return rd_reply_error(r, 409, "not_ready", err, NULL);
+    return rd_reply_error(r, 409, "no_image", err, NULL);
+}
+
+static enum MHD_Result stored_image(rd_req *r, const char *id)
+{
+    rd_server *srv = r->srv;
+    int exr = accepts_exr(r->conn), hdr = 0;
+    const char *p = MHD_lookup_connection_value(r->conn, MHD_GET_ARGUMENT_KIND, "partial");
+    int partial = p && strcmp(p, "0") != 0;
+    unsigned char *data;
+    size_t len;
+    rd_store_status st;
+    rd_error err = {0};
+    rd_error_code rc = rd_farm_image(srv->farm, id, exr ? RD_STORE_EXR : RD_STORE_PNG, &data, &len, &st, &hdr, &err);
+    if (rc == RD_ERR_INVALID && partial && !exr && st == RD_STORE_RUNNING)
+        return submit_partial(r, NULL, id);
+    if (rc == RD_ERR_INVALID)
+        return stored_no_image(r, st, exr, hdr, &err);
+    if (rc)
+        return rd_reply_store_error(r, &err);
+    /* A finished job's image never changes under its id. */
+    char tag[40];
+    snprintf(tag, sizeof tag, "%s.%s", id, exr ? "exr" : "png");
+    return rd_reply_immutable(r, exr ? "image/x-exr" : "image/png", data, len, 1, tag,
+                              srv->opt.jobs.result_ttl_ms / 1e3);
+}
+
+/* A job POST /v1/jobs committed: the store answers, whichever daemon
+ * accepted or renders it. */
+static enum MHD_Result stored_job(rd_req *r, const char *id, const char *rest)
+{
+    rd_server *srv = r->srv;
+    rd_error err = {0};
+    if (!srv->farm)
+        return rd_reply_error_hdr(r, 503, "starting", "the server is starting", "Retry-After", "1");
+    /* Ids are 16 hex digits (farm.h): anything else was never one. */
+    if (strlen(id) != 16 || strspn(id, "0123456789abcdef") != 16)
+        return rd_reply_error(r, 404, "not_found", NULL, no_job);
+    snprintf(r->job_id, sizeof r->job_id, "%s", id);
+    if (strcmp(rest, "/image") == 0)
+        return stored_image(r, id);
+    if (*rest)
+        return rd_reply_error(r, 404, "not_found", NULL, "no such route");
+    if (strcmp(r->method, "DELETE") == 0 && rd_farm_cancel(srv->farm, id, NULL, &err))
+        return rd_reply_store_error(r, &err);
+    char *text;
+    if (rd_farm_job_json(srv->farm, id, &text, NULL, &err))
+        return rd_reply_store_error(r, &err);
+    return rd_reply_json(r, 200, text);
+}
+
 /* rest: "/{id}" or "/{id}/image". */
 enum MHD_Result rd_route_job(rd_req *r, const char *path)
 {
@@ -432,7 +479,7 @@ enum MHD_Result rd_route_job(rd_req *r, const char *path)
     rd_server *srv = r->srv;
     rd_jq_job *job = rd_jq_find(srv->jobs, id);
     if (!job)
-        return rd_reply_error(r, 404, "not_found", NULL, no_job);
+        return stored_job(r, id, rest);
     snprintf(r->job_id, sizeof r->job_id, "%s", id);
     enum MHD_Result ret;
     if (strcmp(r->method, "DELETE") == 0 && !*rest) {
@@ -452,7 +499,7 @@ enum MHD_Result rd_route_job(rd_req *r, const char *path)
         rd_jq_info now;
         rd_jq_info_get(srv->jobs, job, &now);
         if (partial && now.status == RD_JQ_RUNNING)
-            return submit_partial(r, job);
+            return submit_partial(r, job, NULL);
         unsigned char *png;
         size_t len;
         rd_error err = {0};

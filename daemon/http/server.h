@@ -7,6 +7,7 @@
 #include <stdint.h>
 #include <sys/socket.h>
 
+#include "farm.h"
 #include "job_queue.h"
 #include "scene_limits.h"
 
@@ -31,6 +32,13 @@ typedef struct {
     struct rd_log *log;      /* the daemon's log (log.h); NULL: text on stderr */
     const char *trust_proxy; /* comma-separated proxy addresses whose X-Forwarded-For is believed */
     const char *cors_origin; /* Access-Control-Allow-Origin; NULL: no CORS headers */
+    /* The job store of POST /v1/jobs (farm.h): SQLite in data_dir, or the
+     * PostgreSQL database store names. */
+    const char *data_dir;
+    const char *store;     /* NULL: SQLite in data_dir */
+    const char *daemon_id; /* NULL: HOSTNAME:PORT */
+    int lease_ms;
+    int store_tile;
 } rd_server_options;
 
 /* A resolved listening address. */
@@ -54,6 +62,9 @@ rd_server *rd_server_start(const rd_server_options *opt, rd_error *err);
 
 /* The port it listens on (useful with port 0). */
 uint16_t rd_server_port(const rd_server *s);
+
+/* Its name in the job store's leases (--daemon-id, or HOSTNAME:PORT). */
+const char *rd_server_daemon_id(const rd_server *s);
 
 /* Graceful stop: refuse new work (503), let running jobs finish for up to
  * drain_ms, cancel the rest, answer every waiting client, stop. */

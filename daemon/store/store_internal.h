@@ -76,7 +76,5 @@ void rd_store_event_parse(const char *payload, rd_store_event *ev);
 /* A malloc'ed copy of len bytes with a NUL after them; NULL on no memory. */
 void *rd_store_dup(const void *data, size_t len);
 
-/* Milliseconds since the Unix epoch, from this machine's clock. */
-int64_t rd_store_wall_ms(void);
 
 #endif

@@ -113,7 +113,7 @@ before(async () => {
   fs.copyFileSync(path.join(ROOT, "scenes/assignments/phong.cfg"), path.join(assignments, "zz_broken.cfg"));
   fs.writeFileSync(path.join(assignments, "zz_broken.grade"), "fail = banana\n");
   daemon = spawn(RAYD, ["serve", "--listen", "127.0.0.1:0", "--port-file", portFile,
-    "--scenes", "scenes", "--assignments", assignments],
+    "--scenes", "scenes", "--assignments", assignments, "--data-dir", path.join(tmp, "var")],
   { cwd: ROOT, stdio: ["ignore", "ignore", logFd] });
   fs.closeSync(logFd);
   const t0 = Date.now();

@@ -425,7 +425,7 @@ class Daemon:
                      "--scenes", os.path.join(ROOT, "scenes"),
                      "--assignments", os.path.join(ROOT, "scenes", "assignments"),
                      "--job-timeout-ms", str(JOB_TIMEOUT_MS), "--drain-ms", str(DRAIN_MS),
-                     "--threads", str(THREADS)]
+                     "--threads", str(THREADS), "--data-dir", os.path.join(workdir, "var")]
         if new_flags:
             self.args += ["--header-timeout-ms", str(HEADER_TIMEOUT_MS), "--body-timeout-ms", str(BODY_TIMEOUT_MS)]
         self.args += ["--connection-timeout", str(CONNECTION_TIMEOUT_S)]

@@ -62,7 +62,8 @@ def start_daemon(tmp, assignments, scenes):
     port_file = os.path.join(tmp, "port")
     log = open(os.path.join(tmp, "daemon.log"), "wb")
     proc = subprocess.Popen([RAYD, "serve", "--listen", "127.0.0.1:0", "--port-file", port_file, "--threads", "2",
-                             "--assignments", assignments, "--scenes", scenes] + LIMITS,
+                             "--assignments", assignments, "--scenes", scenes,
+                             "--data-dir", os.path.join(tmp, "var")] + LIMITS,
                             stdout=log, stderr=log)
     for _ in range(500):
         if os.path.exists(port_file) and open(port_file).read().strip():

@@ -125,6 +125,10 @@ server *start_server_v(const char *const *extra)
         dup2(nul, 0);
         dup2(nul, 1);
         dup2(lf, 2);
+        /* Each daemon its own job store (a --data-dir flag still wins). */
+        char data_dir[300];
+        snprintf(data_dir, sizeof data_dir, "%s/var", dir);
+        setenv("RAYD_DATA_DIR", data_dir, 1);
         execv(argv[0], (char *const *)argv);
         dprintf(2, "exec %s: %s\n", argv[0], strerror(errno));
         _exit(127);

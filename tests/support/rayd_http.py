@@ -46,8 +46,10 @@ class Daemon:
         self.log_path = os.path.join(tmp, "daemon.log")
         self.log = open(self.log_path, "wb")
         cmd = [RAYD, "serve", "--port-file", port_file] + (["--listen", listen] if listen else []) + list(flags)
+        # Each daemon its own job store unless the test names one.
+        base = dict(os.environ, RAYD_DATA_DIR=os.path.join(tmp, "var"))
         self.proc = subprocess.Popen(cmd, stdout=self.log, stderr=self.log, stdin=subprocess.DEVNULL,
-                                     env=dict(os.environ, **(env or {})))
+                                     env=dict(base, **(env or {})))
         for _ in range(1000):
             if os.path.exists(port_file) and open(port_file).read().strip():
                 self.port = int(open(port_file).read())

@@ -1,0 +1,343 @@
+#include "farm.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "farm_internal.h"
+#include "hash.h"
+#include "hdr_write.h"
+#include "rayd/clock.h"
+
+/* How long a render thread waits before it tries the store again after
+ * finding it unreachable, and at most between claims when no event wakes
+ * it (events can be lost while a connection is down). */
+enum { RETRY_MS = 500, IDLE_MS = 2000 };
+
+void farm_store_result(rd_farm *f, rd_error_code rc)
+{
+    if (rc == RD_ERR_IO) {
+        atomic_fetch_add(&f->store_errors, 1);
+        if (atomic_exchange(&f->store_up, 0))
+            rd_log_msg(f->opt.log, "warning", "the job store is unreachable; retrying");
+    } else if (!atomic_exchange(&f->store_up, 1)) {
+        rd_log_msg(f->opt.log, "info", "the job store is reachable again");
+    }
+}
+
+static void sleep_ms(int ms)
+{
+    struct timespec ts = {ms / 1000, (long)(ms % 1000) * 1000000L};
+    nanosleep(&ts, NULL);
+}
+
+static int stopping(rd_farm *f)
+{
+    pthread_mutex_lock(&f->mu);
+    int s = f->stopping;
+    pthread_mutex_unlock(&f->mu);
+    return s;
+}
+
+/* Runs call until the store answers (anything but RD_ERR_IO) or the farm
+ * stops: what was rendered is not thrown away for an outage. */
+#define RETRY_IO(f, rc, call)                                                                                          \
+    do {                                                                                                               \
+        (rc) = (call);                                                                                                 \
+        farm_store_result((f), (rc));                                                                                  \
+        if ((rc) != RD_ERR_IO || stopping(f))                                                                          \
+            break;                                                                                                     \
+        sleep_ms(RETRY_MS);                                                                                            \
+    } while (1)
+
+static void wake(rd_farm *f)
+{
+    pthread_mutex_lock(&f->mu);
+    f->wake_seq++;
+    pthread_cond_broadcast(&f->work_cv);
+    pthread_mutex_unlock(&f->mu);
+}
+
+static void fail_job(rd_farm *f, rd_store *h, const char *id, const rd_error *why)
+{
+    rd_error_code rc;
+    rd_error err = {0};
+    RETRY_IO(f, rc, rd_store_job_fail(h, id, why, NULL, &err));
+    if (rc == RD_OK) {
+        atomic_fetch_add(&f->failed, 1);
+        rd_log_msg(f->opt.log, "info", "job %s failed: %s", id, why->message);
+    }
+    farm_ctx_ended(f, id);
+}
+
+/* The image, assembled from every tile (the write lock held). */
+static void finish(rd_farm *f, rd_store *h, farm_ctx *c, int64_t now)
+{
+    int w = rd_job_width(c->core), ht = rd_job_height(c->core);
+    rd_error err = {0};
+    rd_error_code rc = RD_OK;
+    unsigned char *png = NULL, *exr = NULL;
+    size_t png_len = 0, exr_len = 0;
+    char *stats = farm_stats_text(c, now, 1);
+    uint8_t *rgb = malloc((size_t)w * (size_t)ht * 3);
+    if (!rgb || !stats)
+        rc = rd_error_set(&err, RD_ERR_NOMEM, 0, 0, "out of memory assembling a %dx%d image", w, ht);
+    if (!rc) {
+        rd_job_rgb8(c->core, rgb);
+        rc = rd_png_encode(rgb, w, ht, &f->opt.png, &png, &png_len, &err);
+    }
+    free(rgb);
+    if (!rc && c->params.hdr) {
+        rd_image img;
+        rd_job_take_image(c->core, &img);
+        rc = rd_exr_encode(&img, &exr, &exr_len, &err);
+        rd_image_free(&img);
+    }
+    if (rc) {
+        fail_job(f, h, c->id, &err);
+    } else {
+        rd_store_result r = {png, png_len, exr, exr_len, stats};
+        RETRY_IO(f, rc, rd_store_job_finish(h, c->id, &r, &err));
+        if (rc == RD_OK)
+            atomic_fetch_add(&f->done, 1);
+        farm_ctx_ended(f, c->id);
+    }
+    free(png);
+    free(exr);
+    free(stats);
+}
+
+/* Opens the next pass with the schedule the core has begun (the write
+ * lock held). Another daemon may have ended the same pass: then its
+ * schedule is the job's, and the core reads it back at the next claim. */
+static void open_next(rd_farm *f, rd_store *h, farm_ctx *c, int pass, int64_t now)
+{
+    rd_job_schedule sc;
+    rd_job_schedule_get(c->core, &sc);
+    char *text = farm_schedule_text(&sc, now, c->params.progress.max_samples);
+    char *stats = farm_stats_text(c, now, 0);
+    rd_error err = {0};
+    rd_error_code rc = RD_ERR_NOMEM;
+    if (text && stats) {
+        RETRY_IO(f, rc, rd_store_job_stats(h, c->id, stats, &err));
+        RETRY_IO(f, rc, rd_store_pass_open(h, c->id, pass + 1, text, &err));
+    }
+    if (rc == RD_OK) {
+        c->pass = pass + 1;
+        c->opened_ms = now;
+        atomic_fetch_add(&f->passes, 1);
+        wake(f);
+    } else {
+        c->pass = -1;
+    }
+    free(text);
+    free(stats);
+}
+
+/* Every tile holds pass `pass`: end it as the core's schedule says. Also
+ * for a pass another daemon completed and never opened (it died), so the
+ * pass is checked against the store first. */
+static void end_pass(rd_farm *f, rd_store *h, farm_ctx *c, int pass)
+{
+    pthread_rwlock_wrlock(&c->rw);
+    rd_error err = {0};
+    int complete = 0;
+    rd_error_code rc;
+    RETRY_IO(f, rc, farm_ctx_sync_pass(f, h, c, pass, &err));
+    if (!rc)
+        RETRY_IO(f, rc, farm_ctx_gather(h, c, pass + 1, &complete, &err));
+    if (rc || !complete) {
+        if (rc && rc != RD_ERR_BUSY && rc != RD_ERR_IO)
+            fail_job(f, h, c->id, &err);
+        pthread_rwlock_unlock(&c->rw);
+        return;
+    }
+    int64_t now = rd_store_wall_ms();
+    int next = rd_job_end_pass_at(c->core, (double)(now - c->started_ms), (double)(now - c->opened_ms));
+    if (next > 0 && pass + 1 < RD_CURVE_MAX)
+        open_next(f, h, c, pass, now);
+    else
+        finish(f, h, c, now);
+    pthread_rwlock_unlock(&c->rw);
+}
+
+/* The tile's pixels as the claim's pass starts from them (the read lock
+ * held: only this tile's pixels are written). */
+static rd_error_code tile_input(rd_store *h, farm_ctx *c, const rd_store_tile *t, rd_error *err)
+{
+    if (t->pass == 0 || c->tile_pass[t->index] == t->pass)
+        return RD_OK;
+    rd_store_tile_data td = {0};
+    rd_error_code rc = rd_store_tile_get(h, c->id, t->index, &td, err);
+    if (!rc && td.passes != t->pass)
+        rc = rd_error_set(err, RD_ERR_INVALID, 0, 0, "tile %d of job %s holds %d passes, not %d", t->index, c->id,
+                          td.passes, t->pass);
+    if (!rc)
+        rc = farm_blob_read(c, t->index, td.data, td.len, err);
+    if (!rc)
+        c->tile_pass[t->index] = t->pass;
+    free(td.data);
+    return rc;
+}
+
+/* Renders the claimed tile; its bytes in *blob (NULL when it did not
+ * complete: cancelled, or past the job's time limit, *timed_out). */
+static rd_error_code render(rd_farm *f, rd_store *h, farm_ctx *c, const rd_store_tile *t, unsigned char **blob,
+                            size_t *len, int *timed_out, rd_error *err)
+{
+    *blob = NULL;
+    *timed_out = 0;
+    if (c->pass != t->pass) {
+        pthread_rwlock_wrlock(&c->rw);
+        rd_error_code rc = farm_ctx_sync_pass(f, h, c, t->pass, err);
+        pthread_rwlock_unlock(&c->rw);
+        if (rc)
+            return rc;
+    }
+    pthread_rwlock_rdlock(&c->rw);
+    rd_error_code rc = c->pass == t->pass ? tile_input(h, c, t, err)
+                                          : rd_error_set(err, RD_ERR_BUSY, 0, 0, "job %s moved on", c->id);
+    rd_job_counts k = {0, 0, 0, 0};
+    if (!rc && rd_job_render_tile(c->core, t->index, &k)) {
+        rd_job_counts *tc = &c->tile_counts[t->index];
+        tc->camera += k.camera;
+        tc->shadow += k.shadow;
+        tc->secondary += k.secondary;
+        tc->nonfinite += k.nonfinite;
+        c->tile_pass[t->index] = t->pass + 1;
+        *len = farm_blob_bytes(c, t->index);
+        if ((*blob = malloc(*len)))
+            farm_blob_write(c, t->index, *blob);
+        else
+            rc = rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+        atomic_fetch_add(&f->rays, k.camera + k.shadow + k.secondary);
+    } else if (!rc) {
+        *timed_out = !atomic_load(&c->stop);
+    }
+    pthread_rwlock_unlock(&c->rw);
+    return rc;
+}
+
+static void timed_out(rd_farm *f, rd_store *h, const char *id)
+{
+    rd_error why;
+    rd_error_set(&why, RD_ERR_TIMEOUT, 0, 0, "the render took longer than the job time limit of %.0f ms "
+                                             "(--job-timeout-ms)",
+                 f->opt.job_timeout_ms);
+    fail_job(f, h, id, &why);
+}
+
+static void do_claim(rd_farm *f, rd_store *h, const rd_store_tile *t)
+{
+    rd_error err = {0};
+    farm_ctx *c;
+    for (;;) {
+        c = farm_ctx_get(f, h, t->job_id, &err);
+        farm_store_result(f, c ? RD_OK : err.code);
+        if (c || err.code != RD_ERR_IO || stopping(f))
+            break;
+        sleep_ms(RETRY_MS);
+    }
+    if (!c) {
+        if (err.code != RD_ERR_IO && err.code != RD_ERR_NOT_FOUND)
+            fail_job(f, h, t->job_id, &err);
+        return;
+    }
+    unsigned char *blob = NULL;
+    size_t len = 0;
+    int late = 0;
+    rd_error_code rc;
+    RETRY_IO(f, rc, render(f, h, c, t, &blob, &len, &late, &err));
+    if (late) {
+        timed_out(f, h, c->id);
+    } else if (rc == RD_ERR_BUSY) {
+        /* A claim the store has moved past: give the lease back rather
+         * than have the renewals keep it (with the others this daemon
+         * holds, which their renders then lose; this should not happen). */
+        rd_log_msg(f->opt.log, "warning", "job %s, tile %d: %s", c->id, t->index, err.message);
+        RETRY_IO(f, rc, rd_store_release(h, f->daemon_id, NULL, &err));
+    } else if (rc && rc != RD_ERR_IO) {
+        fail_job(f, h, c->id, &err);
+    } else if (blob) {
+        rd_store_tile_outcome out = RD_STORE_TILE_MORE;
+        RETRY_IO(f, rc, rd_store_tile_done(h, f->daemon_id, t, blob, len, &out, &err));
+        atomic_fetch_add(rc == RD_OK ? &f->tiles : &f->tiles_lost, 1);
+        if (rc == RD_ERR_CANCELLED)
+            farm_ctx_ended(f, c->id);
+        if (rc == RD_OK && out != RD_STORE_TILE_MORE)
+            end_pass(f, h, c, t->pass);
+    }
+    free(blob);
+    farm_ctx_put(f, c);
+}
+
+/* A pass the watcher saw completed and not opened, twice in a row. */
+static int take_stuck(rd_farm *f, char *id, int *pass)
+{
+    if (f->nstuck == 0)
+        return 0;
+    f->nstuck--;
+    snprintf(id, RD_STORE_ID_MAX, "%s", f->stuck[f->nstuck].id);
+    *pass = f->stuck[f->nstuck].pass;
+    return 1;
+}
+
+static void do_stuck(rd_farm *f, rd_store *h, const char *id, int pass)
+{
+    rd_error err = {0};
+    farm_ctx *c = farm_ctx_get(f, h, id, &err);
+    farm_store_result(f, c ? RD_OK : err.code);
+    if (!c)
+        return;
+    rd_log_msg(f->opt.log, "info", "job %s: ending pass %d, which its daemon completed but did not end", id, pass);
+    end_pass(f, h, c, pass);
+    farm_ctx_put(f, c);
+}
+
+void *farm_worker_main(void *arg)
+{
+    rd_farm *f = ((void **)arg)[0];
+    rd_store *h = ((void **)arg)[1];
+    free(arg);
+    for (;;) {
+        char id[RD_STORE_ID_MAX];
+        int pass = 0;
+        pthread_mutex_lock(&f->mu);
+        if (f->stopping) {
+            pthread_mutex_unlock(&f->mu);
+            break;
+        }
+        uint64_t seq = f->wake_seq;
+        int stuck = take_stuck(f, id, &pass);
+        pthread_mutex_unlock(&f->mu);
+        if (stuck) {
+            do_stuck(f, h, id, pass);
+            continue;
+        }
+        rd_store_tile t;
+        int n = 0;
+        rd_error err = {0};
+        rd_error_code rc = rd_store_claim(h, f->daemon_id, 1, f->opt.lease_ms, &t, &n, &err);
+        farm_store_result(f, rc);
+        if (!rc && n == 1) {
+            do_claim(f, h, &t);
+            continue;
+        }
+        pthread_mutex_lock(&f->mu);
+        struct timespec ts;
+        clock_gettime(CLOCK_REALTIME, &ts);
+        long wait = rc ? RETRY_MS : IDLE_MS;
+        ts.tv_sec += wait / 1000;
+        ts.tv_nsec += (wait % 1000) * 1000000L;
+        if (ts.tv_nsec >= 1000000000L) {
+            ts.tv_sec++;
+            ts.tv_nsec -= 1000000000L;
+        }
+        while (!f->stopping && f->wake_seq == seq)
+            if (pthread_cond_timedwait(&f->work_cv, &f->mu, &ts))
+                break;
+        pthread_mutex_unlock(&f->mu);
+    }
+    return NULL;
+}

@@ -1,0 +1,113 @@
+/* Shared between the farm's files: its state and a job's local copy. Not
+ * a public interface. */
+#ifndef RD_FARM_INTERNAL_H
+#define RD_FARM_INTERNAL_H
+
+#include <pthread.h>
+#include <stdatomic.h>
+
+#include "farm.h"
+#include "rayd/job.h"
+
+/* A stored job as this daemon holds it while it renders some of its
+ * tiles: the scene read back from the store, the core's job with every
+ * pixel this daemon has seen, and which pass each tile holds here. Tiles
+ * render under the read lock (distinct tiles touch distinct pixels);
+ * reading every tile into it (a pass's end, a partial image) and moving it
+ * to another pass take the write lock. */
+typedef struct farm_ctx {
+    char id[RD_STORE_ID_MAX];
+    int refs;  /* under farm.mu */
+    int built; /* under farm.mu: core ready (or failed) */
+    rd_error_code build_rc;
+    rd_error build_err;
+    rd_scene scene;
+    rd_job_params params;
+    rd_job *core;
+    int tiles;
+    int64_t started_ms;
+    int64_t opened_ms; /* when the pass the core is in was opened */
+    int pass;          /* the pass the core is in; -1 before the first */
+    int *tile_pass;    /* passes each tile's pixels here hold */
+    rd_job_counts *tile_counts; /* each tile's rays over its passes so far */
+    size_t charged;             /* bytes counted against the queue's budget */
+    pthread_rwlock_t rw;
+    atomic_int stop; /* the job ended: tiles stop within milliseconds */
+    struct farm_ctx *next;
+} farm_ctx;
+
+struct rd_farm {
+    rd_farm_options opt;
+    char daemon_id[RD_STORE_ID_MAX];
+    char *store_spec;
+    rd_store *api;    /* HTTP threads' reads, cancels and pings */
+    rd_store *submit; /* submissions and partial images (render threads) */
+    rd_store *watch;  /* the watcher: events, lease renewals, sweeps */
+    rd_store **worker_store;
+    pthread_t *workers, watcher;
+    int nworkers, watcher_on;
+    int nworkers_joined; /* rd_farm_stop has run */
+    pthread_mutex_t mu;
+    pthread_cond_t work_cv, ctx_cv;
+    int stopping;
+    uint64_t wake_seq; /* bumped by every event: a worker that found nothing waits for the next */
+    farm_ctx *ctxs;
+    /* Passes seen completed but not opened, for a worker to end. */
+    struct {
+        char id[RD_STORE_ID_MAX];
+        int pass;
+    } stuck[16];
+    int nstuck;
+    atomic_ullong tiles, tiles_lost, passes, done, failed, cancelled, submitted, store_errors, rays;
+    atomic_int store_up;
+};
+
+/* A render thread (farm.c); arg is a malloc'ed {rd_farm *, rd_store *} it frees. */
+void *farm_worker_main(void *arg);
+
+/* farm_ctx.c: the cache of jobs held here. */
+
+/* The job's context, built (scene read, core made) on first use; with a
+ * reference the caller drops with farm_ctx_put. NULL with err set when it
+ * cannot be built (its error is the job's, or RD_ERR_IO). */
+farm_ctx *farm_ctx_get(rd_farm *f, rd_store *h, const char *id, rd_error *err);
+void farm_ctx_put(rd_farm *f, farm_ctx *c);
+
+/* The job ended: stop its tiles here and forget it once unused. */
+void farm_ctx_ended(rd_farm *f, const char *id);
+
+/* Every context, unused or not: the farm is stopping. */
+void farm_ctx_free_all(rd_farm *f);
+
+/* Puts the core on pass `pass` as the store's schedule says (the write
+ * lock held by the caller). RD_ERR_BUSY when the store's job is at
+ * another pass (the claim is stale, or another daemon ended the pass);
+ * RD_ERR_INVALID when its schedule is not one this daemon reads. */
+rd_error_code farm_ctx_sync_pass(rd_farm *f, rd_store *h, farm_ctx *c, int pass, rd_error *err);
+
+/* Reads every stored tile newer than the pixels here (the write lock held
+ * by the caller); *complete is 1 when every tile holds `passes` passes. */
+rd_error_code farm_ctx_gather(rd_store *h, farm_ctx *c, int passes, int *complete, rd_error *err);
+
+/* A tile's stored bytes: a header (the rays of its passes) and the core's
+ * state. */
+size_t farm_blob_bytes(const farm_ctx *c, int t);
+void farm_blob_write(const farm_ctx *c, int t, void *out);
+rd_error_code farm_blob_read(farm_ctx *c, int t, const void *in, size_t len, rd_error *err);
+
+/* farm_schedule.c: the schedule text the pass's finisher writes. */
+/* max_samples: the cap the job's progress is measured against. */
+char *farm_schedule_text(const rd_job_schedule *sc, int64_t opened_ms, int max_samples);
+rd_error_code farm_schedule_parse(const char *text, rd_job_schedule *sc, int64_t *opened_ms, rd_error *err);
+
+/* The statistics text of a job (GET /v1/jobs/{id} shows it): what the
+ * core measured, with the rays of every tile. */
+char *farm_stats_text(farm_ctx *c, int64_t now_ms, int final);
+
+/* farm_json.c: the status JSON of a stored job. */
+char *farm_job_json(const rd_store_job_info *in);
+
+/* Notes the store's answer: up, or (RD_ERR_IO) down. */
+void farm_store_result(rd_farm *f, rd_error_code rc);
+
+#endif
