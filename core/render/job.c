@@ -173,23 +173,40 @@ int rd_job_first_pass(rd_job *j)
     return j->pass_samples;
 }
 
-int rd_job_end_pass(rd_job *j)
+/* Reads every pixel; done before the clock is read for the decision, so
+ * that the budget counts the time the estimate takes (a pow a channel of
+ * every pixel). Returns the curve point's samples. */
+static double measure_pass(rd_job *j)
 {
-    j->last_pass_ms = rd_now_ms() - j->pass_t0;
     j->spp += j->pass_samples;
     j->passes_done = j->pass + 1;
     j->error = rd_job_error_estimate(j);
-    if (j->curve_len < RD_CURVE_MAX) {
-        rd_curve_point *cp = &j->curve[j->curve_len++];
-        cp->ms = rd_now_ms() - j->t0;
-        cp->samples = j->adaptive ? rd_job_mean_samples(j) : j->spp;
-        cp->error = j->error;
-    }
-    int next = rd_progress_next(&j->progress, j->passes_done, j->spp, j->last_pass_ms, j->pass_samples,
-                                rd_now_ms() - j->t0, j->error, &j->stopped_by);
+    return j->adaptive ? rd_job_mean_samples(j) : j->spp;
+}
+
+static int decide_pass(rd_job *j, double elapsed_ms, double pass_ms, double samples)
+{
+    j->last_pass_ms = pass_ms;
+    if (j->curve_len < RD_CURVE_MAX)
+        j->curve[j->curve_len++] = (rd_curve_point){elapsed_ms, samples, j->error};
+    int next = rd_progress_next(&j->progress, j->passes_done, j->spp, j->last_pass_ms, j->pass_samples, elapsed_ms,
+                                j->error, &j->stopped_by);
     if (next > 0)
         begin_pass(j, j->passes_done, next);
     return next;
+}
+
+int rd_job_end_pass(rd_job *j)
+{
+    double pass_ms = rd_now_ms() - j->pass_t0;
+    double samples = measure_pass(j);
+    return decide_pass(j, rd_now_ms() - j->t0, pass_ms, samples);
+}
+
+int rd_job_end_pass_at(rd_job *j, double elapsed_ms, double pass_ms)
+{
+    double samples = measure_pass(j);
+    return decide_pass(j, elapsed_ms, pass_ms, samples);
 }
 
 int rd_job_pass_samples(const rd_job *j) { return j->pass_samples; }
@@ -256,6 +273,12 @@ static void render_pixel(rd_job *j, int x, int y, rd_job_counts *c, rd_ray_count
         double want = samples * (0.5 + 0.5 * weight(j, index) / j->mean_weight);
         if (want > 64.0 * samples)
             want = 64.0 * samples;
+        /* Every want below -1 gives no sample; stopping there keeps the cast
+         * defined whatever mean a schedule from elsewhere brings
+         * (rd_job_schedule_set takes it as given) against a w_i that
+         * rounding made negative. */
+        else if (!(want >= -1))
+            want = -1;
         rd_rng pick = rd_rng_make(pass_seed ^ 0xadab7e5ULL, index, j->n[index]);
         samples = (int)want + (rd_rng_next(&pick) < want - floor(want));
         if (samples < 1)
@@ -314,12 +337,24 @@ void rd_job_set_deadline(rd_job *j, double deadline_ms) { j->deadline_ms = deadl
 
 void rd_job_set_cancel(rd_job *j, const atomic_int *cancel) { j->cancel = cancel; }
 
+typedef struct {
+    int x0, y0, x1, y1; /* [x0, x1) x [y0, y1) */
+} tile_rect;
+
+static tile_rect rect_of(const rd_job *j, int t)
+{
+    const rd_scene *s = j->scene;
+    tile_rect r = {(t % j->tiles_x) * j->tile, (t / j->tiles_x) * j->tile, 0, 0};
+    r.x1 = r.x0 + j->tile < s->render.width ? r.x0 + j->tile : s->render.width;
+    r.y1 = r.y0 + j->tile < s->render.height ? r.y0 + j->tile : s->render.height;
+    return r;
+}
+
 int rd_job_render_tile(rd_job *j, int t, rd_job_counts *c)
 {
     const rd_scene *s = j->scene;
-    int x0 = (t % j->tiles_x) * j->tile, y0 = (t / j->tiles_x) * j->tile;
-    int x1 = x0 + j->tile < s->render.width ? x0 + j->tile : s->render.width;
-    int y1 = y0 + j->tile < s->render.height ? y0 + j->tile : s->render.height;
+    tile_rect r = rect_of(j, t);
+    int x0 = r.x0, y0 = r.y0, x1 = r.x1, y1 = r.y1;
     if (j->pass == 0)
         for (int y = y0; y < y1; y++) {
             size_t i = (size_t)y * (size_t)s->render.width + (size_t)x0, w = (size_t)(x1 - x0);
@@ -363,12 +398,10 @@ void rd_job_rgb8(const rd_job *j, uint8_t *out)
 void rd_job_tile_rgb8(const rd_job *j, int t, uint8_t *out)
 {
     const rd_scene *s = j->scene;
-    int x0 = (t % j->tiles_x) * j->tile, y0 = (t / j->tiles_x) * j->tile;
-    int x1 = x0 + j->tile < s->render.width ? x0 + j->tile : s->render.width;
-    int y1 = y0 + j->tile < s->render.height ? y0 + j->tile : s->render.height;
+    tile_rect r = rect_of(j, t);
     double g = s->render.gamma;
-    for (int y = y0; y < y1; y++)
-        for (int x = x0; x < x1; x++) {
+    for (int y = r.y0; y < r.y1; y++)
+        for (int x = r.x0; x < r.x1; x++) {
             size_t i = (size_t)y * (size_t)s->render.width + (size_t)x;
             for (int ch = 0; ch < 3; ch++)
                 out[3 * i + ch] = rd_display8(j->mean[3 * i + ch], g);
@@ -405,4 +438,258 @@ void rd_job_plan_stats(const rd_job *j, rd_render_stats *st)
     st->bvh_nodes = j->plan.world.bvh4.nnodes;
     st->world_bytes = rd_world_bytes(&j->plan.world);
     st->primitives = j->plan.world.nspheres + j->plan.world.nplanes + j->plan.world.ntris;
+}
+
+/* ---- a tile's state as bytes ---------------------------------------------------------------
+ *
+ * The arrays one after another, each over the tile's pixels in row order:
+ * mean, n, then half and nh, then stat, as far as the job has them. */
+
+typedef struct {
+    unsigned char *base;
+    size_t bytes; /* a pixel's */
+} state_array;
+
+static int state_arrays(const rd_job *j, state_array a[5])
+{
+    int k = 0;
+    a[k++] = (state_array){(unsigned char *)j->mean, 3 * sizeof *j->mean};
+    a[k++] = (state_array){(unsigned char *)j->n, sizeof *j->n};
+    if (j->half) {
+        a[k++] = (state_array){(unsigned char *)j->half, 6 * sizeof *j->half};
+        a[k++] = (state_array){(unsigned char *)j->nh, 2 * sizeof *j->nh};
+    }
+    if (j->stat)
+        a[k++] = (state_array){(unsigned char *)j->stat, 6 * sizeof *j->stat};
+    return k;
+}
+
+static size_t tile_pixels(const rd_job *j, int t)
+{
+    tile_rect r = rect_of(j, t);
+    return (size_t)(r.x1 - r.x0) * (size_t)(r.y1 - r.y0);
+}
+
+size_t rd_job_tile_state_bytes(const rd_job *j, int t)
+{
+    if (t < 0 || t >= j->tiles_total || !j->mean)
+        return 0;
+    state_array a[5];
+    size_t per_pixel = 0;
+    for (int i = 0, k = state_arrays(j, a); i < k; i++)
+        per_pixel += a[i].bytes;
+    return per_pixel * tile_pixels(j, t);
+}
+
+/* Between the job's arrays and a state: into `to` when given, else from `from`. */
+static void copy_tile(const rd_job *j, int t, unsigned char *to, const unsigned char *from)
+{
+    state_array a[5];
+    int k = state_arrays(j, a);
+    tile_rect r = rect_of(j, t);
+    size_t width = (size_t)j->scene->render.width;
+    for (int i = 0; i < k; i++)
+        for (int y = r.y0; y < r.y1; y++) {
+            unsigned char *px = a[i].base + ((size_t)y * width + (size_t)r.x0) * a[i].bytes;
+            size_t row = (size_t)(r.x1 - r.x0) * a[i].bytes;
+            if (to) {
+                memcpy(to, px, row);
+                to += row;
+            } else {
+                memcpy(px, from, row);
+                from += row;
+            }
+        }
+}
+
+void rd_job_tile_state_save(const rd_job *j, int t, void *out)
+{
+    if (rd_job_tile_state_bytes(j, t) > 0)
+        copy_tile(j, t, out, NULL);
+}
+
+/* The passes' samples add up to at most the schedule's cap; before
+ * rd_job_first_pass a pass has the scene's. */
+static int samples_cap(const rd_job *j)
+{
+    int samples = j->scene->render.samples;
+    return j->progress.max_samples > samples ? j->progress.max_samples : samples;
+}
+
+/* The most samples a pixel can hold: an adaptive pass gives a pixel at most
+ * 64 times its samples (render_pixel). At most 2^31, so that a pass more
+ * cannot wrap n. */
+static uint32_t most_samples(const rd_job *j)
+{
+    uint64_t most = (uint64_t)samples_cap(j) * (j->adaptive ? 64 : 1);
+    return most < (1u << 31) ? (uint32_t)most : 1u << 31;
+}
+
+/* One pixel of a state, read where it lies (the bytes need not be aligned),
+ * the arrays in state_arrays' order. */
+typedef struct {
+    double mean[3];
+    uint32_t n;
+    float half[6];
+    uint32_t nh[2];
+    float stat[6];
+} pixel_state;
+
+static void read_pixel(const rd_job *j, const unsigned char *in, size_t npix, size_t i, pixel_state *p)
+{
+    memcpy(p->mean, in + i * sizeof p->mean, sizeof p->mean);
+    in += npix * sizeof p->mean;
+    memcpy(&p->n, in + i * sizeof p->n, sizeof p->n);
+    in += npix * sizeof p->n;
+    if (j->half) {
+        memcpy(p->half, in + i * sizeof p->half, sizeof p->half);
+        in += npix * sizeof p->half;
+        memcpy(p->nh, in + i * sizeof p->nh, sizeof p->nh);
+        in += npix * sizeof p->nh;
+    }
+    if (j->stat)
+        memcpy(p->stat, in + i * sizeof p->stat, sizeof p->stat);
+}
+
+/* What no render writes, or NULL. Linear colours may be negative (a scene
+ * may ask for a negative background or light); display values are clamped
+ * to [0, 1]; samples alternate between the halves, the first to half 0; the
+ * sum of squared deviations of n values in [0, 1] is at most n/4, and
+ * rounding moves it (below 0 too) by a few ulps a sample: n leaves room. */
+static const char *pixel_fault(const rd_job *j, const pixel_state *p)
+{
+    if (p->n > most_samples(j))
+        return "more samples than the render takes";
+    for (int ch = 0; ch < 3; ch++)
+        if (!isfinite(p->mean[ch]))
+            return "a non-finite mean";
+    if (j->half) {
+        if (p->nh[0] != p->n - p->n / 2 || p->nh[1] != p->n / 2)
+            return "half-set counts that do not split its samples";
+        for (int c = 0; c < 6; c++)
+            if (!isfinite(p->half[c]))
+                return "a non-finite half-set mean";
+    }
+    if (j->stat)
+        for (int ch = 0; ch < 3; ch++) {
+            if (!(p->stat[ch] >= 0 && p->stat[ch] <= 1))
+                return "a display mean outside [0, 1] (or not a number)";
+            if (!(fabs(p->stat[3 + ch]) <= p->n))
+                return "a sum of squared deviations beyond its samples (or not a number)";
+        }
+    return NULL;
+}
+
+rd_error_code rd_job_tile_state_load(rd_job *j, int t, const void *in, size_t len, rd_error *err)
+{
+    if (t < 0 || t >= j->tiles_total)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "tile state: no tile %d (the job has %d)", t, j->tiles_total);
+    if (!j->mean)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "tile state: the job's image was taken");
+    size_t want = rd_job_tile_state_bytes(j, t);
+    if (len != want)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "tile %d: a state of %zu bytes, not %zu", t, len, want);
+    tile_rect r = rect_of(j, t);
+    size_t npix = tile_pixels(j, t), w = (size_t)(r.x1 - r.x0);
+    /* All checked before any is copied: a rejected state leaves the tile as it was. */
+    for (size_t i = 0; i < npix; i++) {
+        pixel_state p;
+        read_pixel(j, in, npix, i, &p);
+        const char *fault = pixel_fault(j, &p);
+        if (fault)
+            return rd_error_set(err, RD_ERR_INVALID, 0, 0, "tile %d: pixel (%d, %d) has %s", t, r.x0 + (int)(i % w),
+                                r.y0 + (int)(i / w), fault);
+    }
+    copy_tile(j, t, NULL, in);
+    return RD_OK;
+}
+
+/* ---- the schedule ------------------------------------------------------------------------------ */
+
+void rd_job_schedule_get(const rd_job *j, rd_job_schedule *out)
+{
+    memset(out, 0, sizeof *out);
+    out->pass = j->pass;
+    out->pass_samples = j->pass_samples;
+    out->mean_weight = j->mean_weight;
+    out->spp = j->spp;
+    out->passes_done = j->passes_done;
+    out->error = j->error;
+    out->last_pass_ms = j->last_pass_ms;
+    out->stopped_by = j->stopped_by;
+    memcpy(out->curve, j->curve, sizeof out->curve);
+    out->curve_len = j->curve_len;
+}
+
+static int finite_nonneg(double x) { return isfinite(x) && x >= 0; }
+
+/* rd_job_end_pass ends pass p with passes_done = p + 1 and begins pass
+ * p + 1 only when the schedule goes on, with no stop reason; every pass
+ * has a sample at least, and they add up to at most the cap. */
+static rd_error_code check_passes(const rd_job *j, const rd_job_schedule *sc, rd_error *err)
+{
+    int cap = samples_cap(j);
+    long long ahead = (long long)sc->passes_done - sc->pass;
+    if (sc->pass < 0 || (ahead != 0 && ahead != 1))
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0,
+                            "schedule: pass %d with %d passes done (a pass >= 0 in progress, or the last one ended)",
+                            sc->pass, sc->passes_done);
+    if (sc->pass_samples < 1 || sc->pass_samples > cap || sc->spp < sc->passes_done || sc->spp > cap)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0,
+                            "schedule: %d samples a pixel in this pass and %d in the %d passes done, with a cap of %d",
+                            sc->pass_samples, sc->spp, sc->passes_done, cap);
+    if ((int)sc->stopped_by < RD_STOP_NONE || (int)sc->stopped_by > RD_STOP_CANCELLED ||
+        (sc->stopped_by == RD_STOP_NONE) != (ahead == 0))
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "schedule: stop reason %d with %s", (int)sc->stopped_by,
+                            ahead == 0 ? "a pass in progress" : "the render ended");
+    return RD_OK;
+}
+
+static rd_error_code check_figures(const rd_job *j, const rd_job_schedule *sc, rd_error *err)
+{
+    /* begin_pass takes a mean only for adaptive passes after the first. */
+    int weighted = j->adaptive && sc->pass > 0;
+    if (!isfinite(sc->mean_weight) || (!weighted && sc->mean_weight != 0))
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "schedule: mean weight %g for pass %d of %s render",
+                            sc->mean_weight, sc->pass, j->adaptive ? "an adaptive" : "a uniform");
+    if (!finite_nonneg(sc->error) || !finite_nonneg(sc->last_pass_ms))
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "schedule: error %g, last pass %g ms", sc->error,
+                            sc->last_pass_ms);
+    int points = sc->passes_done < RD_CURVE_MAX ? sc->passes_done : RD_CURVE_MAX;
+    if (sc->curve_len != points)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0,
+                            "schedule: %d curve points for %d passes done (one each, %d at most)", sc->curve_len,
+                            sc->passes_done, RD_CURVE_MAX);
+    for (int i = 0; i < sc->curve_len; i++) {
+        const rd_curve_point *c = &sc->curve[i];
+        if (!finite_nonneg(c->ms) || !finite_nonneg(c->samples) || !finite_nonneg(c->error))
+            return rd_error_set(err, RD_ERR_INVALID, 0, 0, "schedule: curve point %d at %g ms, %g samples, error %g", i,
+                                c->ms, c->samples, c->error);
+    }
+    return RD_OK;
+}
+
+rd_error_code rd_job_schedule_set(rd_job *j, const rd_job_schedule *sc, rd_error *err)
+{
+    rd_error_code rc = check_passes(j, sc, err);
+    if (!rc)
+        rc = check_figures(j, sc, err);
+    if (rc)
+        return rc;
+    j->pass = sc->pass;
+    j->pass_samples = sc->pass_samples;
+    /* Not recomputed: this job's pixels of tiles rendered elsewhere may be
+     * stale, and every process must weigh pass p's pixels alike. */
+    j->mean_weight = sc->mean_weight;
+    j->spp = sc->spp;
+    j->passes_done = sc->passes_done;
+    j->error = sc->error;
+    j->last_pass_ms = sc->last_pass_ms;
+    j->stopped_by = sc->stopped_by;
+    memset(j->curve, 0, sizeof j->curve);
+    memcpy(j->curve, sc->curve, (size_t)sc->curve_len * sizeof *sc->curve);
+    j->curve_len = sc->curve_len;
+    /* rd_job_end_pass on this job times the pass from here. */
+    j->pass_t0 = rd_now_ms();
+    return RD_OK;
 }

@@ -125,12 +125,17 @@ double rd_job_error_estimate(const rd_job *j);
 /* A tile's pixels as bytes, so that another process holding a job of the
  * same scene and options goes on rendering it or assembles the image (a
  * render farm, a job resumed after a crash). The layout is the core's
- * per-pixel arrays in this machine's byte order: the same build on the same
- * architecture reads it. rd_job_tile_state_bytes is the exact size;
- * rd_job_tile_state_save writes it to out; rd_job_tile_state_load replaces
- * the tile's pixels with it, after checking it (RD_ERR_INVALID for a wrong
- * size, a non-finite or negative value, counts that disagree): bytes from a
- * store are read as hostile. */
+ * per-pixel arrays in this machine's byte order, one after another (mean,
+ * count, then the half-sets' means and counts and the display statistics
+ * when the job keeps them), each over the tile's pixels in row order: the
+ * same build on the same architecture reads it. rd_job_tile_state_bytes is
+ * the exact size (0 for no such tile); rd_job_tile_state_save writes it to
+ * out; rd_job_tile_state_load replaces the tile's pixels with it, after
+ * checking it (RD_ERR_INVALID for a wrong size, a non-finite value, display
+ * statistics out of their range, counts that disagree or more samples than
+ * the schedule gives; linear colours may be negative, as a scene's can be).
+ * Bytes from a store are read as hostile: a rejected state leaves the tile
+ * as it was. */
 size_t rd_job_tile_state_bytes(const rd_job *j, int t);
 void rd_job_tile_state_save(const rd_job *j, int t, void *out);
 rd_error_code rd_job_tile_state_load(rd_job *j, int t, const void *in, size_t len, rd_error *err);
@@ -152,9 +157,15 @@ typedef struct {
 void rd_job_schedule_get(const rd_job *j, rd_job_schedule *out);
 
 /* Puts the job where sc says (RD_ERR_INVALID for values out of range: a
- * negative pass, samples < 1, more passes done than pass, a curve longer
- * than RD_CURVE_MAX, a non-finite number). Tiles rendered after it render
- * pass sc->pass. */
+ * negative pass, samples < 1 or over the cap, passes done other than pass
+ * (a pass in progress, no stop reason) or pass + 1 (the last pass ended, a
+ * stop reason), a curve without one point for each pass ended (up to
+ * RD_CURVE_MAX), a non-finite number, a negative time, error or curve figure, a mean
+ * weight where the pass takes none). Tiles rendered after it render pass
+ * sc->pass with sc's mean weight: the job's own pixels are not read, so
+ * those of tiles rendered elsewhere may be stale. A tile rendered in a
+ * pass after the first must hold its latest state, rendered here or
+ * loaded. */
 rd_error_code rd_job_schedule_set(rd_job *j, const rd_job_schedule *sc, rd_error *err);
 
 /* rd_job_end_pass with the caller's clock: elapsed_ms since the render
