@@ -97,6 +97,14 @@ class Daemon:
         finally:
             c.close()
 
+    def kill(self):
+        """SIGKILL to its pid, as a crash: no draining, nothing given back.
+        Its exit status."""
+        if self.proc.poll() is None:
+            self.proc.kill()
+        self.proc.wait()
+        return self.stop()
+
     def stop(self):
         """SIGTERM to its pid (unless already sent); the exit status (-1 if
         it had to be killed)."""
@@ -142,3 +150,131 @@ def render_png(scene_path, out_path):
     subprocess.run([RAYD, "render", scene_path, "-o", out_path], check=True, capture_output=True, timeout=300)
     with open(out_path, "rb") as f:
         return f.read()
+
+
+def cli_render(scene_path, out_path, overrides=None, extra=()):
+    """`rayd render` of a scene file with overrides ({"width": 160, ...},
+    the flags of the same names): the PNG's bytes."""
+    args = [RAYD, "render", scene_path, "-o", out_path, "--quiet"] + list(extra)
+    for k, v in (overrides or {}).items():
+        args += ["--" + k.replace("_", "-"), str(v)]
+    subprocess.run(args, check=True, capture_output=True, timeout=300)
+    with open(out_path, "rb") as f:
+        return f.read()
+
+
+def http_request(host, port, method, path, body=None, headers=None, timeout=120):
+    """A request to any server (nginx in front of daemons, say): (status,
+    headers as a lower-cased dict, body bytes), as Daemon.request."""
+    c = http.client.HTTPConnection(host, port, timeout=timeout)
+    try:
+        c.request(method, path, body=body, headers=headers or {})
+        r = c.getresponse()
+        return r.status, {k.lower(): v for k, v in r.getheaders()}, r.read()
+    finally:
+        c.close()
+
+
+def metric_value(text, name, labels=None):
+    """A sample's value in a /metrics text (bytes or str), or None when the
+    series is not there. labels: {"k": "v"} exactly, or none."""
+    if isinstance(text, bytes):
+        text = text.decode("utf-8", "replace")
+    want = ",".join('%s="%s"' % kv for kv in sorted((labels or {}).items()))
+    for line in text.split("\n"):
+        if not line.startswith(name) or line.startswith("#"):
+            continue
+        rest = line[len(name):]
+        got = ""
+        if rest.startswith("{"):
+            got, rest = rest[1:].split("}", 1)
+            got = ",".join(sorted(p for p in got.split(",") if p))
+        if rest[:1] == " " and got == want:
+            try:
+                return float(rest.split()[0])
+            except ValueError:
+                return None
+    return None
+
+
+def decode_png(data):
+    """A PNG's pixels, whatever its encoder chose (filters, chunking,
+    level): (width, height, RGB bytes), gray and palette made RGB, an alpha
+    channel dropped when every pixel is opaque (kept, as RGBA bytes,
+    otherwise). 16-bit samples stay two bytes. Raises ValueError on what is
+    not such a PNG (interlaced ones included)."""
+    if data[:8] != b"\x89PNG\r\n\x1a\n":
+        raise ValueError("not a PNG")
+    pos, idat, plte, ihdr = 8, [], None, None
+    while pos + 8 <= len(data):
+        n, kind = struct.unpack(">I4s", data[pos:pos + 8])
+        chunk = data[pos + 8:pos + 8 + n]
+        if len(chunk) != n or struct.unpack(">I", data[pos + 8 + n:pos + 12 + n])[0] != zlib.crc32(kind + chunk):
+            raise ValueError("a damaged %r chunk" % kind)
+        pos += 12 + n
+        if kind == b"IHDR":
+            ihdr = struct.unpack(">IIBBBBB", chunk)
+        elif kind == b"PLTE":
+            plte = chunk
+        elif kind == b"IDAT":
+            idat.append(chunk)
+        elif kind == b"IEND":
+            break
+    if not ihdr or not idat:
+        raise ValueError("no IHDR or IDAT")
+    w, h, depth, ctype, _, _, interlace = ihdr
+    if interlace or depth not in (1, 2, 4, 8, 16) or ctype not in (0, 2, 3, 4, 6):
+        raise ValueError("an interlaced or unusual PNG (depth %d, color type %d)" % (depth, ctype))
+    channels = {0: 1, 2: 3, 3: 1, 4: 2, 6: 4}[ctype]
+    bpp = max(1, channels * depth // 8)
+    stride = (w * channels * depth + 7) // 8
+    raw = zlib.decompress(b"".join(idat))
+    if len(raw) < h * (stride + 1):
+        raise ValueError("the image data is short")
+    out, prev = bytearray(), bytearray(stride)
+    for y in range(h):
+        f, line = raw[y * (stride + 1)], bytearray(raw[y * (stride + 1) + 1:(y + 1) * (stride + 1)])
+        if f == 1:
+            for i in range(bpp, stride):
+                line[i] = (line[i] + line[i - bpp]) & 255
+        elif f == 2:
+            for i in range(stride):
+                line[i] = (line[i] + prev[i]) & 255
+        elif f == 3:
+            for i in range(stride):
+                line[i] = (line[i] + ((line[i - bpp] if i >= bpp else 0) + prev[i]) // 2) & 255
+        elif f == 4:
+            for i in range(stride):
+                a, b = (line[i - bpp] if i >= bpp else 0), prev[i]
+                c = prev[i - bpp] if i >= bpp else 0
+                p = a + b - c
+                pa, pb, pc = abs(p - a), abs(p - b), abs(p - c)
+                line[i] = (line[i] + (a if pa <= pb and pa <= pc else b if pb <= pc else c)) & 255
+        elif f != 0:
+            raise ValueError("filter %d on row %d" % (f, y))
+        out += line
+        prev = line
+    if depth < 8:
+        per = 8 // depth
+        samples = bytearray()
+        for y in range(h):
+            row = out[y * stride:(y + 1) * stride]
+            samples += bytes((row[x // per] >> (8 - depth * (x % per + 1))) & ((1 << depth) - 1) for x in range(w))
+        out = samples
+        if ctype == 0:
+            out = bytearray(v * 255 // ((1 << depth) - 1) for v in out)
+        depth = 8
+    size = depth // 8
+    if ctype == 3:
+        if not plte:
+            raise ValueError("a palette PNG without PLTE")
+        out = bytearray(b"".join(plte[3 * i:3 * i + 3] for i in out))
+    elif ctype in (0, 4):
+        px = channels * size
+        out = bytearray(b"".join(out[i:i + size] * 3 + out[i + size:i + px] for i in range(0, len(out), px)))
+        channels += 2
+    if channels == 4:
+        opaque = all(out[i:i + size] == b"\xff" * size for i in range(3 * size, len(out), 4 * size))
+        if opaque:
+            out = bytearray(b"".join(out[i:i + 3 * size] for i in range(0, len(out), 4 * size)))
+    return w, h, bytes(out)

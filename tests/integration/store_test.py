@@ -1,0 +1,332 @@
+#!/usr/bin/env python3
+"""Jobs outlive the daemon: `rayd serve --data-dir DIR` (the SQLite store)
+killed with SIGKILL and started again on the same folder.
+
+- 20 asynchronous jobs over several bundled scenes; the daemon is killed
+  once some are done and some running, the last one accepted (202) just
+  before the kill. Started again on the same --data-dir (same --daemon-id,
+  so its old leases are taken back at once), it serves the images of the
+  jobs finished before the kill at once, and every one of the 20 ends done
+  with an image whose pixels are those of `rayd render` of the same scene
+  and overrides.
+- One large job of many store tiles (--store-tile 64) is killed mid-way:
+  the daemon started again finishes it, rendering fewer tiles than the job
+  has (rayd_farm_tiles_total of the new process): the tiles stored before
+  the kill were kept, not rendered again.
+- Every answer carries X-Rayd-Daemon: the --daemon-id.
+
+Usage: RAYD=build/rayd /usr/bin/python3 tests/integration/store_test.py
+(from the repository root; scenes/generated/knot.obj from `make scenes` adds
+mesh.cfg). Daemons listen on 127.0.0.1 on ports they pick and are stopped
+by their pid; the whole run is bounded by BOUND_S seconds (times
+RAYD_TEST_SLOW, default 1). It prints `store: N passed, M failed` and
+exits 1 on any failure; the temporary folder (data, logs) is kept then and
+named.
+"""
+import json
+import math
+import os
+import shutil
+import signal
+import sys
+import tempfile
+import time
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+from rayd_http import Checks, Daemon, cli_render, decode_png, metric_value  # noqa: E402
+
+check = Checks("store")
+# RAYD_TEST_SLOW=3 (sanitizer builds, say) stretches every wait and the bound.
+SLOW = float(os.environ.get("RAYD_TEST_SLOW", "1"))
+BOUND_S = int(90 * SLOW)
+DAEMON_ID = "store-test"
+LEASE_MS = 1500
+STORE_TILE = 64
+TILES = "rayd_farm_tiles_total"
+
+SCENES = ["phong.cfg", "diffuse.cfg", "area_light.cfg", "cook_torrance.cfg", "spot_light.cfg",
+          "blinn_phong.cfg", "specular_refraction.cfg", "directional_light.cfg"]
+if os.path.exists("scenes/generated/knot.obj"):
+    SCENES.append("mesh.cfg")
+# 0.05 to 0.7 s each on one core of this machine.
+SIZES = [(160, 120, 16), (320, 240, 8), (240, 180, 16)]
+JOBS = [(SCENES[i % len(SCENES)], {"width": SIZES[i % 3][0], "height": SIZES[i % 3][1],
+                                   "samples": SIZES[i % 3][2], "seed": i + 1}) for i in range(20)]
+# 64 tiles of 64x64; about 5 s on one core.
+BIG = ("area_light.cfg", {"width": 512, "height": 512, "samples": 16})
+
+
+class Abort(Exception):
+    """Ends the run early; the message is recorded as a failure."""
+
+
+class OutOfTime(Exception):
+    pass
+
+
+def on_alarm(signum, frame):
+    raise OutOfTime()
+
+
+def query(overrides):
+    return "&".join("%s=%s" % kv for kv in overrides.items())
+
+
+class Headers:
+    """What every answer's X-Rayd-Daemon said."""
+
+    def __init__(self):
+        self.answers, self.missing, self.wrong = 0, [], []
+
+    def saw(self, what, headers, want):
+        self.answers += 1
+        got = headers.get("x-rayd-daemon")
+        if got is None:
+            self.missing.append(what)
+        elif want and got != want:
+            self.wrong.append("%s: %r" % (what, got))
+
+    def report(self):
+        check(self.answers > 0 and not self.missing,
+              "%d of %d answers had no X-Rayd-Daemon, the first: %s" %
+              (len(self.missing), self.answers, self.missing[:3]))
+        check(not self.wrong, "X-Rayd-Daemon is not the --daemon-id %r: %s" % (DAEMON_ID, self.wrong[:3]))
+
+
+seen = Headers()
+STARTED = []  # every daemon, to be stopped whatever happens
+
+
+def call(d, method, path, body=None, headers=None, timeout=30):
+    """A request to d; Abort when it cannot be made (the daemon died)."""
+    try:
+        status, h, b = d.request(method, path, body=body, headers=headers, timeout=timeout)
+    except OSError as e:
+        rc = d.proc.poll()
+        raise Abort("%s %s: %s%s" % (method, path, e, "" if rc is None else
+                                     " (the daemon exited %d): %s" % (rc, d.text()[-800:])))
+    seen.saw("%s %s %d" % (method, path, status), h, DAEMON_ID)
+    return status, h, b
+
+
+def start(tmp, name, data):
+    folder = os.path.join(tmp, name)
+    os.makedirs(folder, exist_ok=True)
+    flags = ["--data-dir", data, "--threads", "2", "--lease-ms", str(LEASE_MS), "--daemon-id", DAEMON_ID,
+             "--store-tile", str(STORE_TILE)]
+    try:
+        d = Daemon(folder, flags)
+    except RuntimeError as e:
+        raise Abort("rayd serve %s did not start: %s" % (" ".join(flags), e))
+    STARTED.append(d)
+    return d
+
+
+def references(tmp):
+    """The CLI's pixels of every job, by (scene, query)."""
+    refs = {}
+    for scene, ov in JOBS + [BIG]:
+        out = os.path.join(tmp, "cli-%d.png" % len(refs))
+        refs[(scene, query(ov))] = decode_png(cli_render(os.path.join("scenes", scene), out, ov, ["--threads", "2"]))
+    return refs
+
+
+def submit(d, scene, ov):
+    with open(os.path.join("scenes", scene), "rb") as f:
+        body = f.read()
+    status, h, b = call(d, "POST", "/v1/jobs?" + query(ov), body=body, headers={"Content-Type": "text/x-rayd-cfg"})
+    try:
+        jid = json.loads(b)["id"]
+    except (ValueError, KeyError, TypeError):
+        jid = None
+    ok = check(status == 202 and jid, "POST /v1/jobs %s %s: %d %r" % (scene, query(ov), status, b[:200]))
+    if ok:
+        check(h.get("location") == "/v1/jobs/" + jid, "the 202's Location is %r" % h.get("location"))
+    if not ok:
+        raise Abort("no job accepted: nothing else can be checked")
+    return jid
+
+
+def status_of(d, jid):
+    status, _, b = call(d, "GET", "/v1/jobs/" + jid)
+    if status != 200:
+        return {"status": "http %d" % status, "body": b[:200]}
+    try:
+        return json.loads(b)
+    except ValueError:
+        return {"status": "not JSON", "body": b[:200]}
+
+
+def statuses(d, ids):
+    return {jid: status_of(d, jid) for jid in ids}
+
+
+def image(d, jid):
+    status, h, b = call(d, "GET", "/v1/jobs/%s/image" % jid)
+    if status == 200 and h.get("content-type", "").startswith("image/png"):
+        return b
+    return None
+
+
+def wait_done(d, ids, timeout, what):
+    """Polls until every job is done (or ended otherwise); their statuses."""
+    deadline, last = time.time() + timeout, {}
+    while True:
+        last = statuses(d, ids)
+        if all(s.get("status") in ("done", "failed", "cancelled") or s.get("status", "").startswith("http 404")
+               for s in last.values()) or time.time() > deadline:
+            break
+        time.sleep(0.1)
+    left = {jid: s.get("status") for jid, s in last.items() if s.get("status") != "done"}
+    check(not left, "%s: %d of %d jobs are not done after %.0f s: %s" %
+          (what, len(left), len(ids), timeout, dict(list(left.items())[:5])))
+    for jid, s in last.items():
+        if s.get("status") == "failed":
+            print("  job %s failed: %s" % (jid, s.get("error")), file=sys.stderr)
+    return last
+
+
+def same_pixels(png_bytes, ref, what):
+    if png_bytes is None:
+        return check(False, "%s: no PNG" % what)
+    try:
+        got = decode_png(png_bytes)
+    except ValueError as e:
+        return check(False, "%s: the PNG does not decode: %s" % (what, e))
+    if got[:2] != ref[:2]:
+        return check(False, "%s: %dx%d, the CLI's is %dx%d" % (what, got[0], got[1], ref[0], ref[1]))
+    diff = sum(1 for a, b in zip(got[2], ref[2]) if a != b)
+    return check(got[2] == ref[2], "%s: %d of %d samples differ from `rayd render`'s" % (what, diff, len(ref[2])))
+
+
+def tiles_metric(d):
+    status, _, body = call(d, "GET", "/metrics")
+    return metric_value(body, TILES) if status == 200 else None
+
+
+def crash_and_restart(tmp, data, refs):
+    """The 20 jobs; the kill; every one done after the restart."""
+    d1 = start(tmp, "d1", data)
+    jobs = {}
+    for scene, ov in JOBS[:-1]:
+        jobs[submit(d1, scene, ov)] = (scene, ov)
+    ids = list(jobs)
+    # Kill once some are done and some running.
+    deadline, st = time.time() + 30 * SLOW, {}
+    while time.time() < deadline:
+        st = statuses(d1, ids)
+        done = [j for j in ids if st[j].get("status") == "done"]
+        running = [j for j in ids if st[j].get("status") == "running"]
+        if len(done) >= 4 and running and len(ids) - len(done) >= 4 or len(done) == len(ids):
+            break
+        time.sleep(0.03)
+    before = {j: image(d1, j) for j in ids if st.get(j, {}).get("status") == "done"}
+    st = statuses(d1, ids)
+    done_before = [j for j in ids if st[j].get("status") == "done"]
+    running = [j for j in ids if st[j].get("status") == "running"]
+    # The last is accepted just before the kill: its 202 means it is kept.
+    last = submit(d1, *JOBS[-1])
+    jobs[last] = JOBS[-1]
+    rc = d1.kill()
+    check(rc == -signal.SIGKILL, "the daemon was killed by SIGKILL (exit %s)" % rc)
+    print("store: killed with %d of %d jobs done, %d running" % (len(done_before), len(jobs), len(running)))
+    check(done_before and running and len(jobs) - len(done_before) >= 2,
+          "the kill came with some jobs done (%d) and some running (%d) of %d" %
+          (len(done_before), len(running), len(jobs)))
+
+    d2 = start(tmp, "d2", data)
+    status, h, _ = call(d2, "GET", "/healthz")
+    check(status == 200, "GET /healthz after the restart: %d" % status)
+    for j in done_before:
+        png_bytes = image(d2, j)
+        check(png_bytes is not None, "the image of job %s, done before the kill, is not served after it" % j)
+        if png_bytes is not None and before.get(j) is not None:
+            check(png_bytes == before[j], "job %s's PNG changed across the restart" % j)
+    final = wait_done(d2, list(jobs), 45 * SLOW, "after the restart")
+    for j, (scene, ov) in jobs.items():
+        s = final.get(j, {})
+        if s.get("status") != "done":
+            continue
+        check(s.get("width") == ov["width"] and s.get("height") == ov["height"] and s.get("progress") == 1,
+              "job %s's status: width %s height %s progress %s" % (j, s.get("width"), s.get("height"),
+                                                                   s.get("progress")))
+        same_pixels(image(d2, j), refs[(scene, query(ov))], "job %s (%s %s)" % (j, scene, query(ov)))
+    check(final.get(last, {}).get("status") == "done", "the job accepted just before the kill was not kept")
+    return d2, jobs
+
+
+def resume(tmp, data, refs, d2, jobs):
+    """A large job killed mid-way is finished, not started over."""
+    scene, ov = BIG
+    tiles = math.ceil(ov["width"] / STORE_TILE) * math.ceil(ov["height"] / STORE_TILE)
+    base = tiles_metric(d2)
+    check(base is not None, "GET /metrics has no %s" % TILES)
+    base = base or 0
+    jid = submit(d2, scene, ov)
+    deadline, delta, s = time.time() + 30 * SLOW, 0, {}
+    while time.time() < deadline:
+        delta = (tiles_metric(d2) or 0) - base
+        if delta >= tiles // 4:
+            break
+        time.sleep(0.02)
+    s = status_of(d2, jid)
+    rc = d2.kill()
+    print("store: the large job killed at %s with %d of its %d tiles stored (progress %s)" %
+          (s.get("status"), delta, tiles, s.get("progress")))
+    check(rc == -signal.SIGKILL, "the daemon was killed by SIGKILL (exit %s)" % rc)
+    check(delta >= 1 and s.get("status") != "done", "the large job was mid-way at the kill: %d tiles stored, %s" %
+          (delta, s.get("status")))
+    d3 = start(tmp, "d3", data)
+    final = wait_done(d3, [jid], 45 * SLOW, "the large job after the restart").get(jid, {})
+    passes = final.get("passes") if isinstance(final.get("passes"), int) and final.get("passes") > 0 else 1
+    rendered = tiles_metric(d3)
+    print("store: the new process rendered %s tiles of the %d x %d pass(es)" % (rendered, tiles, passes))
+    units = tiles * passes
+    check(rendered is not None and rendered < units,
+          "%s of the new process is %s: not below the job's %d tiles (it started over?)" % (TILES, rendered, units))
+    check(rendered is not None and rendered <= units - delta,
+          "the new process rendered %s tiles; %d of %d were stored before the kill" % (rendered, delta, units))
+    check(rendered is not None and rendered + delta >= units,
+          "%s counted %s tiles after the kill and %d before it, of a job of %d" % (TILES, rendered, delta, units))
+    if final.get("status") == "done":
+        same_pixels(image(d3, jid), refs[(scene, query(ov))], "the resumed job %s" % jid)
+    first = next(iter(jobs))
+    check(image(d3, first) is not None, "job %s's image is not served after a second restart" % first)
+    return d3
+
+
+def main():
+    tmp = tempfile.mkdtemp(prefix="rayd-store-")
+    data = os.path.join(tmp, "data")
+    signal.signal(signal.SIGALRM, on_alarm)
+    signal.alarm(BOUND_S)
+    try:
+        t0 = time.time()
+        refs = references(tmp)
+        t1 = time.time()
+        d2, jobs = crash_and_restart(tmp, data, refs)
+        t2 = time.time()
+        d3 = resume(tmp, data, refs, d2, jobs)
+        print("store: the CLI's references took %.1f s, the 20 jobs %.1f s, the large job %.1f s" %
+              (t1 - t0, t2 - t1, time.time() - t2))
+        seen.report()
+        rc = d3.stop()
+        check(rc == 0, "the daemon exited %s after SIGTERM" % rc)
+    except Abort as e:
+        check(False, str(e))
+    except OutOfTime:
+        check(False, "the run took longer than its bound of %d s" % BOUND_S)
+    finally:
+        signal.alarm(0)
+        for d in STARTED:
+            if d.proc.poll() is None:
+                d.kill()
+    if check.failed:
+        print("store: the data and the daemons' logs are in %s" % tmp, file=sys.stderr)
+    else:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return check.summary()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
