@@ -214,6 +214,8 @@ static rd_error_code check_spec(const rd_store *s, const rd_store_job_spec *j, r
         c = rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: a scene's format is cfg or json");
     if (!c)
         c = check_text(s, "the query", j->query, err);
+    if (!c)
+        c = check_text(s, "the schedule", j->schedule, err);
     if (!c && (j->width < 0 || j->height < 0 || j->memory_bytes < 0 || j->tiles < 0 || j->passes < 0))
         c = rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: negative size, memory or tile count");
     if (!c && (j->tiles > 0 || j->passes > 0)) {
@@ -267,7 +269,8 @@ rd_error_code rd_store_job_get(rd_store *s, const char *id, rd_store_job_info *o
 void rd_store_job_info_free(rd_store_job_info *info)
 {
     free(info->stats);
-    info->stats = NULL;
+    free(info->schedule);
+    info->stats = info->schedule = NULL;
 }
 
 rd_error_code rd_store_job_input_get(rd_store *s, const char *id, rd_store_job_input *out, rd_error *err)
@@ -451,6 +454,17 @@ rd_error_code rd_store_tile_done(rd_store *s, const char *daemon, const rd_store
     return c;
 }
 
+rd_error_code rd_store_pass_open(rd_store *s, const char *id, int pass, const char *schedule, rd_error *err)
+{
+    USE_ERR(err);
+    CHECKED(check_id("a job id", id, err));
+    /* Pass 0 of a gated job is open from the start: nobody opens it. */
+    if (pass < 1)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: pass %d is not one to open (1 or later)", pass);
+    CHECKED(check_text(s, "the schedule", schedule, err));
+    LOCKED(s, s->ops->pass_open(s, id, pass, schedule, err));
+}
+
 rd_error_code rd_store_tiles_get(rd_store *s, const char *id, rd_store_tile_data **out, size_t *n, rd_error *err)
 {
     USE_ERR(err);
@@ -497,4 +511,20 @@ rd_error_code rd_store_refusal(rd_store_status st, const char *daemon, const rd_
         return rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "store: job %s is %s", t->job_id, rd_store_status_name(st));
     return rd_error_set(err, RD_ERR_TIMEOUT, 0, 0, "store: tile %d of pass %d of job %s is not leased to %s", t->index,
                         t->pass, t->job_id, daemon);
+}
+
+rd_error_code rd_store_pass_refusal(const char *id, int pass, rd_store_status st, int gated, int done, int passes,
+                                    int opened, rd_error *err)
+{
+    if (st != RD_STORE_QUEUED && st != RD_STORE_RUNNING)
+        return rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "store: job %s is %s", id, rd_store_status_name(st));
+    if (!gated)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: job %s is not gated: its passes open by themselves", id);
+    if (pass >= passes)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: job %s has no pass %d: it has %d", id, pass, passes);
+    if (opened > pass)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: pass %d of job %s is open already", pass, id);
+    return rd_error_set(err, RD_ERR_INVALID, 0, 0,
+                        "store: pass %d of job %s cannot open: %d of its passes are complete, not %d", pass, id, done,
+                        pass);
 }

@@ -238,7 +238,8 @@ rd_error_code rd_store_jobs_expire(rd_store *s, int64_t ttl_ms, size_t *deleted,
 /* Tiles. A job is split into tiles numbered 0..tiles-1, each rendered
  * passes times; every tile holds its latest result (opaque bytes: the
  * renderer's accumulations). A pass's tiles are claimable once the pass
- * before is complete. */
+ * before is complete (and, for a gated job, once rd_store_pass_open opened
+ * it). */
 typedef struct {
     char job_id[RD_STORE_ID_MAX];
     int index;
@@ -269,7 +270,7 @@ rd_error_code rd_store_release(rd_store *s, const char *daemon, int *released, r
 
 typedef enum {
     RD_STORE_TILE_MORE,      /* other tiles of the pass are not done */
-    RD_STORE_TILE_PASS_DONE, /* it completed a pass that is not the last: the next pass is claimable */
+    RD_STORE_TILE_PASS_DONE, /* it completed a pass that is not the last: the next is claimable (gated: once opened) */
     RD_STORE_TILE_JOB_DONE,  /* it completed the last pass: the caller assembles and finishes the job */
 } rd_store_tile_outcome;
 
@@ -311,7 +312,7 @@ void rd_store_tiles_free(rd_store_tile_data *t, size_t n);
 typedef enum {
     RD_STORE_EV_NONE,      /* the timeout passed */
     RD_STORE_EV_SUBMITTED, /* a job was created */
-    RD_STORE_EV_TILES,     /* tiles became claimable: made, a pass completed, leases released */
+    RD_STORE_EV_TILES,     /* tiles became claimable: made, a pass completed (ungated) or opened, leases released */
     RD_STORE_EV_ENDED,     /* a job was finished, failed or cancelled */
     RD_STORE_EV_CHANGED,   /* SQLite: another handle committed something (which, it cannot tell) */
 } rd_store_event_kind;

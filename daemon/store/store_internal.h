@@ -36,6 +36,7 @@ typedef struct {
     rd_error_code (*leases)(rd_store *s, const char *daemon, int lease_ms, int *count, rd_error *err);
     rd_error_code (*tile_done)(rd_store *s, const char *daemon, const rd_store_tile *t, const void *data, size_t len,
                                rd_store_tile_outcome *outcome, rd_error *err);
+    rd_error_code (*pass_open)(rd_store *s, const char *id, int pass, const char *schedule, rd_error *err);
     /* index < 0: every tile that has a result. */
     rd_error_code (*tiles_get)(rd_store *s, const char *id, int index, rd_store_tile_data **out, size_t *n,
                                rd_error *err);
@@ -57,6 +58,13 @@ rd_store *rd_store_pg_open(const char *conninfo, const rd_store_options *opt, rd
  * (RD_ERR_CANCELLED), or the tile is not, or no longer, daemon's for this
  * pass (RD_ERR_TIMEOUT). */
 rd_error_code rd_store_refusal(rd_store_status st, const char *daemon, const rd_store_tile *t, rd_error *err);
+
+/* Why pass_open opened nothing, from the job's row as it is now (its
+ * status, gated, passes completed, passes, passes opened): ended
+ * (RD_ERR_CANCELLED), else not gated or not the next pass (RD_ERR_INVALID).
+ * Both engines answer with the same messages. */
+rd_error_code rd_store_pass_refusal(const char *id, int pass, rd_store_status st, int gated, int done, int passes,
+                                    int opened, rd_error *err);
 
 /* The statuses' names as the schema spells them; -1 for another text. */
 int rd_store_status_parse(const char *name);

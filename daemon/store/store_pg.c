@@ -1,7 +1,8 @@
 /* The store in PostgreSQL, for several daemons sharing one queue. Claims
  * take tiles with SELECT ... FOR UPDATE SKIP LOCKED, so concurrent claims
- * pass each other instead of waiting; creations, completed passes and ends
- * send NOTIFY rayd_jobs inside their transaction, delivered at commit.
+ * pass each other instead of waiting; creations, completed (or opened)
+ * passes and ends send NOTIFY rayd_jobs inside their transaction,
+ * delivered at commit.
  *
  * Never hang, never crash when the server is away: the connection is
  * non-blocking and every statement has a deadline here (beyond the server's
@@ -132,9 +133,9 @@ static rd_error_code pg_failed(pg_store *p, PGresult *r, rd_error *err)
 /* Bound values: text as text, integers as decimal text, bytes as binary. */
 typedef struct {
     int n;
-    const char *vals[12];
-    int lens[12], fmts[12];
-    char nums[12][24];
+    const char *vals[16];
+    int lens[16], fmts[16];
+    char nums[16][24];
 } pg_params;
 
 static void pp_text(pg_params *pp, const char *t)
@@ -388,9 +389,12 @@ static rd_error_code pg_create(rd_store *s, const rd_store_job_spec *j, rd_error
         pp_int(&pp, j->submitted_ms);
         pp_int(&pp, j->tiles);
         pp_int(&pp, j->passes);
+        pp_int(&pp, j->gated != 0);
+        pp_text(&pp, j->schedule);
         c = pg_cmd(p,
                    "INSERT INTO jobs (id, status, scene, format, query, hdr, width, height, memory_bytes, "
-                   "submitted_ms, tiles_total, passes) VALUES ($1, 'queued', $2, $3, $4, $5, $6, $7, $8, $9, $10, $11)",
+                   "submitted_ms, tiles_total, passes, gated, schedule) "
+                   "VALUES ($1, 'queued', $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13)",
                    &pp, NULL, err);
     } else {
         *err = look;
@@ -427,6 +431,8 @@ static void pg_info_row(const PGresult *r, rd_store_job_info *o)
     o->passes = (int)pg_int(r, 0, 18);
     o->png_bytes = (size_t)pg_int(r, 0, 19);
     o->exr_bytes = (size_t)pg_int(r, 0, 20);
+    o->gated = (int)pg_int(r, 0, 21);
+    o->open_pass = (int)pg_int(r, 0, 22);
 }
 
 /* The one row sql gives for job id ($1), in text or binary; RD_ERR_NOT_FOUND
@@ -457,18 +463,21 @@ static rd_error_code pg_get(rd_store *s, const char *id, rd_store_job_info *out,
                    "finished_ms, error_code, error_line, error_column, error_message, stats, tiles_total, "
                    "tiles_done, pass, passes, "
                    "(SELECT octet_length(data) FROM results WHERE job_id = jobs.id AND kind = 'png'), "
-                   "(SELECT octet_length(data) FROM results WHERE job_id = jobs.id AND kind = 'exr') "
-                   "FROM jobs WHERE id = $1",
+                   "(SELECT octet_length(data) FROM results WHERE job_id = jobs.id AND kind = 'exr'), "
+                   "gated, open_pass, schedule FROM jobs WHERE id = $1",
                    0, &r, err);
     if (c)
         return c;
     rd_store_job_info o;
     pg_info_row(r, &o);
-    if (!PQgetisnull(r, 0, 14) && !(o.stats = rd_store_dup(pg_text(r, 0, 14), strlen(pg_text(r, 0, 14)))))
-        c = rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no memory for a job's statistics");
+    if ((!PQgetisnull(r, 0, 14) && !(o.stats = rd_store_dup(pg_text(r, 0, 14), strlen(pg_text(r, 0, 14))))) ||
+        (!PQgetisnull(r, 0, 23) && !(o.schedule = rd_store_dup(pg_text(r, 0, 23), strlen(pg_text(r, 0, 23))))))
+        c = rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no memory for a job's texts");
     PQclear(r);
     if (!c)
         *out = o;
+    else
+        rd_store_job_info_free(&o);
     return c;
 }
 
@@ -712,7 +721,7 @@ static rd_error_code pg_tiles_init(rd_store *s, const char *id, int tiles, int p
     rd_error_code c = pg_begin(p, err);
     if (!c)
         c = pg_cmd(p,
-                   "UPDATE jobs SET tiles_total = $2::int, passes = $3::int, tiles_done = 0, pass = 0 "
+                   "UPDATE jobs SET tiles_total = $2::int, passes = $3::int, tiles_done = 0, pass = 0, open_pass = 1 "
                    "WHERE id = $1 AND status IN ('queued', 'running') AND tiles_total = 0",
                    &pp, &n, err);
     if (!c && n == 0) {
@@ -733,11 +742,16 @@ static rd_error_code pg_tiles_init(rd_store *s, const char *id, int tiles, int p
 /* One statement, so no transaction of its own: the oldest runnable job's
  * claimable tiles, locked with SKIP LOCKED (a tile another claim holds is
  * passed over, and one it has just claimed fails the re-check of the
- * lease), then those of the first job taken and the job marked running. */
+ * lease), then those of the first job taken and the job marked running.
+ * A gated job's pass that is not open has no claimable tiles. The job row
+ * a claim reads may be older than a concurrent tile_done or pass_open; but
+ * a pass once open stays open, so a stale row can make a claim miss a pass
+ * just opened (the next claim takes it), never take one that is not. */
 static const char claim_sql[] =
     "WITH picked AS ("
     " SELECT t.job_id, t.tile, j.submitted_ms FROM tiles t JOIN jobs j ON j.id = t.job_id"
     " WHERE j.status IN ('queued', 'running') AND j.pass < j.passes AND t.passes_done = j.pass"
+    " AND (j.gated = 0 OR j.pass < j.open_pass)"
     " AND (t.owner IS NULL OR t.lease_until < " NOW ")"
     " ORDER BY j.submitted_ms, j.id, t.tile LIMIT $2::int FOR UPDATE OF t SKIP LOCKED),"
     " first AS (SELECT job_id FROM picked ORDER BY submitted_ms, job_id LIMIT 1),"
@@ -803,13 +817,15 @@ static rd_error_code pg_tile_refused(pg_store *p, const char *daemon, const rd_s
     return c ? c : rd_store_refusal(st, daemon, t, err);
 }
 
-static rd_error_code pg_advance(pg_store *p, const rd_store_tile *t, int last, int total, rd_error *err)
+/* A gated job's next pass is not claimable yet: its TILES event is sent
+ * by pass_open, so that a waiting daemon is not woken for nothing. */
+static rd_error_code pg_advance(pg_store *p, const rd_store_tile *t, int last, int total, int gated, rd_error *err)
 {
     pg_params pp = id_params(t->job_id);
     pp_int(&pp, t->pass + 1);
     pp_int(&pp, last ? total : 0);
     rd_error_code c = pg_cmd(p, "UPDATE jobs SET pass = $2::int, tiles_done = $3::int WHERE id = $1", &pp, NULL, err);
-    return c || last ? c : pg_notify(p, RD_STORE_EV_TILES, t->job_id, err);
+    return c || last || gated ? c : pg_notify(p, RD_STORE_EV_TILES, t->job_id, err);
 }
 
 static rd_error_code pg_count_tile(pg_store *p, const rd_store_tile *t, rd_store_tile_outcome *outcome, rd_error *err)
@@ -818,13 +834,13 @@ static rd_error_code pg_count_tile(pg_store *p, const rd_store_tile *t, rd_store
     pp_int(&pp, t->pass);
     PGresult *r = pg_run(p,
                          "UPDATE jobs SET tiles_done = tiles_done + 1 WHERE id = $1 AND pass = $2::int "
-                         "AND status IN ('queued', 'running') RETURNING tiles_done, tiles_total, passes",
+                         "AND status IN ('queued', 'running') RETURNING tiles_done, tiles_total, passes, gated",
                          &pp, 0, err);
     if (!r)
         return err ? err->code : RD_ERR_IO;
     int rows = PQntuples(r);
     int done = rows ? (int)pg_int(r, 0, 0) : 0, total = rows ? (int)pg_int(r, 0, 1) : 0;
-    int passes = rows ? (int)pg_int(r, 0, 2) : 0;
+    int passes = rows ? (int)pg_int(r, 0, 2) : 0, gated = rows ? (int)pg_int(r, 0, 3) : 0;
     PQclear(r);
     if (!rows)
         return pg_not_runnable(p, t->job_id, err);
@@ -833,7 +849,7 @@ static rd_error_code pg_count_tile(pg_store *p, const rd_store_tile *t, rd_store
         return RD_OK;
     int last = t->pass + 1 >= passes;
     *outcome = last ? RD_STORE_TILE_JOB_DONE : RD_STORE_TILE_PASS_DONE;
-    return pg_advance(p, t, last, total, err);
+    return pg_advance(p, t, last, total, gated, err);
 }
 
 static rd_error_code pg_tile_done(rd_store *s, const char *daemon, const rd_store_tile *t, const void *data, size_t len,
@@ -859,6 +875,52 @@ static rd_error_code pg_tile_done(rd_store *s, const char *daemon, const rd_stor
     if (!c)
         *outcome = o;
     return c;
+}
+
+/* Inside the transaction (not pg_job_row, which would find it busy and
+ * reconnect). */
+static rd_error_code pg_pass_refused(pg_store *p, const char *id, int pass, rd_error *err)
+{
+    pg_params pp = id_params(id);
+    PGresult *r = pg_run(p, "SELECT status, gated, pass, passes, open_pass FROM jobs WHERE id = $1", &pp, 0, err);
+    if (!r)
+        return err ? err->code : RD_ERR_IO;
+    if (PQntuples(r) == 0) {
+        PQclear(r);
+        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no job %s", id);
+    }
+    rd_store_status st = (rd_store_status)rd_store_status_parse(pg_text(r, 0, 0));
+    int gated = (int)pg_int(r, 0, 1), done = (int)pg_int(r, 0, 2), passes = (int)pg_int(r, 0, 3);
+    int opened = (int)pg_int(r, 0, 4);
+    PQclear(r);
+    return rd_store_pass_refusal(id, pass, st, gated, done, passes, opened, err);
+}
+
+/* The WHERE is the whole rule (gated, running, pass - 1 complete, pass not
+ * yet open). Of two openers at once, the second waits for the first's row
+ * lock and, at read committed, evaluates the WHERE again on the row the
+ * first committed: open_pass has moved on and it changes nothing. Only the
+ * job's row is locked, and nothing after it, so the tiles-then-job order
+ * holds. */
+static rd_error_code pg_pass_open(rd_store *s, const char *id, int pass, const char *schedule, rd_error *err)
+{
+    pg_store *p = pg(s);
+    pg_params pp = id_params(id);
+    pp_int(&pp, pass);
+    pp_text(&pp, schedule);
+    int n = 0;
+    rd_error_code c = pg_begin(p, err);
+    if (!c)
+        c = pg_cmd(p,
+                   "UPDATE jobs SET open_pass = $2::int + 1, schedule = coalesce($3, schedule) "
+                   "WHERE id = $1 AND gated = 1 AND status IN ('queued', 'running') "
+                   "AND pass = $2::int AND open_pass = $2::int AND pass < passes",
+                   &pp, &n, err);
+    if (!c && n == 0)
+        c = pg_pass_refused(p, id, pass, err);
+    if (!c)
+        c = pg_notify(p, RD_STORE_EV_TILES, id, err);
+    return pg_end(p, c, err);
 }
 
 static rd_error_code pg_tiles_get(rd_store *s, const char *id, int index, rd_store_tile_data **out, size_t *n,
@@ -963,6 +1025,7 @@ static const rd_store_ops pg_ops = {
     .claim = pg_claim,
     .leases = pg_leases,
     .tile_done = pg_tile_done,
+    .pass_open = pg_pass_open,
     .tiles_get = pg_tiles_get,
     .wait = pg_wait,
 };

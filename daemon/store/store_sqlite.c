@@ -212,9 +212,11 @@ static rd_error_code sq_create(rd_store *s, const rd_store_job_spec *j, rd_error
     else if (c == RD_ERR_NOT_FOUND)
         c = sq_run(q, NULL, err,
                    "INSERT INTO jobs (id, status, scene, format, query, hdr, width, height, memory_bytes, "
-                   "submitted_ms, tiles_total, passes) VALUES (?, 'queued', ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                   "tbttiiiIIii", j->id, j->scene, j->scene_len, j->format, j->query ? j->query : "", j->hdr != 0,
-                   j->width, j->height, j->memory_bytes, j->submitted_ms, j->tiles, j->passes);
+                   "submitted_ms, tiles_total, passes, gated, schedule) "
+                   "VALUES (?, 'queued', ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                   "tbttiiiIIiiit", j->id, j->scene, j->scene_len, j->format, j->query ? j->query : "", j->hdr != 0,
+                   j->width, j->height, j->memory_bytes, j->submitted_ms, j->tiles, j->passes, j->gated != 0,
+                   j->schedule);
     if (!c && j->tiles)
         c = sq_insert_tiles(q, j->id, j->tiles, err);
     return sq_end(q, c, err);
@@ -245,6 +247,8 @@ static void sq_info_row(sqlite3_stmt *st, rd_store_job_info *o)
     o->passes = sqlite3_column_int(st, 18);
     o->png_bytes = (size_t)sqlite3_column_int64(st, 19);
     o->exr_bytes = (size_t)sqlite3_column_int64(st, 20);
+    o->gated = sqlite3_column_int(st, 21);
+    o->open_pass = sqlite3_column_int(st, 22);
 }
 
 static rd_error_code sq_get(rd_store *s, const char *id, rd_store_job_info *out, rd_error *err)
@@ -256,8 +260,8 @@ static rd_error_code sq_get(rd_store *s, const char *id, rd_store_job_info *out,
                               "finished_ms, error_code, error_line, error_column, error_message, stats, tiles_total, "
                               "tiles_done, pass, passes, "
                               "(SELECT length(data) FROM results WHERE job_id = jobs.id AND kind = 'png'), "
-                              "(SELECT length(data) FROM results WHERE job_id = jobs.id AND kind = 'exr') "
-                              "FROM jobs WHERE id = ?",
+                              "(SELECT length(data) FROM results WHERE job_id = jobs.id AND kind = 'exr'), "
+                              "gated, open_pass, schedule FROM jobs WHERE id = ?",
                               "t", id);
     if (c)
         return c;
@@ -265,11 +269,15 @@ static rd_error_code sq_get(rd_store *s, const char *id, rd_store_job_info *out,
     if (r == 1) {
         rd_store_job_info o;
         sq_info_row(st, &o);
-        if (sqlite3_column_type(st, 14) != SQLITE_NULL &&
-            !(o.stats = rd_store_dup(col_text(st, 14), strlen(col_text(st, 14)))))
-            c = rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no memory for a job's statistics");
+        if ((sqlite3_column_type(st, 14) != SQLITE_NULL &&
+             !(o.stats = rd_store_dup(col_text(st, 14), strlen(col_text(st, 14))))) ||
+            (sqlite3_column_type(st, 23) != SQLITE_NULL &&
+             !(o.schedule = rd_store_dup(col_text(st, 23), strlen(col_text(st, 23))))))
+            c = rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no memory for a job's texts");
         if (!c)
             *out = o;
+        else
+            rd_store_job_info_free(&o);
     }
     sqlite3_finalize(st);
     if (r == 0)
@@ -511,7 +519,7 @@ static rd_error_code sq_tiles_init(rd_store *s, const char *id, int tiles, int p
     if (c)
         return c;
     c = sq_run(q, &n, err,
-               "UPDATE jobs SET tiles_total = ?, passes = ?, tiles_done = 0, pass = 0 "
+               "UPDATE jobs SET tiles_total = ?, passes = ?, tiles_done = 0, pass = 0, open_pass = 1 "
                "WHERE id = ? AND status IN ('queued', 'running') AND tiles_total = 0",
                "iit", tiles, passes, id);
     if (!c && n == 0) {
@@ -527,14 +535,16 @@ static rd_error_code sq_tiles_init(rd_store *s, const char *id, int tiles, int p
     return sq_end(q, c, err);
 }
 
-/* The oldest runnable job with a claimable tile: *found 0 when none. */
+/* The oldest runnable job with a claimable tile: *found 0 when none. A
+ * gated job whose current pass is not open yet is passed over here, not
+ * after, so that it does not hold up the jobs behind it. */
 static rd_error_code sq_claimable_job(sq_store *q, int64_t now, char *id, int *pass, int *found, rd_error *err)
 {
     sqlite3_stmt *st;
     rd_error_code c =
         sq_prep(q, &st, err,
                 "SELECT j.id, j.pass FROM jobs j WHERE j.status IN ('queued', 'running') AND j.pass < j.passes "
-                "AND EXISTS "
+                "AND (j.gated = 0 OR j.pass < j.open_pass) AND EXISTS "
                 "(SELECT 1 FROM tiles t WHERE t.job_id = j.id AND t.passes_done = j.pass "
                 "AND (t.owner IS NULL OR t.lease_until < ?)) ORDER BY j.submitted_ms, j.id LIMIT 1",
                 "I", now);
@@ -676,6 +686,46 @@ static rd_error_code sq_tile_done(rd_store *s, const char *daemon, const rd_stor
     return c;
 }
 
+/* Why an UPDATE that opens a pass changed nothing. */
+static rd_error_code sq_pass_refused(sq_store *q, const char *id, int pass, rd_error *err)
+{
+    sqlite3_stmt *st;
+    rd_error_code c =
+        sq_prep(q, &st, err, "SELECT status, gated, pass, passes, open_pass FROM jobs WHERE id = ?", "t", id);
+    if (c)
+        return c;
+    int r = sq_step(q, st, err);
+    if (r == 1)
+        c = rd_store_pass_refusal(id, pass, (rd_store_status)rd_store_status_parse(col_text(st, 0)),
+                                  sqlite3_column_int(st, 1), sqlite3_column_int(st, 2), sqlite3_column_int(st, 3),
+                                  sqlite3_column_int(st, 4), err);
+    sqlite3_finalize(st);
+    if (r == 0)
+        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no job %s", id);
+    return r < 0 ? (rd_error_code)-r : c;
+}
+
+/* The WHERE is the whole rule (gated, running, pass - 1 complete, pass not
+ * yet open): under BEGIN IMMEDIATE two openers run one after the other,
+ * and the second finds open_pass moved on. Waiting handles see the commit
+ * through data_version. */
+static rd_error_code sq_pass_open(rd_store *s, const char *id, int pass, const char *schedule, rd_error *err)
+{
+    sq_store *q = sq(s);
+    int n = 0;
+    rd_error_code c = sq_begin(q, err);
+    if (c)
+        return c;
+    c = sq_run(q, &n, err,
+               "UPDATE jobs SET open_pass = ?1 + 1, schedule = coalesce(?2, schedule) "
+               "WHERE id = ?3 AND gated = 1 AND status IN ('queued', 'running') "
+               "AND pass = ?1 AND open_pass = ?1 AND pass < passes",
+               "itt", pass, schedule, id);
+    if (!c && n == 0)
+        c = sq_pass_refused(q, id, pass, err);
+    return sq_end(q, c, err);
+}
+
 static rd_error_code sq_tile_row(sqlite3_stmt *st, rd_store_tile_data *t, rd_error *err)
 {
     t->index = sqlite3_column_int(st, 0);
@@ -784,6 +834,7 @@ static const rd_store_ops sq_ops = {
     .claim = sq_claim,
     .leases = sq_leases,
     .tile_done = sq_tile_done,
+    .pass_open = sq_pass_open,
     .tiles_get = sq_tiles_get,
     .wait = sq_wait,
 };

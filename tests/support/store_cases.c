@@ -11,6 +11,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "migrations.h"
 #include "rayd/clock.h"
 #include "store_internal.h"
 
@@ -835,4 +836,308 @@ void case_wait_wakes(const store_env *e, double max_ms)
                 w.woke_at - committed);
     rd_store_close(a);
     rd_store_close(b);
+}
+
+/* Gated passes. */
+
+static rd_store_job_spec gated_spec(const char *id, int64_t submitted_ms, int tiles, int passes, const char *schedule)
+{
+    rd_store_job_spec j = spec_of(id, submitted_ms, tiles, passes);
+    j.gated = 1;
+    j.schedule = schedule;
+    return j;
+}
+
+static void put_gated(rd_store *s, const char *id, int64_t submitted_ms, int tiles, int passes, const char *schedule)
+{
+    rd_store_job_spec j = gated_spec(id, submitted_ms, tiles, passes, schedule);
+    OK(rd_store_job_create(s, &j, &e_));
+}
+
+/* Claims every tile of pass of job id (all of them must come, and only
+ * them) and completes them: the last one's outcome. */
+static rd_store_tile_outcome run_pass(rd_store *s, const char *id, int tiles, int pass)
+{
+    rd_store_tile t[16];
+    cr_assert(tiles <= 16);
+    int n = claim(s, "d1", 16, 10000, t);
+    cr_assert_eq(n, tiles, "pass %d of %s: %d tiles claimed, not %d", pass, id, n, tiles);
+    rd_store_tile_outcome o = RD_STORE_TILE_MORE;
+    for (int i = 0; i < n; i++) {
+        cr_assert(strcmp(t[i].job_id, id) == 0 && t[i].pass == pass, "tile %d of pass %d of %s claimed", t[i].index,
+                  t[i].pass, t[i].job_id);
+        char data[32];
+        snprintf(data, sizeof data, "t%dp%d", t[i].index, pass);
+        o = tile_done(s, "d1", &t[i], data);
+        if (i < n - 1)
+            cr_assert_eq(o, RD_STORE_TILE_MORE, "tile %d of %d", i, n);
+    }
+    return o;
+}
+
+/* pass_open fails with code, and its message says why in words. */
+static void open_refused(rd_store *s, const char *id, int pass, const char *schedule, rd_error_code code,
+                         const char *words)
+{
+    rd_error err = {0};
+    rd_error_code c = rd_store_pass_open(s, id, pass, schedule, &err);
+    cr_assert_eq(c, code, "pass_open(%s, %d): %s, not %s (%s)", id, pass, rd_error_name(c), rd_error_name(code),
+                 err.message);
+    cr_assert_eq(err.code, code);
+    cr_assert(strstr(err.message, words), "pass_open(%s, %d): \"%s\" does not say \"%s\"", id, pass, err.message,
+              words);
+}
+
+/* The job's gated, open_pass, pass and schedule (NULL: none). */
+static void check_gate(rd_store *s, const char *id, int gated, int open_pass, int pass, const char *schedule)
+{
+    rd_store_job_info in = info_of(s, id);
+    cr_assert_eq(in.gated, gated, "%s: gated %d", id, in.gated);
+    cr_assert_eq(in.open_pass, open_pass, "%s: open_pass %d, not %d", id, in.open_pass, open_pass);
+    cr_assert_eq(in.pass, pass, "%s: pass %d, not %d", id, in.pass, pass);
+    if (schedule)
+        cr_assert(in.schedule && strcmp(in.schedule, schedule) == 0, "%s: schedule \"%s\", not \"%s\"", id,
+                  in.schedule ? in.schedule : "(none)", schedule);
+    else
+        cr_assert_null(in.schedule, "%s: schedule \"%s\", not none", id, in.schedule);
+    rd_store_job_info_free(&in);
+    cr_assert(!in.schedule && !in.stats, "rd_store_job_info_free clears what it frees");
+}
+
+void case_gated_passes(const store_env *e)
+{
+    rd_store *s = store_env_open(e), *b = store_env_open(e);
+    put_gated(s, "gj", 10, 3, 3, "pass 0: 1 spp");
+    store_put_job(s, "uj", 20, 2, 1);
+    check_gate(s, "gj", 1, 1, 0, "pass 0: 1 spp");
+    cr_assert_eq(run_pass(s, "gj", 3, 0), RD_STORE_TILE_PASS_DONE, "PASS_DONE is still said for a gated job");
+    check_gate(s, "gj", 1, 1, 1, "pass 0: 1 spp");
+    /* Pass 1 waits for its opening, and the younger job is not held up
+     * behind it. */
+    cr_assert_eq(run_pass(s, "uj", 2, 0), RD_STORE_TILE_JOB_DONE);
+    rd_store_tile t[16];
+    cr_assert_eq(claim(s, "d1", 16, 10000, t), 0, "pass 1 of gj is not open");
+    cr_assert_eq(claim(b, "d2", 16, 10000, t), 0, "not for another handle either");
+    OK(rd_store_pass_open(b, "gj", 1, "pass 1: 4 spp", &e_));
+    check_gate(s, "gj", 1, 2, 1, "pass 1: 4 spp");
+    cr_assert_eq(run_pass(s, "gj", 3, 1), RD_STORE_TILE_PASS_DONE);
+    cr_assert_eq(claim(s, "d1", 16, 10000, t), 0, "pass 2 of gj is not open");
+    /* NULL keeps the schedule. */
+    OK(rd_store_pass_open(s, "gj", 2, NULL, &e_));
+    check_gate(s, "gj", 1, 3, 2, "pass 1: 4 spp");
+    cr_assert_eq(run_pass(s, "gj", 3, 2), RD_STORE_TILE_JOB_DONE);
+    check_gate(s, "gj", 1, 3, 3, "pass 1: 4 spp");
+    check_tiles(s, "gj", 3, 3);
+    rd_store_close(s);
+    rd_store_close(b);
+}
+
+void case_gated_refusals(const store_env *e)
+{
+    rd_store *s = store_env_open(e);
+    put_gated(s, "g1", 10, 2, 3, NULL);
+    open_refused(s, "g1", 0, "s", RD_ERR_INVALID, "pass 0");
+    rd_store_tile t[4];
+    cr_assert_eq(claim(s, "d1", 4, 10000, t), 2);
+    cr_assert_eq(tile_done(s, "d1", &t[0], "t0p0"), RD_STORE_TILE_MORE);
+    open_refused(s, "g1", 1, "s", RD_ERR_INVALID, "0 of its passes are complete, not 1");
+    check_gate(s, "g1", 1, 1, 0, NULL);
+    cr_assert_eq(tile_done(s, "d1", &t[1], "t1p0"), RD_STORE_TILE_PASS_DONE);
+    open_refused(s, "g1", 2, "s", RD_ERR_INVALID, "1 of its passes are complete, not 2");
+    OK(rd_store_pass_open(s, "g1", 1, "first", &e_));
+    /* Once: a second opening changes nothing, its schedule included. */
+    open_refused(s, "g1", 1, "second", RD_ERR_INVALID, "open already");
+    check_gate(s, "g1", 1, 2, 1, "first");
+    cr_assert_eq(run_pass(s, "g1", 2, 1), RD_STORE_TILE_PASS_DONE);
+    OK(rd_store_pass_open(s, "g1", 2, NULL, &e_));
+    cr_assert_eq(run_pass(s, "g1", 2, 2), RD_STORE_TILE_JOB_DONE);
+    /* Its pass 3 would be next by the counts, but there is none. */
+    check_gate(s, "g1", 1, 3, 3, "first");
+    open_refused(s, "g1", 3, NULL, RD_ERR_INVALID, "no pass 3");
+    end_job(s, "g1");
+    open_refused(s, "g1", 3, NULL, RD_ERR_CANCELLED, "done");
+    /* Ended between its pass completing and its next opening. */
+    put_gated(s, "g2", 30, 1, 2, "kept");
+    cr_assert_eq(run_pass(s, "g2", 1, 0), RD_STORE_TILE_PASS_DONE);
+    OK(rd_store_job_cancel(s, "g2", NULL, &e_));
+    open_refused(s, "g2", 1, "late", RD_ERR_CANCELLED, "cancelled");
+    check_gate(s, "g2", 1, 1, 1, "kept");
+    /* An ungated job's passes open by themselves. */
+    store_put_job(s, "u", 40, 1, 2);
+    cr_assert_eq(run_pass(s, "u", 1, 0), RD_STORE_TILE_PASS_DONE);
+    open_refused(s, "u", 1, "s", RD_ERR_INVALID, "not gated");
+    check_gate(s, "u", 0, 1, 1, NULL);
+    cr_assert_eq(run_pass(s, "u", 1, 1), RD_STORE_TILE_JOB_DONE, "its pass 1 was claimable at once");
+    FAILS(RD_ERR_NOT_FOUND, rd_store_pass_open(s, "nosuch", 1, NULL, &e_));
+    FAILS(RD_ERR_INVALID, rd_store_pass_open(s, "bad id", 1, NULL, &e_));
+    rd_store_close(s);
+}
+
+void case_gated_schedule(const store_env *e)
+{
+    store_env small = *e;
+    small.opt.limits.text_bytes = 100;
+    rd_store *s = store_env_open(&small);
+    static char text[200];
+    memset(text, 's', sizeof text - 1);
+    const char *at_limit = text + sizeof text - 1 - 100, *over = at_limit - 1;
+    const char *json = "{\"spp\":[1,4,16],\"name\":\"\xc3\xa9t\xc3\xa9\"}";
+    put_gated(s, "sj", 1, 1, 3, json);
+    check_gate(s, "sj", 1, 1, 0, json);
+    /* An ungated job keeps one too; none is none. */
+    rd_store_job_spec j = spec_of("wj", 2, 0, 0);
+    j.schedule = "ungated";
+    OK(rd_store_job_create(s, &j, &e_));
+    check_gate(s, "wj", 0, 1, 0, "ungated");
+    store_put_job(s, "nj", 3, 0, 0);
+    check_gate(s, "nj", 0, 1, 0, NULL);
+    j = gated_spec("big", 4, 1, 2, over);
+    FAILS(RD_ERR_LIMIT, rd_store_job_create(s, &j, &e_));
+    j = gated_spec("big", 4, 1, 2, "\xc3");
+    FAILS(RD_ERR_INVALID, rd_store_job_create(s, &j, &e_));
+    rd_store_job_info in;
+    FAILS(RD_ERR_NOT_FOUND, rd_store_job_get(s, "big", &in, &e_));
+    put_gated(s, "edge", 5, 0, 0, at_limit);
+    check_gate(s, "edge", 1, 1, 0, at_limit);
+    cr_assert_eq(run_pass(s, "sj", 1, 0), RD_STORE_TILE_PASS_DONE);
+    FAILS(RD_ERR_LIMIT, rd_store_pass_open(s, "sj", 1, over, &e_));
+    FAILS(RD_ERR_INVALID, rd_store_pass_open(s, "sj", 1, "\xff", &e_));
+    check_gate(s, "sj", 1, 1, 1, json);
+    OK(rd_store_pass_open(s, "sj", 1, at_limit, &e_));
+    check_gate(s, "sj", 1, 2, 1, at_limit);
+    cr_assert_eq(run_pass(s, "sj", 1, 1), RD_STORE_TILE_PASS_DONE);
+    /* An empty schedule replaces it: only NULL keeps it. */
+    OK(rd_store_pass_open(s, "sj", 2, "", &e_));
+    check_gate(s, "sj", 1, 3, 2, "");
+    rd_store_close(s);
+}
+
+void case_gated_wait(const store_env *e)
+{
+    rd_store *a = store_env_open(e), *b = store_env_open(e);
+    put_gated(b, "wj", 2, 2, 2, NULL);
+    cr_assert_eq(run_pass(b, "wj", 2, 0), RD_STORE_TILE_PASS_DONE);
+    /* What a saw so far, until it is quiet. On PostgreSQL, no TILES: the
+     * pass that completed opened nothing. */
+    rd_store_event ev;
+    int quiet = 0;
+    for (int i = 0; i < 20 && !quiet; i++) {
+        OK(rd_store_wait(a, 300, &ev, &e_));
+        quiet = ev.kind == RD_STORE_EV_NONE;
+        if (e->events_named)
+            cr_assert_neq(ev.kind, RD_STORE_EV_TILES, "woken for tiles that are not claimable");
+    }
+    cr_assert(quiet, "a's events never ran out");
+    waiter w = {.s = a, .timeout_ms = 5000};
+    pthread_t th;
+    cr_assert_eq(pthread_create(&th, NULL, wait_main, &w), 0);
+    sleep_ms_store(200);
+    OK(rd_store_pass_open(b, "wj", 1, "go", &e_));
+    double committed = rd_now_ms();
+    pthread_join(th, NULL);
+    cr_assert_eq(w.code, RD_OK);
+    cr_assert_lt(w.woke_at - committed, 1000.0, "woke %.1f ms after the pass opened", w.woke_at - committed);
+    if (e->events_named) {
+        cr_assert_eq(w.ev.kind, RD_STORE_EV_TILES, "woken by event %d", (int)w.ev.kind);
+        cr_assert_str_eq(w.ev.job_id, "wj");
+    } else {
+        cr_assert_eq(w.ev.kind, RD_STORE_EV_CHANGED, "woken by event %d", (int)w.ev.kind);
+    }
+    /* A refused opening changed nothing and wakes nobody. */
+    FAILS(RD_ERR_INVALID, rd_store_pass_open(b, "wj", 1, "again", &e_));
+    OK(rd_store_wait(a, 300, &ev, &e_));
+    cr_assert_eq(ev.kind, RD_STORE_EV_NONE, "woken by a refused opening (%d)", (int)ev.kind);
+    rd_store_tile t[4];
+    cr_assert_eq(claim(a, "d2", 4, 10000, t), 2, "the waiting handle claims the opened pass");
+    cr_assert(t[0].pass == 1 && t[1].pass == 1);
+    rd_store_close(a);
+    rd_store_close(b);
+}
+
+#define RACERS 8
+
+typedef struct {
+    rd_store *s;
+    atomic_int *go;
+    int pass;
+    char schedule[32];
+    rd_error_code code;
+    rd_error err;
+} racer;
+
+static void *race_main(void *arg)
+{
+    racer *r = arg;
+    while (!atomic_load(r->go))
+        ; /* every racer calls at once */
+    r->code = rd_store_pass_open(r->s, "race", r->pass, r->schedule, &r->err);
+    return NULL;
+}
+
+void case_gated_race(const store_env *e, int threads, int rounds)
+{
+    cr_assert(threads >= 2 && threads <= RACERS);
+    rd_store *s = store_env_open(e);
+    put_gated(s, "race", 1, 2, rounds + 1, NULL);
+    rd_store *h[RACERS];
+    for (int i = 0; i < threads; i++)
+        h[i] = store_env_open(e);
+    for (int p = 1; p <= rounds; p++) {
+        cr_assert_eq(run_pass(s, "race", 2, p - 1), RD_STORE_TILE_PASS_DONE);
+        atomic_int go = 0;
+        racer r[RACERS];
+        pthread_t th[RACERS];
+        for (int i = 0; i < threads; i++) {
+            r[i] = (racer){.s = h[i], .go = &go, .pass = p};
+            snprintf(r[i].schedule, sizeof r[i].schedule, "won by %d", i);
+            cr_assert_eq(pthread_create(&th[i], NULL, race_main, &r[i]), 0);
+        }
+        atomic_store(&go, 1);
+        int won = 0, winner = -1;
+        for (int i = 0; i < threads; i++) {
+            pthread_join(th[i], NULL);
+            cr_assert(r[i].code == RD_OK || r[i].code == RD_ERR_INVALID, "pass %d, racer %d: %s (%s)", p, i,
+                      rd_error_name(r[i].code), r[i].err.message);
+            if (r[i].code == RD_OK) {
+                won++;
+                winner = i;
+            }
+        }
+        cr_assert_eq(won, 1, "pass %d opened by %d racers", p, won);
+        check_gate(s, "race", 1, p + 1, p, r[winner].schedule);
+    }
+    cr_assert_eq(run_pass(s, "race", 2, rounds), RD_STORE_TILE_JOB_DONE);
+    for (int i = 0; i < threads; i++)
+        rd_store_close(h[i]);
+    rd_store_close(s);
+}
+
+void case_upgrade_from_version_2(const store_env *e, void (*exec)(const char *sql), const char *blob)
+{
+    cr_assert_geq(rd_store_migration_count, 3);
+    exec("CREATE TABLE schema_version (version INTEGER PRIMARY KEY, name TEXT NOT NULL, applied_ms BIGINT NOT NULL)");
+    for (int i = 0; i < 2; i++) {
+        char *sql = rd_store_migration_text(rd_store_migrations[i].sql, blob);
+        cr_assert(sql);
+        exec(sql);
+        free(sql);
+        char row[160];
+        snprintf(row, sizeof row, "INSERT INTO schema_version VALUES (%d, '%s', 0)", rd_store_migrations[i].version,
+                 rd_store_migrations[i].name);
+        exec(row);
+    }
+    /* As a rayd of version 2 wrote it: a running job with 2 tiles of 2
+     * passes, tile 0 of pass 0 done. */
+    exec("INSERT INTO jobs (id, status, scene, format, query, hdr, width, height, memory_bytes, submitted_ms, "
+         "started_ms, tiles_total, tiles_done, pass, passes) "
+         "VALUES ('old', 'running', 'x', 'cfg', '', 0, 8, 8, 0, 1, 1, 2, 1, 0, 2)");
+    exec("INSERT INTO tiles (job_id, tile, passes_done, data) VALUES ('old', 0, 1, 'r'), ('old', 1, 0, NULL)");
+    rd_store *s = store_env_open(e);
+    check_gate(s, "old", 0, 1, 0, NULL);
+    rd_store_job_info in = info_of(s, "old");
+    cr_assert(in.status == RD_STORE_RUNNING && in.tiles_done == 1 && in.passes == 2, "the job is as it was");
+    rd_store_job_info_free(&in);
+    cr_assert_eq(run_pass(s, "old", 1, 0), RD_STORE_TILE_PASS_DONE);
+    cr_assert_eq(run_pass(s, "old", 2, 1), RD_STORE_TILE_JOB_DONE, "its passes open by themselves");
+    rd_store_close(s);
 }

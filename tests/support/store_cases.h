@@ -40,5 +40,26 @@ void case_limits_and_bad_arguments(const store_env *e);
 /* A waiting handle wakes within max_ms of another's commit, not for its
  * own, and sleeps out its timeout otherwise. */
 void case_wait_wakes(const store_env *e, double max_ms);
+/* Gated passes: pass p opens only by rd_store_pass_open, once, after pass
+ * p - 1 completed; claims pass over a pass not open (and take the jobs
+ * behind it); the schedule it replaces. */
+void case_gated_passes(const store_env *e);
+/* Each refusal of pass_open (not complete, twice, skipping, past the last,
+ * ended, ungated, no job) and its code, changing nothing. */
+void case_gated_refusals(const store_env *e);
+/* The schedule round-trips through create, job_get and pass_open (NULL
+ * keeps it, "" replaces it), within the text limit. */
+void case_gated_schedule(const store_env *e);
+/* An opened pass wakes a waiting handle (TILES on PostgreSQL, which a
+ * completed gated pass does not send; CHANGED on SQLite); a refused one
+ * does not. */
+void case_gated_wait(const store_env *e);
+/* threads handles open each of rounds passes at once: exactly one wins
+ * each, and its schedule is the job's. */
+void case_gated_race(const store_env *e, int threads, int rounds);
+/* A store of schema version 2, made by exec (SQL run by the engine's own
+ * client, @BLOB@ written blob), with a job half done: opening it applies
+ * migration 3, and the job goes on ungated. */
+void case_upgrade_from_version_2(const store_env *e, void (*exec)(const char *sql), const char *blob);
 
 #endif

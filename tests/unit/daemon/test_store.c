@@ -61,6 +61,16 @@ Test(store, limits_and_bad_arguments) { case_limits_and_bad_arguments(&g_env); }
 
 Test(store, wait_wakes_on_another_handles_commit) { case_wait_wakes(&g_env, 100); }
 
+Test(store, gated_passes_open_only_by_pass_open) { case_gated_passes(&g_env); }
+
+Test(store, gated_pass_open_refusals) { case_gated_refusals(&g_env); }
+
+Test(store, gated_schedule_round_trips_within_limits) { case_gated_schedule(&g_env); }
+
+Test(store, gated_pass_open_wakes_a_waiting_handle) { case_gated_wait(&g_env); }
+
+Test(store, gated_pass_open_race_has_one_winner) { case_gated_race(&g_env, 4, 5); }
+
 static sqlite3 *raw_db(void)
 {
     char path[300];
@@ -79,6 +89,22 @@ static long long raw_int(sqlite3 *db, const char *sql)
     sqlite3_finalize(st);
     return v;
 }
+
+/* SQL on the store's file through SQLite itself, before rayd made it. */
+static void raw_exec(const char *sql)
+{
+    char cmd[300], path[300];
+    snprintf(cmd, sizeof cmd, "mkdir -p '%s'", g_env.spec);
+    cr_assert_eq(system(cmd), 0);
+    snprintf(path, sizeof path, "%s/rayd.sqlite3", g_env.spec);
+    sqlite3 *db = NULL;
+    cr_assert_eq(sqlite3_open_v2(path, &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, NULL), SQLITE_OK, "%s", path);
+    char *msg = NULL;
+    cr_assert_eq(sqlite3_exec(db, sql, NULL, NULL, &msg), SQLITE_OK, "%s: %s", sql, msg ? msg : "");
+    sqlite3_close(db);
+}
+
+Test(store, a_version_2_store_upgrades_to_ungated_jobs) { case_upgrade_from_version_2(&g_env, raw_exec, "BLOB"); }
 
 Test(store, migrations_once_and_idempotent)
 {

@@ -59,6 +59,16 @@ Test(store_pg, limits_and_bad_arguments) { case_limits_and_bad_arguments(&g_env)
 
 Test(store_pg, notify_wakes_a_waiting_handle) { case_wait_wakes(&g_env, 100); }
 
+Test(store_pg, gated_passes_open_only_by_pass_open) { case_gated_passes(&g_env); }
+
+Test(store_pg, gated_pass_open_refusals) { case_gated_refusals(&g_env); }
+
+Test(store_pg, gated_schedule_round_trips_within_limits) { case_gated_schedule(&g_env); }
+
+Test(store_pg, gated_pass_open_notifies_tiles) { case_gated_wait(&g_env); }
+
+Test(store_pg, gated_pass_open_race_has_one_winner) { case_gated_race(&g_env, 4, 5); }
+
 static long long raw_int(const char *sql)
 {
     PGconn *c = PQconnectdb(g_pg.conninfo);
@@ -71,6 +81,10 @@ static long long raw_int(const char *sql)
     PQfinish(c);
     return v;
 }
+
+static void raw_exec(const char *sql) { raw_int(sql); }
+
+Test(store_pg, a_version_2_store_upgrades_to_ungated_jobs) { case_upgrade_from_version_2(&g_env, raw_exec, "BYTEA"); }
 
 Test(store_pg, url_and_conninfo_specs_and_idempotent_migrations)
 {
