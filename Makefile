@@ -75,7 +75,7 @@ GENERATED := scenes/generated/knot.obj
 
 scenes: $(GENERATED)
 
-.PHONY: all deps test check run install uninstall install-test bench bench-quick clean scenes fuzz stability tsan fault print-includes print-pkgs format-check
+.PHONY: all deps test check run install uninstall install-test bench bench-quick clean scenes fuzz stability tsan fault print-includes print-pkgs format-check farm
 
 
 scenes/generated/knot.obj: scenes/gen.py
@@ -160,6 +160,13 @@ check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/serve_test.py
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/metrics_test.py
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/openapi_test.py
+	RAYD=$(BUILD)/rayd sh tests/integration/deploy_test.sh
+	RAYD=$(BUILD)/rayd $(if $(SAN),RAYD_TEST_SLOW=3) /usr/bin/python3 tests/integration/store_test.py
+
+# Three daemons on one PostgreSQL behind nginx (tests/integration/farm_test.py):
+# once, against the plain build.
+farm: $(BUILD)/rayd $(GENERATED)
+	@RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/farm_test.py
 
 # gcc plain, then clang with AddressSanitizer and UndefinedBehaviorSanitizer,
 # then the web page in headless Chromium, the fault test against the plain
@@ -169,6 +176,7 @@ test: deps
 	@$(MAKE) --no-print-directory format-check
 	@$(MAKE) --no-print-directory check CC=gcc BUILD=build
 	@$(MAKE) --no-print-directory check CC=clang SAN=1 BUILD=build/clang-san
+	@$(MAKE) --no-print-directory farm
 	@$(MAKE) --no-print-directory install-test
 	@sh tests/integration/tree_clean_test.sh
 	@RAYD=build/rayd sh tests/browser/run.sh
