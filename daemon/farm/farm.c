@@ -295,6 +295,35 @@ static void do_stuck(rd_farm *f, rd_store *h, const char *id, int pass)
     farm_ctx_put(f, c);
 }
 
+/* What this daemon may claim next: a tile of a job it holds (its memory
+ * is counted already), else of the oldest job that fits beside what it
+ * holds (--memory-budget; when nothing runs here the oldest starts
+ * anyway, as in the queue). */
+static rd_error_code claim_next(rd_farm *f, rd_store *h, rd_store_tile *t, int *n, rd_error *err)
+{
+    char held[CTX_HELD_MAX][RD_STORE_ID_MAX];
+    int nheld = farm_ctx_held(f, held);
+    *n = 0;
+    for (int i = 0; i < nheld; i++) {
+        rd_store_claim_filter only = {held[i], 0};
+        rd_error_code rc = rd_store_claim_where(h, f->daemon_id, 1, f->opt.lease_ms, &only, t, n, err);
+        if (rc || *n)
+            return rc;
+    }
+    rd_store_claim_filter fit = {NULL, 0};
+    if (f->opt.memory_budget && f->opt.jobs) {
+        rd_jq_metrics m;
+        rd_jq_metrics_get(f->opt.jobs, &m);
+        size_t used = m.memory_reserved + m.result_bytes + m.external_bytes;
+        if (nheld > 0 || m.running > 0) {
+            if (used >= f->opt.memory_budget)
+                return RD_OK;
+            fit.max_memory_bytes = (int64_t)(f->opt.memory_budget - used);
+        }
+    }
+    return rd_store_claim_where(h, f->daemon_id, 1, f->opt.lease_ms, &fit, t, n, err);
+}
+
 void *farm_worker_main(void *arg)
 {
     rd_farm *f = ((void **)arg)[0];
@@ -318,7 +347,7 @@ void *farm_worker_main(void *arg)
         rd_store_tile t;
         int n = 0;
         rd_error err = {0};
-        rd_error_code rc = rd_store_claim(h, f->daemon_id, 1, f->opt.lease_ms, &t, &n, &err);
+        rd_error_code rc = claim_next(f, h, &t, &n, &err);
         farm_store_result(f, rc);
         if (!rc && n == 1) {
             do_claim(f, h, &t);

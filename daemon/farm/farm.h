@@ -115,6 +115,8 @@ typedef struct {
     uint64_t store_errors;  /* calls that found the store unreachable */
     uint64_t rays;          /* rays of the tiles rendered here */
     int store_up;           /* the last call reached the store */
+    int active;             /* stored jobs whose tiles render here now */
+    size_t memory;          /* what the jobs held here count against the budget */
 } rd_farm_metrics;
 
 void rd_farm_metrics_get(rd_farm *f, rd_farm_metrics *m);

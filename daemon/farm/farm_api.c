@@ -191,4 +191,11 @@ void rd_farm_metrics_get(rd_farm *f, rd_farm_metrics *m)
     m->store_errors = atomic_load(&f->store_errors);
     m->rays = atomic_load(&f->rays);
     m->store_up = atomic_load(&f->store_up);
+    char ids[CTX_HELD_MAX][RD_STORE_ID_MAX];
+    m->active = farm_ctx_held(f, ids);
+    pthread_mutex_lock(&f->mu);
+    m->memory = 0;
+    for (farm_ctx *c = f->ctxs; c; c = c->next)
+        m->memory += c->charged;
+    pthread_mutex_unlock(&f->mu);
 }

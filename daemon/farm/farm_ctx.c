@@ -85,9 +85,12 @@ static rd_error_code build(rd_farm *f, rd_store *h, farm_ctx *c, rd_error *err)
         return rc;
     rd_job_options jo = {f->opt.tile, c->params.progress, 1};
     jo.progress.max_samples = c->scene.render.samples < 1 ? 1 : c->scene.render.samples;
-    c->charged = rd_job_estimate_bytes(&c->scene, &jo);
+    size_t need = rd_job_estimate_bytes(&c->scene, &jo);
+    pthread_mutex_lock(&f->mu); /* the metrics read it */
+    c->charged = need;
+    pthread_mutex_unlock(&f->mu);
     if (f->opt.jobs)
-        rd_jq_external_bytes(f->opt.jobs, (long long)c->charged);
+        rd_jq_external_bytes(f->opt.jobs, (long long)need);
     rc = rd_job_create(&c->scene, &jo, &c->core, err);
     if (rc)
         return rc;
@@ -108,7 +111,23 @@ static rd_error_code build(rd_farm *f, rd_store *h, farm_ctx *c, rd_error *err)
 
 /* At most this many jobs are held here; a claim for another drops the
  * unused ones first (their tiles are in the store). */
-enum { CTX_KEPT = 4 };
+enum { CTX_KEPT = CTX_HELD_MAX };
+
+int farm_ctx_held(rd_farm *f, char ids[][RD_STORE_ID_MAX])
+{
+    int n = 0;
+    pthread_mutex_lock(&f->mu);
+    /* New contexts go first in the list: walk it to its end, then back. */
+    farm_ctx *live[CTX_HELD_MAX * 2];
+    int k = 0;
+    for (farm_ctx *c = f->ctxs; c && k < CTX_HELD_MAX * 2; c = c->next)
+        if (c->built && !c->build_rc && !atomic_load(&c->stop))
+            live[k++] = c;
+    for (int i = k - 1; i >= 0 && n < CTX_HELD_MAX; i--)
+        snprintf(ids[n++], RD_STORE_ID_MAX, "%s", live[i]->id);
+    pthread_mutex_unlock(&f->mu);
+    return n;
+}
 
 static void drop_unused(rd_farm *f, int keep)
 {

@@ -73,6 +73,11 @@ void *farm_worker_main(void *arg);
 farm_ctx *farm_ctx_get(rd_farm *f, rd_store *h, const char *id, rd_error *err);
 void farm_ctx_put(rd_farm *f, farm_ctx *c);
 
+/* The jobs held here whose tiles still render, oldest first, into ids;
+ * returns how many (at most CTX_HELD_MAX). */
+enum { CTX_HELD_MAX = 4 };
+int farm_ctx_held(rd_farm *f, char ids[][RD_STORE_ID_MAX]);
+
 /* The job ended: stop its tiles here and forget it once unused. */
 void farm_ctx_ended(rd_farm *f, const char *id);
 

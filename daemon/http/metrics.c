@@ -197,6 +197,8 @@ static void farm_metrics(rd_strbuf *out, const rd_farm_metrics *m)
     counter(out, "rayd_farm_passes_total", "Passes of stored jobs this daemon ended.", m->passes);
     counter(out, "rayd_store_jobs_submitted_total", "Jobs committed to the store through this daemon.", m->submitted);
     counter(out, "rayd_store_errors_total", "Store calls that found it unreachable.", m->store_errors);
+    gauge(out, "rayd_farm_memory_bytes", "Estimated bytes of the stored jobs this daemon holds to render.",
+          m->memory);
     gauge(out, "rayd_store_up", "1 when the job store answered the last call, 0 when it did not.",
           (size_t)m->store_up);
 }
@@ -340,6 +342,9 @@ enum MHD_Result rd_route_metrics(rd_req *r, const char *rest)
     jm.failed += fm.failed;
     jm.cancelled += fm.cancelled;
     jm.rays += fm.rays;
+    jm.running += (size_t)fm.active;
+    /* The farm's jobs count against the budget as memory outside the queue. */
+    jm.external_bytes -= fm.memory < jm.external_bytes ? fm.memory : jm.external_bytes;
     /* A copy, so that requests completing meanwhile wait for a memcpy, not
      * for the formatting. */
     rd_metrics *copy = malloc(sizeof *copy);

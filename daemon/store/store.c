@@ -401,14 +401,23 @@ rd_error_code rd_store_tiles_init(rd_store *s, const char *id, int tiles, int pa
     LOCKED(s, s->ops->tiles_init(s, id, tiles, passes, err));
 }
 
-rd_error_code rd_store_claim(rd_store *s, const char *daemon, int max, int lease_ms, rd_store_tile *out, int *n,
-                             rd_error *err)
+rd_error_code rd_store_claim_where(rd_store *s, const char *daemon, int max, int lease_ms,
+                                   const rd_store_claim_filter *filter, rd_store_tile *out, int *n, rd_error *err)
 {
     USE_ERR(err);
     CHECKED(check_id("a daemon id", daemon, err));
     CHECKED(check_lease(lease_ms, err));
     CHECKED(check_count("tiles to claim", max, s->opt.limits.tiles, err));
-    LOCKED(s, s->ops->claim(s, daemon, max, lease_ms, out, n, err));
+    if (filter && filter->job_id)
+        CHECKED(check_id("a job id", filter->job_id, err));
+    rd_store_claim_filter any = {NULL, 0};
+    LOCKED(s, s->ops->claim(s, daemon, max, lease_ms, filter ? filter : &any, out, n, err));
+}
+
+rd_error_code rd_store_claim(rd_store *s, const char *daemon, int max, int lease_ms, rd_store_tile *out, int *n,
+                             rd_error *err)
+{
+    return rd_store_claim_where(s, daemon, max, lease_ms, NULL, out, n, err);
 }
 
 static rd_error_code leases(rd_store *s, const char *daemon, int lease_ms, int *count, rd_error *err)

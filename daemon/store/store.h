@@ -259,6 +259,17 @@ rd_error_code rd_store_tiles_init(rd_store *s, const char *id, int tiles, int pa
 rd_error_code rd_store_claim(rd_store *s, const char *daemon, int max, int lease_ms, rd_store_tile *out, int *n,
                              rd_error *err);
 
+/* Which jobs a claim may take tiles of. */
+typedef struct {
+    const char *job_id;       /* only this job; NULL: any */
+    int64_t max_memory_bytes; /* only jobs whose memory_bytes is at most this; <= 0: any */
+} rd_store_claim_filter;
+
+/* rd_store_claim among the jobs filter allows (NULL: all): a daemon goes
+ * on with a job it holds, or takes a new one only if it fits its memory. */
+rd_error_code rd_store_claim_where(rd_store *s, const char *daemon, int max, int lease_ms,
+                                   const rd_store_claim_filter *filter, rd_store_tile *out, int *n, rd_error *err);
+
 /* Extends to lease_ms from now every lease daemon holds; *renewed (may be
  * NULL) counts them. A lease that ran out is daemon's still until another
  * claim takes its tile. */

@@ -30,8 +30,8 @@ typedef struct {
                                rd_error *err);
     rd_error_code (*jobs_expire)(rd_store *s, int64_t ttl_ms, size_t *deleted, rd_error *err);
     rd_error_code (*tiles_init)(rd_store *s, const char *id, int tiles, int passes, rd_error *err);
-    rd_error_code (*claim)(rd_store *s, const char *daemon, int max, int lease_ms, rd_store_tile *out, int *n,
-                           rd_error *err);
+    rd_error_code (*claim)(rd_store *s, const char *daemon, int max, int lease_ms, const rd_store_claim_filter *f,
+                           rd_store_tile *out, int *n, rd_error *err);
     /* lease_ms < 0: release them. */
     rd_error_code (*leases)(rd_store *s, const char *daemon, int lease_ms, int *count, rd_error *err);
     rd_error_code (*tile_done)(rd_store *s, const char *daemon, const rd_store_tile *t, const void *data, size_t len,

@@ -752,6 +752,7 @@ static const char claim_sql[] =
     " SELECT t.job_id, t.tile, j.submitted_ms FROM tiles t JOIN jobs j ON j.id = t.job_id"
     " WHERE j.status IN ('queued', 'running') AND j.pass < j.passes AND t.passes_done = j.pass"
     " AND (j.gated = 0 OR j.pass < j.open_pass)"
+    " AND ($4::text IS NULL OR j.id = $4::text) AND ($5::bigint <= 0 OR j.memory_bytes <= $5::bigint)"
     " AND (t.owner IS NULL OR t.lease_until < " NOW ")"
     " ORDER BY j.submitted_ms, j.id, t.tile LIMIT $2::int FOR UPDATE OF t SKIP LOCKED),"
     " first AS (SELECT job_id FROM picked ORDER BY submitted_ms, job_id LIMIT 1),"
@@ -767,14 +768,16 @@ static int tile_cmp(const void *a, const void *b)
     return (x->index > y->index) - (x->index < y->index);
 }
 
-static rd_error_code pg_claim(rd_store *s, const char *daemon, int max, int lease_ms, rd_store_tile *out, int *n,
-                              rd_error *err)
+static rd_error_code pg_claim(rd_store *s, const char *daemon, int max, int lease_ms, const rd_store_claim_filter *f,
+                              rd_store_tile *out, int *n, rd_error *err)
 {
     pg_store *p = pg(s);
     pg_params pp = {0};
     pp_text(&pp, daemon);
     pp_int(&pp, max);
     pp_int(&pp, lease_ms);
+    pp_text(&pp, f->job_id);
+    pp_int(&pp, f->max_memory_bytes);
     rd_error_code c = pg_ready(p, err);
     if (c)
         return c;

@@ -538,16 +538,18 @@ static rd_error_code sq_tiles_init(rd_store *s, const char *id, int tiles, int p
 /* The oldest runnable job with a claimable tile: *found 0 when none. A
  * gated job whose current pass is not open yet is passed over here, not
  * after, so that it does not hold up the jobs behind it. */
-static rd_error_code sq_claimable_job(sq_store *q, int64_t now, char *id, int *pass, int *found, rd_error *err)
+static rd_error_code sq_claimable_job(sq_store *q, int64_t now, const rd_store_claim_filter *f, char *id, int *pass,
+                                      int *found, rd_error *err)
 {
     sqlite3_stmt *st;
     rd_error_code c =
         sq_prep(q, &st, err,
                 "SELECT j.id, j.pass FROM jobs j WHERE j.status IN ('queued', 'running') AND j.pass < j.passes "
-                "AND (j.gated = 0 OR j.pass < j.open_pass) AND EXISTS "
+                "AND (j.gated = 0 OR j.pass < j.open_pass) AND (?2 IS NULL OR j.id = ?2) "
+                "AND (?3 <= 0 OR j.memory_bytes <= ?3) AND EXISTS "
                 "(SELECT 1 FROM tiles t WHERE t.job_id = j.id AND t.passes_done = j.pass "
-                "AND (t.owner IS NULL OR t.lease_until < ?)) ORDER BY j.submitted_ms, j.id LIMIT 1",
-                "I", now);
+                "AND (t.owner IS NULL OR t.lease_until < ?1)) ORDER BY j.submitted_ms, j.id LIMIT 1",
+                "ItI", now, f->job_id, f->max_memory_bytes);
     if (c)
         return c;
     int r = sq_step(q, st, err);
@@ -589,8 +591,8 @@ static rd_error_code sq_take_tiles(sq_store *q, const char *daemon, const char *
     return c;
 }
 
-static rd_error_code sq_claim(rd_store *s, const char *daemon, int max, int lease_ms, rd_store_tile *out, int *n,
-                              rd_error *err)
+static rd_error_code sq_claim(rd_store *s, const char *daemon, int max, int lease_ms, const rd_store_claim_filter *f,
+                              rd_store_tile *out, int *n, rd_error *err)
 {
     sq_store *q = sq(s);
     char id[RD_STORE_ID_MAX];
@@ -599,7 +601,7 @@ static rd_error_code sq_claim(rd_store *s, const char *daemon, int max, int leas
     rd_error_code c = sq_begin(q, err);
     if (c)
         return c;
-    c = sq_claimable_job(q, now, id, &pass, &found, err);
+    c = sq_claimable_job(q, now, f, id, &pass, &found, err);
     if (!c && found)
         c = sq_take_tiles(q, daemon, id, pass, max, now, lease_ms, out, &k, err);
     if (!c && k)
