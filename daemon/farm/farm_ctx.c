@@ -42,8 +42,18 @@ rd_error_code farm_blob_read(farm_ctx *c, int t, const void *in, size_t len, rd_
     return RD_OK;
 }
 
+/* The queue counts a job rendering here among its --queue jobs from its
+ * build until it ends. Under farm.mu. */
+static void uncount(rd_farm *f, farm_ctx *c)
+{
+    if (c->counted && f->opt.jobs)
+        rd_jq_external_jobs(f->opt.jobs, -1);
+    c->counted = 0;
+}
+
 static void ctx_free(rd_farm *f, farm_ctx *c)
 {
+    uncount(f, c);
     if (c->charged && f->opt.jobs)
         rd_jq_external_bytes(f->opt.jobs, -(long long)c->charged);
     rd_job_free(c->core);
@@ -181,6 +191,10 @@ farm_ctx *farm_ctx_get(rd_farm *f, rd_store *h, const char *id, rd_error *err)
     pthread_mutex_lock(&f->mu);
     c->build_rc = rc;
     c->built = 1;
+    if (!rc && !atomic_load(&c->stop) && f->opt.jobs) {
+        rd_jq_external_jobs(f->opt.jobs, 1);
+        c->counted = 1;
+    }
     pthread_cond_broadcast(&f->ctx_cv);
     pthread_mutex_unlock(&f->mu);
     if (rc) {
@@ -218,6 +232,7 @@ void farm_ctx_ended(rd_farm *f, const char *id)
         c = c->next;
     if (c) {
         atomic_store(&c->stop, 1);
+        uncount(f, c);
         c->refs++;
     }
     pthread_mutex_unlock(&f->mu);

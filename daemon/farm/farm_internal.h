@@ -31,6 +31,7 @@ typedef struct farm_ctx {
     int *tile_pass;    /* passes each tile's pixels here hold */
     rd_job_counts *tile_counts; /* each tile's rays over its passes so far */
     size_t charged;             /* bytes counted against the queue's budget */
+    int counted;                /* under farm.mu: counted as one of the queue's jobs */
     pthread_rwlock_t rw;
     atomic_int stop; /* the job ended: tiles stop within milliseconds */
     struct farm_ctx *next;

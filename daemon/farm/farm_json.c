@@ -125,7 +125,6 @@ char *farm_stats_text(farm_ctx *c, int64_t now_ms, int final)
     cJSON_AddNumberToObject(s, "rays_per_second", st.rays_per_second);
     cJSON_AddNumberToObject(s, "prepare_ms", st.prepare_ms);
     cJSON_AddNumberToObject(s, "primitives", (double)st.primitives);
-    cJSON_AddNumberToObject(s, "nonfinite", (double)st.nonfinite);
     char *t = cJSON_PrintUnformatted(o);
     cJSON_Delete(o);
     return t;

@@ -142,12 +142,9 @@ enum MHD_Result rd_render_begin(rd_req *r)
         return rd_reply_draining(r);
     rd_jq_metrics m;
     rd_jq_metrics_get(srv->jobs, &m);
-    rd_farm_metrics fm = {0};
-    if (srv->farm)
-        rd_farm_metrics_get(srv->farm, &fm);
     /* What renders here: synchronous renders, and the stored jobs this
      * daemon has taken up (the store bounds its own queue, farm.h). */
-    if (m.queued + m.running + (size_t)fm.active >= srv->opt.jobs.queue_length)
+    if (m.queued + m.running + m.external_jobs >= srv->opt.jobs.queue_length)
         return rd_reply_error_hdr(r, 503, "queue_full", "the render queue is full; try again shortly", "Retry-After",
                                   "1");
     const char *ct = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);

@@ -101,6 +101,7 @@ struct rd_jq {
     size_t nby_id;     /* a power of two */
     size_t active_count, running_count, result_bytes, reserved;
     atomic_llong external;
+    atomic_int external_jobs;
     uint64_t counter, key;
     uint64_t n_done, n_failed, n_cancelled, rays;
     rd_hist render, wait;
@@ -886,7 +887,8 @@ rd_error_code rd_jq_submit(rd_jq *q, const rd_jq_task *task, const rd_jq_submit_
     j->t_submit = rd_now_ms();
     pthread_mutex_lock(&q->mu);
     sweep(q);
-    if (q->stopping || q->active_count >= q->opt.queue_length) {
+    int ext = atomic_load(&q->external_jobs);
+    if (q->stopping || q->active_count + (size_t)(ext > 0 ? ext : 0) >= q->opt.queue_length) {
         if (j->hold)
             unref_locked(j->hold);
         pthread_mutex_unlock(&q->mu);
@@ -1113,6 +1115,8 @@ void rd_jq_external_bytes(rd_jq *q, long long delta)
     }
 }
 
+void rd_jq_external_jobs(rd_jq *q, int delta) { atomic_fetch_add(&q->external_jobs, delta); }
+
 void rd_jq_metrics_get(rd_jq *q, rd_jq_metrics *m)
 {
     pthread_mutex_lock(&q->mu);
@@ -1133,6 +1137,8 @@ void rd_jq_metrics_get(rd_jq *q, rd_jq_metrics *m)
     m->memory_reserved = q->reserved;
     long long ext = atomic_load(&q->external);
     m->external_bytes = ext > 0 ? (size_t)ext : 0;
+    int ejobs = atomic_load(&q->external_jobs);
+    m->external_jobs = ejobs > 0 ? (size_t)ejobs : 0;
     pthread_mutex_unlock(&q->mu);
 }
 

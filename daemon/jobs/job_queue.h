@@ -151,9 +151,14 @@ rd_error_code rd_jq_exr(rd_jq *q, rd_jq_job *j, unsigned char **exr, size_t *len
 /* Drops a finished job's PNG and EXR (a synchronous answer has been sent). */
 void rd_jq_release_png(rd_jq *q, rd_jq_job *j);
 
-/* Memory held outside the queue (grading caches) that counts against the
- * budget: delta bytes more (or fewer). */
+/* Memory held outside the queue (grading caches, stored jobs rendering
+ * here) that counts against the budget: delta bytes more (or fewer). */
 void rd_jq_external_bytes(rd_jq *q, long long delta);
+
+/* Jobs rendered outside the queue by the same render threads' daemon
+ * (stored jobs, farm.h) that count against queue_length: delta more (or
+ * fewer). */
+void rd_jq_external_jobs(rd_jq *q, int delta);
 
 /* The duration histograms' bounds reach this many seconds: the job timeout,
  * or an hour when there is none, so renders (and waits) up to the longest
@@ -169,6 +174,7 @@ typedef struct {
     size_t result_bytes;
     size_t jobs_kept;
     size_t memory_budget, memory_reserved, external_bytes;
+    size_t external_jobs;
 } rd_jq_metrics;
 
 void rd_jq_metrics_get(rd_jq *q, rd_jq_metrics *m);

@@ -29,6 +29,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 
 import jsonschema
@@ -410,11 +411,13 @@ def cors(tmp):
 
 
 def small_limits(tmp):
-    """A queue of one (503 queue_full) and no result memory (404 expired)."""
-    d = Daemon(tmp, ["--threads", "1", "--queue", "1", "--result-memory", "1", "--job-timeout-ms", "20000"])
+    """A queue of one (503 queue_full) and results kept one second (404 expired)."""
+    d = Daemon(tmp, ["--threads", "1", "--queue", "1", "--result-ttl", "1", "--lease-ms", "500",
+                     "--job-timeout-ms", "20000"])
     try:
         c = Client(d)
         slow = submit(c, RUNAWAY)
+        wait_for(c, slow, ("running",))
         c.call("post", "/v1/render", "/v1/render", SCENE.encode(), CFG, 503)
         c.call("post", "/v1/jobs", "/v1/jobs", SCENE.encode(), CFG, 503)
         body, ct = form({"scene": SCENE.encode(), "image": png(16, 12, lambda x, y: (0, 0, 0))})
@@ -423,15 +426,26 @@ def small_limits(tmp):
         wait_for(c, slow, ("cancelled",))
         done = submit(c, SCENE)
         wait_for(c, done, ("done",))
+        time.sleep(3)  # past --result-ttl and the store's next sweep
         c.call("get", "/v1/jobs/{id}/image", "/v1/jobs/%s/image" % done, expect=404)  # expired
     finally:
         check(d.stop() == 0, "the small daemon did not exit 0")
 
 
 def draining(d, c):
-    """SIGTERM while a job runs: new work gets 503 draining until it ends."""
-    slow = submit(c, RUNAWAY)
-    wait_for(c, slow, ("running",))
+    """SIGTERM while a synchronous render runs: new work gets 503 draining
+    until it ends (a stored job would not hold the daemon: it resumes)."""
+    def runaway():
+        try:
+            d.request("POST", "/v1/render", body=RUNAWAY.encode(), headers=CFG)
+        except OSError:
+            pass
+    t = threading.Thread(target=runaway, daemon=True)
+    t.start()
+    for _ in range(200):
+        if b"rayd_jobs_running 1" in d.request("GET", "/metrics")[2]:
+            break
+        time.sleep(0.05)
     d.terminate()
     time.sleep(0.3)
     c.call("post", "/v1/render", "/v1/render", SCENE.encode(), CFG, 503)
