@@ -36,6 +36,11 @@ struct rd_server {
     atomic_int ready;              /* the start-up checks passed and it listens */
 };
 
+/* The farm, once the server is ready: it starts after libmicrohttpd (its
+ * daemon id holds the port), and ready is stored after it, so a thread
+ * that sees ready sees the farm. NULL before. */
+static inline rd_farm *rd_server_farm(rd_server *s) { return atomic_load(&s->ready) ? s->farm : NULL; }
+
 typedef struct rd_route rd_route;
 
 typedef struct rd_req {

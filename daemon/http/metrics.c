@@ -335,8 +335,9 @@ enum MHD_Result rd_route_metrics(rd_req *r, const char *rest)
     rd_jq_metrics jm;
     rd_jq_metrics_get(srv->jobs, &jm);
     rd_farm_metrics fm = {0};
-    if (srv->farm)
-        rd_farm_metrics_get(srv->farm, &fm);
+    rd_farm *farm = rd_server_farm(srv);
+    if (farm)
+        rd_farm_metrics_get(farm, &fm);
     /* A job ends in the queue (synchronous) or in the store (POST /v1/jobs). */
     jm.done += fm.done;
     jm.failed += fm.failed;

@@ -189,10 +189,12 @@ static enum MHD_Result render(rd_req *r, int async)
      * scene is read and the job committed (so a bad one still gets its 4xx,
      * and 202 means it survives a crash), a synchronous one until its image
      * is ready. */
-    if (async) {
-        t->farm = srv->farm;
-        so.internal = 1;
+    if (async && !(t->farm = rd_server_farm(srv))) {
+        free(t->body);
+        free(t);
+        return rd_reply_error_hdr(r, 503, "starting", "the server is starting", "Retry-After", "1");
     }
+    so.internal = async;
     rd_jq_task task = {prepare_render, NULL, free_render, t, t->len};
     r->async = async;
     return rd_req_submit(r, &task, &so);
@@ -204,7 +206,6 @@ static enum MHD_Result reply_ended(rd_req *r, const rd_jq_info *info);
  * stored job, or why it was not stored. */
 static enum MHD_Result reply_submitted(rd_req *r, const rd_jq_info *info)
 {
-    rd_server *srv = r->srv;
     render_task *t = rd_jq_task_arg(r->job);
     rd_error err = info->error;
     char *text = NULL;
@@ -212,7 +213,7 @@ static enum MHD_Result reply_submitted(rd_req *r, const rd_jq_info *info)
     if (info->status == RD_JQ_CANCELLED)
         return reply_ended(r, info);
     if (info->status == RD_JQ_DONE)
-        rc = rd_farm_job_json(srv->farm, t->id, &text, NULL, &err);
+        rc = rd_farm_job_json(t->farm, t->id, &text, NULL, &err);
     else if (err.code != RD_ERR_IO && err.code != RD_ERR_BUSY)
         return reply_ended(r, info);
     if (info->status != RD_JQ_DONE || rc)
@@ -320,7 +321,7 @@ static enum MHD_Result submit_partial(rd_req *r, rd_jq_job *job, const char *id)
     t->q = srv->jobs;
     t->target = job;
     if (!job) {
-        t->farm = srv->farm;
+        t->farm = rd_server_farm(srv);
         snprintf(t->id, sizeof t->id, "%s", id);
     }
     rd_jq_task task = {prepare_partial, NULL, free_partial, t, 0};
@@ -429,7 +430,7 @@ static enum MHD_Result stored_image(rd_req *r, const char *id)
     size_t len;
     rd_store_status st;
     rd_error err = {0};
-    rd_error_code rc = rd_farm_image(srv->farm, id, exr ? RD_STORE_EXR : RD_STORE_PNG, &data, &len, &st, &hdr, &err);
+    rd_error_code rc = rd_farm_image(rd_server_farm(srv), id, exr ? RD_STORE_EXR : RD_STORE_PNG, &data, &len, &st, &hdr, &err);
     if (rc == RD_ERR_INVALID && partial && !exr && st == RD_STORE_RUNNING)
         return submit_partial(r, NULL, id);
     if (rc == RD_ERR_INVALID)
@@ -449,7 +450,8 @@ static enum MHD_Result stored_job(rd_req *r, const char *id, const char *rest)
 {
     rd_server *srv = r->srv;
     rd_error err = {0};
-    if (!srv->farm)
+    rd_farm *farm = rd_server_farm(srv);
+    if (!farm)
         return rd_reply_error_hdr(r, 503, "starting", "the server is starting", "Retry-After", "1");
     /* Ids are 16 hex digits (farm.h): anything else was never one. */
     if (strlen(id) != 16 || strspn(id, "0123456789abcdef") != 16)
@@ -459,10 +461,10 @@ static enum MHD_Result stored_job(rd_req *r, const char *id, const char *rest)
         return stored_image(r, id);
     if (*rest)
         return rd_reply_error(r, 404, "not_found", NULL, "no such route");
-    if (strcmp(r->method, "DELETE") == 0 && rd_farm_cancel(srv->farm, id, NULL, &err))
+    if (strcmp(r->method, "DELETE") == 0 && rd_farm_cancel(farm, id, NULL, &err))
         return rd_reply_store_error(r, &err);
     char *text;
-    if (rd_farm_job_json(srv->farm, id, &text, NULL, &err))
+    if (rd_farm_job_json(farm, id, &text, NULL, &err))
         return rd_reply_store_error(r, &err);
     return rd_reply_json(r, 200, text);
 }
