@@ -30,3 +30,18 @@ cJSON *rd_json_add(cJSON *parent, const char *key, cJSON *item, int *failed)
     }
     return item;
 }
+
+cJSON *rd_json_curve(const rd_curve_point *c, int n)
+{
+    cJSON *a = cJSON_CreateArray();
+    for (int i = 0; a && i < n; i++) {
+        double pt[3] = {c[i].ms, c[i].samples, c[i].error};
+        cJSON *item = cJSON_CreateDoubleArray(pt, 3);
+        if (!item || !cJSON_AddItemToArray(a, item)) {
+            cJSON_Delete(item);
+            cJSON_Delete(a);
+            return NULL;
+        }
+    }
+    return a;
+}

@@ -9,6 +9,7 @@
 
 #include "error_map.h"
 #include "farm_internal.h"
+#include "json_text.h"
 
 char *farm_schedule_text(const rd_job_schedule *sc, int64_t opened_ms, int max_samples)
 {
@@ -23,11 +24,7 @@ char *farm_schedule_text(const rd_job_schedule *sc, int64_t opened_ms, int max_s
     cJSON_AddNumberToObject(o, "last_pass_ms", sc->last_pass_ms);
     cJSON_AddNumberToObject(o, "stopped_by", sc->stopped_by);
     cJSON_AddNumberToObject(o, "opened_ms", (double)opened_ms);
-    cJSON *curve = cJSON_AddArrayToObject(o, "curve");
-    for (int i = 0; i < sc->curve_len; i++) {
-        double pt[3] = {sc->curve[i].ms, sc->curve[i].samples, sc->curve[i].error};
-        cJSON_AddItemToArray(curve, cJSON_CreateDoubleArray(pt, 3));
-    }
+    cJSON_AddItemToObject(o, "curve", rd_json_curve(sc->curve, sc->curve_len));
     char *t = cJSON_PrintUnformatted(o);
     cJSON_Delete(o);
     return t;
@@ -110,11 +107,7 @@ char *farm_stats_text(farm_ctx *c, int64_t now_ms, int final)
     cJSON *o = cJSON_CreateObject();
     cJSON_AddNumberToObject(o, "samples", st.samples);
     cJSON_AddNumberToObject(o, "error_estimate", st.error_estimate);
-    cJSON *curve = cJSON_AddArrayToObject(o, "curve");
-    for (int i = 0; i < st.curve_len; i++) {
-        double pt[3] = {st.curve[i].ms, st.curve[i].samples, st.curve[i].error};
-        cJSON_AddItemToArray(curve, cJSON_CreateDoubleArray(pt, 3));
-    }
+    cJSON_AddItemToObject(o, "curve", rd_json_curve(st.curve, st.curve_len));
     cJSON_AddNumberToObject(o, "passes", st.passes);
     if (final)
         cJSON_AddStringToObject(o, "stopped_by", rd_stop_reason_name(st.stopped_by));

@@ -6,6 +6,7 @@
 #include <strings.h>
 
 #include "http_internal.h"
+#include "json_text.h"
 #include "scene_open.h"
 
 /* An uploaded scene, parsed and given its assets on a render thread. */
@@ -92,11 +93,7 @@ static char *job_json(const rd_jq_info *in)
     cJSON_AddNumberToObject(o, "error_estimate", in->error_estimate);
     cJSON_AddNumberToObject(o, "width", in->width);
     cJSON_AddNumberToObject(o, "height", in->height);
-    cJSON *curve = cJSON_AddArrayToObject(o, "curve");
-    for (int i = 0; i < in->curve_len; i++) {
-        double pt[3] = {in->curve[i].ms, in->curve[i].samples, in->curve[i].error};
-        cJSON_AddItemToArray(curve, cJSON_CreateDoubleArray(pt, 3));
-    }
+    cJSON_AddItemToObject(o, "curve", rd_json_curve(in->curve, in->curve_len));
     cJSON_AddNumberToObject(o, "passes", in->passes);
     if (in->status == RD_JQ_DONE)
         cJSON_AddStringToObject(o, "stopped_by", rd_stop_reason_name(in->stopped_by));

@@ -40,6 +40,8 @@ import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
 from rayd_http import Checks, Daemon, cli_render, decode_png, http_request, metric_value  # noqa: E402
+import stored_jobs  # noqa: E402
+from stored_jobs import ENDED, png_body, query, status_json  # noqa: E402
 from servers import Nginx, PostgreSQL  # noqa: E402
 
 check = Checks("farm")
@@ -61,6 +63,9 @@ JOBS = [(SCENES[i % len(SCENES)], {"width": SIZES[i % 3][0], "height": SIZES[i %
                                    "samples": SIZES[i % 3][2], "seed": i + 1}) for i in range(20)]
 # 80 tiles of 64x64; about 6 s on one core.
 BIG = ("area_light.cfg", {"width": 640, "height": 480, "samples": 16})
+# Progressive and adaptive to a target error: 12 tiles a pass, each pass
+# ended (estimate, schedule, adaptive weights) by whichever daemon completes it.
+PROG = ("area_light.cfg", {"width": 256, "height": 192, "samples": 32, "target_error": 0.002})
 # Cancelled long before it could end (minutes).
 LONG = ("area_light.cfg", {"width": 640, "height": 480, "samples": 1024})
 
@@ -75,10 +80,6 @@ class OutOfTime(Exception):
 
 def on_alarm(signum, frame):
     raise OutOfTime()
-
-
-def query(overrides):
-    return "&".join("%s=%s" % kv for kv in overrides.items())
 
 
 def scene_bytes(scene):
@@ -149,7 +150,26 @@ def references(tmp):
     for scene, ov in JOBS + [BIG]:
         out = os.path.join(tmp, "cli-%d.png" % len(refs))
         refs[(scene, query(ov))] = decode_png(cli_render(os.path.join("scenes", scene), out, ov, ["--threads", "2"]))
+    scene, ov = PROG
+    out = os.path.join(tmp, "cli-prog.png")
+    refs["prog"] = decode_png(cli_render(os.path.join("scenes", scene), out, ov, ["--threads", "2", "--adaptive"]))
     return refs
+
+
+def progressive_across(ds, refs):
+    """A progressive adaptive job on all three: the CLI's pixels."""
+    scene, ov = PROG
+    base = [tiles_metric(ep) or 0 for ep in ds]
+    jid, _, _ = submit(ds[1], scene, dict(ov, adaptive=1))
+    final = wait_done({jid: ds[2]}, 60 * SLOW, "the progressive job").get(jid, {})
+    delta = [(tiles_metric(ep) or 0) - b for ep, b in zip(ds, base)]
+    print("farm: the progressive job: %s passes, %s samples, stopped by %s; tiles by %s: %s" %
+          (final.get("passes"), final.get("samples"), final.get("stopped_by"), "/".join(IDS), delta))
+    check(final.get("passes", 0) >= 3 and len(final.get("curve", [])) == final.get("passes"),
+          "the progressive job ran %s passes with a curve of %s points" % (final.get("passes"), final.get("curve")))
+    check(sum(1 for x in delta if x > 0) >= 2, "the progressive job's tiles were all rendered by one daemon: %s" % delta)
+    if final.get("status") == "done":
+        same_pixels(image(ds[0], jid), refs["prog"], "the progressive adaptive job %s" % jid)
 
 
 def submit(ep, scene, ov, must=True):
@@ -171,55 +191,20 @@ def submit(ep, scene, ov, must=True):
 
 
 def status_of(ep, jid):
-    status, _, b = ep.call("GET", "/v1/jobs/" + jid)
-    if status != 200:
-        return {"status": "http %d" % status, "body": b[:200]}
-    try:
-        return json.loads(b)
-    except ValueError:
-        return {"status": "not JSON", "body": b[:200]}
+    return status_json(*ep.call("GET", "/v1/jobs/" + jid)[::2])
 
 
 def image(ep, jid):
-    status, h, b = ep.call("GET", "/v1/jobs/%s/image" % jid)
-    if status == 200 and h.get("content-type", "").startswith("image/png"):
-        return b
-    return None
-
-
-ENDED = ("done", "failed", "cancelled")
+    return png_body(*ep.call("GET", "/v1/jobs/%s/image" % jid))
 
 
 def wait_done(by, timeout, what):
-    """by: {job id: endpoint to ask}. Polls until each has ended; their
-    statuses, a failure for each not done."""
-    deadline, last = time.time() + timeout, {}
-    while True:
-        last = {jid: status_of(ep, jid) for jid, ep in by.items()}
-        if all(s.get("status") in ENDED or s.get("status") == "http 404" for s in last.values()) \
-                or time.time() > deadline:
-            break
-        time.sleep(0.1)
-    left = {jid: s.get("status") for jid, s in last.items() if s.get("status") != "done"}
-    check(not left, "%s: %d of %d jobs are not done after %.0f s: %s" %
-          (what, len(left), len(by), timeout, dict(list(left.items())[:5])))
-    for jid, s in last.items():
-        if s.get("status") == "failed":
-            print("  job %s failed: %s" % (jid, s.get("error")), file=sys.stderr)
-    return last
+    """by: {job id: endpoint to ask}."""
+    return stored_jobs.wait_done(check, lambda jid: status_of(by[jid], jid), list(by), timeout, what)
 
 
 def same_pixels(png_bytes, ref, what):
-    if png_bytes is None:
-        return check(False, "%s: no PNG" % what)
-    try:
-        got = decode_png(png_bytes)
-    except ValueError as e:
-        return check(False, "%s: the PNG does not decode: %s" % (what, e))
-    if got[:2] != ref[:2]:
-        return check(False, "%s: %dx%d, the CLI's is %dx%d" % (what, got[0], got[1], ref[0], ref[1]))
-    diff = sum(1 for a, b in zip(got[2], ref[2]) if a != b)
-    return check(got[2] == ref[2], "%s: %d of %d samples differ from `rayd render`'s" % (what, diff, len(ref[2])))
+    return stored_jobs.same_pixels(check, png_bytes, ref, what)
 
 
 def tiles_metric(ep):
@@ -410,7 +395,8 @@ def main():
             raise Abort("nginx did not start: %s" % e)
         kept.append(front_nginx.dir)
         front = Endpoint("nginx", front_nginx.port, IDS)
-        for phase, args in ((through_nginx, (ds, front, refs)), (shared_job, (tmp, ds, refs)), (cancel_across, (ds,)),
+        for phase, args in ((through_nginx, (ds, front, refs)), (progressive_across, (ds, refs)),
+                            (shared_job, (tmp, ds, refs)), (cancel_across, (ds,)),
                             (store_down, (pg, ds, front, refs))):
             t0 = time.time()
             phase(*args)

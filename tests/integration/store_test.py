@@ -34,6 +34,8 @@ import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
 from rayd_http import Checks, Daemon, cli_render, decode_png, metric_value  # noqa: E402
+import stored_jobs  # noqa: E402
+from stored_jobs import png_body, query, status_json  # noqa: E402
 
 check = Checks("store")
 # RAYD_TEST_SLOW=3 (sanitizer builds, say) stretches every wait and the bound.
@@ -66,10 +68,6 @@ class OutOfTime(Exception):
 
 def on_alarm(signum, frame):
     raise OutOfTime()
-
-
-def query(overrides):
-    return "&".join("%s=%s" % kv for kv in overrides.items())
 
 
 class Headers:
@@ -149,12 +147,7 @@ def submit(d, scene, ov):
 
 def status_of(d, jid):
     status, _, b = call(d, "GET", "/v1/jobs/" + jid)
-    if status != 200:
-        return {"status": "http %d" % status, "body": b[:200]}
-    try:
-        return json.loads(b)
-    except ValueError:
-        return {"status": "not JSON", "body": b[:200]}
+    return status_json(status, b)
 
 
 def statuses(d, ids):
@@ -162,41 +155,15 @@ def statuses(d, ids):
 
 
 def image(d, jid):
-    status, h, b = call(d, "GET", "/v1/jobs/%s/image" % jid)
-    if status == 200 and h.get("content-type", "").startswith("image/png"):
-        return b
-    return None
+    return png_body(*call(d, "GET", "/v1/jobs/%s/image" % jid))
 
 
 def wait_done(d, ids, timeout, what):
-    """Polls until every job is done (or ended otherwise); their statuses."""
-    deadline, last = time.time() + timeout, {}
-    while True:
-        last = statuses(d, ids)
-        if all(s.get("status") in ("done", "failed", "cancelled") or s.get("status", "").startswith("http 404")
-               for s in last.values()) or time.time() > deadline:
-            break
-        time.sleep(0.1)
-    left = {jid: s.get("status") for jid, s in last.items() if s.get("status") != "done"}
-    check(not left, "%s: %d of %d jobs are not done after %.0f s: %s" %
-          (what, len(left), len(ids), timeout, dict(list(left.items())[:5])))
-    for jid, s in last.items():
-        if s.get("status") == "failed":
-            print("  job %s failed: %s" % (jid, s.get("error")), file=sys.stderr)
-    return last
+    return stored_jobs.wait_done(check, lambda jid: status_of(d, jid), ids, timeout, what)
 
 
 def same_pixels(png_bytes, ref, what):
-    if png_bytes is None:
-        return check(False, "%s: no PNG" % what)
-    try:
-        got = decode_png(png_bytes)
-    except ValueError as e:
-        return check(False, "%s: the PNG does not decode: %s" % (what, e))
-    if got[:2] != ref[:2]:
-        return check(False, "%s: %dx%d, the CLI's is %dx%d" % (what, got[0], got[1], ref[0], ref[1]))
-    diff = sum(1 for a, b in zip(got[2], ref[2]) if a != b)
-    return check(got[2] == ref[2], "%s: %d of %d samples differ from `rayd render`'s" % (what, diff, len(ref[2])))
+    return stored_jobs.same_pixels(check, png_bytes, ref, what)
 
 
 def tiles_metric(d):
