@@ -196,8 +196,8 @@ static rd_error_code render(rd_farm *f, rd_store *h, farm_ctx *c, const rd_store
             return rc;
     }
     pthread_rwlock_rdlock(&c->rw);
-    rd_error_code rc = c->pass == t->pass ? tile_input(h, c, t, err)
-                                          : rd_error_set(err, RD_ERR_BUSY, 0, 0, "job %s moved on", c->id);
+    rd_error_code rc =
+        c->pass == t->pass ? tile_input(h, c, t, err) : rd_error_set(err, RD_ERR_BUSY, 0, 0, "job %s moved on", c->id);
     rd_job_counts k = {0, 0, 0, 0};
     if (!rc && rd_job_render_tile(c->core, t->index, &k)) {
         rd_job_counts *tc = &c->tile_counts[t->index];
@@ -222,8 +222,9 @@ static rd_error_code render(rd_farm *f, rd_store *h, farm_ctx *c, const rd_store
 static void timed_out(rd_farm *f, rd_store *h, const char *id)
 {
     rd_error why;
-    rd_error_set(&why, RD_ERR_TIMEOUT, 0, 0, "the render took longer than the job time limit of %.0f ms "
-                                             "(--job-timeout-ms)",
+    rd_error_set(&why, RD_ERR_TIMEOUT, 0, 0,
+                 "the render took longer than the job time limit of %.0f ms "
+                 "(--job-timeout-ms)",
                  f->opt.job_timeout_ms);
     fail_job(f, h, id, &why);
 }

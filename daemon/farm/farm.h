@@ -106,17 +106,17 @@ rd_error_code rd_farm_partial_png(rd_farm *f, const char *id, unsigned char **pn
 rd_error_code rd_farm_ping(rd_farm *f, rd_error *err);
 
 typedef struct {
-    uint64_t tiles;         /* tiles rendered and stored by this daemon */
-    uint64_t tiles_lost;    /* rendered, but the lease had gone to another daemon or the job had ended */
-    uint64_t passes;        /* passes this daemon ended */
-    uint64_t done, failed;  /* jobs this daemon finished or failed */
-    uint64_t cancelled;     /* jobs cancelled through this daemon */
-    uint64_t submitted;     /* jobs committed through this daemon */
-    uint64_t store_errors;  /* calls that found the store unreachable */
-    uint64_t rays;          /* rays of the tiles rendered here */
-    int store_up;           /* the last call reached the store */
-    int active;             /* stored jobs whose tiles render here now */
-    size_t memory;          /* what the jobs held here count against the budget */
+    uint64_t tiles;        /* tiles rendered and stored by this daemon */
+    uint64_t tiles_lost;   /* rendered, but the lease had gone to another daemon or the job had ended */
+    uint64_t passes;       /* passes this daemon ended */
+    uint64_t done, failed; /* jobs this daemon finished or failed */
+    uint64_t cancelled;    /* jobs cancelled through this daemon */
+    uint64_t submitted;    /* jobs committed through this daemon */
+    uint64_t store_errors; /* calls that found the store unreachable */
+    uint64_t rays;         /* rays of the tiles rendered here */
+    int store_up;          /* the last call reached the store */
+    int active;            /* stored jobs whose tiles render here now */
+    size_t memory;         /* what the jobs held here count against the budget */
 } rd_farm_metrics;
 
 void rd_farm_metrics_get(rd_farm *f, rd_farm_metrics *m);

@@ -26,9 +26,9 @@ typedef struct farm_ctx {
     rd_job *core;
     int tiles;
     int64_t started_ms;
-    int64_t opened_ms; /* when the pass the core is in was opened */
-    int pass;          /* the pass the core is in; -1 before the first */
-    int *tile_pass;    /* passes each tile's pixels here hold */
+    int64_t opened_ms;          /* when the pass the core is in was opened */
+    int pass;                   /* the pass the core is in; -1 before the first */
+    int *tile_pass;             /* passes each tile's pixels here hold */
     rd_job_counts *tile_counts; /* each tile's rays over its passes so far */
     size_t charged;             /* bytes counted against the queue's budget */
     int counted;                /* under farm.mu: counted as one of the queue's jobs */

@@ -172,8 +172,7 @@ char *farm_job_json(const rd_store_job_info *in)
     cJSON_AddStringToObject(o, "status", rd_store_status_name(in->status));
     cJSON_AddNumberToObject(o, "progress", progress_of(in, sched));
     cJSON_AddNumberToObject(o, "elapsed_ms", in->started_ms ? (double)(end - in->started_ms) : 0);
-    cJSON_AddNumberToObject(o, "queued_ms",
-                            (double)((in->started_ms ? in->started_ms : end) - in->submitted_ms));
+    cJSON_AddNumberToObject(o, "queued_ms", (double)((in->started_ms ? in->started_ms : end) - in->submitted_ms));
     cJSON_AddNumberToObject(o, "width", in->width);
     cJSON_AddNumberToObject(o, "height", in->height);
     add_stats(o, in);

@@ -84,8 +84,7 @@ rd_error_code rd_job_params_parse(rd_job_params *p, const char *query, rd_error 
         return RD_OK;
     char buf[sizeof p->query];
     if (strlen(query) >= sizeof buf)
-        return rd_error_set(err, RD_ERR_LIMIT, 0, 0, "the query parameters are longer than %zu bytes",
-                            sizeof buf - 1);
+        return rd_error_set(err, RD_ERR_LIMIT, 0, 0, "the query parameters are longer than %zu bytes", sizeof buf - 1);
     strcpy(buf, query);
     char *save = NULL;
     for (char *item = strtok_r(buf, "&", &save); item; item = strtok_r(NULL, "&", &save)) {

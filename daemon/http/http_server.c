@@ -378,7 +378,8 @@ enum MHD_Result rd_reply_store_error(rd_req *r, const rd_error *err)
                                   "Retry-After", "5");
     case RD_ERR_BUSY: return rd_reply_error_hdr(r, 503, "queue_full", err->message, "Retry-After", "1");
     case RD_ERR_NOT_FOUND:
-        return rd_reply_error(r, 404, "not_found", NULL, "no job with that id (finished jobs expire, see --result-ttl)");
+        return rd_reply_error(r, 404, "not_found", NULL,
+                              "no job with that id (finished jobs expire, see --result-ttl)");
     default: {
         rd_error_answer a = rd_error_answer_for(err->code);
         return rd_reply_error(r, a.http < 500 ? a.http : 503, a.http < 500 ? a.code : "unavailable", err, NULL);

@@ -197,10 +197,8 @@ static void farm_metrics(rd_strbuf *out, const rd_farm_metrics *m)
     counter(out, "rayd_farm_passes_total", "Passes of stored jobs this daemon ended.", m->passes);
     counter(out, "rayd_store_jobs_submitted_total", "Jobs committed to the store through this daemon.", m->submitted);
     counter(out, "rayd_store_errors_total", "Store calls that found it unreachable.", m->store_errors);
-    gauge(out, "rayd_farm_memory_bytes", "Estimated bytes of the stored jobs this daemon holds to render.",
-          m->memory);
-    gauge(out, "rayd_store_up", "1 when the job store answered the last call, 0 when it did not.",
-          (size_t)m->store_up);
+    gauge(out, "rayd_farm_memory_bytes", "Estimated bytes of the stored jobs this daemon holds to render.", m->memory);
+    gauge(out, "rayd_store_up", "1 when the job store answered the last call, 0 when it did not.", (size_t)m->store_up);
 }
 
 static void http_metrics(rd_strbuf *out, const rd_metrics *m)

@@ -20,10 +20,10 @@ enum MHD_Result rd_route_ready(rd_req *r, const char *rest)
     static const char draining[] = "{\"status\":\"not_ready\",\"reasons\":[\"draining\"]}\n";
     static const char no_store[] = "{\"status\":\"not_ready\",\"reasons\":[\"store_unreachable\"]}\n";
     rd_error err = {0};
-    const char *t = atomic_load(&r->srv->draining) ? draining
-                    : !atomic_load(&r->srv->ready) ? starting
+    const char *t = atomic_load(&r->srv->draining)               ? draining
+                    : !atomic_load(&r->srv->ready)               ? starting
                     : rd_farm_ping(rd_server_farm(r->srv), &err) ? no_store
-                                                       : ok;
+                                                                 : ok;
     const char *headers[] = {"Retry-After", "5", NULL};
     return rd_reply_with(r, t == ok ? 200 : 503, "application/json", (void *)t, strlen(t), 0, t == ok ? NULL : headers);
 }

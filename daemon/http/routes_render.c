@@ -16,8 +16,8 @@ typedef struct {
     rd_scene_format fmt;
     rd_job_params params;
     const rd_server_options *opt;
-    rd_farm *farm;               /* an asynchronous submission: committed to the store once read */
-    char id[RD_STORE_ID_MAX];    /* the stored job's, once committed */
+    rd_farm *farm;            /* an asynchronous submission: committed to the store once read */
+    char id[RD_STORE_ID_MAX]; /* the stored job's, once committed */
 } render_task;
 
 static rd_error_code prepare_render(void *arg, rd_scene *s, int *render, rd_error *err)
@@ -427,7 +427,8 @@ static enum MHD_Result stored_image(rd_req *r, const char *id)
     size_t len;
     rd_store_status st;
     rd_error err = {0};
-    rd_error_code rc = rd_farm_image(rd_server_farm(srv), id, exr ? RD_STORE_EXR : RD_STORE_PNG, &data, &len, &st, &hdr, &err);
+    rd_error_code rc =
+        rd_farm_image(rd_server_farm(srv), id, exr ? RD_STORE_EXR : RD_STORE_PNG, &data, &len, &st, &hdr, &err);
     if (rc == RD_ERR_INVALID && partial && !exr && st == RD_STORE_RUNNING)
         return submit_partial(r, NULL, id);
     if (rc == RD_ERR_INVALID)

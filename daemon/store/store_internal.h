@@ -84,5 +84,4 @@ void rd_store_event_parse(const char *payload, rd_store_event *ev);
 /* A malloc'ed copy of len bytes with a NUL after them; NULL on no memory. */
 void *rd_store_dup(const void *data, size_t len);
 
-
 #endif
