@@ -342,7 +342,7 @@ test("(b) a broken scene shows the parse error in words, with line:column, and l
 
     assert.deepEqual(log.errors, [], "no uncaught script errors");
     // Chromium logs each 4xx answer to fetch(); nothing else may appear.
-    const others = consoleErrors(log).filter((t) => !/status of 400 .*\/v1\/render[?)]/.test(t));
+    const others = consoleErrors(log).filter((t) => !/status of 400 .*\/v1\/jobs[?)]/.test(t));
     assert.deepEqual(others, [], "no console errors besides the two 400 answers");
   } finally {
     await context.close();
