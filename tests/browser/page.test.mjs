@@ -565,6 +565,121 @@ test("(e) at phone width (375×740) the panels stack and nothing scrolls sideway
   }
 });
 
+test("(g) a long render shows its progress, each pass's image and the error curve as they come; Cancel stops it", { timeout: TEST_MS }, async () => {
+  const { context, page, log } = await openPage();
+  const partials = [];
+  page.on("request", (r) => { if (/\/v1\/jobs\/[0-9a-f]+\/image\?partial=1$/.test(r.url())) partials.push(r.url()); });
+  try {
+    await page.selectOption("#scene-pick", { label: "area_light.cfg" });
+    await page.waitForFunction(() => document.getElementById("scene-text").value.includes("area"));
+    await page.fill("#width", "320");
+    await page.fill("#height", "240");
+    await page.fill("#samples", "1024"); // minutes of work: it must be stopped
+    assert.equal(await page.isChecked("#progressive"), true, "passes are on by default");
+    assert.equal(await page.isVisible("#render-progress"), false, "no progress before a render");
+    const posted = page.waitForResponse((r) => r.url().includes("/v1/jobs?") && r.request().method() === "POST");
+    await page.click("#render-btn");
+    const resp = await posted;
+    assert.equal(resp.status(), 202, "the render is a job");
+    const id = (await resp.json()).id;
+    assert.match(id, /^[0-9a-f]{16}$/);
+    assert.match(resp.url(), /[?&]time_budget_ms=/, "asked for passes");
+    await page.locator("#render-progress").waitFor({ state: "visible" });
+    assert.equal(await text(page, "#render-msg"), "Rendering…");
+    assert.equal(await page.isEnabled("#cancel-btn"), true);
+
+    // Two passes: two points on the curve, and the image of a pass on show.
+    await page.waitForFunction(() => Number(document.getElementById("curve").dataset.points || 0) >= 2 &&
+      document.getElementById("render-img").complete && document.getElementById("render-img").naturalWidth > 0, null, { timeout: RENDER_MS });
+    const img = await image(page, "render-img");
+    assert.equal(img.naturalWidth, 320, "the partial image is the full size");
+    assert.equal(img.hidden, false);
+    assert.ok(img.src.startsWith("blob:"), "drawn from a fetched partial image");
+    assert.ok(partials.length >= 1 && partials.every((u) => u.includes(id)), `asked for ?partial=1 images: ${partials.length}`);
+    assert.ok(await colours(page, "render-img") > 50, "the partial image is a rendering");
+    const ptext = await text(page, "#render-progress-text");
+    assert.match(ptext, new RegExp(`^Job ${id} · running · \\d+(\\.\\d)?% done · pass \\d+: \\d+ samples per pixel · estimated error \\d+\\.\\d\\d of 255 levels · `), ptext);
+    const bar = await page.evaluate(() => document.getElementById("render-bar").value);
+    assert.ok(bar > 0 && bar < 1, `progress bar part way (${bar})`);
+    const curve = await page.evaluate(() => {
+      const svg = document.getElementById("curve");
+      return { hidden: svg.hasAttribute("hidden") || getComputedStyle(svg).display === "none", circles: svg.querySelectorAll("circle").length, line: svg.querySelector("polyline")?.getAttribute("points") || "",
+        height: svg.getBoundingClientRect().height, label: svg.getAttribute("aria-label") };
+    });
+    assert.equal(curve.hidden, false);
+    assert.ok(curve.circles >= 2 && curve.line.split(" ").length === curve.circles, `one point a pass: ${JSON.stringify(curve)}`);
+    assert.ok(curve.height > 50, `the curve is drawn (${curve.height} px high)`);
+    assert.match(curve.label, /estimated error against time: \d+ passes, last \d+\.\d\d levels/);
+    const pts = curve.line.split(" ").map((p) => p.split(",").map(Number));
+    for (let k = 1; k < pts.length; k++) {
+      assert.ok(pts[k][0] > pts[k - 1][0], "later passes to the right");
+      assert.ok(pts[k][1] >= pts[k - 1][1], "the error goes down (SVG y grows downwards)");
+    }
+    await shot(page, "g1-render-running");
+
+    await page.click("#cancel-btn");
+    await page.waitForFunction(() => document.getElementById("render-msg").textContent === "Cancelled.", null, { timeout: STEP_MS });
+    const st = await (await fetch(`${base}/v1/jobs/${id}`)).json();
+    assert.equal(st.status, "cancelled", "the job ended cancelled");
+    assert.ok(st.samples < 1024, `it stopped early (${st.samples} samples)`);
+    assert.equal(await page.isEnabled("#render-btn"), true, "Render can be used again");
+    assert.equal(await page.isEnabled("#cancel-btn"), false);
+    assert.match(await text(page, "#render-stats"), /^Cancelled after \d/);
+    assert.equal((await image(page, "render-img")).hidden, false, "the last pass stays on show");
+    await shot(page, "g2-render-cancelled");
+    // And it stays stopped.
+    await sleep(1000);
+    assert.equal((await (await fetch(`${base}/v1/jobs/${id}`)).json()).status, "cancelled");
+
+    assert.deepEqual(log.errors, [], "no uncaught script errors");
+    // A partial image asked for as the job ends may be refused (409).
+    const others = consoleErrors(log).filter((t) => !/status of 409 .*partial=1/.test(t));
+    assert.deepEqual(others, [], "no console errors");
+  } finally {
+    await context.close();
+  }
+});
+
+test("(h) a render in passes that finishes: one curve point a pass, the final image, its stats", { timeout: TEST_MS }, async () => {
+  const { context, page, log } = await openPage();
+  try {
+    await page.selectOption("#scene-pick", { label: "phong.cfg" });
+    await page.waitForFunction(() => document.getElementById("scene-text").value.length > 0);
+    await page.fill("#width", "160");
+    await page.fill("#height", "120");
+    await page.fill("#samples", "16");
+    const posted = page.waitForResponse((r) => r.url().includes("/v1/jobs?") && r.request().method() === "POST");
+    await renderAndWait(page);
+    const id = (await (await posted).json()).id;
+    assert.equal(await text(page, "#render-msg"), "Done.");
+    const st = await (await fetch(`${base}/v1/jobs/${id}`)).json();
+    assert.equal(st.status, "done");
+    assert.equal(st.samples, 16);
+    assert.ok(st.passes >= 3, `passes of 2, 2, 4, 8 (${st.passes})`);
+    assert.equal(Number(await page.getAttribute("#curve", "data-points")), st.curve.length, "every pass on the curve");
+    const stats = await text(page, "#render-stats");
+    assert.match(stats, new RegExp(`^Rendered in \\d+ ms .*16 samples per pixel in ${st.passes} passes, estimated error \\d+\\.\\d\\d of 255 levels\\.$`), stats);
+    const img = await imageLoaded(page, "render-img");
+    assert.equal(img.naturalWidth, 160);
+    assert.equal(await page.isVisible("#render-progress"), false, "progress hidden once done");
+    await shot(page, "h1-render-passes-done");
+
+    // Without passes: one pass, the scene's samples at once.
+    await page.uncheck("#progressive");
+    const posted2 = page.waitForResponse((r) => r.url().includes("/v1/jobs") && r.request().method() === "POST");
+    await renderAndWait(page);
+    const r2 = await posted2;
+    assert.doesNotMatch(r2.url(), /time_budget_ms/);
+    const st2 = await (await fetch(`${base}/v1/jobs/${(await r2.json()).id}`)).json();
+    assert.equal(st2.passes, 1);
+    assert.doesNotMatch(await text(page, "#render-stats"), /passes/);
+    assert.deepEqual(log.errors, []);
+    assert.deepEqual(consoleErrors(log), []);
+  } finally {
+    await context.close();
+  }
+});
+
 // ---- faults the page once had ---------------------------------------------
 // Each test below found a real fault of daemon/http/web/index.html; they now
 // guard the fixes.
