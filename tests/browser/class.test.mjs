@@ -526,6 +526,9 @@ test("(class f) the token lives in the tab's sessionStorage only; a reload shows
 test("(class g) no token: 401 message; a wrong token: 403 message; no table", { timeout: TEST_MS, skip }, async () => {
   const { context, page, log } = await openPage();
   try {
+    // A batch on show first: a refused one must not leave it there.
+    assert.equal((await submit(page, { folder: dirs.class })).status(), 202);
+    assert.ok(await page.isVisible("#class-results"));
     let resp = await submit(page, { token: "", folder: dirs.class });
     assert.equal(resp.status(), 401);
     let msg = await text(page, "#class-msg");
