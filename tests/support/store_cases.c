@@ -494,7 +494,12 @@ static void farm_tile(farm_arg *f, rd_store *s, const rd_store_tile *t)
     snprintf(data, sizeof data, "%s:%d:%d", f->daemon, t->pass, t->index);
     rd_store_tile_outcome o;
     rd_error err = {0};
-    if (rd_store_tile_done(s, f->daemon, t, data, strlen(data), &o, &err) != RD_OK) {
+    rd_error_code rc;
+    /* Busy is "try again" (store.h): other writers held SQLite's lock past
+     * the timeout, which a loaded machine makes happen. */
+    while ((rc = rd_store_tile_done(s, f->daemon, t, data, strlen(data), &o, &err)) == RD_ERR_BUSY)
+        ;
+    if (rc != RD_OK) {
         atomic_fetch_add(f->errors, 1);
         return;
     }
@@ -517,7 +522,10 @@ static void *farm_main(void *arg)
     rd_store_tile t[4];
     while (!atomic_load(f->job_done) && rd_now_ms() < f->deadline) {
         int n = 0;
-        if (rd_store_claim(s, f->daemon, 4, 60000, t, &n, &err) != RD_OK) {
+        rd_error_code rc = rd_store_claim(s, f->daemon, 4, 60000, t, &n, &err);
+        if (rc == RD_ERR_BUSY)
+            continue;
+        if (rc != RD_OK) {
             atomic_fetch_add(f->errors, 1);
             break;
         }
