@@ -7,7 +7,7 @@ CC := gcc
 endif
 BUILD   ?= build
 SAN     ?=
-PKGS    := libpng libcjson zlib libmicrohttpd OpenEXR sqlite3 libpq
+PKGS    := libpng libcjson zlib libmicrohttpd OpenEXR sqlite3 libpq libarchive
 TESTPKG := criterion libcurl
 
 SANFLAGS := -fsanitize=address,undefined
@@ -39,6 +39,8 @@ INC_api_image     := $(INC_api_util) -Iapi/image
 INC_api_scene     := $(INC_api_util) -Iapi/scene
 INC_api_assets    := $(INC_api_scene) -Iapi/image -Iapi/assets
 INC_api_grading   := $(INC_api_assets) -Iapi/grading
+# -iquote: its archive.h is "archive.h", and <archive.h> stays libarchive's.
+INC_api_archive   := $(INC_api_util) -iquote api/archive
 INC_daemon_errors := $(INC_api_grading) -Idaemon/errors
 INC_daemon_store  := $(INC_api_util) -Idaemon/store
 INC_daemon_jobs   := $(INC_api_grading) -Idaemon/jobs -Idaemon/store
@@ -48,7 +50,7 @@ INC_daemon_http   := $(INC_daemon_farm) -Idaemon/http
 INC_daemon_cli    := $(INC_daemon_http) -Idaemon/cli
 INC_daemon        := $(INC_daemon_cli)
 # Tests are white-box: every folder, and tests/ for support/ and oracles/.
-INC_ALL           := $(INC_core_render) $(filter-out -Icore/include,$(INC_daemon)) -Itests
+INC_ALL           := $(INC_core_render) $(filter-out -Icore/include,$(INC_daemon)) -iquote api/archive -Itests
 inc_for = $(if $(filter tests/% bench/%,$1),$(INC_ALL),$(INC_$(subst /,_,$(patsubst %/,%,$(dir $1)))))
 
 CORE_SRC   := $(sort $(wildcard core/*/*.c))
