@@ -46,7 +46,7 @@ INC_daemon_store  := $(INC_api_util) -Idaemon/store
 INC_daemon_jobs   := $(INC_api_grading) -Idaemon/jobs -Idaemon/store
 INC_daemon_log    := $(INC_api_util) -Idaemon/log
 INC_daemon_farm   := $(INC_daemon_jobs) -Idaemon/errors -Idaemon/log -Idaemon/farm
-INC_daemon_http   := $(INC_daemon_farm) -Idaemon/http
+INC_daemon_http   := $(INC_daemon_farm) -iquote api/archive -Idaemon/http
 INC_daemon_cli    := $(INC_daemon_http) -Idaemon/cli
 INC_daemon        := $(INC_daemon_cli)
 # Tests are white-box: every folder, and tests/ for support/ and oracles/.
@@ -156,6 +156,7 @@ $(BUILD)/unit-tests: $(TEST_OBJ) $(JOBS_OBJ) $(STORE_OBJ) $(BUILD)/librayd.a
 check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
 	RAYD=$(BUILD)/rayd LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan.supp $(BUILD)/unit-tests --jobs 2
 	RAYD=$(BUILD)/rayd sh tests/integration/cli_test.sh
+	RAYD=$(BUILD)/rayd sh tests/integration/grade_cli_test.sh
 	RAYD=$(BUILD)/rayd sh tests/integration/formats_test.sh
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/schema_test.py
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/grade_parity_test.py
@@ -164,6 +165,7 @@ check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/openapi_test.py
 	RAYD=$(BUILD)/rayd sh tests/integration/deploy_test.sh
 	RAYD=$(BUILD)/rayd $(if $(SAN),RAYD_TEST_SLOW=3) /usr/bin/python3 tests/integration/store_test.py
+	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/grade_batch_test.py
 
 # Three daemons on one PostgreSQL behind nginx (tests/integration/farm_test.py):
 # once, against the plain build.

@@ -197,8 +197,8 @@ static rd_error_code render(rd_farm *f, rd_store *h, farm_ctx *c, const rd_store
             return rc;
     }
     pthread_rwlock_rdlock(&c->rw);
-    rd_error_code rc =
-        c->pass == t->pass ? tile_input(h, c, t, err) : rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "job %s moved on", c->id);
+    rd_error_code rc = c->pass == t->pass ? tile_input(h, c, t, err)
+                                          : rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "job %s moved on", c->id);
     rd_job_counts k = {0, 0, 0, 0};
     if (!rc && rd_job_render_tile(c->core, t->index, &k)) {
         rd_job_counts *tc = &c->tile_counts[t->index];
