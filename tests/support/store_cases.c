@@ -517,6 +517,9 @@ static void *farm_main(void *arg)
     farm_arg *f = arg;
     rd_error err = {0};
     rd_store *s = rd_store_open(f->env->spec, &f->env->opt, &err);
+    /* Opening reads the schema in a transaction: busy, too, means try again. */
+    for (int i = 0; !s && err.code == RD_ERR_BUSY && i < 10; i++)
+        s = rd_store_open(f->env->spec, &f->env->opt, &err);
     if (!s) {
         atomic_fetch_add(f->errors, 1);
         return NULL;
