@@ -84,6 +84,13 @@ def verdicts_right(rows, images, what):
 
 
 def gate(tmp):
+    bad = os.path.join(tmp, "bad-tokens")
+    with open(bad, "w") as f:
+        f.write("# instructors\nshort\n")
+    p = subprocess.run([RAYD, "serve", "--listen", "127.0.0.1:0", "--data-dir", os.path.join(tmp, "bad"),
+                        "--instructor-tokens", bad], capture_output=True, timeout=30)
+    check(p.returncode == 3 and b"bad-tokens:2:" in p.stderr,
+          "a token file with a short token: exit %d, %r" % (p.returncode, p.stderr[-200:]))
     os.makedirs(os.path.join(tmp, "off"))
     with Daemon(os.path.join(tmp, "off")) as d:
         for method, path in (("POST", "/v1/grade/batch"), ("GET", "/v1/grades"), ("GET", "/v1/grade/batch/x")):
