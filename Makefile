@@ -7,7 +7,7 @@ CC := gcc
 endif
 BUILD   ?= build
 SAN     ?=
-PKGS    := libpng libcjson zlib libmicrohttpd OpenEXR sqlite3 libpq
+PKGS    := libpng libcjson zlib libmicrohttpd OpenEXR sqlite3 libpq libarchive
 TESTPKG := criterion libcurl
 
 SANFLAGS := -fsanitize=address,undefined
@@ -39,16 +39,18 @@ INC_api_image     := $(INC_api_util) -Iapi/image
 INC_api_scene     := $(INC_api_util) -Iapi/scene
 INC_api_assets    := $(INC_api_scene) -Iapi/image -Iapi/assets
 INC_api_grading   := $(INC_api_assets) -Iapi/grading
+# -iquote: its archive.h is "archive.h", and <archive.h> stays libarchive's.
+INC_api_archive   := $(INC_api_util) -iquote api/archive
 INC_daemon_errors := $(INC_api_grading) -Idaemon/errors
 INC_daemon_store  := $(INC_api_util) -Idaemon/store
 INC_daemon_jobs   := $(INC_api_grading) -Idaemon/jobs -Idaemon/store
 INC_daemon_log    := $(INC_api_util) -Idaemon/log
 INC_daemon_farm   := $(INC_daemon_jobs) -Idaemon/errors -Idaemon/log -Idaemon/farm
-INC_daemon_http   := $(INC_daemon_farm) -Idaemon/http
+INC_daemon_http   := $(INC_daemon_farm) -iquote api/archive -Idaemon/http
 INC_daemon_cli    := $(INC_daemon_http) -Idaemon/cli
 INC_daemon        := $(INC_daemon_cli)
 # Tests are white-box: every folder, and tests/ for support/ and oracles/.
-INC_ALL           := $(INC_core_render) $(filter-out -Icore/include,$(INC_daemon)) -Itests
+INC_ALL           := $(INC_core_render) $(filter-out -Icore/include,$(INC_daemon)) -iquote api/archive -Itests
 inc_for = $(if $(filter tests/% bench/%,$1),$(INC_ALL),$(INC_$(subst /,_,$(patsubst %/,%,$(dir $1)))))
 
 CORE_SRC   := $(sort $(wildcard core/*/*.c))
@@ -154,6 +156,7 @@ $(BUILD)/unit-tests: $(TEST_OBJ) $(JOBS_OBJ) $(STORE_OBJ) $(BUILD)/librayd.a
 check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
 	RAYD=$(BUILD)/rayd LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan.supp $(BUILD)/unit-tests --jobs 2
 	RAYD=$(BUILD)/rayd sh tests/integration/cli_test.sh
+	RAYD=$(BUILD)/rayd sh tests/integration/grade_cli_test.sh
 	RAYD=$(BUILD)/rayd sh tests/integration/formats_test.sh
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/schema_test.py
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/grade_parity_test.py
@@ -162,6 +165,7 @@ check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/openapi_test.py
 	RAYD=$(BUILD)/rayd sh tests/integration/deploy_test.sh
 	RAYD=$(BUILD)/rayd $(if $(SAN),RAYD_TEST_SLOW=3) /usr/bin/python3 tests/integration/store_test.py
+	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/grade_batch_test.py
 
 # Three daemons on one PostgreSQL behind nginx (tests/integration/farm_test.py):
 # once, against the plain build.

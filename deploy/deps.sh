@@ -15,7 +15,7 @@
 set -eu
 pkgs="gcc clang clang-format libclang-rt-dev make pkg-config libc6-dev libpng-dev zlib1g-dev libcjson-dev
  libmicrohttpd-dev libopenexr-dev libcriterion-dev libcurl4-openssl-dev curl python3 python3-jsonschema chromium help2man
- libsqlite3-dev libpq-dev postgresql sqlite3 nginx"
+ libsqlite3-dev libpq-dev postgresql sqlite3 nginx libarchive-dev"
 [ "${1:-}" = bench ] && pkgs="$pkgs povray wrk hey git libembree-dev"
 missing=""
 for p in $pkgs; do

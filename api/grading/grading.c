@@ -106,6 +106,27 @@ rd_error_code rd_grade_prepare(const rd_grader *g, const rd_grade_input *in, rd_
     return RD_OK;
 }
 
+rd_error_code rd_grade_prepare_reference(const rd_grader *g, const rd_grade_input *in, rd_scene *s, rd_grade_output *o,
+                                         rd_error *err)
+{
+    memset(o, 0, sizeof *o);
+    o->thresholds = rd_grade_thresholds_default();
+    rd_error_code rc = open_scene(g, in, s, o, err);
+    if (rc)
+        return rc;
+    o->width = s->render.width;
+    o->height = s->render.height;
+    o->stage = RD_GRADE_STAGE_REFERENCE;
+    rc = rd_reference_key(s, o->key, err);
+    if (rc)
+        return rc;
+    if (g->cache)
+        o->reference = rd_ref_cache_get(g->cache, o->key, o->width, o->height);
+    o->reference_cached = o->reference != NULL;
+    o->stage = RD_GRADE_STAGE_NONE;
+    return RD_OK;
+}
+
 rd_error_code rd_grade_set_reference(const rd_grader *g, rd_grade_output *o, const uint8_t *rgb, int w, int h,
                                      rd_error *err)
 {

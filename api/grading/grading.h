@@ -81,6 +81,12 @@ typedef struct {
 rd_error_code rd_grade_prepare(const rd_grader *g, const rd_grade_input *in, rd_scene *s, rd_grade_output *o,
                                rd_error *err);
 
+/* For many images of one assignment (a batch): rd_grade_prepare without
+ * an image, so that the reference is found or rendered once. o's size is
+ * the scene's, its image NULL; in->png is not read. */
+rd_error_code rd_grade_prepare_reference(const rd_grader *g, const rd_grade_input *in, rd_scene *s, rd_grade_output *o,
+                                         rd_error *err);
+
 /* Takes a copy of the rendered reference (width x height of o) and puts it
  * in g's cache. RD_ERR_INVALID when its size is not the image's. */
 rd_error_code rd_grade_set_reference(const rd_grader *g, rd_grade_output *o, const uint8_t *rgb, int w, int h,

@@ -40,13 +40,14 @@ static int stopping(rd_farm *f)
     return s;
 }
 
-/* Runs call until the store answers (anything but RD_ERR_IO) or the farm
- * stops: what was rendered is not thrown away for an outage. */
+/* Runs call until the store answers (anything but RD_ERR_IO, or
+ * RD_ERR_BUSY: other writers held it past its timeout) or the farm stops:
+ * what was rendered is not thrown away for an outage or a busy store. */
 #define RETRY_IO(f, rc, call)                                                                                          \
     do {                                                                                                               \
         (rc) = (call);                                                                                                 \
         farm_store_result((f), (rc));                                                                                  \
-        if ((rc) != RD_ERR_IO || stopping(f))                                                                          \
+        if (((rc) != RD_ERR_IO && (rc) != RD_ERR_BUSY) || stopping(f))                                                 \
             break;                                                                                                     \
         sleep_ms(RETRY_MS);                                                                                            \
     } while (1)
@@ -148,7 +149,7 @@ static void end_pass(rd_farm *f, rd_store *h, farm_ctx *c, int pass)
     if (!rc)
         RETRY_IO(f, rc, farm_ctx_gather(h, c, pass + 1, &complete, &err));
     if (rc || !complete) {
-        if (rc && rc != RD_ERR_BUSY && rc != RD_ERR_IO)
+        if (rc && rc != RD_ERR_CANCELLED && rc != RD_ERR_IO && rc != RD_ERR_NOT_FOUND)
             fail_job(f, h, c->id, &err);
         pthread_rwlock_unlock(&c->rw);
         return;
@@ -196,8 +197,8 @@ static rd_error_code render(rd_farm *f, rd_store *h, farm_ctx *c, const rd_store
             return rc;
     }
     pthread_rwlock_rdlock(&c->rw);
-    rd_error_code rc =
-        c->pass == t->pass ? tile_input(h, c, t, err) : rd_error_set(err, RD_ERR_BUSY, 0, 0, "job %s moved on", c->id);
+    rd_error_code rc = c->pass == t->pass ? tile_input(h, c, t, err)
+                                          : rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "job %s moved on", c->id);
     rd_job_counts k = {0, 0, 0, 0};
     if (!rc && rd_job_render_tile(c->core, t->index, &k)) {
         rd_job_counts *tc = &c->tile_counts[t->index];
@@ -252,12 +253,14 @@ static void do_claim(rd_farm *f, rd_store *h, const rd_store_tile *t)
     RETRY_IO(f, rc, render(f, h, c, t, &blob, &len, &late, &err));
     if (late) {
         timed_out(f, h, c->id);
-    } else if (rc == RD_ERR_BUSY) {
+    } else if (rc == RD_ERR_CANCELLED) {
         /* A claim the store has moved past: give the lease back rather
          * than have the renewals keep it (with the others this daemon
          * holds, which their renders then lose; this should not happen). */
         rd_log_msg(f->opt.log, "warning", "job %s, tile %d: %s", c->id, t->index, err.message);
         RETRY_IO(f, rc, rd_store_release(h, f->daemon_id, NULL, &err));
+    } else if (rc == RD_ERR_NOT_FOUND) {
+        farm_ctx_ended(f, c->id); /* deleted meanwhile */
     } else if (rc && rc != RD_ERR_IO) {
         fail_job(f, h, c->id, &err);
     } else if (blob) {

@@ -266,7 +266,7 @@ rd_error_code farm_ctx_sync_pass(rd_farm *f, rd_store *h, farm_ctx *c, int pass,
         rc = farm_schedule_parse(info.schedule, &sc, &opened, err);
     rd_store_job_info_free(&info);
     if (!rc && sc.pass != pass)
-        rc = rd_error_set(err, RD_ERR_BUSY, 0, 0, "job %s is at pass %d, not %d", c->id, sc.pass, pass);
+        rc = rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "job %s is at pass %d, not %d", c->id, sc.pass, pass);
     if (!rc)
         rc = rd_job_schedule_set(c->core, &sc, err);
     if (!rc) {

@@ -86,7 +86,7 @@ void farm_ctx_ended(rd_farm *f, const char *id);
 void farm_ctx_free_all(rd_farm *f);
 
 /* Puts the core on pass `pass` as the store's schedule says (the write
- * lock held by the caller). RD_ERR_BUSY when the store's job is at
+ * lock held by the caller). RD_ERR_CANCELLED when the store's job is at
  * another pass (the claim is stale, or another daemon ended the pass);
  * RD_ERR_INVALID when its schedule is not one this daemon reads. */
 rd_error_code farm_ctx_sync_pass(rd_farm *f, rd_store *h, farm_ctx *c, int pass, rd_error *err);

@@ -7,7 +7,9 @@
 #include <pthread.h>
 #include <stdatomic.h>
 
+#include "auth.h"
 #include "error_map.h"
+#include "grading.h"
 #include "rayd/error.h"
 #include "server.h"
 
@@ -16,6 +18,7 @@ struct rd_server {
     struct MHD_Daemon *mhd;
     rd_jq *jobs;
     rd_farm *farm; /* the stored jobs; NULL until it has started */
+    rd_auth *auth; /* --instructor-tokens; NULL: the instructors' routes are off */
     char daemon_id[RD_STORE_ID_MAX];
     atomic_int draining;
     uint16_t port;
@@ -161,8 +164,49 @@ enum MHD_Result rd_route_grade_begin(rd_req *r);
 enum MHD_Result rd_route_grade_data(rd_req *r, const char *data, size_t size);
 enum MHD_Result rd_route_grade(rd_req *r, const char *rest);
 enum MHD_Result rd_route_grade_resumed(rd_req *r);
-/* GET /v1/grades/{id}/{diff,reference,image}.png */
+/* GET /v1/grades (the records, for instructors), /v1/grades/{id} (a
+ * record's verdict), /v1/grades/{id}/{diff,reference,image}.png */
 enum MHD_Result rd_route_grade_files(rd_req *r, const char *rest);
+enum MHD_Result rd_route_grades_list(rd_req *r);
+/* POST /v1/grade/batch, GET /v1/grade/batch/{id}[/results.csv|.json] */
+enum MHD_Result rd_route_batch_begin(rd_req *r);
+enum MHD_Result rd_route_batch_data(rd_req *r, const char *data, size_t size);
+enum MHD_Result rd_route_batch_post(rd_req *r, const char *rest);
+enum MHD_Result rd_route_batch_get(rd_req *r, const char *rest);
+
+/* The instructors' routes' gate (--instructor-tokens, auth.h): 0 when the
+ * request may go on, else its answer (404 off, 401, 403) is in *ret. */
+int rd_require_instructor(rd_req *r, enum MHD_Result *ret);
+
+/* Grading's shared state (routes_grade.c). */
+const rd_grader *rd_grades_grader(struct rd_grades *g);
+/* The store the records go to (NULL before the server is ready); the
+ * grades own it from rd_grades_set_store on. */
+rd_store *rd_grades_store(struct rd_grades *g);
+void rd_grades_set_store(struct rd_grades *g, rd_store *s);
+/* A finished grade: its images kept, its verdict (malloc'ed, with its id
+ * and student) in *verdict, its record stored (an assignment's grade
+ * only). */
+rd_error_code rd_grades_one(rd_server *srv, const rd_grade_output *o, const char *student, const char *batch_id,
+                            char id[24], char **verdict, rd_error *err);
+/* The record of a student whose image could not be graded. */
+void rd_grades_error_record(rd_server *srv, const char *assignment, const char *student, const char *batch_id,
+                            const char *message, char id[24]);
+
+/* A batch's images: the grades take them over. */
+typedef struct {
+    char student[256];
+    unsigned char *png;
+    size_t len;
+} rd_grade_batch_image;
+
+/* Records the batch, then grades it on the render threads; its id in id.
+ * Takes images (the array and each png) over whatever happens. */
+rd_error_code rd_grades_batch_start(rd_server *srv, const char *assignment, rd_grade_batch_image *images, size_t n,
+                                    char id[RD_STORE_ID_MAX], rd_error *err);
+/* form 0: the batch's status with its rows (JSON), 1: the rows (a JSON
+ * array), 2: the rows as CSV. */
+rd_error_code rd_grades_batch_json(rd_server *srv, const char *id, int form, char **text, rd_error *err);
 
 /* An image that never changes under its name: ETag etag (quoted here),
  * Cache-Control for max_age_s seconds, and 304 without a body when the

@@ -612,6 +612,10 @@ rd_server_options rd_server_options_default(void)
     o.data_dir = "var";
     o.lease_ms = 10000;
     o.store_tile = 64;
+    o.grade_ttl_ms = 180 * 86400e3;
+    o.max_batch_images = 500;
+    o.max_batch_bytes = 256u << 20;
+    o.max_batch_expanded = (size_t)1 << 30;
     o.scenes_dir = rd_default_scenes_dir();
     o.assignments_dir = rd_default_assignments_dir();
     return o;
@@ -634,6 +638,7 @@ static void free_server(rd_server *s)
     rd_farm_free(s->farm);
     rd_grades_free(s->grades);
     rd_access_free(s->access);
+    rd_auth_free(s->auth);
     rd_metrics_free(s->metrics);
     pthread_mutex_destroy(&s->conn_mu);
     pthread_cond_destroy(&s->conn_cv);
@@ -770,9 +775,11 @@ static rd_error_code start_farm(rd_server *s, rd_error *err)
         fo.store.limits.scene_bytes = o->max_body_bytes;
     rd_error why = {0};
     s->farm = rd_farm_start(&fo, &why);
-    if (!s->farm)
+    rd_store *records = s->farm ? rd_store_open(fo.store_spec, &fo.store, &why) : NULL;
+    if (!records)
         return rd_error_set(err, why.code ? why.code : RD_ERR_IO, 0, 0, "the job store (%s) cannot be used: %s",
                             o->store && *o->store ? "--store" : "--data-dir", why.message);
+    rd_grades_set_store(s->grades, records);
     return RD_OK;
 }
 
@@ -789,6 +796,10 @@ rd_server *rd_server_start(const rd_server_options *opt, rd_error *err)
     s->opt = *opt;
     pthread_mutex_init(&s->conn_mu, NULL);
     pthread_cond_init(&s->conn_cv, NULL);
+    if (opt->instructor_tokens && !(s->auth = rd_auth_load(opt->instructor_tokens, err))) {
+        free(s);
+        return NULL;
+    }
     s->access = rd_access_new(opt, err);
     s->jobs = s->access ? rd_jq_start(&opt->jobs, err) : NULL;
     s->grades = s->jobs ? rd_grades_new(s->jobs, &s->opt) : NULL;

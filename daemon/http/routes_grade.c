@@ -46,6 +46,12 @@ struct rd_grades {
     uint64_t counter;
     rd_jq *jobs; /* told of every byte the caches hold */
     size_t kept_bytes, cap;
+    /* The records (docs/grading.md): set once the store is open, before the
+     * server is ready; NULL until then. The grades own it. */
+    _Atomic(rd_store *) store;
+    double ttl_ms;
+    atomic_llong last_expire_ms;
+    rd_log *log;
 };
 
 /* The form as it arrives, on the HTTP thread (the request's state). */
@@ -56,6 +62,7 @@ typedef struct {
     char *scene;
     size_t scene_len;
     char assignment[80];
+    char student[256];
     int too_big;
     const char *bad; /* the form is malformed: why (answered once it has arrived) */
 } grade_form;
@@ -69,6 +76,7 @@ typedef struct {
     char *scene;
     size_t scene_len;
     char assignment[80];
+    char student[256];
     rd_server *srv;
     rd_grade_output out;
     char *json; /* the verdict */
@@ -91,6 +99,8 @@ struct rd_grades *rd_grades_new(rd_jq *jobs, const rd_server_options *opt)
     g->grader.limits = opt->limits;
     g->jobs = jobs;
     g->cap = opt->grade_cache_bytes;
+    g->ttl_ms = opt->grade_ttl_ms;
+    g->log = opt->log;
     pthread_mutex_init(&g->mu, NULL);
     g->key = rd_random_key();
     return g;
@@ -120,9 +130,16 @@ void rd_grades_free(struct rd_grades *g)
         free(g->kept[i].image);
     }
     rd_ref_cache_free(g->grader.cache);
+    rd_store_close(atomic_load(&g->store));
     pthread_mutex_destroy(&g->mu);
     free(g);
 }
+
+void rd_grades_set_store(struct rd_grades *g, rd_store *s) { atomic_store(&g->store, s); }
+
+rd_store *rd_grades_store(struct rd_grades *g) { return atomic_load(&g->store); }
+
+const rd_grader *rd_grades_grader(struct rd_grades *g) { return &g->grader; }
 
 /* Past the cap the references give way first, then the oldest grades.
  * Under g->mu. */
@@ -150,8 +167,10 @@ static unsigned char *encode(const uint8_t *rgb, int w, int h, size_t *len)
     return png;
 }
 
-/* Keeps the images of a finished grade for GET /v1/grades/{id}/...; returns its id. */
-static void keep(struct rd_grades *g, const rd_grade_output *o, char id[24])
+/* Keeps the images of a finished grade for GET /v1/grades/{id}/...; returns
+ * its id and a copy of the diff PNG for the record (NULL when out of
+ * memory; the caller frees it). */
+static void keep(struct rd_grades *g, const rd_grade_output *o, char id[24], unsigned char **diff, size_t *diff_len)
 {
     size_t n = (size_t)o->width * (size_t)o->height * 3;
     uint8_t *heat = malloc(n);
@@ -164,6 +183,10 @@ static void keep(struct rd_grades *g, const rd_grade_output *o, char id[24])
     }
     e.reference = encode(o->reference, o->width, o->height, &e.reference_len);
     e.image = encode(o->image, o->width, o->height, &e.image_len);
+    *diff = e.diff ? malloc(e.diff_len) : NULL;
+    *diff_len = *diff ? e.diff_len : 0;
+    if (*diff)
+        memcpy(*diff, e.diff, e.diff_len);
     e.t = rd_now_ms();
     pthread_mutex_lock(&g->mu);
     snprintf(e.id, sizeof e.id, "g%016llx", (unsigned long long)rd_mix64(g->key ^ ++g->counter));
@@ -213,6 +236,15 @@ static enum MHD_Result on_field(void *cls, enum MHD_ValueKind kind, const char *
     } else if (strcmp(key, "scene") == 0) {
         buf = &g->scene;
         len = &g->scene_len;
+    } else if (strcmp(key, "student") == 0) {
+        size_t have = strlen(g->student);
+        if (have + size < sizeof g->student) {
+            memcpy(g->student + have, data, size);
+            g->student[have + size] = 0;
+            return MHD_YES;
+        }
+        g->bad = "the 'student' field is longer than a student id can be";
+        return MHD_NO;
     } else if (strcmp(key, "assignment") == 0) {
         size_t have = strlen(g->assignment);
         if (have + size < sizeof g->assignment) {
@@ -277,12 +309,17 @@ enum MHD_Result rd_route_grade_data(rd_req *r, const char *data, size_t size)
     return MHD_YES;
 }
 
-/* The verdict with the kept images' addresses and the grade's id. */
-static char *verdict_json(const rd_grade_output *o, const char *id)
+/* The verdict with the kept images' addresses, the grade's id and its
+ * student (when known). */
+static char *verdict_json(const rd_grade_output *o, const char *id, const char *student)
 {
     cJSON *root = rd_grade_json(o);
     if (!root)
         return NULL;
+    if (student && *student && !cJSON_AddStringToObject(root, "student", student)) {
+        cJSON_Delete(root);
+        return NULL;
+    }
     static const char *const files[][2] = {
         {"diff_url", "diff"}, {"reference_url", "reference"}, {"image_url", "image"}};
     char url[80];
@@ -335,9 +372,74 @@ static rd_error_code finish_grade(void *arg, const uint8_t *rgb, int w, int h, r
     if (rd_grade_finish(o))
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory comparing the images");
     char id[24];
-    keep(g, o, id);
-    t->json = verdict_json(o, id);
-    return t->json ? RD_OK : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    return rd_grades_one(t->srv, o, t->student, NULL, id, &t->json, err);
+}
+
+/* A grade's record: kept until --grade-ttl, expired here about once a
+ * minute. A store that cannot take it is logged; the grade is answered
+ * anyway (its images stay in memory). Grades of a given scene rather than
+ * an assignment are not records: they belong to no course. */
+static void record(struct rd_grades *g, const rd_grade_output *o, const char *id, const char *student,
+                   const char *batch_id, const char *verdict, const unsigned char *diff, size_t diff_len)
+{
+    rd_store *s = atomic_load(&g->store);
+    if (!s || !o->assignment[0])
+        return;
+    char key[96];
+    snprintf(key, sizeof key, "%s/%s", o->key, rd_renderer_id());
+    rd_store_grade rec = {.id = id,
+                          .batch_id = batch_id,
+                          .assignment = o->assignment,
+                          .student = student ? student : "",
+                          .pass = o->result.pass,
+                          .failed_fraction = o->result.failed_fraction,
+                          .max_abs = o->result.max_abs,
+                          .psnr_db = o->result.psnr_db,
+                          .ssim = o->result.ssim,
+                          .verdict = verdict,
+                          .reference_key = key,
+                          .graded_ms = rd_store_wall_ms()};
+    rd_error err = {0};
+    if (rd_store_grade_put(s, &rec, diff, diff_len, &err))
+        rd_log_msg(g->log, "warning", "grade %s was not recorded: %s", id, err.message);
+    long long now = rd_store_wall_ms(), last = atomic_load(&g->last_expire_ms);
+    if (now - last > 60000 && atomic_compare_exchange_strong(&g->last_expire_ms, &last, now))
+        rd_store_grades_expire(s, (int64_t)g->ttl_ms, NULL, &err);
+}
+
+rd_error_code rd_grades_one(rd_server *srv, const rd_grade_output *o, const char *student, const char *batch_id,
+                            char id[24], char **verdict, rd_error *err)
+{
+    struct rd_grades *g = srv->grades;
+    unsigned char *diff = NULL;
+    size_t diff_len = 0;
+    keep(g, o, id, &diff, &diff_len);
+    *verdict = verdict_json(o, id, student);
+    if (*verdict)
+        record(g, o, id, student, batch_id, *verdict, diff, diff_len);
+    free(diff);
+    return *verdict ? RD_OK : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+}
+
+void rd_grades_error_record(rd_server *srv, const char *assignment, const char *student, const char *batch_id,
+                            const char *message, char id[24])
+{
+    struct rd_grades *g = srv->grades;
+    pthread_mutex_lock(&g->mu);
+    snprintf(id, 24, "g%016llx", (unsigned long long)rd_mix64(g->key ^ ++g->counter));
+    pthread_mutex_unlock(&g->mu);
+    rd_store *s = atomic_load(&g->store);
+    if (!s)
+        return;
+    rd_store_grade rec = {.id = id,
+                          .batch_id = batch_id,
+                          .assignment = assignment,
+                          .student = student,
+                          .graded_ms = rd_store_wall_ms(),
+                          .error = message && *message ? message : "not graded"};
+    rd_error err = {0};
+    if (rd_store_grade_put(s, &rec, NULL, 0, &err))
+        rd_log_msg(g->log, "warning", "grade %s was not recorded: %s", id, err.message);
 }
 
 static void free_grade(void *arg)
@@ -378,6 +480,7 @@ enum MHD_Result rd_route_grade(rd_req *r, const char *rest)
     t->scene = g->scene;
     t->scene_len = g->scene_len;
     memcpy(t->assignment, g->assignment, sizeof t->assignment);
+    memcpy(t->student, g->student, sizeof t->student);
     g->image = g->scene = NULL;
     rd_jq_task task = {prepare_grade, finish_grade, free_grade, t, t->image_len + t->scene_len};
     rd_jq_submit_options so = {0};
@@ -408,11 +511,54 @@ enum MHD_Result rd_route_grade_resumed(rd_req *r)
                               "Retry-After", "5");
 }
 
+/* GET /v1/grades/{id}: the record's verdict, for whoever has the id. */
+static enum MHD_Result stored_verdict(rd_req *r, const char *id)
+{
+    rd_store *s = rd_grades_store(r->srv->grades);
+    rd_store_grade g = {0};
+    rd_error err = {0};
+    rd_error_code rc = s ? rd_store_grade_get(s, id, &g, &err) : RD_ERR_NOT_FOUND;
+    if (rc == RD_ERR_NOT_FOUND || rc == RD_ERR_INVALID)
+        return rd_reply_error(r, 404, "not_found", NULL, "no such grade (records are kept for --grade-ttl)");
+    if (rc)
+        return rd_reply_store_error(r, &err);
+    char *text = g.verdict ? strdup(g.verdict) : NULL;
+    if (!text && g.error) {
+        cJSON *o = cJSON_CreateObject();
+        cJSON_AddStringToObject(o, "id", id);
+        cJSON_AddStringToObject(o, "student", g.student ? g.student : "");
+        cJSON_AddStringToObject(o, "assignment", g.assignment ? g.assignment : "");
+        cJSON_AddBoolToObject(o, "pass", 0);
+        cJSON_AddStringToObject(o, "error", g.error);
+        text = cJSON_PrintUnformatted(o);
+        cJSON_Delete(o);
+    }
+    rd_store_grade_free(&g);
+    if (!text)
+        return rd_reply_error(r, 503, "unavailable", NULL, "out of memory");
+    return rd_reply_json(r, 200, text);
+}
+
+/* A diff PNG from the record once the grade has left memory. */
+static unsigned char *stored_diff(rd_req *r, const char *id, size_t *len)
+{
+    rd_store *s = rd_grades_store(r->srv->grades);
+    unsigned char *png = NULL;
+    rd_error err = {0};
+    if (!s || rd_store_grade_image(s, id, RD_STORE_GRADE_DIFF, &png, len, &err))
+        return NULL;
+    return png;
+}
+
 enum MHD_Result rd_route_grade_files(rd_req *r, const char *path)
 {
+    if (!*path)
+        return rd_route_grades_list(r);
     const char *rest = path + 1;
-    /* rest: "{id}/diff.png", "{id}/reference.png" or "{id}/image.png" */
+    /* rest: "{id}", "{id}/diff.png", "{id}/reference.png" or "{id}/image.png" */
     const char *slash = strchr(rest, '/');
+    if (!slash && strlen(rest) < 24)
+        return stored_verdict(r, rest);
     if (!slash || slash - rest >= 24)
         return rd_reply_error(r, 404, "not_found", NULL, "no such grade");
     char id[24];
@@ -439,8 +585,11 @@ enum MHD_Result rd_route_grade_files(rd_req *r, const char *path)
         break;
     }
     pthread_mutex_unlock(&g->mu);
+    if (!copy && strcmp(what, "diff.png") == 0)
+        copy = stored_diff(r, id, &len);
     if (!copy)
-        return rd_reply_error(r, 404, "not_found", NULL, "no such grade image (the last 256 grades are kept)");
+        return rd_reply_error(r, 404, "not_found", NULL,
+                              "no such grade image (the last 256 grades' images are kept; a record keeps its diff)");
     /* A grade's images never change under its id; they stay while the
      * last GRADES_KEPT grades do, so an hour of caching is safe enough. */
     char tag[64];

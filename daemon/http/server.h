@@ -39,6 +39,12 @@ typedef struct {
     const char *daemon_id; /* NULL: HOSTNAME:PORT */
     int lease_ms;
     int store_tile;
+    /* Grading a class (docs/grading.md). */
+    const char *instructor_tokens; /* the tokens' file; NULL: the instructors' routes are off (404) */
+    double grade_ttl_ms;           /* grade records are kept this long */
+    size_t max_batch_images;       /* images of one batch */
+    size_t max_batch_bytes;        /* a batch's form (or archive) */
+    size_t max_batch_expanded;     /* what an archive decompresses to */
 } rd_server_options;
 
 /* A resolved listening address. */

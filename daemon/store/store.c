@@ -3,6 +3,7 @@
  * messages; then the call runs in its engine with the handle's mutex held. */
 #include "store.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -39,6 +40,28 @@ static const char *const status_names[RD_STORE_STATUS_COUNT] = {"queued", "runni
 const char *rd_store_status_name(rd_store_status st)
 {
     return (unsigned)st < RD_STORE_STATUS_COUNT ? status_names[st] : "?";
+}
+
+static const char *const batch_status_names[] = {"running", "done", "cancelled"};
+
+#define BATCH_STATUS_COUNT ((int)(sizeof batch_status_names / sizeof batch_status_names[0]))
+
+const char *rd_store_batch_status_name(rd_store_batch_status st)
+{
+    return (unsigned)st < (unsigned)BATCH_STATUS_COUNT ? batch_status_names[st] : "?";
+}
+
+int rd_store_batch_status_parse(const char *name)
+{
+    for (int i = 0; name && i < BATCH_STATUS_COUNT; i++)
+        if (strcmp(name, batch_status_names[i]) == 0)
+            return i;
+    return -1;
+}
+
+const char *rd_store_grade_image_name(rd_store_grade_image_kind kind)
+{
+    return kind == RD_STORE_GRADE_DIFF ? "diff" : "image";
 }
 
 int rd_store_status_parse(const char *name)
@@ -224,6 +247,76 @@ static rd_error_code check_spec(const rd_store *s, const rd_store_job_spec *j, r
             c = check_count("passes", j->passes, s->opt.limits.passes, err);
     }
     return c;
+}
+
+/* An assignment or a student: UTF-8 of at most RD_STORE_NAME_MAX - 1
+ * bytes; empty (or NULL) only when empty_ok. */
+static rd_error_code check_name(const char *what, const char *name, int empty_ok, rd_error *err)
+{
+    size_t n = name ? strlen(name) : 0;
+    if (n == 0 && !empty_ok)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: %s is empty", what);
+    if (n >= RD_STORE_NAME_MAX)
+        return rd_error_set(err, RD_ERR_LIMIT, 0, 0, "store: %s has %zu bytes, over the limit of %d", what, n,
+                            RD_STORE_NAME_MAX - 1);
+    if (rd_utf8_invalid_at(name ? name : "", n) != n)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: %s is not UTF-8", what);
+    return RD_OK;
+}
+
+static rd_error_code check_metrics(const rd_store_grade *g, rd_error *err)
+{
+    const double v[4] = {g->failed_fraction, g->max_abs, g->psnr_db, g->ssim};
+    static const char *const names[4] = {"failed_fraction", "max_abs", "psnr_db", "ssim"};
+    for (int i = 0; i < 4; i++)
+        if (!isfinite(v[i]))
+            return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: grade %s: %s is not a finite number", g->id,
+                                names[i]);
+    return RD_OK;
+}
+
+/* A graded grade has its metrics, verdict and reference; one that could
+ * not be graded has its message instead, did not pass and has no diff. */
+static rd_error_code check_grade(const rd_store *s, const rd_store_grade *g, const unsigned char *diff, size_t len,
+                                 rd_error *err)
+{
+    if (!g)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: no grade given");
+    rd_error_code c = check_id("a grade id", g->id, err);
+    if (!c && g->batch_id)
+        c = check_id("a batch id", g->batch_id, err);
+    if (!c)
+        c = check_name("the assignment", g->assignment, 0, err);
+    if (!c)
+        c = check_name("the student", g->student, 1, err);
+    if (!c && g->graded_ms < 0)
+        c = rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: grade %s graded at %lld ms", g->id,
+                         (long long)g->graded_ms);
+    if (!c)
+        c = check_text(s, "the verdict", g->verdict, err);
+    if (!c)
+        c = check_text(s, "the reference key", g->reference_key, err);
+    if (!c)
+        c = check_text(s, "the error message", g->error, err);
+    if (!c)
+        c = check_bytes("the diff PNG", diff, len, s->opt.limits.image_bytes, err);
+    if (!c && diff && !len)
+        c = rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: grade %s: an empty diff PNG", g->id);
+    if (c)
+        return c;
+    if (!g->error) {
+        if (!g->verdict || !g->reference_key)
+            return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: grade %s needs its verdict and reference key",
+                                g->id);
+        return check_metrics(g, err);
+    }
+    if (!g->error[0])
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: grade %s: an empty error message", g->id);
+    if (g->pass)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: grade %s could not be graded: it did not pass", g->id);
+    if (diff)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: grade %s could not be graded: it has no diff", g->id);
+    return RD_OK;
 }
 
 static rd_error_code check_lease(int lease_ms, rd_error *err)
@@ -536,4 +629,143 @@ rd_error_code rd_store_pass_refusal(const char *id, int pass, rd_store_status st
     return rd_error_set(err, RD_ERR_INVALID, 0, 0,
                         "store: pass %d of job %s cannot open: %d of its passes are complete, not %d", pass, id, done,
                         pass);
+}
+
+/* Grades and batches. */
+
+rd_error_code rd_store_grade_put(rd_store *s, const rd_store_grade *g, const unsigned char *diff_png, size_t len,
+                                 rd_error *err)
+{
+    USE_ERR(err);
+    CHECKED(check_grade(s, g, diff_png, len, err));
+    rd_store_grade n = *g;
+    n.student = g->student ? g->student : "";
+    n.pass = g->error ? 0 : g->pass != 0;
+    LOCKED(s, s->ops->grade_put(s, &n, diff_png, len, err));
+}
+
+rd_error_code rd_store_grade_get(rd_store *s, const char *id, rd_store_grade *out, rd_error *err)
+{
+    USE_ERR(err);
+    CHECKED(check_id("a grade id", id, err));
+    LOCKED(s, s->ops->grade_get(s, id, out, err));
+}
+
+void rd_store_grade_free(rd_store_grade *g)
+{
+    const char **texts[] = {&g->id,      &g->batch_id,      &g->assignment, &g->student,
+                            &g->verdict, &g->reference_key, &g->error};
+    for (size_t i = 0; i < sizeof texts / sizeof texts[0]; i++) {
+        free((void *)*texts[i]);
+        *texts[i] = NULL;
+    }
+}
+
+void rd_store_grades_free(rd_store_grade *g, size_t n)
+{
+    for (size_t i = 0; g && i < n; i++)
+        rd_store_grade_free(&g[i]);
+    free(g);
+}
+
+rd_error_code rd_store_grade_texts(rd_store_grade *g, const char *const texts[RD_STORE_GRADE_TEXTS], rd_error *err)
+{
+    const char **to[RD_STORE_GRADE_TEXTS] = {&g->id,      &g->batch_id,      &g->assignment, &g->student,
+                                             &g->verdict, &g->reference_key, &g->error};
+    int ok = 1;
+    for (int i = 0; i < RD_STORE_GRADE_TEXTS; i++) {
+        *to[i] = texts[i] ? rd_store_dup(texts[i], strlen(texts[i])) : NULL;
+        ok = ok && (!texts[i] || *to[i]);
+    }
+    if (ok)
+        return RD_OK;
+    rd_store_grade_free(g);
+    return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no memory for a grade");
+}
+
+rd_error_code rd_store_grade_image(rd_store *s, const char *id, rd_store_grade_image_kind kind, unsigned char **data,
+                                   size_t *len, rd_error *err)
+{
+    USE_ERR(err);
+    CHECKED(check_id("a grade id", id, err));
+    if (kind != RD_STORE_GRADE_DIFF && kind != RD_STORE_GRADE_IMAGE)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: no grade image kind %d", (int)kind);
+    LOCKED(s, s->ops->grade_image(s, id, kind, data, len, err));
+}
+
+rd_error_code rd_store_grades_list(rd_store *s, const rd_store_grade_filter *f, rd_store_grade **out, size_t *n,
+                                   rd_error *err)
+{
+    USE_ERR(err);
+    rd_store_grade_filter all = {NULL, NULL, NULL, INT64_MIN, SIZE_MAX};
+    if (!f)
+        f = &all;
+    if (f->assignment)
+        CHECKED(check_name("the assignment", f->assignment, 0, err));
+    if (f->student)
+        CHECKED(check_name("the student", f->student, 1, err));
+    if (f->batch_id)
+        CHECKED(check_id("a batch id", f->batch_id, err));
+    if (!f->max) {
+        *out = NULL;
+        *n = 0;
+        return RD_OK;
+    }
+    LOCKED(s, s->ops->grades_list(s, f, out, n, err));
+}
+
+rd_error_code rd_store_grades_expire(rd_store *s, int64_t ttl_ms, size_t *deleted, rd_error *err)
+{
+    USE_ERR(err);
+    size_t d = 0;
+    if (ttl_ms < 0)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: a negative TTL");
+    pthread_mutex_lock(&s->lock);
+    rd_error_code c = s->ops->grades_expire(s, ttl_ms, &d, err);
+    pthread_mutex_unlock(&s->lock);
+    if (c == RD_OK && deleted)
+        *deleted = d;
+    return c;
+}
+
+rd_error_code rd_store_batch_create(rd_store *s, const char *id, const char *assignment, int total, rd_error *err)
+{
+    USE_ERR(err);
+    CHECKED(check_id("a batch id", id, err));
+    CHECKED(check_name("the assignment", assignment, 0, err));
+    if (total < 1)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: a batch of %d grades", total);
+    LOCKED(s, s->ops->batch_create(s, id, assignment, total, err));
+}
+
+rd_error_code rd_store_batch_get(rd_store *s, const char *id, rd_store_batch *out, rd_error *err)
+{
+    USE_ERR(err);
+    CHECKED(check_id("a batch id", id, err));
+    LOCKED(s, s->ops->batch_get(s, id, out, err));
+}
+
+rd_error_code rd_store_batch_cancel(rd_store *s, const char *id, int *changed, rd_error *err)
+{
+    USE_ERR(err);
+    int ch = 0;
+    CHECKED(check_id("a batch id", id, err));
+    pthread_mutex_lock(&s->lock);
+    rd_error_code c = s->ops->batch_cancel(s, id, &ch, err);
+    pthread_mutex_unlock(&s->lock);
+    if (c == RD_OK && changed)
+        *changed = ch;
+    return c;
+}
+
+rd_error_code rd_store_batch_refusal(const char *batch_id, const char *assignment, rd_store_batch_status st,
+                                     const char *batch_assignment, int done, int total, rd_error *err)
+{
+    if (st != RD_STORE_BATCH_RUNNING)
+        return rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "store: batch %s is %s (%d of %d grades)", batch_id,
+                            rd_store_batch_status_name(st), done, total);
+    if (strcmp(assignment, batch_assignment) != 0)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: batch %s grades %s, not %s", batch_id, batch_assignment,
+                            assignment);
+    return rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "store: batch %s has all its %d grades", batch_id, total);
 }

@@ -1,8 +1,9 @@
 /* The job store: what must outlive the process (accepted jobs, their tiles,
- * their images), in SQLite (one machine, the default) or PostgreSQL
- * (several daemons sharing one queue and rendering one job together). One
- * interface, two engines; the schema is the migrations of deploy/sql/, built
- * into the binary and applied by rd_store_open (docs/deploy.md).
+ * their images; grade records and grading batches), in SQLite (one
+ * machine, the default) or PostgreSQL (several daemons sharing one queue
+ * and rendering one job together). One interface, two engines; the schema
+ * is the migrations of deploy/sql/, built into the binary and applied by
+ * rd_store_open (docs/deploy.md).
  *
  * Errors are values: every call returns an rd_error_code and fills err
  * (which may be NULL).
@@ -11,13 +12,14 @@
  *                      same handle reconnects on a later call.
  *   RD_ERR_BUSY        other writers held the store past the timeout, or a
  *                      transaction lost a conflict: try again.
- *   RD_ERR_NOT_FOUND   no job of that id.
+ *   RD_ERR_NOT_FOUND   no job (grade, batch) of that id.
  *   RD_ERR_INVALID     a bad argument (an id, a status, a format), a job id
  *                      that exists already, a job in a state that does not
  *                      allow the call.
  *   RD_ERR_LIMIT       a scene, text, blob or tile count over the limits.
  *   RD_ERR_CANCELLED   the job has ended (done, failed, cancelled): it takes
- *                      no more tiles or results.
+ *                      no more tiles or results; the batch has ended (done,
+ *                      cancelled): it takes no more grades.
  *   RD_ERR_TIMEOUT     a tile's lease ran out and another daemon claimed it.
  *   RD_ERR_UNSUPPORTED the store's schema is newer than this binary.
  *   RD_ERR_NOMEM       out of memory.
@@ -344,5 +346,111 @@ typedef struct {
  * An unreachable store is RD_ERR_IO after the whole timeout, so that a
  * loop around this call does not spin. */
 rd_error_code rd_store_wait(rd_store *s, int timeout_ms, rd_store_event *ev, rd_error *err);
+
+/* Grades. Every grade an instructor asks for, alone or as one of a batch,
+ * is kept with its verdict until rd_store_grades_expire (--grade-ttl):
+ * the row in grades, its diff PNG apart in grade_images, so that reading or
+ * listing grades never reads an image. A batch counts the grades it has
+ * been given, of its total. */
+
+/* Assignments and students: at most RD_STORE_NAME_MAX - 1 bytes. */
+#define RD_STORE_NAME_MAX 256
+
+/* A grade. rd_store_grade_put reads it (the caller keeps what it points
+ * to); rd_store_grade_get and rd_store_grades_list fill it with malloc'ed
+ * copies, freed with rd_store_grade_free (NULL pointers for NULL values). */
+typedef struct {
+    const char *id;         /* the caller's unguessable id (16 hex digits), as a job id */
+    const char *batch_id;   /* NULL: a grade of its own */
+    const char *assignment; /* 1 to RD_STORE_NAME_MAX - 1 bytes of UTF-8 */
+    const char *student;    /* 0 to RD_STORE_NAME_MAX - 1 bytes of UTF-8, "" when unknown (NULL is "") */
+    int pass;               /* 1 passed, 0 failed; 0 when error is set */
+    /* The metrics, kept exactly: finite (RD_ERR_INVALID otherwise). When
+     * error is set they are not stored, and read back as NAN. */
+    double failed_fraction, max_abs, psnr_db, ssim;
+    const char *verdict;       /* the verdict JSON as the API answers it; required unless error is set */
+    const char *reference_key; /* the reference's identity (scene and core hashes); required unless error is set */
+    int64_t graded_ms;         /* when it was graded (the caller's clock), >= 0 */
+    const char *error;         /* NULL: graded; else why the image could not be graded (not "") */
+} rd_store_grade;
+
+/* Frees what g holds (not g itself) and sets its pointers to NULL. */
+void rd_store_grade_free(rd_store_grade *g);
+
+/* Commits a grade and, when diff_png is not NULL, its diff PNG (len
+ * bytes, at most limits.image_bytes). Texts are limited to
+ * limits.text_bytes and must be UTF-8. RD_ERR_INVALID when the id exists
+ * or an argument is bad. A grade of a batch is counted in the same
+ * transaction: the batch's done goes up by one and the batch becomes done
+ * when done reaches its total, exactly once however many handles put its
+ * last grades at once. RD_ERR_NOT_FOUND when there is no such batch,
+ * RD_ERR_INVALID when it is of another assignment, RD_ERR_CANCELLED when
+ * it has ended (done or cancelled): then nothing is stored. */
+rd_error_code rd_store_grade_put(rd_store *s, const rd_store_grade *g, const unsigned char *diff_png, size_t len,
+                                 rd_error *err);
+
+/* RD_ERR_NOT_FOUND when there is no grade of that id. */
+rd_error_code rd_store_grade_get(rd_store *s, const char *id, rd_store_grade *out, rd_error *err);
+
+typedef enum {
+    RD_STORE_GRADE_DIFF,  /* the diff PNG of rd_store_grade_put */
+    RD_STORE_GRADE_IMAGE, /* the student's upload: the schema has room for it, no call stores it yet */
+} rd_store_grade_image_kind;
+
+/* A grade's image, malloc'ed. RD_ERR_NOT_FOUND when there is no such grade,
+ * RD_ERR_INVALID when it has no image of that kind. */
+rd_error_code rd_store_grade_image(rd_store *s, const char *id, rd_store_grade_image_kind kind, unsigned char **data,
+                                   size_t *len, rd_error *err);
+
+/* Which grades rd_store_grades_list gives. */
+typedef struct {
+    const char *assignment; /* NULL: any */
+    const char *student;    /* NULL: any ("" is the unknown student) */
+    const char *batch_id;   /* NULL: any, a batch's or not */
+    int64_t since_ms;       /* graded at or after this */
+    size_t max;             /* at most this many */
+} rd_store_grade_filter;
+
+/* The grades f allows (NULL: every one), by graded_ms then id, at most
+ * f->max (0: none). *out is a malloc'ed array (NULL when *n is 0), freed
+ * with rd_store_grades_free. */
+rd_error_code rd_store_grades_list(rd_store *s, const rd_store_grade_filter *f, rd_store_grade **out, size_t *n,
+                                   rd_error *err);
+
+void rd_store_grades_free(rd_store_grade *g, size_t n);
+
+/* Deletes the grades graded more than ttl_ms ago (graded_ms against the
+ * store's clock), with their images, and the batches created more than
+ * ttl_ms ago that have no grade left: a batch goes only after its last
+ * grade, so that no grade goes before its own time (through the batch's
+ * cascade). *deleted (may be NULL) counts the grades. */
+rd_error_code rd_store_grades_expire(rd_store *s, int64_t ttl_ms, size_t *deleted, rd_error *err);
+
+/* The order and names of the batches' statuses. */
+typedef enum { RD_STORE_BATCH_RUNNING, RD_STORE_BATCH_DONE, RD_STORE_BATCH_CANCELLED } rd_store_batch_status;
+
+/* "running", "done", "cancelled"; "?" outside them. */
+const char *rd_store_batch_status_name(rd_store_batch_status st);
+
+/* Commits a new batch of total (>= 1) grades of assignment, running, with
+ * none done, created now (the store's clock). RD_ERR_INVALID when the id
+ * exists. */
+rd_error_code rd_store_batch_create(rd_store *s, const char *id, const char *assignment, int total, rd_error *err);
+
+typedef struct {
+    char id[RD_STORE_ID_MAX];
+    char assignment[RD_STORE_NAME_MAX];
+    int total, done; /* done: grades put so far, of total */
+    rd_store_batch_status status;
+    int64_t created_ms;
+} rd_store_batch;
+
+/* RD_ERR_NOT_FOUND when there is no batch of that id. */
+rd_error_code rd_store_batch_get(rd_store *s, const char *id, rd_store_batch *out, rd_error *err);
+
+/* Running to cancelled: it takes no more grades, and keeps those it has.
+ * *changed (may be NULL) is 0 when it had ended already, which is not an
+ * error. */
+rd_error_code rd_store_batch_cancel(rd_store *s, const char *id, int *changed, rd_error *err);
 
 #endif

@@ -41,6 +41,21 @@ typedef struct {
     rd_error_code (*tiles_get)(rd_store *s, const char *id, int index, rd_store_tile_data **out, size_t *n,
                                rd_error *err);
     rd_error_code (*wait)(rd_store *s, int timeout_ms, rd_store_event *ev, rd_error *err);
+    /* g checked, its student never NULL, its pass 0 or 1 (0 with an
+     * error, whose metrics are to be stored as NULL). */
+    rd_error_code (*grade_put)(rd_store *s, const rd_store_grade *g, const unsigned char *diff, size_t len,
+                               rd_error *err);
+    rd_error_code (*grade_get)(rd_store *s, const char *id, rd_store_grade *out, rd_error *err);
+    rd_error_code (*grade_image)(rd_store *s, const char *id, rd_store_grade_image_kind kind, unsigned char **data,
+                                 size_t *len, rd_error *err);
+    /* f never NULL, f->max > 0. */
+    rd_error_code (*grades_list)(rd_store *s, const rd_store_grade_filter *f, rd_store_grade **out, size_t *n,
+                                 rd_error *err);
+    rd_error_code (*grades_expire)(rd_store *s, int64_t ttl_ms, size_t *deleted, rd_error *err);
+    rd_error_code (*batch_create)(rd_store *s, const char *id, const char *assignment, int total, rd_error *err);
+    rd_error_code (*batch_get)(rd_store *s, const char *id, rd_store_batch *out, rd_error *err);
+    /* *changed 0 (and RD_OK) when it had ended. */
+    rd_error_code (*batch_cancel)(rd_store *s, const char *id, int *changed, rd_error *err);
 } rd_store_ops;
 
 /* The start of every engine's handle. */
@@ -68,6 +83,31 @@ rd_error_code rd_store_pass_refusal(const char *id, int pass, rd_store_status st
 
 /* The statuses' names as the schema spells them; -1 for another text. */
 int rd_store_status_parse(const char *name);
+
+/* The batches' statuses as the schema spells them; -1 for another text. */
+int rd_store_batch_status_parse(const char *name);
+
+/* "diff" or "image", as grade_images.kind spells them. */
+const char *rd_store_grade_image_name(rd_store_grade_image_kind kind);
+
+/* The columns a grade is read from, in this order by both engines. */
+#define RD_STORE_GRADE_COLUMNS                                                                                         \
+    "id, batch_id, assignment, student, pass, failed_fraction, max_abs, psnr_db, ssim, verdict, reference_key, "       \
+    "graded_ms, error"
+
+/* Its texts, in the order of rd_store_grade_texts. */
+#define RD_STORE_GRADE_TEXTS 7
+
+/* Copies a row's texts (id, batch_id, assignment, student, verdict,
+ * reference_key, error; NULL for SQL NULL) into g's malloc'ed ones;
+ * RD_ERR_NOMEM (and g's texts freed) when out of memory. */
+rd_error_code rd_store_grade_texts(rd_store_grade *g, const char *const texts[RD_STORE_GRADE_TEXTS], rd_error *err);
+
+/* Why a batch refused to count a grade of assignment, from its row as it is
+ * now: ended (RD_ERR_CANCELLED) or of another assignment (RD_ERR_INVALID).
+ * Both engines answer with the same messages. */
+rd_error_code rd_store_batch_refusal(const char *batch_id, const char *assignment, rd_store_batch_status st,
+                                     const char *batch_assignment, int done, int total, rd_error *err);
 
 /* The code of a stable error name (rd_error_name); RD_ERR_IO for another. */
 rd_error_code rd_store_code_parse(const char *name);

@@ -12,6 +12,7 @@
  * transactions never wait for each other in a circle. */
 #include <errno.h>
 #include <libpq-fe.h>
+#include <math.h>
 #include <poll.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -130,12 +131,13 @@ static rd_error_code pg_failed(pg_store *p, PGresult *r, rd_error *err)
     return c;
 }
 
-/* Bound values: text as text, integers as decimal text, bytes as binary. */
+/* Bound values: text as text, integers and doubles as decimal text, bytes
+ * as binary. */
 typedef struct {
     int n;
     const char *vals[16];
     int lens[16], fmts[16];
-    char nums[16][24];
+    char nums[16][32];
 } pg_params;
 
 static void pp_text(pg_params *pp, const char *t)
@@ -148,6 +150,18 @@ static void pp_text(pg_params *pp, const char *t)
 static void pp_int(pg_params *pp, int64_t v)
 {
     snprintf(pp->nums[pp->n], sizeof pp->nums[0], "%lld", (long long)v);
+    pp_text(pp, pp->nums[pp->n]);
+}
+
+/* 17 significant digits: the server reads back the very double (NULL
+ * binds NULL). */
+static void pp_double(pg_params *pp, const double *v)
+{
+    if (!v) {
+        pp_text(pp, NULL);
+        return;
+    }
+    snprintf(pp->nums[pp->n], sizeof pp->nums[0], "%.17g", *v);
     pp_text(pp, pp->nums[pp->n]);
 }
 
@@ -209,11 +223,14 @@ static rd_error_code pg_cmd(pg_store *p, const char *sql, const pg_params *pp, i
     return RD_OK;
 }
 
+/* extra_float_digits = 3: doubles come back as the exact value (the
+ * shortest text that reads back as it from PostgreSQL 12 on, 17 digits
+ * before), whatever the server's default or the spec's options say. */
 static rd_error_code pg_session(pg_store *p, rd_error *err)
 {
     PQsetnonblocking(p->conn, 1);
     p->backend = PQbackendPID(p->conn);
-    return pg_cmd(p, "LISTEN " CHANNEL, NULL, NULL, err);
+    return pg_cmd(p, "SET extra_float_digits = 3; LISTEN " CHANNEL, NULL, NULL, err);
 }
 
 static void quiet(void *arg, const char *message)
@@ -319,6 +336,17 @@ static int64_t pg_int(const PGresult *r, int row, int col)
 static const char *pg_text(const PGresult *r, int row, int col)
 {
     return PQgetisnull(r, row, col) ? "" : PQgetvalue(r, row, col);
+}
+
+static const char *pg_text_or_null(const PGresult *r, int row, int col)
+{
+    return PQgetisnull(r, row, col) ? NULL : PQgetvalue(r, row, col);
+}
+
+/* A double of a text result; NAN for NULL. */
+static double pg_double(const PGresult *r, int row, int col)
+{
+    return PQgetisnull(r, row, col) ? NAN : strtod(PQgetvalue(r, row, col), NULL);
 }
 
 /* Statements on one job id: the params hold it as $1. */
@@ -1001,6 +1029,316 @@ static rd_error_code pg_wait(rd_store *s, int timeout_ms, rd_store_event *ev, rd
     }
 }
 
+/* Grades and batches. A put takes the batch's row lock (its count) before
+ * it inserts the grade, and expiry takes the old batches' row locks first
+ * too, so neither waits for the other in a circle. */
+
+/* *found: whether sql (a SELECT on $1) has a row. */
+static rd_error_code pg_exists(pg_store *p, const char *sql, const char *id, int *found, rd_error *err)
+{
+    pg_params pp = id_params(id);
+    PGresult *r = pg_run(p, sql, &pp, 0, err);
+    if (!r)
+        return err ? err->code : RD_ERR_IO;
+    *found = PQntuples(r) > 0;
+    PQclear(r);
+    return RD_OK;
+}
+
+static rd_error_code pg_batch_refused(pg_store *p, const char *id, const char *assignment, rd_error *err)
+{
+    pg_params pp = id_params(id);
+    PGresult *r = pg_run(p, "SELECT status, assignment, done, total FROM batches WHERE id = $1", &pp, 0, err);
+    if (!r)
+        return err ? err->code : RD_ERR_IO;
+    rd_error_code c;
+    if (PQntuples(r) == 0)
+        c = rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no batch %s", id);
+    else
+        c = rd_store_batch_refusal(id, assignment, (rd_store_batch_status)rd_store_batch_status_parse(pg_text(r, 0, 0)),
+                                   pg_text(r, 0, 1), (int)pg_int(r, 0, 2), (int)pg_int(r, 0, 3), err);
+    PQclear(r);
+    return c;
+}
+
+/* The WHERE is the whole rule. Of two puts at once, the second waits for
+ * the first's row lock and, at read committed, evaluates the WHERE again
+ * on the row the first committed: it counts on from there, and once the
+ * batch is done it changes nothing. */
+static rd_error_code pg_count_grade(pg_store *p, const rd_store_grade *g, rd_error *err)
+{
+    pg_params pp = id_params(g->batch_id);
+    pp_text(&pp, g->assignment);
+    int n = 0;
+    rd_error_code c = pg_cmd(p,
+                             "UPDATE batches SET done = done + 1, "
+                             "status = CASE WHEN done + 1 >= total THEN 'done' ELSE status END "
+                             "WHERE id = $1 AND status = 'running' AND assignment = $2 AND done < total",
+                             &pp, &n, err);
+    if (!c && n == 0)
+        c = pg_batch_refused(p, g->batch_id, g->assignment, err);
+    return c;
+}
+
+static rd_error_code pg_insert_grade(pg_store *p, const rd_store_grade *g, rd_error *err)
+{
+    int graded = !g->error;
+    pg_params pp = id_params(g->id);
+    pp_text(&pp, g->batch_id);
+    pp_text(&pp, g->assignment);
+    pp_text(&pp, g->student);
+    pp_int(&pp, g->pass);
+    pp_double(&pp, graded ? &g->failed_fraction : NULL);
+    pp_double(&pp, graded ? &g->max_abs : NULL);
+    pp_double(&pp, graded ? &g->psnr_db : NULL);
+    pp_double(&pp, graded ? &g->ssim : NULL);
+    pp_text(&pp, g->verdict);
+    pp_text(&pp, g->reference_key);
+    pp_int(&pp, g->graded_ms);
+    pp_text(&pp, g->error);
+    return pg_cmd(p,
+                  "INSERT INTO grades (" RD_STORE_GRADE_COLUMNS ") VALUES ($1, $2, $3, $4, $5::int, "
+                  "$6::double precision, $7::double precision, $8::double precision, $9::double precision, "
+                  "$10, $11, $12::bigint, $13)",
+                  &pp, NULL, err);
+}
+
+static rd_error_code pg_grade_put(rd_store *s, const rd_store_grade *g, const unsigned char *diff, size_t len,
+                                  rd_error *err)
+{
+    pg_store *p = pg(s);
+    int found = 0;
+    rd_error_code c = pg_begin(p, err);
+    if (!c)
+        c = pg_exists(p, "SELECT 1 FROM grades WHERE id = $1", g->id, &found, err);
+    if (!c && found)
+        c = rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: grade %s exists already", g->id);
+    if (!c && g->batch_id)
+        c = pg_count_grade(p, g, err);
+    if (!c)
+        c = pg_insert_grade(p, g, err);
+    if (!c && diff) {
+        pg_params pp = id_params(g->id);
+        pp_bytes(&pp, diff, len);
+        c = pg_cmd(p, "INSERT INTO grade_images (grade_id, kind, data) VALUES ($1, 'diff', $2)", &pp, NULL, err);
+    }
+    return pg_end(p, c, err);
+}
+
+/* Row i of RD_STORE_GRADE_COLUMNS, in text. */
+static rd_error_code pg_grade_row(const PGresult *r, int i, rd_store_grade *g, rd_error *err)
+{
+    memset(g, 0, sizeof *g);
+    g->pass = (int)pg_int(r, i, 4);
+    g->failed_fraction = pg_double(r, i, 5);
+    g->max_abs = pg_double(r, i, 6);
+    g->psnr_db = pg_double(r, i, 7);
+    g->ssim = pg_double(r, i, 8);
+    g->graded_ms = pg_int(r, i, 11);
+    const char *texts[RD_STORE_GRADE_TEXTS] = {
+        pg_text_or_null(r, i, 0), pg_text_or_null(r, i, 1),  pg_text_or_null(r, i, 2), pg_text_or_null(r, i, 3),
+        pg_text_or_null(r, i, 9), pg_text_or_null(r, i, 10), pg_text_or_null(r, i, 12)};
+    return rd_store_grade_texts(g, texts, err);
+}
+
+static rd_error_code pg_grade_get(rd_store *s, const char *id, rd_store_grade *out, rd_error *err)
+{
+    pg_store *p = pg(s);
+    pg_params pp = id_params(id);
+    rd_error_code c = pg_ready(p, err);
+    if (c)
+        return c;
+    PGresult *r = pg_run(p, "SELECT " RD_STORE_GRADE_COLUMNS " FROM grades WHERE id = $1", &pp, 0, err);
+    if (!r)
+        return err ? err->code : RD_ERR_IO;
+    rd_store_grade g;
+    if (PQntuples(r) == 0)
+        c = rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no grade %s", id);
+    else if (!(c = pg_grade_row(r, 0, &g, err)))
+        *out = g;
+    PQclear(r);
+    return c;
+}
+
+static rd_error_code pg_grade_image(rd_store *s, const char *id, rd_store_grade_image_kind kind, unsigned char **data,
+                                    size_t *len, rd_error *err)
+{
+    pg_store *p = pg(s);
+    const char *name = rd_store_grade_image_name(kind);
+    pg_params pp = id_params(id);
+    pp_text(&pp, name);
+    rd_error_code c = pg_ready(p, err);
+    if (c)
+        return c;
+    PGresult *r = pg_run(p, "SELECT data FROM grade_images WHERE grade_id = $1 AND kind = $2", &pp, 1, err);
+    if (!r)
+        return err ? err->code : RD_ERR_IO;
+    if (PQntuples(r) == 0) {
+        PQclear(r);
+        int found = 0;
+        if ((c = pg_exists(p, "SELECT 1 FROM grades WHERE id = $1", id, &found, err)))
+            return c;
+        if (!found)
+            return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no grade %s", id);
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: grade %s has no %s image", id, name);
+    }
+    size_t n = (size_t)PQgetlength(r, 0, 0);
+    unsigned char *d = rd_store_dup(PQgetvalue(r, 0, 0), n);
+    PQclear(r);
+    if (!d)
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no memory for an image");
+    *data = d;
+    *len = n;
+    return RD_OK;
+}
+
+/* Only the filter's given conditions are written in, numbered as they
+ * come (PostgreSQL wants every parameter used); the values are bound. */
+static rd_error_code pg_grades_list(rd_store *s, const rd_store_grade_filter *f, rd_store_grade **out, size_t *n,
+                                    rd_error *err)
+{
+    pg_store *p = pg(s);
+    pg_params pp = {0};
+    char sql[400];
+    int at = snprintf(sql, sizeof sql, "SELECT " RD_STORE_GRADE_COLUMNS " FROM grades WHERE graded_ms >= $1::bigint");
+    pp_int(&pp, f->since_ms);
+    const char *cols[3] = {"assignment", "student", "batch_id"};
+    const char *vals[3] = {f->assignment, f->student, f->batch_id};
+    for (int i = 0; i < 3; i++)
+        if (vals[i]) {
+            pp_text(&pp, vals[i]);
+            at += snprintf(sql + at, sizeof sql - (size_t)at, " AND %s = $%d", cols[i], pp.n);
+        }
+    pp_int(&pp, (int64_t)(f->max > INT64_MAX ? INT64_MAX : f->max));
+    snprintf(sql + at, sizeof sql - (size_t)at, " ORDER BY graded_ms, id LIMIT $%d::bigint", pp.n);
+    rd_error_code c = pg_ready(p, err);
+    if (c)
+        return c;
+    PGresult *r = pg_run(p, sql, &pp, 0, err);
+    if (!r)
+        return err ? err->code : RD_ERR_IO;
+    size_t k = (size_t)PQntuples(r), done = 0;
+    rd_store_grade *list = k ? calloc(k, sizeof *list) : NULL;
+    if (k && !list)
+        c = rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no memory for a grade list");
+    for (; !c && done < k; done++)
+        c = pg_grade_row(r, (int)done, &list[done], err);
+    PQclear(r);
+    if (c) {
+        rd_store_grades_free(list, done);
+        return c;
+    }
+    *out = list;
+    *n = k;
+    return RD_OK;
+}
+
+/* The cut is read once, so that every statement deletes by the same time.
+ * The old batches are locked first: a put of a grade to one of them has
+ * committed before, or waits until after, and so the batches found with no
+ * grade left (by the DELETE's own, later, snapshot) cannot be given one
+ * before they go, and the cascade deletes no grade. */
+static rd_error_code pg_grades_expire(rd_store *s, int64_t ttl_ms, size_t *deleted, rd_error *err)
+{
+    pg_store *p = pg(s);
+    pg_params pp = {0};
+    int n = 0;
+    pp_int(&pp, ttl_ms);
+    rd_error_code c = pg_begin(p, err);
+    PGresult *r = c ? NULL : pg_run(p, "SELECT " NOW " - $1::bigint", &pp, 0, err);
+    if (!c && !r)
+        c = err ? err->code : RD_ERR_IO;
+    if (!c) {
+        pp = (pg_params){0};
+        pp_int(&pp, pg_int(r, 0, 0));
+        PQclear(r);
+        c = pg_cmd(p,
+                   "SELECT count(*) FROM (SELECT 1 FROM batches WHERE created_ms < $1::bigint ORDER BY id FOR UPDATE) "
+                   "AS locked",
+                   &pp, NULL, err);
+    }
+    if (!c)
+        c = pg_cmd(p, "DELETE FROM grade_images WHERE grade_id IN (SELECT id FROM grades WHERE graded_ms < $1::bigint)",
+                   &pp, NULL, err);
+    if (!c)
+        c = pg_cmd(p, "DELETE FROM grades WHERE graded_ms < $1::bigint", &pp, &n, err);
+    if (!c)
+        c = pg_cmd(p,
+                   "DELETE FROM batches WHERE created_ms < $1::bigint "
+                   "AND NOT EXISTS (SELECT 1 FROM grades WHERE batch_id = batches.id)",
+                   &pp, NULL, err);
+    *deleted = (size_t)n;
+    return pg_end(p, c, err);
+}
+
+static rd_error_code pg_batch_create(rd_store *s, const char *id, const char *assignment, int total, rd_error *err)
+{
+    pg_store *p = pg(s);
+    int found = 0;
+    rd_error_code c = pg_begin(p, err);
+    if (!c)
+        c = pg_exists(p, "SELECT 1 FROM batches WHERE id = $1", id, &found, err);
+    if (!c && found)
+        c = rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: batch %s exists already", id);
+    if (!c) {
+        pg_params pp = id_params(id);
+        pp_text(&pp, assignment);
+        pp_int(&pp, total);
+        c = pg_cmd(p,
+                   "INSERT INTO batches (id, assignment, total, done, status, created_ms) "
+                   "VALUES ($1, $2, $3::int, 0, 'running', " NOW ")",
+                   &pp, NULL, err);
+    }
+    return pg_end(p, c, err);
+}
+
+/* Inside a transaction or not (pg_run, not pg_ready). */
+static rd_error_code pg_batch_row(pg_store *p, const char *id, rd_store_batch *out, rd_error *err)
+{
+    pg_params pp = id_params(id);
+    PGresult *r =
+        pg_run(p, "SELECT id, assignment, total, done, status, created_ms FROM batches WHERE id = $1", &pp, 0, err);
+    if (!r)
+        return err ? err->code : RD_ERR_IO;
+    if (PQntuples(r) == 0) {
+        PQclear(r);
+        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no batch %s", id);
+    }
+    rd_store_batch b;
+    memset(&b, 0, sizeof b);
+    snprintf(b.id, sizeof b.id, "%s", pg_text(r, 0, 0));
+    snprintf(b.assignment, sizeof b.assignment, "%s", pg_text(r, 0, 1));
+    b.total = (int)pg_int(r, 0, 2);
+    b.done = (int)pg_int(r, 0, 3);
+    b.status = (rd_store_batch_status)rd_store_batch_status_parse(pg_text(r, 0, 4));
+    b.created_ms = pg_int(r, 0, 5);
+    PQclear(r);
+    *out = b;
+    return RD_OK;
+}
+
+static rd_error_code pg_batch_get(rd_store *s, const char *id, rd_store_batch *out, rd_error *err)
+{
+    pg_store *p = pg(s);
+    rd_error_code c = pg_ready(p, err);
+    return c ? c : pg_batch_row(p, id, out, err);
+}
+
+static rd_error_code pg_batch_cancel(rd_store *s, const char *id, int *changed, rd_error *err)
+{
+    pg_store *p = pg(s);
+    pg_params pp = id_params(id);
+    rd_store_batch b;
+    int n = 0;
+    rd_error_code c = pg_begin(p, err);
+    if (!c)
+        c = pg_cmd(p, "UPDATE batches SET status = 'cancelled' WHERE id = $1 AND status = 'running'", &pp, &n, err);
+    if (!c && n == 0)
+        c = pg_batch_row(p, id, &b, err);
+    *changed = n;
+    return pg_end(p, c, err);
+}
+
 static void pg_close(rd_store *s)
 {
     pg_store *p = pg(s);
@@ -1031,6 +1369,14 @@ static const rd_store_ops pg_ops = {
     .pass_open = pg_pass_open,
     .tiles_get = pg_tiles_get,
     .wait = pg_wait,
+    .grade_put = pg_grade_put,
+    .grade_get = pg_grade_get,
+    .grade_image = pg_grade_image,
+    .grades_list = pg_grades_list,
+    .grades_expire = pg_grades_expire,
+    .batch_create = pg_batch_create,
+    .batch_get = pg_batch_get,
+    .batch_cancel = pg_batch_cancel,
 };
 
 /* Migrations, under an advisory lock so that daemons starting together

@@ -5,6 +5,7 @@
  * is known before anything is done. Values are bound, never written into
  * SQL. */
 #include <errno.h>
+#include <math.h>
 #include <sqlite3.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -41,7 +42,8 @@ static rd_error_code sq_fail(sq_store *q, int rc, const char *what, rd_error *er
 }
 
 /* Binds by fmt, one letter a value: t text (const char *, NULL binds
- * NULL), b bytes (const void *, size_t), i int, I int64_t. */
+ * NULL), b bytes (const void *, size_t), i int, I int64_t, d a double
+ * (const double *, NULL binds NULL). */
 static int sq_bind(sqlite3_stmt *st, const char *fmt, va_list ap)
 {
     int rc = SQLITE_OK;
@@ -56,6 +58,9 @@ static int sq_bind(sqlite3_stmt *st, const char *fmt, va_list ap)
             rc = n ? sqlite3_bind_blob64(st, i, d, n, SQLITE_STATIC) : sqlite3_bind_zeroblob(st, i, 0);
         } else if (*fmt == 'i') {
             rc = sqlite3_bind_int(st, i, va_arg(ap, int));
+        } else if (*fmt == 'd') {
+            const double *d = va_arg(ap, const double *);
+            rc = d ? sqlite3_bind_double(st, i, *d) : sqlite3_bind_null(st, i);
         } else {
             rc = sqlite3_bind_int64(st, i, va_arg(ap, int64_t));
         }
@@ -810,6 +815,279 @@ static rd_error_code sq_wait(rd_store *s, int timeout_ms, rd_store_event *ev, rd
     }
 }
 
+/* Grades and batches. */
+
+/* *found: whether sql (a SELECT on id) has a row. */
+static rd_error_code sq_exists(sq_store *q, const char *sql, const char *id, int *found, rd_error *err)
+{
+    sqlite3_stmt *st;
+    rd_error_code c = sq_prep(q, &st, err, sql, "t", id);
+    if (c)
+        return c;
+    int r = sq_step(q, st, err);
+    sqlite3_finalize(st);
+    *found = r == 1;
+    return r < 0 ? (rd_error_code)-r : RD_OK;
+}
+
+/* RD_ERR_INVALID when a grade of that id exists. */
+static rd_error_code sq_grade_new(sq_store *q, const char *id, rd_error *err)
+{
+    int found = 0;
+    rd_error_code c = sq_exists(q, "SELECT 1 FROM grades WHERE id = ?", id, &found, err);
+    if (!c && found)
+        c = rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: grade %s exists already", id);
+    return c;
+}
+
+/* Why a batch counted no grade of assignment. */
+static rd_error_code sq_batch_refused(sq_store *q, const char *id, const char *assignment, rd_error *err)
+{
+    sqlite3_stmt *st;
+    rd_error_code c = sq_prep(q, &st, err, "SELECT status, assignment, done, total FROM batches WHERE id = ?", "t", id);
+    if (c)
+        return c;
+    int r = sq_step(q, st, err);
+    if (r == 1)
+        c = rd_store_batch_refusal(id, assignment, (rd_store_batch_status)rd_store_batch_status_parse(col_text(st, 0)),
+                                   col_text(st, 1), sqlite3_column_int(st, 2), sqlite3_column_int(st, 3), err);
+    sqlite3_finalize(st);
+    if (r == 0)
+        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no batch %s", id);
+    return r < 0 ? (rd_error_code)-r : c;
+}
+
+/* Counts a grade of its batch, which becomes done with its last: the
+ * WHERE is the whole rule, and BEGIN IMMEDIATE runs two puts one after
+ * the other, so the second sees the first's count. */
+static rd_error_code sq_count_grade(sq_store *q, const rd_store_grade *g, rd_error *err)
+{
+    int n = 0;
+    rd_error_code c = sq_run(q, &n, err,
+                             "UPDATE batches SET done = done + 1, "
+                             "status = CASE WHEN done + 1 >= total THEN 'done' ELSE status END "
+                             "WHERE id = ? AND status = 'running' AND assignment = ? AND done < total",
+                             "tt", g->batch_id, g->assignment);
+    if (!c && n == 0)
+        c = sq_batch_refused(q, g->batch_id, g->assignment, err);
+    return c;
+}
+
+static rd_error_code sq_grade_put(rd_store *s, const rd_store_grade *g, const unsigned char *diff, size_t len,
+                                  rd_error *err)
+{
+    sq_store *q = sq(s);
+    int graded = !g->error;
+    rd_error_code c = sq_begin(q, err);
+    if (c)
+        return c;
+    c = sq_grade_new(q, g->id, err);
+    if (!c && g->batch_id)
+        c = sq_count_grade(q, g, err);
+    if (!c)
+        c = sq_run(q, NULL, err,
+                   "INSERT INTO grades (" RD_STORE_GRADE_COLUMNS ") VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                   "ttttiddddttIt", g->id, g->batch_id, g->assignment, g->student, g->pass,
+                   graded ? &g->failed_fraction : NULL, graded ? &g->max_abs : NULL, graded ? &g->psnr_db : NULL,
+                   graded ? &g->ssim : NULL, g->verdict, g->reference_key, g->graded_ms, g->error);
+    if (!c && diff)
+        c = sq_run(q, NULL, err, "INSERT INTO grade_images (grade_id, kind, data) VALUES (?, 'diff', ?)", "tb", g->id,
+                   (const void *)diff, len);
+    return sq_end(q, c, err);
+}
+
+static const char *col_text_or_null(sqlite3_stmt *st, int i)
+{
+    return sqlite3_column_type(st, i) == SQLITE_NULL ? NULL : col_text(st, i);
+}
+
+static double col_metric(sqlite3_stmt *st, int i)
+{
+    return sqlite3_column_type(st, i) == SQLITE_NULL ? NAN : sqlite3_column_double(st, i);
+}
+
+/* A row of RD_STORE_GRADE_COLUMNS. */
+static rd_error_code sq_grade_row(sqlite3_stmt *st, rd_store_grade *g, rd_error *err)
+{
+    memset(g, 0, sizeof *g);
+    g->pass = sqlite3_column_int(st, 4);
+    g->failed_fraction = col_metric(st, 5);
+    g->max_abs = col_metric(st, 6);
+    g->psnr_db = col_metric(st, 7);
+    g->ssim = col_metric(st, 8);
+    g->graded_ms = sqlite3_column_int64(st, 11);
+    const char *texts[RD_STORE_GRADE_TEXTS] = {
+        col_text_or_null(st, 0), col_text_or_null(st, 1),  col_text_or_null(st, 2), col_text_or_null(st, 3),
+        col_text_or_null(st, 9), col_text_or_null(st, 10), col_text_or_null(st, 12)};
+    return rd_store_grade_texts(g, texts, err);
+}
+
+static rd_error_code sq_grade_get(rd_store *s, const char *id, rd_store_grade *out, rd_error *err)
+{
+    sq_store *q = sq(s);
+    sqlite3_stmt *st;
+    rd_error_code c = sq_prep(q, &st, err, "SELECT " RD_STORE_GRADE_COLUMNS " FROM grades WHERE id = ?", "t", id);
+    if (c)
+        return c;
+    int r = sq_step(q, st, err);
+    rd_store_grade g;
+    if (r == 1 && !(c = sq_grade_row(st, &g, err)))
+        *out = g;
+    sqlite3_finalize(st);
+    if (r == 0)
+        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no grade %s", id);
+    return r < 0 ? (rd_error_code)-r : c;
+}
+
+static rd_error_code sq_grade_image(rd_store *s, const char *id, rd_store_grade_image_kind kind, unsigned char **data,
+                                    size_t *len, rd_error *err)
+{
+    sq_store *q = sq(s);
+    sqlite3_stmt *st;
+    const char *name = rd_store_grade_image_name(kind);
+    rd_error_code c =
+        sq_prep(q, &st, err, "SELECT data FROM grade_images WHERE grade_id = ? AND kind = ?", "tt", id, name);
+    if (c)
+        return c;
+    int r = sq_step(q, st, err);
+    if (r == 1) {
+        size_t n = (size_t)sqlite3_column_bytes(st, 0);
+        unsigned char *d = rd_store_dup(sqlite3_column_blob(st, 0), n);
+        if (d) {
+            *data = d;
+            *len = n;
+        } else {
+            c = rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no memory for an image");
+        }
+    }
+    sqlite3_finalize(st);
+    if (r < 0 || r == 1)
+        return r < 0 ? (rd_error_code)-r : c;
+    int found = 0;
+    if ((c = sq_exists(q, "SELECT 1 FROM grades WHERE id = ?", id, &found, err)))
+        return c;
+    if (!found)
+        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no grade %s", id);
+    return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: grade %s has no %s image", id, name);
+}
+
+/* The filter's conditions are written in only when given, so that each
+ * listing can use its index; the values are bound (?1 to ?5) all the same. */
+static rd_error_code sq_grades_list(rd_store *s, const rd_store_grade_filter *f, rd_store_grade **out, size_t *n,
+                                    rd_error *err)
+{
+    sq_store *q = sq(s);
+    char sql[400];
+    snprintf(sql, sizeof sql,
+             "SELECT " RD_STORE_GRADE_COLUMNS " FROM grades WHERE graded_ms >= ?1%s%s%s "
+             "ORDER BY graded_ms, id LIMIT ?5",
+             f->assignment ? " AND assignment = ?2" : "", f->student ? " AND student = ?3" : "",
+             f->batch_id ? " AND batch_id = ?4" : "");
+    sqlite3_stmt *st;
+    rd_error_code c = sq_prep(q, &st, err, sql, "ItttI", f->since_ms, f->assignment, f->student, f->batch_id,
+                              (int64_t)(f->max > INT64_MAX ? INT64_MAX : f->max));
+    rd_store_grade *list = NULL;
+    size_t k = 0, cap = 0;
+    int r = 0;
+    while (!c && (r = sq_step(q, st, err)) == 1) {
+        if ((c = room_for(k, &cap, (void **)&list, sizeof *list, "a grade list", err)))
+            break;
+        if (!(c = sq_grade_row(st, &list[k], err)))
+            k++;
+    }
+    if (!c && r < 0)
+        c = (rd_error_code)-r;
+    sqlite3_finalize(st);
+    if (c) {
+        rd_store_grades_free(list, k);
+        return c;
+    }
+    *out = list;
+    *n = k;
+    return RD_OK;
+}
+
+/* BEGIN IMMEDIATE holds off every put meanwhile, so a batch found with no
+ * grade left cannot be given one before it goes. */
+static rd_error_code sq_grades_expire(rd_store *s, int64_t ttl_ms, size_t *deleted, rd_error *err)
+{
+    sq_store *q = sq(s);
+    int64_t cut = rd_store_wall_ms() - ttl_ms;
+    int n = 0;
+    rd_error_code c = sq_begin(q, err);
+    if (!c)
+        c = sq_run(q, NULL, err,
+                   "DELETE FROM grade_images WHERE grade_id IN (SELECT id FROM grades WHERE graded_ms < ?)", "I", cut);
+    if (!c)
+        c = sq_run(q, &n, err, "DELETE FROM grades WHERE graded_ms < ?", "I", cut);
+    if (!c)
+        c = sq_run(q, NULL, err,
+                   "DELETE FROM batches WHERE created_ms < ? "
+                   "AND NOT EXISTS (SELECT 1 FROM grades WHERE batch_id = batches.id)",
+                   "I", cut);
+    *deleted = (size_t)n;
+    return sq_end(q, c, err);
+}
+
+static rd_error_code sq_batch_create(rd_store *s, const char *id, const char *assignment, int total, rd_error *err)
+{
+    sq_store *q = sq(s);
+    int found = 0;
+    rd_error_code c = sq_begin(q, err);
+    if (c)
+        return c;
+    c = sq_exists(q, "SELECT 1 FROM batches WHERE id = ?", id, &found, err);
+    if (!c && found)
+        c = rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: batch %s exists already", id);
+    if (!c)
+        c = sq_run(q, NULL, err,
+                   "INSERT INTO batches (id, assignment, total, done, status, created_ms) "
+                   "VALUES (?, ?, ?, 0, 'running', ?)",
+                   "ttiI", id, assignment, total, rd_store_wall_ms());
+    return sq_end(q, c, err);
+}
+
+static rd_error_code sq_batch_get(rd_store *s, const char *id, rd_store_batch *out, rd_error *err)
+{
+    sq_store *q = sq(s);
+    sqlite3_stmt *st;
+    rd_error_code c = sq_prep(
+        q, &st, err, "SELECT id, assignment, total, done, status, created_ms FROM batches WHERE id = ?", "t", id);
+    if (c)
+        return c;
+    int r = sq_step(q, st, err);
+    if (r == 1) {
+        rd_store_batch b;
+        memset(&b, 0, sizeof b);
+        snprintf(b.id, sizeof b.id, "%s", col_text(st, 0));
+        snprintf(b.assignment, sizeof b.assignment, "%s", col_text(st, 1));
+        b.total = sqlite3_column_int(st, 2);
+        b.done = sqlite3_column_int(st, 3);
+        b.status = (rd_store_batch_status)rd_store_batch_status_parse(col_text(st, 4));
+        b.created_ms = sqlite3_column_int64(st, 5);
+        *out = b;
+    }
+    sqlite3_finalize(st);
+    if (r == 0)
+        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no batch %s", id);
+    return r < 0 ? (rd_error_code)-r : RD_OK;
+}
+
+static rd_error_code sq_batch_cancel(rd_store *s, const char *id, int *changed, rd_error *err)
+{
+    sq_store *q = sq(s);
+    rd_store_batch b;
+    int n = 0;
+    rd_error_code c = sq_begin(q, err);
+    if (c)
+        return c;
+    c = sq_run(q, &n, err, "UPDATE batches SET status = 'cancelled' WHERE id = ? AND status = 'running'", "t", id);
+    if (!c && n == 0)
+        c = sq_batch_get(s, id, &b, err);
+    *changed = n;
+    return sq_end(q, c, err);
+}
+
 static void sq_close(rd_store *s)
 {
     sqlite3_close(sq(s)->db);
@@ -839,6 +1117,14 @@ static const rd_store_ops sq_ops = {
     .pass_open = sq_pass_open,
     .tiles_get = sq_tiles_get,
     .wait = sq_wait,
+    .grade_put = sq_grade_put,
+    .grade_get = sq_grade_get,
+    .grade_image = sq_grade_image,
+    .grades_list = sq_grades_list,
+    .grades_expire = sq_grades_expire,
+    .batch_create = sq_batch_create,
+    .batch_get = sq_batch_get,
+    .batch_cancel = sq_batch_cancel,
 };
 
 /* Migrations. */

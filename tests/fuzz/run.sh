@@ -10,6 +10,7 @@
 #   grade_file   the .grade assignment file reader
 #   form         POST /v1/grade multipart forms, through the real daemon
 #   query        POST /v1/render query parameters, through the real daemon
+#   archive      the upload archive reader (zip, tar, tar.gz)
 # SECONDS is per target. For each target, in turn (the machine has two
 # cores and each libFuzzer process uses one), it
 #   1. builds build/fuzz/fuzz_TARGET with clang, libFuzzer, ASan and UBSan
@@ -45,7 +46,7 @@ die() {
     exit 2
 }
 
-ALL_TARGETS="cfg json obj png grade_file form query"
+ALL_TARGETS="cfg json obj png grade_file form query archive"
 # The targets that run the daemon in-process.
 HTTP_TARGETS="form query"
 
@@ -204,6 +205,9 @@ limits() { # target
     # Decoding is bounded by the pixel limit (1 Mpx in the harness, a few
     # MB); one allocation above 256 MB is an allocation bomb, a crash.
     png) echo "-timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=256 -max_len=65536" ;;
+    # Reading is bounded by the harness's byte limits (4 MB in all); one
+    # allocation above 256 MB, the reader's or libarchive's, is a bomb.
+    archive) echo "-timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=256 -max_len=65536" ;;
     # The harness aborts after 8 s without an answer, before libFuzzer's
     # own timeout. No per-input leak check: the daemon keeps memory between
     # requests (caches, kept jobs) and its threads allocate while an input

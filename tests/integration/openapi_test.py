@@ -35,7 +35,7 @@ import time
 import jsonschema
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
-from rayd_http import RAYD, Checks, Daemon, form, png, render_png
+from rayd_http import RAYD, Checks, Daemon, form, form_parts, png, render_png
 
 check = Checks("openapi")
 DOC_PATH = "docs/openapi.json"
@@ -349,6 +349,59 @@ def grades(c, tmp):
     post({"scene": SCENE.replace("material = m\n", "material = nosuch\n").encode(), "image": good}, 422)
 
 
+def class_batch(tmp):
+    """The instructors' routes of a daemon with --instructor-tokens."""
+    tokens = os.path.join(tmp, "tokens")
+    with open(tokens, "w") as f:
+        f.write("openapi-instructor-token-0001\n")
+    auth = {"Authorization": "Bearer openapi-instructor-token-0001"}
+    scene_path = os.path.join(tmp, "small.cfg")
+    with open(scene_path, "w") as f:
+        f.write(SCENE)
+    good = render_png(scene_path, os.path.join(tmp, "small.png"))
+    d = Daemon(tmp, ["--threads", "2", "--assignments", assignments_dir(tmp), "--instructor-tokens", tokens])
+    try:
+        c = Client(d)
+        B = "/v1/grade/batch"
+
+        def post(parts, expect, headers=auth):
+            body, ct = form_parts(parts)
+            return c.call("post", B, B, body, dict(headers, **{"Content-Type": ct}), expect)
+
+        parts = [("assignment", None, b"tiny"), ("image", "ann.png", good), ("image", "ben.png", b"nope")]
+        status, _, data = post(parts, 202)
+        bid = json.loads(data).get("id", "x") if status == 202 else "x"
+        for _ in range(200):
+            _, _, data = c.call("get", B + "/{id}", "%s/%s" % (B, bid), headers=auth, expect=200)
+            if json.loads(data).get("status") != "running":
+                break
+            time.sleep(0.05)
+        rows = json.loads(data).get("results", [])
+        check(len(rows) == 2, "the batch's rows: %s" % rows)
+        for table in ("results.csv", "results.json"):
+            c.call("get", B + "/{id}/{table}", "%s/%s/%s" % (B, bid, table), headers=auth, expect=200)
+        c.call("get", B + "/{id}", B + "/0123456789abcdef", headers=auth, expect=404)
+        c.call("get", B + "/{id}", "%s/%s" % (B, bid), expect=401)
+        c.call("get", B + "/{id}", "%s/%s" % (B, bid), headers={"Authorization": "Bearer wrong-wrong-wrong-1"},
+               expect=403)
+        post(parts, 401, headers={})
+        post(parts, 403, headers={"Authorization": "Bearer wrong-wrong-wrong-1"})
+        post([("image", "ann.png", good)], 400)
+        post([("assignment", None, b"nosuch"), ("image", "ann.png", good)], 404)
+        post([("assignment", None, b"broken"), ("image", "ann.png", good)], 422)
+        c.call("post", B, B, b"x", dict(auth, **{"Content-Type": "text/plain"}), 415)
+        c.call("get", "/v1/grades", "/v1/grades?assignment=tiny", headers=auth, expect=200)
+        c.call("get", "/v1/grades", "/v1/grades?student=ann", headers=dict(auth, Accept="text/csv"), expect=200)
+        c.call("get", "/v1/grades", "/v1/grades?since=soon", headers=auth, expect=400)
+        c.call("get", "/v1/grades", "/v1/grades", expect=401)
+        c.call("get", "/v1/grades", "/v1/grades", headers={"Authorization": "Bearer wrong-wrong-wrong-1"}, expect=403)
+        for r in rows:
+            c.call("get", "/v1/grades/{id}", "/v1/grades/" + r.get("grade_id", "x"), expect=200)
+        c.call("get", "/v1/grades/{id}", "/v1/grades/g0000000000000000", expect=404)
+    finally:
+        check(d.stop() == 0, "the instructors' daemon did not exit 0")
+
+
 def listings(c):
     c.call("get", "/v1/assignments", expect=200)
     c.call("get", "/v1/assignments/{name}", "/v1/assignments/tiny", expect=200)
@@ -471,6 +524,9 @@ REQUIRED = {
     ("/metrics", "post"): {405}, ("/v1/jobs", "get"): {405}, ("/v1/jobs/{id}/image", "delete"): {405},
     ("/openapi.json", "get"): {200},
     ("/", "get"): {200}, ("/index.html", "get"): {200},
+    ("/v1/grade/batch", "post"): {202, 400, 401, 403, 404, 415, 422},
+    ("/v1/grade/batch/{id}", "get"): {200, 401, 403, 404}, ("/v1/grade/batch/{id}/{table}", "get"): {200},
+    ("/v1/grades", "get"): {200, 400, 401, 403}, ("/v1/grades/{id}", "get"): {200, 404},
 }
 
 
@@ -520,10 +576,11 @@ def main():
     finally:
         rc = d.stop()
         check(rc == 0, "the daemon exited %d after SIGTERM" % rc)
-    for sub in ("small", "cors"):
+    for sub in ("small", "cors", "class"):
         os.makedirs(os.path.join(tmp, sub))
     small_limits(os.path.join(tmp, "small"))
     cors(os.path.join(tmp, "cors"))
+    class_batch(os.path.join(tmp, "class"))
     check_coverage()
     if not check.failed:
         shutil.rmtree(tmp, ignore_errors=True)

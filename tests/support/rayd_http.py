@@ -145,6 +145,18 @@ def form(fields):
     return body + ("--%s--\r\n" % boundary).encode(), "multipart/form-data; boundary=" + boundary
 
 
+def form_parts(parts):
+    """A multipart/form-data body and its Content-Type for a list of
+    (name, filename or None, bytes): names may repeat, in order."""
+    boundary = uuid.uuid4().hex
+    body = b""
+    for name, filename, value in parts:
+        fn = '; filename="%s"' % filename if filename is not None else ""
+        body += ('--%s\r\nContent-Disposition: form-data; name="%s"%s\r\n\r\n' %
+                 (boundary, name, fn)).encode() + value + b"\r\n"
+    return body + ("--%s--\r\n" % boundary).encode(), "multipart/form-data; boundary=" + boundary
+
+
 def render_png(scene_path, out_path):
     """`rayd render` of a scene file: the PNG's bytes."""
     subprocess.run([RAYD, "render", scene_path, "-o", out_path], check=True, capture_output=True, timeout=300)

@@ -62,4 +62,31 @@ void case_gated_race(const store_env *e, int threads, int rounds);
  * migration 3, and the job goes on ungated. */
 void case_upgrade_from_version_2(const store_env *e, void (*exec)(const char *sql), const char *blob);
 
+/* A version-3 store upgrades to 4 (see case_upgrade_from_version_2): its
+ * job is kept, and it takes grades and batches. */
+void case_upgrade_from_version_3(const store_env *e, void (*exec)(const char *sql), const char *blob);
+
+/* Grades: every field round-trips (doubles bit for bit; non-finite
+ * metrics refused), an id once. */
+void case_grade_round_trip(const store_env *e);
+/* A grade that could not be graded: its message, no metrics (NAN), no
+ * pass, no diff; a graded one needs its verdict and reference. */
+void case_grade_error_row(const store_env *e);
+/* The diff PNG round-trips; absent, it is told apart from no grade. */
+void case_grade_images(const store_env *e);
+/* Listing by assignment, student, batch, since, at most max, in
+ * graded_ms then id order. */
+void case_grades_list(const store_env *e);
+/* A batch counts its grades to done exactly once, refuses what is not its
+ * (ended, another assignment, a refused grade), and cancels. */
+void case_batch_progress(const store_env *e);
+/* Handles racing puts of a batch's last grades: exactly its total is
+ * counted, and it is done (two handles for two grades, four for two). */
+void case_batch_race(const store_env *e, int rounds);
+/* Grades older than the TTL go with their images; batches once older and
+ * with no grade left. */
+void case_grades_expire(const store_env *e);
+/* Text, name and image limits, UTF-8, ids: refused, nothing counted. */
+void case_grade_limits(const store_env *e);
+
 #endif

@@ -71,6 +71,22 @@ Test(store, gated_pass_open_wakes_a_waiting_handle) { case_gated_wait(&g_env); }
 
 Test(store, gated_pass_open_race_has_one_winner) { case_gated_race(&g_env, 4, 5); }
 
+Test(store, grade_round_trip_exact_doubles) { case_grade_round_trip(&g_env); }
+
+Test(store, grade_error_row_has_no_metrics) { case_grade_error_row(&g_env); }
+
+Test(store, grade_diff_image_round_trip_and_absence) { case_grade_images(&g_env); }
+
+Test(store, grades_list_filters_and_order) { case_grades_list(&g_env); }
+
+Test(store, batch_counts_to_done_once) { case_batch_progress(&g_env); }
+
+Test(store, batch_last_grades_race_counts_exactly_total) { case_batch_race(&g_env, 5); }
+
+Test(store, grades_expire_with_images_then_empty_batches) { case_grades_expire(&g_env); }
+
+Test(store, grade_limits_and_bad_arguments) { case_grade_limits(&g_env); }
+
 static sqlite3 *raw_db(void)
 {
     char path[300];
@@ -105,6 +121,16 @@ static void raw_exec(const char *sql)
 }
 
 Test(store, a_version_2_store_upgrades_to_ungated_jobs) { case_upgrade_from_version_2(&g_env, raw_exec, "BLOB"); }
+
+Test(store, a_version_3_store_upgrades_to_grades)
+{
+    case_upgrade_from_version_3(&g_env, raw_exec, "BLOB");
+    sqlite3 *db = raw_db();
+    cr_assert_eq(raw_int(db, "SELECT max(version) FROM schema_version"), rd_store_migration_count);
+    cr_assert_eq(raw_int(db, "SELECT count(*) FROM schema_version WHERE version = 4 AND name = '004_grades.sql'"), 1);
+    cr_assert_eq(raw_int(db, "SELECT count(*) FROM grades WHERE failed_fraction IS NOT NULL"), 1);
+    sqlite3_close(db);
+}
 
 Test(store, migrations_once_and_idempotent)
 {

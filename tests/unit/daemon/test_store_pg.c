@@ -69,6 +69,30 @@ Test(store_pg, gated_pass_open_notifies_tiles) { case_gated_wait(&g_env); }
 
 Test(store_pg, gated_pass_open_race_has_one_winner) { case_gated_race(&g_env, 4, 5); }
 
+Test(store_pg, grade_round_trip_exact_doubles) { case_grade_round_trip(&g_env); }
+
+/* A spec whose options override rayd's (and a server default of 0 would do
+ * the same): doubles still come back bit for bit. */
+Test(store_pg, grade_doubles_exact_whatever_extra_float_digits)
+{
+    snprintf(g_env.spec, sizeof g_env.spec, "%s options='-c extra_float_digits=0'", g_pg.conninfo);
+    case_grade_round_trip(&g_env);
+}
+
+Test(store_pg, grade_error_row_has_no_metrics) { case_grade_error_row(&g_env); }
+
+Test(store_pg, grade_diff_image_round_trip_and_absence) { case_grade_images(&g_env); }
+
+Test(store_pg, grades_list_filters_and_order) { case_grades_list(&g_env); }
+
+Test(store_pg, batch_counts_to_done_once) { case_batch_progress(&g_env); }
+
+Test(store_pg, batch_last_grades_race_counts_exactly_total) { case_batch_race(&g_env, 5); }
+
+Test(store_pg, grades_expire_with_images_then_empty_batches) { case_grades_expire(&g_env); }
+
+Test(store_pg, grade_limits_and_bad_arguments) { case_grade_limits(&g_env); }
+
 static long long raw_int(const char *sql)
 {
     PGconn *c = PQconnectdb(g_pg.conninfo);
@@ -85,6 +109,19 @@ static long long raw_int(const char *sql)
 static void raw_exec(const char *sql) { raw_int(sql); }
 
 Test(store_pg, a_version_2_store_upgrades_to_ungated_jobs) { case_upgrade_from_version_2(&g_env, raw_exec, "BYTEA"); }
+
+Test(store_pg, a_version_3_store_upgrades_to_grades)
+{
+    case_upgrade_from_version_3(&g_env, raw_exec, "BYTEA");
+    cr_assert_eq(raw_int("SELECT max(version) FROM schema_version"), rd_store_migration_count);
+    cr_assert_eq(raw_int("SELECT count(*) FROM schema_version WHERE version = 4 AND name = '004_grades.sql'"), 1);
+    cr_assert_eq(raw_int("SELECT count(*) FROM information_schema.columns WHERE table_name = 'grades' "
+                         "AND column_name = 'psnr_db' AND data_type = 'double precision'"),
+                 1, "an 8-byte float");
+    cr_assert_eq(raw_int("SELECT count(*) FROM information_schema.columns "
+                         "WHERE table_name = 'grade_images' AND column_name = 'data' AND data_type = 'bytea'"),
+                 1);
+}
 
 Test(store_pg, url_and_conninfo_specs_and_idempotent_migrations)
 {

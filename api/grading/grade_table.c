@@ -1,0 +1,200 @@
+#include "grade_table.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+#include <time.h>
+
+#include "number_text.h"
+#include "utf8.h"
+
+long long rd_grade_now_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    return (long long)ts.tv_sec * 1000 + ts.tv_nsec / 1000000;
+}
+
+void rd_grade_time_text(long long ms, char *buf, size_t size)
+{
+    /* Floor division, so that a time before 1970 keeps 0..999 ms. */
+    long long sec = ms >= 0 ? ms / 1000 : -((-ms + 999) / 1000);
+    int milli = (int)(ms - sec * 1000);
+    time_t t = (time_t)sec;
+    struct tm tm;
+    if (!gmtime_r(&t, &tm)) {
+        snprintf(buf, size, "%s", "");
+        return;
+    }
+    snprintf(buf, size, "%04d-%02d-%02dT%02d:%02d:%02d.%03dZ", tm.tm_year + 1900, tm.tm_mon + 1, tm.tm_mday, tm.tm_hour,
+             tm.tm_min, tm.tm_sec, milli);
+}
+
+static rd_error_code start_row(rd_grade_row *row, const char *student, const char *assignment, long long graded_at_ms,
+                               rd_error *err)
+{
+    memset(row, 0, sizeof *row);
+    size_t n = student ? strlen(student) : 0;
+    if (n == 0 || n > RD_GRADE_STUDENT_MAX)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "a student id is 1 to %d bytes, not %zu", RD_GRADE_STUDENT_MAX,
+                            n);
+    if (rd_utf8_invalid_at(student, n) != n)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "a student id is UTF-8 text");
+    if (!assignment)
+        assignment = "";
+    if (strlen(assignment) >= sizeof row->assignment)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "an assignment's name is at most %zu bytes",
+                            sizeof row->assignment - 1);
+    memcpy(row->student, student, n + 1);
+    snprintf(row->assignment, sizeof row->assignment, "%s", assignment);
+    row->graded_at_ms = graded_at_ms;
+    return RD_OK;
+}
+
+rd_error_code rd_grade_row_from_result(rd_grade_row *row, const char *student, const char *assignment,
+                                       const rd_grade_result *r, long long graded_at_ms, rd_error *err)
+{
+    rd_error_code rc = start_row(row, student, assignment, graded_at_ms, err);
+    if (rc)
+        return rc;
+    row->pass = r->pass != 0;
+    row->failed_fraction = r->failed_fraction;
+    row->max_abs = r->max_abs;
+    row->psnr_db = r->psnr_db;
+    row->ssim = r->ssim;
+    return RD_OK;
+}
+
+rd_error_code rd_grade_row_from_output(rd_grade_row *row, const char *student, const rd_grade_output *o,
+                                       long long graded_at_ms, rd_error *err)
+{
+    return rd_grade_row_from_result(row, student, o->assignment, &o->result, graded_at_ms, err);
+}
+
+rd_error_code rd_grade_row_error(rd_grade_row *row, const char *student, const char *assignment, const char *message,
+                                 long long graded_at_ms, rd_error *err)
+{
+    rd_error_code rc = start_row(row, student, assignment, graded_at_ms, err);
+    if (rc)
+        return rc;
+    if (!message || !*message)
+        message = "not graded";
+    /* Whole characters only: a cut or a bad byte never leaves half of one. */
+    size_t len = strlen(message), out = 0, room = sizeof row->error - 1;
+    while (len > 0 && out < room) {
+        size_t ok = rd_utf8_invalid_at(message, len);
+        size_t take = rd_utf8_prefix(message, ok < room - out ? ok : room - out, (size_t)-1);
+        memcpy(row->error + out, message, take);
+        out += take;
+        if (take < ok || ok == len || out == room)
+            break;
+        row->error[out++] = '?';
+        message += ok + 1;
+        len -= ok + 1;
+    }
+    row->error[out] = 0;
+    row->pass = 0;
+    row->failed_fraction = row->psnr_db = row->ssim = NAN;
+    row->max_abs = -1;
+    return RD_OK;
+}
+
+int rd_grade_row_is_error(const rd_grade_row *row) { return row->error[0] != 0; }
+
+/* One cell: quoted when it holds a comma, a quote, CR or LF; a text cell
+ * that a spreadsheet would take for a formula gets a ' in front. */
+static void cell(rd_strbuf *b, const char *s, int text)
+{
+    int guard = text && s[0] && strchr("=+-@\t\r", s[0]);
+    int quote = strpbrk(s, ",\"\r\n") != NULL;
+    if (!quote) {
+        rd_strbuf_printf(b, "%s%s", guard ? "'" : "", s);
+        return;
+    }
+    rd_strbuf_printf(b, "\"%s", guard ? "'" : "");
+    for (const char *p = s; *p;) {
+        size_t n = strcspn(p, "\"");
+        rd_strbuf_printf(b, "%.*s", (int)n, p);
+        p += n;
+        if (*p == '"') {
+            rd_strbuf_printf(b, "\"\"");
+            p++;
+        }
+    }
+    rd_strbuf_printf(b, "\"");
+}
+
+static void number_cell(rd_strbuf *b, double v)
+{
+    if (!isfinite(v))
+        return;
+    char buf[40];
+    rd_number_text(v, buf, sizeof buf);
+    rd_strbuf_printf(b, "%s", buf);
+}
+
+void rd_grade_csv_header(rd_strbuf *b)
+{
+    rd_strbuf_printf(b, "student,assignment,pass,failed_fraction,max_abs,psnr_db,ssim,graded_at,error\r\n");
+}
+
+void rd_grade_csv_row(rd_strbuf *b, const rd_grade_row *row)
+{
+    int error = rd_grade_row_is_error(row);
+    char at[40];
+    rd_grade_time_text(row->graded_at_ms, at, sizeof at);
+    cell(b, row->student, 1);
+    rd_strbuf_printf(b, ",");
+    cell(b, row->assignment, 1);
+    rd_strbuf_printf(b, ",%s,", row->pass && !error ? "true" : "false");
+    if (!error) {
+        number_cell(b, row->failed_fraction);
+        rd_strbuf_printf(b, ",%d,", row->max_abs);
+        number_cell(b, row->psnr_db);
+        rd_strbuf_printf(b, ",");
+        number_cell(b, row->ssim);
+    } else {
+        rd_strbuf_printf(b, ",,,");
+    }
+    rd_strbuf_printf(b, ",%s,", at);
+    cell(b, row->error, 1);
+    rd_strbuf_printf(b, "\r\n");
+}
+
+/* A number as raw text that reads back to the same double (cJSON's own
+ * printing keeps 15 digits when they compare "close enough"); null when
+ * it is not finite. */
+static int add_number(cJSON *o, const char *key, double v)
+{
+    if (!isfinite(v))
+        return cJSON_AddNullToObject(o, key) != NULL;
+    char t[40];
+    rd_number_text(v, t, sizeof t);
+    return cJSON_AddRawToObject(o, key, t) != NULL;
+}
+
+cJSON *rd_grade_row_json(const rd_grade_row *row)
+{
+    int error = rd_grade_row_is_error(row);
+    char at[40];
+    rd_grade_time_text(row->graded_at_ms, at, sizeof at);
+    cJSON *o = cJSON_CreateObject();
+    int ok = o && cJSON_AddStringToObject(o, "student", row->student);
+    ok = ok && (row->assignment[0] ? cJSON_AddStringToObject(o, "assignment", row->assignment)
+                                   : cJSON_AddNullToObject(o, "assignment"));
+    ok = ok && cJSON_AddBoolToObject(o, "pass", row->pass && !error);
+    if (error) {
+        ok = ok && cJSON_AddNullToObject(o, "failed_fraction") && cJSON_AddNullToObject(o, "max_abs") &&
+             cJSON_AddNullToObject(o, "psnr_db") && cJSON_AddNullToObject(o, "ssim");
+    } else {
+        ok = ok && add_number(o, "failed_fraction", row->failed_fraction) && add_number(o, "max_abs", row->max_abs) &&
+             add_number(o, "psnr_db", row->psnr_db) && add_number(o, "ssim", row->ssim);
+    }
+    ok = ok && cJSON_AddStringToObject(o, "graded_at", at);
+    ok = ok && (error ? cJSON_AddStringToObject(o, "error", row->error) : cJSON_AddNullToObject(o, "error"));
+    if (!ok) {
+        cJSON_Delete(o);
+        return NULL;
+    }
+    return o;
+}

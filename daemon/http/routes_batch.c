@@ -1,0 +1,752 @@
+/* Grading a class (docs/grading.md): POST /v1/grade/batch takes an
+ * assignment and the students' images (parts of a form, or one archive),
+ * answers 202 with the batch's id and grades them on the render threads:
+ * the first image's task renders the reference (once: it is cached) and
+ * then hands the rest out in slices, one a render thread. Every grade is a
+ * record in the store; GET /v1/grade/batch/{id} reads them as they land. */
+#include <cJSON.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+#include "archive.h"
+#include "assignment.h"
+#include "grade_table.h"
+#include "hash.h"
+#include "http_internal.h"
+#include "rayd/clock.h"
+
+typedef rd_grade_batch_image batch_image;
+
+/* A listing gives at most this many records, oldest first from `since`:
+ * a longer history is read in pages by moving since on. */
+enum { GRADES_LISTED = 10000 };
+
+/* A student id: at most what a record holds. */
+enum { STUDENT_MAX = sizeof(((batch_image *)0)->student) };
+
+/* The form as it arrives (the request's state). */
+typedef struct {
+    struct MHD_PostProcessor *post;
+    char assignment[80];
+    char student[STUDENT_MAX]; /* a `student` field names the image part after it */
+    batch_image *images;
+    size_t n, cap;
+    unsigned char *archive;
+    size_t archive_len;
+    int archives;        /* archive parts seen */
+    size_t bytes;        /* of every file part */
+    const char *too_big; /* the limit passed */
+    const char *bad;     /* malformed: why */
+} batch_form;
+
+static void free_images(batch_image *im, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        free(im[i].png);
+    free(im);
+}
+
+static void free_form(rd_req *r)
+{
+    batch_form *f = r->state;
+    if (!f)
+        return;
+    if (f->post)
+        MHD_destroy_post_processor(f->post);
+    free_images(f->images, f->n);
+    free(f->archive);
+    free(f);
+    r->state = NULL;
+}
+
+/* The student of a file: its name without folders and extension. */
+static void student_of(const char *filename, char *out, size_t size)
+{
+    const char *base = filename ? filename : "";
+    for (const char *p = base; *p; p++)
+        if (*p == '/' || *p == '\\')
+            base = p + 1;
+    size_t n = strlen(base);
+    const char *dot = strrchr(base, '.');
+    if (dot && dot != base)
+        n = (size_t)(dot - base);
+    if (n >= size)
+        n = size - 1;
+    memcpy(out, base, n);
+    out[n] = 0;
+}
+
+static int add_image(batch_form *f, const rd_server_options *o, const char *student)
+{
+    if (f->n >= o->max_batch_images) {
+        f->too_big = "--max-batch-images";
+        return 0;
+    }
+    if (f->n == f->cap) {
+        size_t cap = f->cap ? 2 * f->cap : 16;
+        batch_image *p = realloc(f->images, cap * sizeof *p);
+        if (!p)
+            return 0;
+        f->images = p;
+        f->cap = cap;
+    }
+    batch_image *im = &f->images[f->n++];
+    memset(im, 0, sizeof *im);
+    snprintf(im->student, sizeof im->student, "%s", student);
+    return 1;
+}
+
+static int append(unsigned char **buf, size_t *len, const char *data, size_t size)
+{
+    unsigned char *p = realloc(*buf, *len + size + 1);
+    if (!p)
+        return 0;
+    memcpy(p + *len, data, size);
+    *len += size;
+    *buf = p;
+    return 1;
+}
+
+static int text_field(char *dst, size_t cap, const char *data, size_t size)
+{
+    size_t have = strlen(dst);
+    if (have + size >= cap)
+        return 0;
+    memcpy(dst + have, data, size);
+    dst[have + size] = 0;
+    return 1;
+}
+
+/* A file part's bytes; a new part starts at offset 0. */
+static enum MHD_Result file_part(rd_req *r, batch_form *f, int archive, const char *filename, const char *data,
+                                 uint64_t off, size_t size)
+{
+    const rd_server_options *o = &r->srv->opt;
+    if (off == 0 && !archive) {
+        char student[STUDENT_MAX];
+        if (f->student[0])
+            snprintf(student, sizeof student, "%s", f->student);
+        else
+            student_of(filename, student, sizeof student);
+        f->student[0] = 0;
+        if (!add_image(f, o, student))
+            return MHD_NO;
+    }
+    if (off == 0 && archive && ++f->archives > 1) {
+        f->bad = "give one 'archive' part";
+        return MHD_NO;
+    }
+    f->bytes += size;
+    if (f->bytes > o->max_batch_bytes) {
+        f->too_big = "--max-batch-bytes";
+        return MHD_NO;
+    }
+    if (archive)
+        return append(&f->archive, &f->archive_len, data, size) ? MHD_YES : MHD_NO;
+    batch_image *im = &f->images[f->n - 1];
+    if (im->len + size > o->max_body_bytes) {
+        f->too_big = "--max-body-bytes (an image)";
+        return MHD_NO;
+    }
+    return append(&im->png, &im->len, data, size) ? MHD_YES : MHD_NO;
+}
+
+static enum MHD_Result on_field(void *cls, enum MHD_ValueKind kind, const char *key, const char *filename,
+                                const char *content_type, const char *encoding, const char *data, uint64_t off,
+                                size_t size)
+{
+    (void)kind, (void)content_type, (void)encoding;
+    rd_req *r = cls;
+    batch_form *f = r->state;
+    if (!key) {
+        f->bad = "a form part has no field name (Content-Disposition: form-data; name=\"...\")";
+        return MHD_NO;
+    }
+    if (size && !data)
+        return MHD_YES;
+    if (strcmp(key, "image") == 0 || strcmp(key, "archive") == 0)
+        return file_part(r, f, key[0] == 'a', filename, data, off, size);
+    char *dst = strcmp(key, "assignment") == 0 ? f->assignment : strcmp(key, "student") == 0 ? f->student : NULL;
+    size_t cap = dst == f->assignment ? sizeof f->assignment : sizeof f->student;
+    if (dst && !text_field(dst, cap, data, size)) {
+        f->bad = dst == f->assignment ? "the 'assignment' field is longer than an assignment name can be"
+                                      : "a 'student' field is longer than a student id can be";
+        return MHD_NO;
+    }
+    return MHD_YES;
+}
+
+/* The instructors' routes: off without --instructor-tokens (404, as if they
+ * were not there), 401 without a token, 403 with a wrong one. 0 when the
+ * request may go on, else the answer was queued (*ret). */
+int rd_require_instructor(rd_req *r, enum MHD_Result *ret)
+{
+    const rd_auth *a = r->srv->auth;
+    if (!a) {
+        *ret = rd_reply_error(r, 404, "not_found", NULL,
+                              "no such route (grade records need the server's --instructor-tokens)");
+        return 1;
+    }
+    const char *h = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_AUTHORIZATION);
+    rd_auth_result res = rd_auth_check(a, h);
+    if (res == RD_AUTH_OK)
+        return 0;
+    if (res == RD_AUTH_MISSING)
+        *ret = rd_reply_error_hdr(r, 401, "unauthorized", "an instructor's token is needed (Authorization: Bearer)",
+                                  "WWW-Authenticate", "Bearer realm=\"rayd\"");
+    else
+        *ret = rd_reply_error(r, 403, "forbidden", NULL, "that token is not an instructor's");
+    return 1;
+}
+
+enum MHD_Result rd_route_batch_begin(rd_req *r)
+{
+    enum MHD_Result ret;
+    if (rd_require_instructor(r, &ret))
+        return ret;
+    const rd_server_options *o = &r->srv->opt;
+    const char *cl = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
+    if (cl && strtoull(cl, NULL, 10) > o->max_batch_bytes + (1u << 20))
+        return rd_reply_too_large(r, "the batch (--max-batch-bytes)");
+    const char *ct = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
+    if (!ct || strncasecmp(ct, "multipart/form-data", 19) != 0)
+        return rd_reply_error(r, 415, "unsupported_media_type", NULL,
+                              "send multipart/form-data with 'assignment' and 'image' files or one 'archive'");
+    batch_form *f = calloc(1, sizeof *f);
+    if (!f)
+        return MHD_NO;
+    r->state = f;
+    r->free_state = free_form;
+    f->post = MHD_create_post_processor(r->conn, 64 * 1024, on_field, r);
+    if (!f->post)
+        return rd_reply_error(r, 415, "unsupported_media_type", NULL, "the form could not be read");
+    return MHD_YES;
+}
+
+enum MHD_Result rd_route_batch_data(rd_req *r, const char *data, size_t size)
+{
+    batch_form *f = r->state;
+    if (!f || !f->post)
+        return MHD_YES;
+    if (f->bad || f->too_big) {
+        r->discarded += size;
+        return r->discarded > r->srv->opt.max_batch_bytes + (1u << 20) ? MHD_NO : MHD_YES;
+    }
+    if (MHD_post_process(f->post, data, size) != MHD_YES && !f->bad && !f->too_big)
+        f->bad = "the form data is malformed";
+    return MHD_YES;
+}
+
+/* An archive's files become the batch's images (folders and names as
+ * api/archive reads them); its limits are the batch's. */
+typedef struct {
+    batch_form *f;
+    const rd_server_options *o;
+} expand_ctx;
+
+static rd_error_code take_file(void *user, const char *name, const unsigned char *data, size_t len, rd_error *err)
+{
+    expand_ctx *x = user;
+    char student[STUDENT_MAX];
+    student_of(name, student, sizeof student);
+    if (!add_image(x->f, x->o, student))
+        return x->f->too_big ? rd_error_set(err, RD_ERR_LIMIT, 0, 0, "more than %zu images (--max-batch-images)",
+                                            x->o->max_batch_images)
+                             : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    batch_image *im = &x->f->images[x->f->n - 1];
+    if (!(im->png = malloc(len ? len : 1)))
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    memcpy(im->png, data, len);
+    im->len = len;
+    return RD_OK;
+}
+
+static rd_error_code expand(batch_form *f, const rd_server_options *o, rd_error *err)
+{
+    if (!f->archive)
+        return RD_OK;
+    rd_archive_limits lim = {o->max_batch_images, o->max_body_bytes, o->max_batch_expanded};
+    expand_ctx x = {f, o};
+    rd_error_code rc = rd_archive_each(f->archive, f->archive_len, &lim, take_file, &x, err);
+    free(f->archive);
+    f->archive = NULL;
+    /* The reader names its limits by field; the answer names the flag. */
+    static const char *const flags[][2] = {{"(max_total_bytes)", "--max-batch-expanded"},
+                                           {"(max_entry_bytes)", "--max-body-bytes, an image"},
+                                           {"(max_entries)", "--max-batch-images"}};
+    for (size_t i = 0; rc == RD_ERR_LIMIT && err && i < 3; i++) {
+        char *at = strstr(err->message, flags[i][0]);
+        if (at)
+            snprintf(at, sizeof err->message - (size_t)(at - err->message), "(%s)", flags[i][1]);
+    }
+    return rc;
+}
+
+/* Two images of one student would make two rows nobody can tell apart. */
+static const char *duplicate_student(const batch_form *f)
+{
+    for (size_t i = 0; i < f->n; i++)
+        for (size_t j = i + 1; j < f->n; j++)
+            if (strcmp(f->images[i].student, f->images[j].student) == 0)
+                return f->images[i].student;
+    return NULL;
+}
+
+static enum MHD_Result form_errors(rd_req *r, batch_form *f)
+{
+    if (f->too_big) {
+        char what[96];
+        snprintf(what, sizeof what, "the batch (%s)", f->too_big);
+        return rd_reply_too_large(r, what);
+    }
+    if (f->bad)
+        return rd_reply_error(r, 400, "parse_error", NULL, f->bad);
+    if (!f->assignment[0])
+        return rd_reply_error(r, 400, "parse_error", NULL, "the form has no 'assignment'");
+    if (f->archives && f->n)
+        return rd_reply_error(r, 400, "parse_error", NULL, "give 'image' files or one 'archive', not both");
+    return MHD_YES;
+}
+
+enum MHD_Result rd_route_batch_post(rd_req *r, const char *rest)
+{
+    (void)rest;
+    rd_server *srv = r->srv;
+    batch_form *f = r->state;
+    if (!f)
+        return rd_reply_error(r, 400, "parse_error", NULL, "no form");
+    if (f->too_big || f->bad || !f->assignment[0] || (f->archives && f->n))
+        return form_errors(r, f);
+    if (atomic_load(&srv->draining))
+        return rd_reply_draining(r);
+    rd_error err = {0};
+    rd_error_code rc = expand(f, &srv->opt, &err);
+    if (rc == RD_ERR_LIMIT)
+        return rd_reply_error(r, 413, "too_large", &err, NULL);
+    if (rc)
+        return rd_reply_error(r, 400, "parse_error", &err, NULL);
+    if (f->n == 0)
+        return rd_reply_error(r, 400, "parse_error", NULL, "the batch has no image");
+    const char *dup = duplicate_student(f);
+    if (dup) {
+        char msg[STUDENT_MAX + 64];
+        snprintf(msg, sizeof msg, "two images of student '%s'", dup);
+        return rd_reply_error(r, 400, "parse_error", NULL, msg);
+    }
+    rd_assignment a;
+    if (rd_assignment_load(srv->opt.assignments_dir, f->assignment, &a, &err))
+        return rd_reply_error(r, err.code == RD_ERR_NOT_FOUND ? 404 : 422,
+                              err.code == RD_ERR_NOT_FOUND ? "not_found" : "bad_assignment", &err, NULL);
+    rd_grade_batch_image *images = f->images;
+    size_t n = f->n;
+    f->images = NULL;
+    f->n = f->cap = 0;
+    char id[RD_STORE_ID_MAX];
+    rc = rd_grades_batch_start(srv, f->assignment, images, n, id, &err);
+    if (rc)
+        return rd_reply_store_error(r, &err);
+    char *text = NULL;
+    if (rd_grades_batch_json(srv, id, 0, &text, &err))
+        return rd_reply_store_error(r, &err);
+    char loc[32 + RD_STORE_ID_MAX];
+    snprintf(loc, sizeof loc, "/v1/grade/batch/%s", id);
+    const char *headers[] = {MHD_HTTP_HEADER_LOCATION, loc, NULL};
+    return rd_reply_with(r, 202, "application/json", text, strlen(text), 1, headers);
+}
+
+/* GET /v1/grade/batch/{id}, .../results.csv, .../results.json */
+enum MHD_Result rd_route_batch_get(rd_req *r, const char *path)
+{
+    enum MHD_Result ret;
+    if (rd_require_instructor(r, &ret))
+        return ret;
+    char id[RD_STORE_ID_MAX];
+    const char *p = path + 1, *slash = strchr(p, '/');
+    size_t n = slash ? (size_t)(slash - p) : strlen(p);
+    if (n == 0 || n >= sizeof id)
+        return rd_reply_error(r, 404, "not_found", NULL, "no such batch");
+    memcpy(id, p, n);
+    id[n] = 0;
+    const char *what = slash ? slash + 1 : "";
+    int form = !*what ? 0 : strcmp(what, "results.json") == 0 ? 1 : strcmp(what, "results.csv") == 0 ? 2 : -1;
+    if (form < 0)
+        return rd_reply_error(r, 404, "not_found", NULL, "no such route");
+    rd_error err = {0};
+    char *text = NULL;
+    if (rd_grades_batch_json(r->srv, id, form, &text, &err))
+        return rd_reply_store_error(r, &err);
+    if (form == 2)
+        return rd_reply(r, 200, "text/csv; charset=utf-8", text, strlen(text), 1);
+    return rd_reply_json(r, 200, text);
+}
+
+/* ---- grading a batch on the render threads ---- */
+
+/* Shared by the batch's tasks; the last one to end frees it. */
+typedef struct {
+    rd_server *srv;
+    char id[RD_STORE_ID_MAX];
+    char assignment[80];
+    rd_grade_batch_image *images;
+    size_t n;
+    uint8_t *ref; /* the reference, once rendered or found */
+    int w, h;
+    rd_error failed; /* the reference could not be had: every image is this error */
+    pthread_mutex_t mu;
+    int refs;
+} grade_batch;
+
+static void batch_unref(grade_batch *b)
+{
+    pthread_mutex_lock(&b->mu);
+    int last = --b->refs == 0;
+    pthread_mutex_unlock(&b->mu);
+    if (!last)
+        return;
+    free_images(b->images, b->n);
+    free(b->ref);
+    pthread_mutex_destroy(&b->mu);
+    free(b);
+}
+
+/* A task: the reference (first), or a slice of the images. */
+typedef struct {
+    grade_batch *b;
+    size_t i0, i1;
+    rd_grade_output out; /* the reference task's */
+} batch_task;
+
+static void free_batch_task(void *arg)
+{
+    batch_task *t = arg;
+    rd_grade_output_free(&t->out);
+    batch_unref(t->b);
+    free(t);
+}
+
+static void grade_image(grade_batch *b, size_t i)
+{
+    rd_grade_batch_image *im = &b->images[i];
+    const rd_grader *g = rd_grades_grader(b->srv->grades);
+    rd_grade_input in = {.assignment = b->assignment, .png = im->png, .png_len = im->len};
+    rd_grade_output o;
+    rd_scene s;
+    rd_scene_init(&s);
+    rd_error err = {0};
+    char id[24];
+    rd_error_code rc = b->failed.code ? b->failed.code : rd_grade_prepare(g, &in, &s, &o, &err);
+    if (b->failed.code)
+        err = b->failed;
+    if (!rc && !o.reference)
+        rc = rd_grade_set_reference(g, &o, b->ref, b->w, b->h, &err);
+    if (!rc && rd_grade_finish(&o))
+        rc = rd_error_set(&err, RD_ERR_NOMEM, 0, 0, "out of memory comparing the images");
+    char *verdict = NULL;
+    if (!rc)
+        rc = rd_grades_one(b->srv, &o, im->student, b->id, id, &verdict, &err);
+    if (rc)
+        rd_grades_error_record(b->srv, b->assignment, im->student, b->id, err.message, id);
+    free(verdict);
+    if (!b->failed.code)
+        rd_grade_output_free(&o);
+    rd_scene_free(&s);
+    free(im->png);
+    im->png = NULL;
+}
+
+static rd_error_code grade_slice(void *arg, rd_scene *s, int *render, rd_error *err)
+{
+    (void)s, (void)err;
+    batch_task *t = arg;
+    *render = 0;
+    for (size_t i = t->i0; i < t->i1; i++)
+        grade_image(t->b, i);
+    return RD_OK;
+}
+
+/* The reference: found in the cache, or rendered by the queue as any
+ * grade's is. */
+static rd_error_code prepare_reference(void *arg, rd_scene *s, int *render, rd_error *err)
+{
+    batch_task *t = arg;
+    rd_grade_input in = {.assignment = t->b->assignment};
+    rd_error_code rc = rd_grade_prepare_reference(rd_grades_grader(t->b->srv->grades), &in, s, &t->out, err);
+    *render = !rc && !t->out.reference;
+    return rc;
+}
+
+static rd_error_code submit_slices(grade_batch *b, rd_error *err)
+{
+    rd_server *srv = b->srv;
+    size_t k = (size_t)(srv->opt.jobs.workers > 0 ? srv->opt.jobs.workers : 1);
+    if (k > b->n)
+        k = b->n;
+    for (size_t j = 0; j < k; j++) {
+        batch_task *t = calloc(1, sizeof *t);
+        if (!t)
+            return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+        t->b = b;
+        t->i0 = b->n * j / k;
+        t->i1 = b->n * (j + 1) / k;
+        pthread_mutex_lock(&b->mu);
+        b->refs++;
+        pthread_mutex_unlock(&b->mu);
+        rd_jq_task task = {grade_slice, NULL, free_batch_task, t, 0};
+        rd_jq_submit_options so = {.watch_fd = -1}; /* registered: the queue holds it until it ends */
+        rd_jq_job *job;
+        rd_error_code rc = rd_jq_submit(srv->jobs, &task, &so, &job, err);
+        if (rc)
+            return rc;
+        rd_jq_job_unref(job);
+    }
+    return RD_OK;
+}
+
+/* The reference task's end: the slices go out (on a full queue, this
+ * thread grades what could not be queued). */
+static rd_error_code finish_reference(void *arg, const uint8_t *rgb, int w, int h, rd_error *err)
+{
+    batch_task *t = arg;
+    grade_batch *b = t->b;
+    rd_grade_output *o = &t->out;
+    rd_error_code rc = rgb ? rd_grade_set_reference(rd_grades_grader(b->srv->grades), o, rgb, w, h, err) : RD_OK;
+    size_t n = (size_t)o->width * (size_t)o->height * 3;
+    if (!rc && !(b->ref = malloc(n ? n : 1)))
+        rc = rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    if (!rc) {
+        memcpy(b->ref, o->reference, n);
+        b->w = o->width;
+        b->h = o->height;
+    } else {
+        b->failed = *err;
+    }
+    rd_error qerr = {0};
+    if (submit_slices(b, &qerr)) {
+        batch_task all = {b, 0, b->n, {0}};
+        int render = 0;
+        grade_slice(&all, NULL, &render, &qerr);
+    }
+    return RD_OK;
+}
+
+static void new_id(char id[RD_STORE_ID_MAX])
+{
+    snprintf(id, RD_STORE_ID_MAX, "%016llx", (unsigned long long)rd_random_key());
+}
+
+rd_error_code rd_grades_batch_start(rd_server *srv, const char *assignment, rd_grade_batch_image *images, size_t n,
+                                    char id[RD_STORE_ID_MAX], rd_error *err)
+{
+    rd_store *s = rd_grades_store(srv->grades);
+    grade_batch *b = calloc(1, sizeof *b);
+    batch_task *t = calloc(1, sizeof *t);
+    rd_error_code rc = !b || !t ? rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory")
+                       : !s     ? rd_error_set(err, RD_ERR_IO, 0, 0, "the store is not open yet")
+                                : RD_OK;
+    if (!rc) {
+        new_id(b->id);
+        rc = rd_store_batch_create(s, b->id, assignment, (int)n, err);
+    }
+    if (rc) {
+        free_images(images, n);
+        free(b);
+        free(t);
+        return rc;
+    }
+    b->srv = srv;
+    snprintf(b->assignment, sizeof b->assignment, "%s", assignment);
+    b->images = images;
+    b->n = n;
+    b->refs = 1;
+    pthread_mutex_init(&b->mu, NULL);
+    t->b = b;
+    memcpy(id, b->id, RD_STORE_ID_MAX);
+    rd_jq_task task = {prepare_reference, finish_reference, free_batch_task, t, 0};
+    rd_jq_submit_options so = {.watch_fd = -1}; /* registered: the queue holds it until it ends */
+    rd_jq_job *job;
+    rc = rd_jq_submit(srv->jobs, &task, &so, &job, err);
+    if (rc) {
+        rd_store_batch_cancel(s, id, NULL, NULL);
+        return rc;
+    }
+    rd_jq_job_unref(job);
+    return RD_OK;
+}
+
+/* ---- the records as rows ---- */
+
+/* A record as a table row (grade_table.h). 0 when it cannot be one. */
+static int row_of(const rd_store_grade *g, rd_grade_row *row)
+{
+    rd_error err = {0};
+    /* A grade sent without a student still has a row. */
+    const char *student = g->student && *g->student ? g->student : "(unnamed)";
+    rd_grade_result res = {0};
+    res.pass = g->pass;
+    res.failed_fraction = g->failed_fraction;
+    res.max_abs = (int)g->max_abs;
+    res.psnr_db = g->psnr_db;
+    res.ssim = g->ssim;
+    rd_error_code rc = g->error ? rd_grade_row_error(row, student, g->assignment, g->error, g->graded_ms, &err)
+                                : rd_grade_row_from_result(row, student, g->assignment, &res, g->graded_ms, &err);
+    return rc == RD_OK;
+}
+
+static cJSON *row_json(const rd_store_grade *g)
+{
+    rd_grade_row row;
+    cJSON *o = row_of(g, &row) ? rd_grade_row_json(&row) : NULL;
+    if (o)
+        cJSON_AddStringToObject(o, "grade_id", g->id);
+    return o;
+}
+
+static void row_csv(rd_strbuf *b, const rd_store_grade *g)
+{
+    rd_grade_row row;
+    if (row_of(g, &row))
+        rd_grade_csv_row(b, &row);
+}
+
+/* The grades as the answer's rows: a JSON array, or CSV (header first). */
+static char *rows_text(const rd_store_grade *g, size_t n, int csv)
+{
+    if (csv) {
+        rd_strbuf b = {0};
+        rd_grade_csv_header(&b);
+        for (size_t i = 0; i < n; i++)
+            row_csv(&b, &g[i]);
+        return rd_strbuf_take(&b, NULL);
+    }
+    cJSON *a = cJSON_CreateArray();
+    for (size_t i = 0; a && i < n; i++) {
+        cJSON *o = row_json(&g[i]);
+        if (o)
+            cJSON_AddItemToArray(a, o);
+    }
+    char *t = a ? cJSON_PrintUnformatted(a) : NULL;
+    cJSON_Delete(a);
+    return t;
+}
+
+rd_error_code rd_grades_batch_json(rd_server *srv, const char *id, int form, char **text, rd_error *err)
+{
+    rd_store *s = rd_grades_store(srv->grades);
+    if (!s)
+        return rd_error_set(err, RD_ERR_IO, 0, 0, "the store is not open yet");
+    rd_store_batch b;
+    rd_error_code rc = rd_store_batch_get(s, id, &b, err);
+    if (rc == RD_ERR_INVALID)
+        rc = rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "no such batch");
+    if (rc)
+        return rc;
+    rd_store_grade_filter f = {.batch_id = id, .max = (size_t)b.total};
+    rd_store_grade *g = NULL;
+    size_t n = 0;
+    if ((rc = rd_store_grades_list(s, &f, &g, &n, err)))
+        return rc;
+    char *rows = rows_text(g, n, form == 2);
+    rd_store_grades_free(g, n);
+    if (!rows)
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    if (form) {
+        *text = rows;
+        return RD_OK;
+    }
+    /* The rows go in as written: cJSON would print their numbers again,
+     * with fewer digits than grade_table.h gives. */
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddStringToObject(o, "id", b.id);
+    cJSON_AddStringToObject(o, "assignment", b.assignment);
+    cJSON_AddStringToObject(o, "status", rd_store_batch_status_name(b.status));
+    cJSON_AddNumberToObject(o, "total", b.total);
+    cJSON_AddNumberToObject(o, "done", b.done);
+    cJSON_AddRawToObject(o, "results", rows);
+    free(rows);
+    *text = cJSON_PrintUnformatted(o);
+    cJSON_Delete(o);
+    return *text ? RD_OK : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+}
+
+/* Days from 1970-01-01 to y-m-d (proleptic Gregorian; Hinnant's
+ * days_from_civil), so no time zone is involved. */
+static long long days_from_civil(long long y, unsigned m, unsigned d)
+{
+    y -= m <= 2;
+    long long era = (y >= 0 ? y : y - 399) / 400;
+    unsigned yoe = (unsigned)(y - era * 400);
+    unsigned doy = (153 * (m + (m > 2 ? -3 : 9)) + 2) / 5 + d - 1;
+    unsigned doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
+    return era * 146097 + (long long)doe - 719468;
+}
+
+/* since: Unix milliseconds, or a UTC date as 2026-12-01 or
+ * 2026-12-01T09:30:00Z. -1 when it is neither. */
+static long long since_ms(const char *v)
+{
+    if (!v || !*v)
+        return 0;
+    char *end;
+    long long ms = strtoll(v, &end, 10);
+    if (!*end && ms >= 0)
+        return ms;
+    int y, mo, d, h = 0, mi = 0, sec = 0, n = 0;
+    if (sscanf(v, "%4d-%2d-%2d%n", &y, &mo, &d, &n) != 3 || n != 10)
+        return -1;
+    const char *p = v + n;
+    if (*p == 'T') {
+        int k = 0;
+        if (sscanf(p, "T%2d:%2d:%2d%n", &h, &mi, &sec, &k) != 3 || k != 9)
+            return -1;
+        p += k;
+        if (*p == 'Z')
+            p++;
+    }
+    if (*p || mo < 1 || mo > 12 || d < 1 || d > 31 || h > 23 || mi > 59 || sec > 60 || y < 1970)
+        return -1;
+    return ((days_from_civil(y, (unsigned)mo, (unsigned)d) * 24 + h) * 60 + mi) * 60000LL + sec * 1000LL;
+}
+
+enum MHD_Result rd_route_grades_list(rd_req *r)
+{
+    enum MHD_Result ret;
+    if (rd_require_instructor(r, &ret))
+        return ret;
+    rd_store *s = rd_grades_store(r->srv->grades);
+    const char *since = MHD_lookup_connection_value(r->conn, MHD_GET_ARGUMENT_KIND, "since");
+    long long from = since_ms(since);
+    if (from < 0)
+        return rd_reply_error(r, 400, "parse_error", NULL,
+                              "query parameter since: expected Unix milliseconds or a date as 2026-12-01T09:30:00Z");
+    rd_store_grade_filter f = {.assignment = MHD_lookup_connection_value(r->conn, MHD_GET_ARGUMENT_KIND, "assignment"),
+                               .student = MHD_lookup_connection_value(r->conn, MHD_GET_ARGUMENT_KIND, "student"),
+                               .since_ms = from,
+                               .max = GRADES_LISTED};
+    rd_store_grade *g = NULL;
+    size_t n = 0;
+    rd_error err = {0};
+    rd_error_code rc = s ? rd_store_grades_list(s, &f, &g, &n, &err) : rd_error_set(&err, RD_ERR_IO, 0, 0, "no store");
+    if (rc == RD_ERR_INVALID)
+        return rd_reply_error(r, 400, "parse_error", &err, NULL);
+    if (rc)
+        return rd_reply_store_error(r, &err);
+    const char *accept = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_ACCEPT);
+    int csv = accept && strstr(accept, "text/csv");
+    char *rows = rows_text(g, n, csv);
+    rd_store_grades_free(g, n);
+    if (!rows)
+        return rd_reply_error(r, 503, "unavailable", NULL, "out of memory");
+    if (csv)
+        return rd_reply(r, 200, "text/csv; charset=utf-8", rows, strlen(rows), 1);
+    size_t len = strlen(rows) + 16;
+    char *text = malloc(len);
+    if (!text) {
+        free(rows);
+        return rd_reply_error(r, 503, "unavailable", NULL, "out of memory");
+    }
+    snprintf(text, len, "{\"grades\":%s}", rows);
+    free(rows);
+    return rd_reply_json(r, 200, text);
+}

@@ -1,0 +1,252 @@
+"""Grading a class over HTTP (docs/http-api.md, "Grading a class"): the
+instructors' token gate, batches of image parts and of archives (zip and
+tar.gz) with their limits, the rows, the CSV and JSON exports, the records'
+listing, and the records after a restart; then the time a batch of 100
+320x240 images takes.
+
+Run: RAYD=build/rayd python3 tests/integration/grade_batch_test.py"""
+import csv
+import io
+import json
+import os
+import shutil
+import sys
+import tarfile
+import tempfile
+import time
+import zipfile
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "support"))
+from rayd_http import RAYD, Checks, Daemon, decode_png, form_parts, png  # noqa: E402
+
+import subprocess  # noqa: E402
+
+check = Checks("grade batch")
+TOKEN = "class-token-0123456789abcdef"
+AUTH = {"Authorization": "Bearer " + TOKEN}
+COLUMNS = ["student", "assignment", "pass", "failed_fraction", "max_abs", "psnr_db", "ssim", "graded_at", "error"]
+
+
+def render(scene_text, out):
+    path = out + ".cfg"
+    with open(path, "w") as f:
+        f.write(scene_text)
+    subprocess.run([RAYD, "render", path, "-o", out, "--quiet"], check=True, capture_output=True, timeout=300)
+    with open(out, "rb") as f:
+        return f.read()
+
+
+def class_images(tmp):
+    """Five students: one right, one with a wrong shininess, one black, one
+    of the wrong size, one that is not a PNG. {student: (bytes, expected)}
+    with expected "pass", "fail" or "error"."""
+    scene = open("scenes/assignments/phong.cfg").read()
+    right = render(scene, os.path.join(tmp, "right.png"))
+    wrong = render(scene.replace("shininess = 10", "shininess = 80"), os.path.join(tmp, "wrong.png"))
+    return {
+        "alice": (right, "pass"),
+        "bob": (wrong, "fail"),
+        "carol": (png(320, 240, lambda x, y: (0, 0, 0)), "fail"),
+        "dave": (png(32, 24, lambda x, y: (9, 9, 9)), "error"),
+        "erin": (b"not a png at all", "error"),
+    }
+
+
+def post_batch(d, parts, headers=AUTH):
+    body, ct = form_parts(parts)
+    return d.request("POST", "/v1/grade/batch", body=body, headers=dict(headers, **{"Content-Type": ct}))
+
+
+def wait_batch(d, bid, bound=120):
+    t0, last = time.time(), {}
+    while time.time() - t0 < bound:
+        st, _, b = d.request("GET", "/v1/grade/batch/" + bid, headers=AUTH)
+        last = json.loads(b) if st == 200 else {"status": "http %d" % st}
+        if last.get("status") != "running":
+            break
+        time.sleep(0.05)
+    return last
+
+
+def verdicts_right(rows, images, what):
+    by = {r["student"]: r for r in rows}
+    check(sorted(by) == sorted(images), "%s: rows of %s, students %s" % (what, sorted(by), sorted(images)))
+    for student, (_, want) in images.items():
+        r = by.get(student, {})
+        got = "error" if r.get("error") else ("pass" if r.get("pass") else "fail")
+        check(got == want, "%s: %s %s, expected %s (%r)" % (what, student, got, want, r))
+        if want != "error":
+            check(isinstance(r.get("psnr_db"), (int, float)) and isinstance(r.get("ssim"), (int, float)),
+                  "%s: %s has no metrics: %r" % (what, student, r))
+        else:
+            check(r.get("psnr_db") is None and r.get("pass") is False, "%s: %s's error row: %r" % (what, student, r))
+    return by
+
+
+def gate(tmp):
+    bad = os.path.join(tmp, "bad-tokens")
+    with open(bad, "w") as f:
+        f.write("# instructors\nshort\n")
+    p = subprocess.run([RAYD, "serve", "--listen", "127.0.0.1:0", "--data-dir", os.path.join(tmp, "bad"),
+                        "--instructor-tokens", bad], capture_output=True, timeout=30)
+    check(p.returncode == 3 and b"bad-tokens:2:" in p.stderr,
+          "a token file with a short token: exit %d, %r" % (p.returncode, p.stderr[-200:]))
+    os.makedirs(os.path.join(tmp, "off"))
+    with Daemon(os.path.join(tmp, "off")) as d:
+        for method, path in (("POST", "/v1/grade/batch"), ("GET", "/v1/grades"), ("GET", "/v1/grade/batch/x")):
+            st, _, b = d.request(method, path, headers=AUTH)
+            check(st == 404, "without --instructor-tokens %s %s answers %d, not 404" % (method, path, st))
+
+
+def image_batch(d, images):
+    st, _, _ = post_batch(d, [("assignment", None, b"phong")], headers={})
+    check(st == 401, "a batch without a token answers %d, not 401" % st)
+    st, h, _ = post_batch(d, [("assignment", None, b"phong")], headers={"Authorization": "Bearer wrong-token"})
+    check(st == 403, "a batch with a wrong token answers %d, not 403" % st)
+    parts = [("assignment", None, b"phong")] + [("image", s + ".png", b) for s, (b, _) in images.items()]
+    st, h, b = post_batch(d, parts)
+    o = json.loads(b) if st == 202 else {}
+    check(st == 202 and o.get("total") == 5 and o.get("status") == "running",
+          "POST /v1/grade/batch: %d %r" % (st, b[:300]))
+    check(h.get("location") == "/v1/grade/batch/%s" % o.get("id"), "the 202's Location: %r" % h.get("location"))
+    done = wait_batch(d, o.get("id", "x"))
+    check(done.get("status") == "done" and done.get("done") == 5, "the batch did not end done: %r" % done)
+    by = verdicts_right(done.get("results", []), images, "image parts")
+    st, h, text = d.request("GET", "/v1/grade/batch/%s/results.csv" % o.get("id"), headers=AUTH)
+    rows = list(csv.reader(io.StringIO(text.decode())))
+    check(st == 200 and h.get("content-type", "").startswith("text/csv") and rows and rows[0] == COLUMNS,
+          "results.csv: %d %r" % (st, rows[:1]))
+    csv_by = {r[0]: r for r in rows[1:]}
+    for s, r in by.items():
+        c = csv_by.get(s, [])
+        check(len(c) == 9 and c[2] == ("true" if r["pass"] else "false") and c[1] == "phong",
+              "results.csv's row of %s: %r (JSON %r)" % (s, c, r))
+    st, _, rj = d.request("GET", "/v1/grade/batch/%s/results.json" % o.get("id"), headers=AUTH)
+    check(st == 200 and json.loads(rj) == done.get("results"), "results.json is not the batch's rows")
+    for s, r in by.items():
+        st, _, v = d.request("GET", "/v1/grades/" + r["grade_id"])
+        verdict = json.loads(v) if st == 200 else {}
+        check(st == 200 and verdict.get("pass") == r["pass"], "GET /v1/grades/%s (%s): %d %r" %
+              (r["grade_id"], s, st, v[:200]))
+        if not r.get("error"):
+            st, h, diff = d.request("GET", "/v1/grades/%s/diff.png" % r["grade_id"])
+            check(st == 200 and decode_png(diff)[:2] == (320, 240), "the diff of %s: %d" % (s, st))
+    return o.get("id"), by
+
+
+def archive_batches(d, images):
+    z = io.BytesIO()
+    with zipfile.ZipFile(z, "w", zipfile.ZIP_DEFLATED) as zf:
+        zf.writestr("class/", b"")
+        for s, (b, _) in images.items():
+            zf.writestr("class/%s.png" % s, b)
+        zf.writestr("__MACOSX/class/._alice.png", b"junk")
+    t = io.BytesIO()
+    with tarfile.open(fileobj=t, mode="w:gz") as tf:
+        for s, (b, _) in images.items():
+            info = tarfile.TarInfo("week3/%s.png" % s)
+            info.size = len(b)
+            tf.addfile(info, io.BytesIO(b))
+    for kind, data in (("zip", z.getvalue()), ("tar.gz", t.getvalue())):
+        st, _, b = post_batch(d, [("assignment", None, b"phong"), ("archive", "class." + kind, data)])
+        o = json.loads(b) if st == 202 else {}
+        check(st == 202 and o.get("total") == 5, "a %s batch: %d %r" % (kind, st, b[:300]))
+        done = wait_batch(d, o.get("id", "x"))
+        verdicts_right(done.get("results", []), images, "a %s archive" % kind)
+
+
+def limits(d, images):
+    bomb = io.BytesIO()
+    with zipfile.ZipFile(bomb, "w", zipfile.ZIP_DEFLATED) as zf:
+        zf.writestr("zeros.png", b"\0" * (64 << 20))
+    st, _, b = post_batch(d, [("assignment", None, b"phong"), ("archive", "bomb.zip", bomb.getvalue())])
+    check(st == 413 and (b"--max-batch-expanded" in b or b"--max-body-bytes" in b),
+          "a zip bomb (%d bytes) answers %d %r" % (len(bomb.getvalue()), st, b[:200]))
+    right = images["alice"][0]
+    many = [("assignment", None, b"phong")] + [("image", "s%d.png" % i, right) for i in range(9)]
+    st, _, b = post_batch(d, many)
+    check(st == 413 and b"--max-batch-images" in b, "9 images over --max-batch-images 8: %d %r" % (st, b[:200]))
+    st, _, b = post_batch(d, [("assignment", None, b"phong"), ("image", "x.png", right), ("image", "x.png", right)])
+    check(st == 400, "two images of one student: %d %r" % (st, b[:200]))
+    st, _, b = post_batch(d, [("assignment", None, b"nosuch"), ("image", "x.png", right)])
+    check(st == 404, "an unknown assignment: %d %r" % (st, b[:200]))
+    st, _, b = post_batch(d, [("assignment", None, b"phong")])
+    check(st == 400, "a batch without images: %d %r" % (st, b[:200]))
+
+
+def records(d, by, images):
+    body, ct = form_parts([("assignment", None, b"phong"), ("student", None, b"zoe"),
+                           ("image", "upload.png", images["alice"][0])])
+    st, _, v = d.request("POST", "/v1/grade", body=body, headers={"Content-Type": ct})
+    check(st == 200 and json.loads(v).get("student") == "zoe", "a single grade with a student: %d %r" % (st, v[:200]))
+    st, _, b = d.request("GET", "/v1/grades?assignment=phong", headers=AUTH)
+    grades = json.loads(b).get("grades", []) if st == 200 else []
+    check(st == 200 and len(grades) >= 16, "GET /v1/grades?assignment=phong: %d, %d records" % (st, len(grades)))
+    check(any(g["student"] == "zoe" for g in grades), "the single grade is not among the records")
+    st, _, b = d.request("GET", "/v1/grades?student=alice", headers=AUTH)
+    alice = json.loads(b).get("grades", []) if st == 200 else []
+    check(len(alice) == 3 and all(g["pass"] for g in alice), "alice's records: %r" % alice)
+    st, _, b = d.request("GET", "/v1/grades?since=2100-01-01T00:00:00Z", headers=AUTH)
+    check(st == 200 and json.loads(b).get("grades") == [], "records since 2100: %d %r" % (st, b[:100]))
+    st, _, b = d.request("GET", "/v1/grades?since=yesterday", headers=AUTH)
+    check(st == 400, "since=yesterday answers %d" % st)
+    st, h, b = d.request("GET", "/v1/grades?student=bob", headers=dict(AUTH, Accept="text/csv"))
+    rows = list(csv.reader(io.StringIO(b.decode())))
+    check(st == 200 and rows[0] == COLUMNS and len(rows) == 4, "the CSV of bob's records: %r" % rows)
+    st, _, _ = d.request("GET", "/v1/grades")
+    check(st == 401, "the records without a token answer %d" % st)
+
+
+def after_restart(tmp, bid, by, flags):
+    with Daemon(tmp, flags) as d:
+        r = by["alice"]
+        st, _, v = d.request("GET", "/v1/grades/" + r["grade_id"])
+        check(st == 200 and json.loads(v).get("pass") is True, "alice's verdict after a restart: %d" % st)
+        st, _, diff = d.request("GET", "/v1/grades/%s/diff.png" % by["bob"]["grade_id"])
+        check(st == 200 and diff.startswith(b"\x89PNG"), "bob's diff after a restart: %d" % st)
+        done = wait_batch(d, bid, 5)
+        check(done.get("status") == "done" and len(done.get("results", [])) == 5, "the batch after a restart: %r" %
+              {k: done.get(k) for k in ("status", "done")})
+
+
+def hundred(tmp, flags, right):
+    with Daemon(tmp, flags + ["--max-batch-images", "500"]) as d:
+        parts = [("assignment", None, b"phong")] + [("image", "s%03d.png" % i, right) for i in range(100)]
+        t0 = time.time()
+        st, _, b = post_batch(d, parts)
+        bid = json.loads(b).get("id") if st == 202 else "x"
+        done = wait_batch(d, bid, 300)
+        secs = time.time() - t0
+        check(done.get("status") == "done" and sum(1 for r in done.get("results", []) if r.get("pass")) == 100,
+              "the batch of 100: %r" % {k: done.get(k) for k in ("status", "done")})
+        print("grade batch: 100 320x240 images graded in %.2f s (POST to done, reference included)" % secs)
+
+
+def main():
+    tmp = tempfile.mkdtemp(prefix="rayd-batch-")
+    try:
+        gate(tmp)
+        tokens = os.path.join(tmp, "tokens")
+        with open(tokens, "w") as f:
+            f.write("# the course's instructors\n%s\n\n" % TOKEN)
+        images = class_images(tmp)
+        data = os.path.join(tmp, "data")
+        flags = ["--instructor-tokens", tokens, "--data-dir", data, "--threads", "2"]
+        with Daemon(tmp, flags + ["--max-batch-images", "8", "--max-batch-expanded", "16000000"]) as d:
+            bid, by = image_batch(d, images)
+            archive_batches(d, images)
+            limits(d, images)
+            records(d, by, images)
+        after_restart(tmp, bid, by, flags)
+        hundred(tmp, ["--instructor-tokens", tokens, "--data-dir", os.path.join(tmp, "data100")],
+                images["alice"][0])
+    finally:
+        if not check.failed:
+            shutil.rmtree(tmp, ignore_errors=True)
+        else:
+            print("grade batch: the logs are in %s" % tmp, file=sys.stderr)
+    return check.summary()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
