@@ -93,8 +93,9 @@ static rd_error_code build(rd_farm *f, rd_store *h, farm_ctx *c, rd_error *err)
     rd_store_job_input_free(&in);
     if (rc)
         return rc;
+    /* The cap of the schedule (and of progress) is the scene's samples. */
+    c->params.progress.max_samples = c->scene.render.samples < 1 ? 1 : c->scene.render.samples;
     rd_job_options jo = {f->opt.tile, c->params.progress, 1};
-    jo.progress.max_samples = c->scene.render.samples < 1 ? 1 : c->scene.render.samples;
     size_t need = rd_job_estimate_bytes(&c->scene, &jo);
     pthread_mutex_lock(&f->mu); /* the metrics read it */
     c->charged = need;

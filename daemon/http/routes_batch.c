@@ -297,9 +297,15 @@ static const char *duplicate_student(const batch_form *f)
 static enum MHD_Result form_errors(rd_req *r, batch_form *f)
 {
     if (f->too_big) {
-        char what[96];
-        snprintf(what, sizeof what, "the batch (%s)", f->too_big);
-        return rd_reply_too_large(r, what);
+        const rd_server_options *o = &r->srv->opt;
+        char msg[160];
+        if (strcmp(f->too_big, "--max-batch-images") == 0)
+            snprintf(msg, sizeof msg, "the batch has more than %zu images (--max-batch-images)", o->max_batch_images);
+        else if (strcmp(f->too_big, "--max-batch-bytes") == 0)
+            snprintf(msg, sizeof msg, "the batch is over %zu bytes (--max-batch-bytes)", o->max_batch_bytes);
+        else
+            snprintf(msg, sizeof msg, "an image is over %zu bytes (--max-body-bytes)", o->max_body_bytes);
+        return rd_reply_error(r, 413, "too_large", NULL, msg);
     }
     if (f->bad)
         return rd_reply_error(r, 400, "parse_error", NULL, f->bad);
