@@ -5,6 +5,7 @@
  * then hands the rest out in slices, one a render thread. Every grade is a
  * record in the store; GET /v1/grade/batch/{id} reads them as they land. */
 #include <cJSON.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -592,7 +593,8 @@ static int row_of(const rd_store_grade *g, rd_grade_row *row)
     rd_grade_result res = {0};
     res.pass = g->pass;
     res.failed_fraction = g->failed_fraction;
-    res.max_abs = (int)g->max_abs;
+    /* An error row's metrics read back as NAN (store.h). */
+    res.max_abs = isfinite(g->max_abs) ? (int)g->max_abs : 0;
     res.psnr_db = g->psnr_db;
     res.ssim = g->ssim;
     rd_error_code rc = g->error ? rd_grade_row_error(row, student, g->assignment, g->error, g->graded_ms, &err)
