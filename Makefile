@@ -303,6 +303,13 @@ $(BUILD)/bench/embree_trace: bench/embree_trace.c $(BUILD)/librayd.a
 	@echo "  LD  $@"
 	@$(CC) $(CPPFLAGS) $(call inc_for,$<) $(PKG_CFLAGS) $(CFLAGS) $< $(BUILD)/librayd.a $(PKG_LIBS) $(EMBREE_LIBS) -o $@
 
+# The store section's harness: tile claims and results through
+# daemon/store's API alone (the store's objects and librayd.a).
+$(BUILD)/bench/store_claims: bench/store_claims.c $(STORE_OBJ) $(BUILD)/librayd.a
+	@mkdir -p $(dir $@)
+	@echo "  LD  $@"
+	@$(CC) $(CPPFLAGS) $(call inc_for,$<) $(PKG_CFLAGS) $(CFLAGS) $< $(STORE_OBJ) $(BUILD)/librayd.a $(PKG_LIBS) -o $@
+
 # The include path of every folder at once, for builds outside this file
 # (tests/fuzz/run.sh).
 print-includes:
