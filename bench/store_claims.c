@@ -303,7 +303,7 @@ int main(int argc, char **argv)
     }
     char prefix[40];
     snprintf(prefix, sizeof prefix, "claims-%ld-%ld", (long)getpid(), (long)time(NULL));
-    int64_t submit_base = rd_store_wall_ms();
+    int64_t submit_base = rd_wall_ms();
     double t_make = now_ms();
     for (int k = 0; k < queue; k++) {
         if (make_job(s, prefix, k, tiles, submit_base, &err)) {

@@ -8,13 +8,6 @@
 #include "number_text.h"
 #include "utf8.h"
 
-long long rd_grade_now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_REALTIME, &ts);
-    return (long long)ts.tv_sec * 1000 + ts.tv_nsec / 1000000;
-}
-
 void rd_grade_time_text(long long ms, char *buf, size_t size)
 {
     /* Floor division, so that a time before 1970 keeps 0..999 ms. */

@@ -48,9 +48,6 @@ typedef struct {
     char error[512];        /* "" for a graded row */
 } rd_grade_row;
 
-/* The time now, Unix milliseconds. */
-long long rd_grade_now_ms(void);
-
 /* ms as RFC 3339 UTC with milliseconds, into buf (>= 32 bytes). */
 void rd_grade_time_text(long long ms, char *buf, size_t size);
 

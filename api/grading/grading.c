@@ -83,6 +83,20 @@ static rd_error_code open_image(const rd_grader *g, const rd_grade_input *in, co
     return RD_OK;
 }
 
+/* The reference's key, and the reference itself when the cache has it. */
+static rd_error_code find_reference(const rd_grader *g, const rd_scene *s, rd_grade_output *o, rd_error *err)
+{
+    o->stage = RD_GRADE_STAGE_REFERENCE;
+    rd_error_code rc = rd_reference_key(s, o->key, err);
+    if (rc)
+        return rc;
+    if (g->cache)
+        o->reference = rd_ref_cache_get(g->cache, o->key, o->width, o->height);
+    o->reference_cached = o->reference != NULL;
+    o->stage = RD_GRADE_STAGE_NONE;
+    return RD_OK;
+}
+
 rd_error_code rd_grade_prepare(const rd_grader *g, const rd_grade_input *in, rd_scene *s, rd_grade_output *o,
                                rd_error *err)
 {
@@ -93,17 +107,7 @@ rd_error_code rd_grade_prepare(const rd_grader *g, const rd_grade_input *in, rd_
      * cost a render. */
     if (!rc)
         rc = open_image(g, in, s, o, err);
-    if (rc)
-        return rc;
-    o->stage = RD_GRADE_STAGE_REFERENCE;
-    rc = rd_reference_key(s, o->key, err);
-    if (rc)
-        return rc;
-    if (g->cache)
-        o->reference = rd_ref_cache_get(g->cache, o->key, o->width, o->height);
-    o->reference_cached = o->reference != NULL;
-    o->stage = RD_GRADE_STAGE_NONE;
-    return RD_OK;
+    return rc ? rc : find_reference(g, s, o, err);
 }
 
 rd_error_code rd_grade_prepare_reference(const rd_grader *g, const rd_grade_input *in, rd_scene *s, rd_grade_output *o,
@@ -116,15 +120,7 @@ rd_error_code rd_grade_prepare_reference(const rd_grader *g, const rd_grade_inpu
         return rc;
     o->width = s->render.width;
     o->height = s->render.height;
-    o->stage = RD_GRADE_STAGE_REFERENCE;
-    rc = rd_reference_key(s, o->key, err);
-    if (rc)
-        return rc;
-    if (g->cache)
-        o->reference = rd_ref_cache_get(g->cache, o->key, o->width, o->height);
-    o->reference_cached = o->reference != NULL;
-    o->stage = RD_GRADE_STAGE_NONE;
-    return RD_OK;
+    return find_reference(g, s, o, err);
 }
 
 rd_error_code rd_grade_set_reference(const rd_grader *g, rd_grade_output *o, const uint8_t *rgb, int w, int h,

@@ -14,6 +14,7 @@
 #include "grading.h"
 #include "json_text.h"
 #include "png_write.h"
+#include "rayd/clock.h"
 #include "version.h"
 
 static const char grade_help[] =
@@ -305,7 +306,7 @@ static rd_error_code grade_student(const rd_grader *g, const rd_grade_input *cla
     rd_error_code rc =
         rd_read_file(s->path, RD_GRADE_MAX_PNG_BYTES, "the largest PNG graded, 1 GiB", &png, &in.png_len, &err);
     if (rc) {
-        rd_grade_row_error(row, s->student, class_in->assignment, err.message, rd_grade_now_ms(), NULL);
+        rd_grade_row_error(row, s->student, class_in->assignment, err.message, rd_wall_ms(), NULL);
         return RD_OK;
     }
     in.png = (const unsigned char *)png;
@@ -320,11 +321,11 @@ static rd_error_code grade_student(const rd_grader *g, const rd_grade_input *cla
             fprintf(stderr, "rayd grade: reference read from the cache (key %s)\n", out.key);
         }
         *seen_reference = 1;
-        rc = rd_grade_row_from_output(row, s->student, &out, rd_grade_now_ms(), &err);
+        rc = rd_grade_row_from_output(row, s->student, &out, rd_wall_ms(), &err);
         if (rc)
             *status = run_error(g, class_in, &out, rc, &err);
     } else if (out.stage == RD_GRADE_STAGE_IMAGE) {
-        rd_grade_row_error(row, s->student, out.assignment, err.message, rd_grade_now_ms(), NULL);
+        rd_grade_row_error(row, s->student, out.assignment, err.message, rd_wall_ms(), NULL);
         rc = RD_OK;
     } else {
         *status = run_error(g, class_in, &out, rc, &err);

@@ -154,7 +154,7 @@ static void end_pass(rd_farm *f, rd_store *h, farm_ctx *c, int pass)
         pthread_rwlock_unlock(&c->rw);
         return;
     }
-    int64_t now = rd_store_wall_ms();
+    int64_t now = rd_wall_ms();
     int next = rd_job_end_pass_at(c->core, (double)(now - c->started_ms), (double)(now - c->opened_ms));
     if (next > 0 && pass + 1 < RD_CURVE_MAX)
         open_next(f, h, c, pass, now);

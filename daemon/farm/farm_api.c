@@ -63,7 +63,7 @@ rd_error_code rd_farm_submit(rd_farm *f, const char *scene, size_t len, const ch
     if (rc)
         return rc;
     int w = s->render.width, h = s->render.height, t = f->opt.tile;
-    int64_t now = rd_store_wall_ms();
+    int64_t now = rd_wall_ms();
     char *sched = first_schedule(&jo.progress, now);
     if (!sched)
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");

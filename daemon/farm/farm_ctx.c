@@ -78,7 +78,7 @@ static rd_error_code build(rd_farm *f, rd_store *h, farm_ctx *c, rd_error *err)
         rd_store_job_input_free(&in);
         return rc;
     }
-    c->started_ms = info.started_ms ? info.started_ms : rd_store_wall_ms();
+    c->started_ms = info.started_ms ? info.started_ms : rd_wall_ms();
     c->opened_ms = c->started_ms;
     rd_store_job_info_free(&info);
     rc = rd_job_params_parse(&c->params, in.query, err);
@@ -107,7 +107,7 @@ static rd_error_code build(rd_farm *f, rd_store *h, farm_ctx *c, rd_error *err)
         return rc;
     rd_job_set_cancel(c->core, &c->stop);
     if (f->opt.job_timeout_ms > 0) {
-        double left = (double)c->started_ms + f->opt.job_timeout_ms - (double)rd_store_wall_ms();
+        double left = (double)c->started_ms + f->opt.job_timeout_ms - (double)rd_wall_ms();
         rd_job_set_deadline(c->core, rd_now_ms() + (left > 0 ? left : 0) + 1e-3);
     }
     c->tiles = rd_job_tile_count(c->core);

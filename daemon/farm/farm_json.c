@@ -166,7 +166,7 @@ char *farm_job_json(const rd_store_job_info *in)
 {
     cJSON *o = cJSON_CreateObject();
     cJSON *sched = in->schedule ? cJSON_Parse(in->schedule) : NULL;
-    int64_t now = rd_store_wall_ms();
+    int64_t now = rd_wall_ms();
     int64_t end = in->finished_ms ? in->finished_ms : now;
     cJSON_AddStringToObject(o, "id", in->id);
     cJSON_AddStringToObject(o, "status", rd_store_status_name(in->status));

@@ -398,11 +398,11 @@ static void record(struct rd_grades *g, const rd_grade_output *o, const char *id
                           .ssim = o->result.ssim,
                           .verdict = verdict,
                           .reference_key = key,
-                          .graded_ms = rd_store_wall_ms()};
+                          .graded_ms = rd_wall_ms()};
     rd_error err = {0};
     if (rd_store_grade_put(s, &rec, diff, diff_len, &err))
         rd_log_msg(g->log, "warning", "grade %s was not recorded: %s", id, err.message);
-    long long now = rd_store_wall_ms(), last = atomic_load(&g->last_expire_ms);
+    long long now = rd_wall_ms(), last = atomic_load(&g->last_expire_ms);
     if (now - last > 60000 && atomic_compare_exchange_strong(&g->last_expire_ms, &last, now))
         rd_store_grades_expire(s, (int64_t)g->ttl_ms, NULL, &err);
 }
@@ -435,7 +435,7 @@ void rd_grades_error_record(rd_server *srv, const char *assignment, const char *
                           .batch_id = batch_id,
                           .assignment = assignment,
                           .student = student,
-                          .graded_ms = rd_store_wall_ms(),
+                          .graded_ms = rd_wall_ms(),
                           .error = message && *message ? message : "not graded"};
     rd_error err = {0};
     if (rd_store_grade_put(s, &rec, NULL, 0, &err))

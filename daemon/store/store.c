@@ -134,13 +134,6 @@ void *rd_store_dup(const void *data, size_t len)
     return p;
 }
 
-int64_t rd_store_wall_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_REALTIME, &ts);
-    return (int64_t)ts.tv_sec * 1000 + ts.tv_nsec / 1000000;
-}
-
 /* "postgresql://", "postgres://", or a conninfo's first KEY=. */
 static int is_postgres_spec(const char *spec)
 {

@@ -47,12 +47,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "rayd/clock.h"
 #include "rayd/error.h"
-
-/* Milliseconds since the Unix epoch, from this machine's clock: the
- * clock SQLite's stamps come from, and the one a daemon compares a
- * job's stamps with. */
-int64_t rd_store_wall_ms(void);
 
 /* Job and daemon ids: 1 to RD_STORE_ID_MAX - 1 of [A-Za-z0-9._:-]. */
 #define RD_STORE_ID_MAX 64

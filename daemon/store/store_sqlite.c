@@ -348,7 +348,7 @@ static rd_error_code sq_start(rd_store *s, const char *id, rd_error *err)
     c = sq_run(q, &n, err,
                "UPDATE jobs SET status = 'running', started_ms = coalesce(started_ms, ?) "
                "WHERE id = ? AND status IN ('queued', 'running')",
-               "It", rd_store_wall_ms(), id);
+               "It", rd_wall_ms(), id);
     return sq_end(q, sq_update_runnable(q, id, n, c, err), err);
 }
 
@@ -385,7 +385,7 @@ static rd_error_code sq_end_job(rd_store *s, const char *id, rd_store_status to,
     c = sq_run(q, &n, err,
                "UPDATE jobs SET status = ?, finished_ms = ?, stats = coalesce(?, stats), error_code = ?, "
                "error_line = ?, error_column = ?, error_message = ? WHERE id = ? AND status IN ('queued', 'running')",
-               "tIttiitt", rd_store_status_name(to), rd_store_wall_ms(), r ? r->stats : NULL,
+               "tIttiitt", rd_store_status_name(to), rd_wall_ms(), r ? r->stats : NULL,
                why ? rd_error_name(why->code) : NULL, why ? why->line : 0, why ? why->column : 0,
                why ? why->message : NULL, id);
     if (!c && n == 0)
@@ -501,7 +501,7 @@ static rd_error_code sq_list(rd_store *s, unsigned mask, size_t max, rd_store_jo
 static rd_error_code sq_expire(rd_store *s, int64_t ttl_ms, size_t *deleted, rd_error *err)
 {
     sq_store *q = sq(s);
-    int64_t cut = rd_store_wall_ms() - ttl_ms;
+    int64_t cut = rd_wall_ms() - ttl_ms;
     int n = 0;
     rd_error_code c = sq_begin(q, err);
     if (!c)
@@ -602,7 +602,7 @@ static rd_error_code sq_claim(rd_store *s, const char *daemon, int max, int leas
     sq_store *q = sq(s);
     char id[RD_STORE_ID_MAX];
     int pass = 0, found = 0, k = 0;
-    int64_t now = rd_store_wall_ms();
+    int64_t now = rd_wall_ms();
     rd_error_code c = sq_begin(q, err);
     if (c)
         return c;
@@ -628,8 +628,8 @@ static rd_error_code sq_leases(rd_store *s, const char *daemon, int lease_ms, in
     if (lease_ms < 0)
         c = sq_run(q, count, err, "UPDATE tiles SET owner = NULL, lease_until = NULL WHERE owner = ?", "t", daemon);
     else
-        c = sq_run(q, count, err, "UPDATE tiles SET lease_until = ? WHERE owner = ?", "It",
-                   rd_store_wall_ms() + lease_ms, daemon);
+        c = sq_run(q, count, err, "UPDATE tiles SET lease_until = ? WHERE owner = ?", "It", rd_wall_ms() + lease_ms,
+                   daemon);
     return sq_end(q, c, err);
 }
 
@@ -1012,7 +1012,7 @@ static rd_error_code sq_grades_list(rd_store *s, const rd_store_grade_filter *f,
 static rd_error_code sq_grades_expire(rd_store *s, int64_t ttl_ms, size_t *deleted, rd_error *err)
 {
     sq_store *q = sq(s);
-    int64_t cut = rd_store_wall_ms() - ttl_ms;
+    int64_t cut = rd_wall_ms() - ttl_ms;
     int n = 0;
     rd_error_code c = sq_begin(q, err);
     if (!c)
@@ -1043,7 +1043,7 @@ static rd_error_code sq_batch_create(rd_store *s, const char *id, const char *as
         c = sq_run(q, NULL, err,
                    "INSERT INTO batches (id, assignment, total, done, status, created_ms) "
                    "VALUES (?, ?, ?, 0, 'running', ?)",
-                   "ttiI", id, assignment, total, rd_store_wall_ms());
+                   "ttiI", id, assignment, total, rd_wall_ms());
     return sq_end(q, c, err);
 }
 
@@ -1154,7 +1154,7 @@ static rd_error_code sq_apply(sq_store *q, const rd_store_migration *m, rd_error
         return sq_fail(q, rc, what, err);
     }
     return sq_run(q, NULL, err, "INSERT INTO schema_version (version, name, applied_ms) VALUES (?, ?, ?)", "itI",
-                  m->version, m->name, rd_store_wall_ms());
+                  m->version, m->name, rd_wall_ms());
 }
 
 static rd_error_code sq_migrate(sq_store *q, rd_error *err)

@@ -41,7 +41,8 @@ import time
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
 from rayd_http import Checks, Daemon, cli_render, decode_png, http_request, metric_value  # noqa: E402
 import stored_jobs  # noqa: E402
-from stored_jobs import ENDED, png_body, query, status_json  # noqa: E402
+from stored_jobs import (ENDED, JOBS, TILES, Abort, Headers, OutOfTime, on_alarm, png_body, query,  # noqa: E402
+                         scene_bytes, status_json)
 from servers import Nginx, PostgreSQL  # noqa: E402
 
 check = Checks("farm")
@@ -50,17 +51,8 @@ SLOW = float(os.environ.get("RAYD_TEST_SLOW", "1"))
 BOUND_S = int(120 * SLOW)
 LEASE_MS = 2000
 STORE_TILE = 64
-TILES = "rayd_farm_tiles_total"
 IDS = ["d1", "d2", "d3"]
 
-SCENES = ["phong.cfg", "diffuse.cfg", "area_light.cfg", "cook_torrance.cfg", "spot_light.cfg",
-          "blinn_phong.cfg", "specular_refraction.cfg", "directional_light.cfg"]
-if os.path.exists("scenes/generated/knot.obj"):
-    SCENES.append("mesh.cfg")
-# 0.05 to 0.7 s each on one core of this machine.
-SIZES = [(160, 120, 16), (320, 240, 8), (240, 180, 16)]
-JOBS = [(SCENES[i % len(SCENES)], {"width": SIZES[i % 3][0], "height": SIZES[i % 3][1],
-                                   "samples": SIZES[i % 3][2], "seed": i + 1}) for i in range(20)]
 # 80 tiles of 64x64; about 6 s on one core.
 BIG = ("area_light.cfg", {"width": 640, "height": 480, "samples": 16})
 # Progressive and adaptive to a target error: 12 tiles a pass, each pass
@@ -70,44 +62,7 @@ PROG = ("area_light.cfg", {"width": 256, "height": 192, "samples": 32, "target_e
 LONG = ("area_light.cfg", {"width": 640, "height": 480, "samples": 1024})
 
 
-class Abort(Exception):
-    """Ends the run early; the message is recorded as a failure."""
-
-
-class OutOfTime(Exception):
-    pass
-
-
-def on_alarm(signum, frame):
-    raise OutOfTime()
-
-
-def scene_bytes(scene):
-    with open(os.path.join("scenes", scene), "rb") as f:
-        return f.read()
-
-
-class Headers:
-    """What every answer's X-Rayd-Daemon said."""
-
-    def __init__(self):
-        self.answers, self.missing, self.wrong = 0, [], []
-
-    def saw(self, what, headers, want):
-        self.answers += 1
-        got = headers.get("x-rayd-daemon")
-        if got is None:
-            self.missing.append(what)
-        elif got not in want:
-            self.wrong.append("%s: %r, not %s" % (what, got, "/".join(want)))
-
-    def report(self):
-        check(self.answers > 0 and not self.missing, "%d of %d answers had no X-Rayd-Daemon, the first: %s" %
-              (len(self.missing), self.answers, self.missing[:3]))
-        check(not self.wrong, "X-Rayd-Daemon is not the answering daemon's --daemon-id: %s" % self.wrong[:3])
-
-
-seen = Headers()
+seen = Headers(check)
 
 
 class Endpoint:

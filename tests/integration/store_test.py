@@ -35,7 +35,8 @@ import time
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
 from rayd_http import Checks, Daemon, cli_render, decode_png, metric_value  # noqa: E402
 import stored_jobs  # noqa: E402
-from stored_jobs import png_body, query, status_json  # noqa: E402
+from stored_jobs import (JOBS, TILES, Abort, Headers, OutOfTime, on_alarm, png_body, query,  # noqa: E402
+                         scene_bytes, status_json)
 
 check = Checks("store")
 # RAYD_TEST_SLOW=3 (sanitizer builds, say) stretches every wait and the bound.
@@ -44,54 +45,11 @@ BOUND_S = int(90 * SLOW)
 DAEMON_ID = "store-test"
 LEASE_MS = 1500
 STORE_TILE = 64
-TILES = "rayd_farm_tiles_total"
-
-SCENES = ["phong.cfg", "diffuse.cfg", "area_light.cfg", "cook_torrance.cfg", "spot_light.cfg",
-          "blinn_phong.cfg", "specular_refraction.cfg", "directional_light.cfg"]
-if os.path.exists("scenes/generated/knot.obj"):
-    SCENES.append("mesh.cfg")
-# 0.05 to 0.7 s each on one core of this machine.
-SIZES = [(160, 120, 16), (320, 240, 8), (240, 180, 16)]
-JOBS = [(SCENES[i % len(SCENES)], {"width": SIZES[i % 3][0], "height": SIZES[i % 3][1],
-                                   "samples": SIZES[i % 3][2], "seed": i + 1}) for i in range(20)]
 # 64 tiles of 64x64; about 5 s on one core.
 BIG = ("area_light.cfg", {"width": 512, "height": 512, "samples": 16})
 
 
-class Abort(Exception):
-    """Ends the run early; the message is recorded as a failure."""
-
-
-class OutOfTime(Exception):
-    pass
-
-
-def on_alarm(signum, frame):
-    raise OutOfTime()
-
-
-class Headers:
-    """What every answer's X-Rayd-Daemon said."""
-
-    def __init__(self):
-        self.answers, self.missing, self.wrong = 0, [], []
-
-    def saw(self, what, headers, want):
-        self.answers += 1
-        got = headers.get("x-rayd-daemon")
-        if got is None:
-            self.missing.append(what)
-        elif want and got != want:
-            self.wrong.append("%s: %r" % (what, got))
-
-    def report(self):
-        check(self.answers > 0 and not self.missing,
-              "%d of %d answers had no X-Rayd-Daemon, the first: %s" %
-              (len(self.missing), self.answers, self.missing[:3]))
-        check(not self.wrong, "X-Rayd-Daemon is not the --daemon-id %r: %s" % (DAEMON_ID, self.wrong[:3]))
-
-
-seen = Headers()
+seen = Headers(check)
 STARTED = []  # every daemon, to be stopped whatever happens
 
 
@@ -103,7 +61,7 @@ def call(d, method, path, body=None, headers=None, timeout=30):
         rc = d.proc.poll()
         raise Abort("%s %s: %s%s" % (method, path, e, "" if rc is None else
                                      " (the daemon exited %d): %s" % (rc, d.text()[-800:])))
-    seen.saw("%s %s %d" % (method, path, status), h, DAEMON_ID)
+    seen.saw("%s %s %d" % (method, path, status), h, (DAEMON_ID,))
     return status, h, b
 
 
@@ -130,8 +88,7 @@ def references(tmp):
 
 
 def submit(d, scene, ov):
-    with open(os.path.join("scenes", scene), "rb") as f:
-        body = f.read()
+    body = scene_bytes(scene)
     status, h, b = call(d, "POST", "/v1/jobs?" + query(ov), body=body, headers={"Content-Type": "text/x-rayd-cfg"})
     try:
         jid = json.loads(b)["id"]

@@ -157,7 +157,7 @@ static void lifecycle_done(rd_store *s)
     static unsigned char png[1000], exr[3000];
     fill(png, sizeof png, 1);
     fill(exr, sizeof exr, 2);
-    int64_t before = rd_store_wall_ms();
+    int64_t before = rd_wall_ms();
     store_put_job(s, "a", 1, 0, 0);
     unsigned char *d;
     size_t len;
@@ -1483,7 +1483,7 @@ static void put_batch_grade(rd_store *s, const char *id, const char *batch, int 
 void case_batch_progress(const store_env *e)
 {
     rd_store *s = store_env_open(e);
-    int64_t before = rd_store_wall_ms();
+    int64_t before = rd_wall_ms();
     OK(rd_store_batch_create(s, "class-1", "phong", 3, &e_));
     rd_store_batch b = batch_got(s, "class-1");
     cr_assert_str_eq(b.assignment, "phong");
@@ -1641,7 +1641,7 @@ void case_batch_race(const store_env *e, int rounds)
 void case_grades_expire(const store_env *e)
 {
     rd_store *s = store_env_open(e);
-    int64_t t0 = rd_store_wall_ms();
+    int64_t t0 = rd_wall_ms();
     static unsigned char png[100];
     fill(png, sizeof png, 3);
     OK(rd_store_batch_create(s, "bold", "phong", 2, &e_));

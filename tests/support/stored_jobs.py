@@ -3,12 +3,63 @@ of a job's overrides, its status and image as a test reads them, waiting for
 jobs to end, and comparing an image's pixels with `rayd render`'s."""
 
 import json
+import os
 import sys
 import time
 
 from rayd_http import decode_png
 
 ENDED = ("done", "failed", "cancelled")
+
+TILES = "rayd_farm_tiles_total"
+
+# The 20 small jobs both tests submit: scenes and sizes taking 0.05 to 0.7 s
+# each on one core of this machine.
+SCENES = ["phong.cfg", "diffuse.cfg", "area_light.cfg", "cook_torrance.cfg", "spot_light.cfg",
+          "blinn_phong.cfg", "specular_refraction.cfg", "directional_light.cfg"]
+if os.path.exists("scenes/generated/knot.obj"):
+    SCENES.append("mesh.cfg")
+SIZES = [(160, 120, 16), (320, 240, 8), (240, 180, 16)]
+JOBS = [(SCENES[i % len(SCENES)], {"width": SIZES[i % 3][0], "height": SIZES[i % 3][1],
+                                   "samples": SIZES[i % 3][2], "seed": i + 1}) for i in range(20)]
+
+
+class Abort(Exception):
+    """Ends the run early; the message is recorded as a failure."""
+
+
+class OutOfTime(Exception):
+    pass
+
+
+def on_alarm(signum, frame):
+    raise OutOfTime()
+
+
+def scene_bytes(scene):
+    with open(os.path.join("scenes", scene), "rb") as f:
+        return f.read()
+
+
+class Headers:
+    """What every answer's X-Rayd-Daemon said: saw() each answer with the
+    ids it may carry (None: any), report() through check."""
+
+    def __init__(self, check):
+        self.check, self.answers, self.missing, self.wrong = check, 0, [], []
+
+    def saw(self, what, headers, want):
+        self.answers += 1
+        got = headers.get("x-rayd-daemon")
+        if got is None:
+            self.missing.append(what)
+        elif want and got not in want:
+            self.wrong.append("%s: %r, not %s" % (what, got, "/".join(want)))
+
+    def report(self):
+        self.check(self.answers > 0 and not self.missing, "%d of %d answers had no X-Rayd-Daemon, the first: %s" %
+                   (len(self.missing), self.answers, self.missing[:3]))
+        self.check(not self.wrong, "X-Rayd-Daemon is not the answering daemon's --daemon-id: %s" % self.wrong[:3])
 
 
 def query(overrides):
