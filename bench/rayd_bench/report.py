@@ -453,6 +453,9 @@ def main(argv=None):
     ap.add_argument("--print", action="store_true", help="print the tables instead of rewriting the README")
     ap.add_argument("--allow-quick", action="store_true", help="also write sections of --quick runs")
     a = ap.parse_args(argv)
+    # Sections that keep their tables beside their code add them to MARKERS
+    # when imported (the store section does).
+    from . import sections as _registers  # noqa: F401
     try:
         sections = load(a.results)
     except (OSError, ValueError, KeyError) as e:
