@@ -78,7 +78,16 @@ typedef enum {
         RD_MAT_COUNT
 } rd_material_type;
 
-typedef struct {
+struct rd_material;
+
+/* A material's reflected light computed elsewhere: the code grader's
+ * student function (docs/grading.md, "Grading code"). n is the unit
+ * shading normal at p, t the ray's distance; L and V as in
+ * rd_reflected_light (shading.h). No scene reader sets one. */
+typedef rd_rgb (*rd_reflect_fn)(void *user, const struct rd_material *m, rd_vec3 n, rd_vec3 p, double t, rd_vec3 L,
+                                rd_vec3 V);
+
+typedef struct rd_material {
     char *name;
     rd_material_type type;
     rd_rgb kd, ks, ambient;
@@ -89,6 +98,11 @@ typedef struct {
     double uv_scale;
     int texture_index; /* into rd_scene.textures once loaded; -1 before */
     char *where;       /* where `texture` was written, for messages ("a.cfg:7:11") */
+    /* NULL but in the code grader: replaces the type's reflected light;
+     * its results are sanitized (a NaN, an infinity or a negative
+     * channel counts as 0), so a scene stays finite whatever it returns. */
+    rd_reflect_fn reflect;
+    void *reflect_user;
 } rd_material;
 
 typedef enum { RD_OBJ_SPHERE, RD_OBJ_PLANE, RD_OBJ_TRIANGLE, RD_OBJ_MESH } rd_object_type;
