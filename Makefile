@@ -45,6 +45,7 @@ INC_daemon_errors := $(INC_api_grading) -Idaemon/errors
 INC_daemon_store  := $(INC_api_util) -Idaemon/store
 INC_daemon_jobs   := $(INC_api_grading) -Idaemon/jobs -Idaemon/store
 INC_daemon_log    := $(INC_api_util) -Idaemon/log
+INC_daemon_sandbox := $(INC_api_util) -Idaemon/sandbox
 INC_daemon_farm   := $(INC_daemon_jobs) -Idaemon/errors -Idaemon/log -Idaemon/farm
 INC_daemon_http   := $(INC_daemon_farm) -iquote api/archive -Idaemon/http
 INC_daemon_cli    := $(INC_daemon_http) -Idaemon/cli

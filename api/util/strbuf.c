@@ -5,6 +5,36 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* Room for n more bytes and the NUL; 0 once out of memory. */
+static int reserve(rd_strbuf *b, size_t n)
+{
+    if (b->failed)
+        return 0;
+    if (b->len + n + 1 > b->cap) {
+        size_t nc = b->cap ? b->cap : 1024;
+        while (nc < b->len + n + 1)
+            nc *= 2;
+        char *p = realloc(b->text, nc);
+        if (!p) {
+            b->failed = 1;
+            return 0;
+        }
+        b->text = p;
+        b->cap = nc;
+    }
+    return 1;
+}
+
+void rd_strbuf_append(rd_strbuf *b, const void *data, size_t n)
+{
+    if (!reserve(b, n))
+        return;
+    if (n)
+        memcpy(b->text + b->len, data, n);
+    b->len += n;
+    b->text[b->len] = 0;
+}
+
 void rd_strbuf_printf(rd_strbuf *b, const char *fmt, ...)
 {
     if (b->failed)
@@ -17,18 +47,8 @@ void rd_strbuf_printf(rd_strbuf *b, const char *fmt, ...)
         b->failed = 1;
         return;
     }
-    if (b->len + (size_t)n + 1 > b->cap) {
-        size_t nc = b->cap ? b->cap : 1024;
-        while (nc < b->len + (size_t)n + 1)
-            nc *= 2;
-        char *p = realloc(b->text, nc);
-        if (!p) {
-            b->failed = 1;
-            return;
-        }
-        b->text = p;
-        b->cap = nc;
-    }
+    if (!reserve(b, (size_t)n))
+        return;
     va_start(ap, fmt);
     vsnprintf(b->text + b->len, b->cap - b->len, fmt, ap);
     va_end(ap);

@@ -15,6 +15,9 @@ typedef struct {
 /* Appends; a no-op once an append has failed. */
 void rd_strbuf_printf(rd_strbuf *b, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
+/* Appends n bytes as they are (NULs included: binary data too). */
+void rd_strbuf_append(rd_strbuf *b, const void *data, size_t n);
+
 /* The text, malloc'ed (the caller frees it; "" when nothing was
  * appended), or NULL when an append failed. Leaves b empty. */
 char *rd_strbuf_take(rd_strbuf *b, size_t *len);
