@@ -96,12 +96,41 @@ static char root_links[4][256];
 
 static int build_args(const rd_sandbox_spec *s, args *a)
 {
-    static const char *const fixed[] = {
-        "--unshare-all", "--unshare-user", "--die-with-parent", "--new-session", "--clearenv", "--cap-drop", "ALL",
-        "--ro-bind", "/usr", "/usr", "--proc", "/proc", "--dev", "/dev", "--hostname", "sandbox",
-        "--setenv", "PATH", "/usr/bin", "--setenv", "TMPDIR", "/tmp", "--setenv", "LC_ALL", "C",
-        "--setenv", "HOME", "/work", "--uid", "65534", "--gid", "65534", "--disable-userns",
-        "--json-status-fd", "4"};
+    static const char *const fixed[] = {"--unshare-all",
+                                        "--unshare-user",
+                                        "--die-with-parent",
+                                        "--new-session",
+                                        "--clearenv",
+                                        "--cap-drop",
+                                        "ALL",
+                                        "--ro-bind",
+                                        "/usr",
+                                        "/usr",
+                                        "--proc",
+                                        "/proc",
+                                        "--dev",
+                                        "/dev",
+                                        "--hostname",
+                                        "sandbox",
+                                        "--setenv",
+                                        "PATH",
+                                        "/usr/bin",
+                                        "--setenv",
+                                        "TMPDIR",
+                                        "/tmp",
+                                        "--setenv",
+                                        "LC_ALL",
+                                        "C",
+                                        "--setenv",
+                                        "HOME",
+                                        "/work",
+                                        "--uid",
+                                        "65534",
+                                        "--gid",
+                                        "65534",
+                                        "--disable-userns",
+                                        "--json-status-fd",
+                                        "4"};
     memset(a, 0, sizeof *a);
     if (add(a, s->bwrap))
         return -1;
@@ -419,8 +448,8 @@ rd_error_code rd_sandbox_probe(const char *bwrap, rd_error *err)
     s.argv = argv;
     s.wall_ms = 10000;
     if (access(bwrap, X_OK) != 0)
-        return rd_error_set(err, RD_ERR_IO, 0, 0, "the sandbox needs bubblewrap, and %s is not there (apt-get install bubblewrap)",
-                            bwrap);
+        return rd_error_set(err, RD_ERR_IO, 0, 0,
+                            "the sandbox needs bubblewrap, and %s is not there (apt-get install bubblewrap)", bwrap);
     rd_sandbox_result r;
     rd_error_code rc = rd_sandbox_run(&s, &r, err);
     if (rc)

@@ -35,36 +35,36 @@ typedef struct {
 } rd_sandbox_file;
 
 typedef struct {
-    const char *bwrap;                 /* the bwrap binary (absolute path) */
-    const rd_sandbox_file *files;      /* nfiles of them */
+    const char *bwrap;            /* the bwrap binary (absolute path) */
+    const rd_sandbox_file *files; /* nfiles of them */
     size_t nfiles;
-    const char *const *argv;           /* the program in the sandbox, NULL-terminated */
-    double wall_ms;                    /* the whole run; then SIGKILL to every process */
-    unsigned long cpu_s;               /* RLIMIT_CPU of each process */
-    unsigned long long address_space;  /* RLIMIT_AS of each process, bytes */
-    unsigned long long file_size;      /* RLIMIT_FSIZE */
-    unsigned long open_files;          /* RLIMIT_NOFILE */
-    unsigned long processes;           /* RLIMIT_NPROC, counted per sandbox user */
-    unsigned long long tmpfs_bytes;    /* size of /tmp and of /work, each */
-    size_t output_max;                 /* stdout + stderr bytes kept; more ends the run */
-    size_t data_max;                   /* bytes kept from fd 3; more ends the run */
-    uid_t uid;                         /* the kernel uid when the caller is root */
+    const char *const *argv;          /* the program in the sandbox, NULL-terminated */
+    double wall_ms;                   /* the whole run; then SIGKILL to every process */
+    unsigned long cpu_s;              /* RLIMIT_CPU of each process */
+    unsigned long long address_space; /* RLIMIT_AS of each process, bytes */
+    unsigned long long file_size;     /* RLIMIT_FSIZE */
+    unsigned long open_files;         /* RLIMIT_NOFILE */
+    unsigned long processes;          /* RLIMIT_NPROC, counted per sandbox user */
+    unsigned long long tmpfs_bytes;   /* size of /tmp and of /work, each */
+    size_t output_max;                /* stdout + stderr bytes kept; more ends the run */
+    size_t data_max;                  /* bytes kept from fd 3; more ends the run */
+    uid_t uid;                        /* the kernel uid when the caller is root */
     gid_t gid;
-    const atomic_int *cancel;          /* optional: non-zero ends the run */
+    const atomic_int *cancel; /* optional: non-zero ends the run */
 } rd_sandbox_spec;
 
 typedef enum {
-    RD_SANDBOX_EXITED,        /* the program exited; see status */
-    RD_SANDBOX_SIGNALED,      /* it was killed by a signal (a crash, SIGXCPU) */
-    RD_SANDBOX_TIMED_OUT,     /* the wall clock ran out */
-    RD_SANDBOX_OUTPUT_LIMIT,  /* it wrote more than output_max */
-    RD_SANDBOX_DATA_LIMIT,    /* it wrote more than data_max to fd 3 */
+    RD_SANDBOX_EXITED,       /* the program exited; see status */
+    RD_SANDBOX_SIGNALED,     /* it was killed by a signal (a crash, SIGXCPU) */
+    RD_SANDBOX_TIMED_OUT,    /* the wall clock ran out */
+    RD_SANDBOX_OUTPUT_LIMIT, /* it wrote more than output_max */
+    RD_SANDBOX_DATA_LIMIT,   /* it wrote more than data_max to fd 3 */
     RD_SANDBOX_CANCELLED
 } rd_sandbox_end;
 
 typedef struct {
     rd_sandbox_end end;
-    int status; /* exit status, or the signal number */
+    int status;   /* exit status, or the signal number */
     char *output; /* stdout and stderr as they came, NUL-terminated */
     size_t output_len;
     unsigned char *data; /* what the program wrote to fd 3 */
