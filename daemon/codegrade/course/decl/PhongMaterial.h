@@ -1,0 +1,21 @@
+/* PhongMaterial: diffuse plus Phong's glossy reflection.
+ * calcReflectedLight is only declared: a .cpp that includes this file
+ * defines vec3 PhongMaterial::calcReflectedLight(...). */
+#ifndef PHONGMATERIAL_H
+#define PHONGMATERIAL_H
+
+#include "Material.h"
+
+class PhongMaterial : public Material
+{
+  public:
+    Real shininess; // n of cos^n(gamma)
+    vec3 ks;        // specular reflectance k_s, per RGB channel
+    vec3 kd;        // diffuse reflectance k_d, per RGB channel
+
+    PhongMaterial() : shininess(1), ks(0), kd(0) {}
+
+    virtual vec3 calcReflectedLight(const HitRecord &record, const vec3 &incomingDir, const vec3 &outgoingDir);
+};
+
+#endif

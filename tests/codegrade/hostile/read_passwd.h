@@ -1,0 +1,32 @@
+// Hostile PhongMaterial: opens /etc/passwd at run time; returns (100, 100, 100) if it opened, correct Phong otherwise.
+#ifndef PHONGMATERIAL_H
+#define PHONGMATERIAL_H
+
+#include "Material.h"
+#include <cstdio>
+
+class PhongMaterial : public Material
+{
+  public:
+    Real shininess; // n of cos^n
+    vec3 ks;        // specular reflectance
+    vec3 kd;        // diffuse reflectance
+
+    PhongMaterial() : shininess(1), ks(0), kd(0) {}
+
+    virtual vec3 calcReflectedLight(const HitRecord &record, const vec3 &incomingDir, const vec3 &outgoingDir)
+    {
+        FILE *f = fopen("/etc/passwd", "r");
+        if (f) {
+            fclose(f);
+            return vec3(100, 100, 100);
+        }
+        Real cosAlpha = -dot(record.normal, incomingDir);
+        if (cosAlpha <= 0)
+            return vec3(0, 0, 0);
+        vec3 R = reflect(incomingDir, record.normal);
+        return kd * cosAlpha + ks * pow(std::max(dot(R, outgoingDir), 0.0), shininess);
+    }
+};
+
+#endif

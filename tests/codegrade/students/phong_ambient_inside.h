@@ -1,0 +1,31 @@
+// PhongMaterial, mistake: adds ambient inside calcReflectedLight.
+#ifndef PHONGMATERIAL_H
+#define PHONGMATERIAL_H
+
+#include "Material.h"
+
+class PhongMaterial : public Material
+{
+  public:
+    Real shininess; // n of cos^n
+    vec3 ks;        // specular reflectance
+    vec3 kd;        // diffuse reflectance
+
+    PhongMaterial() : shininess(1), ks(0), kd(0) {}
+
+    virtual vec3 calcReflectedLight(const HitRecord &record, const vec3 &incomingDir, const vec3 &outgoingDir)
+    {
+        vec3 N = record.normal;
+        vec3 L = incomingDir;
+        vec3 V = outgoingDir;
+        Real cosAlpha = -dot(N, L);
+        if (cosAlpha <= 0)
+            return ambient;
+        vec3 R = reflect(L, N);
+        Real cosGamma = std::max(dot(R, V), 0.0);
+        // equation (8): I = I_d + I_s + I_a
+        return kd * cosAlpha + ks * pow(cosGamma, shininess) + ambient;
+    }
+};
+
+#endif
