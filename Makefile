@@ -46,8 +46,10 @@ INC_daemon_store  := $(INC_api_util) -Idaemon/store
 INC_daemon_jobs   := $(INC_api_grading) -Idaemon/jobs -Idaemon/store
 INC_daemon_log    := $(INC_api_util) -Idaemon/log
 INC_daemon_sandbox := $(INC_api_util) -Idaemon/sandbox
+INC_daemon_codegrade := $(INC_api_grading) -Idaemon/sandbox -Idaemon/codegrade -Idaemon/codegrade/course
 INC_daemon_farm   := $(INC_daemon_jobs) -Idaemon/errors -Idaemon/log -Idaemon/farm
-INC_daemon_http   := $(INC_daemon_farm) -iquote api/archive -Idaemon/http
+INC_daemon_http   := $(INC_daemon_farm) -iquote api/archive -Idaemon/sandbox -Idaemon/codegrade \
+                     -Idaemon/codegrade/course -Idaemon/http
 INC_daemon_cli    := $(INC_daemon_http) -Idaemon/cli
 INC_daemon        := $(INC_daemon_cli)
 # Tests are white-box: every folder, and tests/ for support/ and oracles/.
@@ -68,6 +70,9 @@ TEST_OBJ   := $(patsubst %.c,$(BUILD)/%.o,$(TEST_SRC))
 JOBS_OBJ   := $(patsubst %.c,$(BUILD)/%.o,$(wildcard daemon/jobs/*.c))
 # The job store's, with its migrations: tests/unit/daemon drives it too.
 STORE_OBJ  := $(patsubst %.c,$(BUILD)/%.o,$(wildcard daemon/store/*.c)) $(BUILD)/gen/migrations.o
+# The sandbox's and the code grader's: tests/unit/daemon runs programs in
+# the one and reads compiler messages with the other.
+SANDBOX_OBJ := $(patsubst %.c,$(BUILD)/%.o,$(wildcard daemon/sandbox/*.c) $(wildcard daemon/codegrade/*.c))
 
 # The first rule: `make` alone builds build/rayd.
 all: deps
@@ -131,7 +136,8 @@ $(BUILD)/gen/version.stamp: FORCE
 	@echo '$(VERSION)' | cmp -s - $@ || echo '$(VERSION)' > $@
 FORCE:
 
-$(BUILD)/api/util/version.o: CPPFLAGS += -DRD_VERSION=\"$(VERSION)\" -DRD_DATA_DIR=\"$(CURDIR)\"
+$(BUILD)/api/util/version.o: CPPFLAGS += -DRD_VERSION=\"$(VERSION)\" -DRD_DATA_DIR=\"$(CURDIR)\" \
+    -DRD_COURSE_DIR=\"$(CURDIR)/daemon/codegrade/course\" -DRD_EVAL_PATH=\"$(abspath $(BUILD))/rayd-eval\"
 $(BUILD)/api/util/version.o: $(BUILD)/gen/version.stamp
 
 $(BUILD)/api/grading/reference.o: CPPFLAGS += -DRD_CORE_HASH=\"$(CORE_HASH)\"
@@ -141,7 +147,18 @@ $(BUILD)/librayd.a: $(LIB_OBJ)
 	@rm -f $@
 	@ar rcs $@ $^
 
-$(BUILD)/rayd: $(DAEMON_OBJ) $(BUILD)/librayd.a
+# The code grader's evaluator runs in the sandbox under its limits
+# (RLIMIT_AS among them), so it is built without sanitizers whatever SAN
+# says: their shadow memory would not fit. It takes only the frames'
+# header and libc.
+EVAL_SRC := daemon/codegrade/eval/eval.c
+EVAL_CFLAGS := $(filter-out -MMD -MP $(OPT),$(CFLAGS)) -O2
+$(BUILD)/rayd-eval: $(EVAL_SRC) daemon/codegrade/code_frames.h daemon/codegrade/course/rayd_code.h
+	@mkdir -p $(dir $@)
+	@echo "  CC  $<  ($(CC))"
+	@$(CC) $(CPPFLAGS) -Idaemon/codegrade -Idaemon/codegrade/course $(EVAL_CFLAGS) $< -o $@ -ldl
+
+$(BUILD)/rayd: $(DAEMON_OBJ) $(BUILD)/librayd.a $(BUILD)/rayd-eval
 	@echo "  LD  $@"
 	@$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(BUILD)/librayd.a $(PKG_LIBS)
 
@@ -149,9 +166,9 @@ $(BUILD)/rayd: $(DAEMON_OBJ) $(BUILD)/librayd.a
 # can fail the k-th one (the oom suite).
 FAULT_WRAP := -Wl,--wrap=malloc,--wrap=calloc,--wrap=realloc,--wrap=free,--wrap=aligned_alloc,--wrap=strdup,--wrap=strndup
 
-$(BUILD)/unit-tests: $(TEST_OBJ) $(JOBS_OBJ) $(STORE_OBJ) $(BUILD)/librayd.a
+$(BUILD)/unit-tests: $(TEST_OBJ) $(JOBS_OBJ) $(STORE_OBJ) $(SANDBOX_OBJ) $(BUILD)/librayd.a
 	@echo "  LD  $@"
-	@$(CC) $(LDFLAGS) $(FAULT_WRAP) -o $@ $(TEST_OBJ) $(JOBS_OBJ) $(STORE_OBJ) $(BUILD)/librayd.a $(PKG_LIBS) $(shell pkg-config --libs $(TESTPKG))
+	@$(CC) $(LDFLAGS) $(FAULT_WRAP) -o $@ $(TEST_OBJ) $(JOBS_OBJ) $(STORE_OBJ) $(SANDBOX_OBJ) $(BUILD)/librayd.a $(PKG_LIBS) $(shell pkg-config --libs $(TESTPKG))
 
 # One build and run of the unit suite with the current CC/SAN/BUILD.
 check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
@@ -167,6 +184,7 @@ check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
 	RAYD=$(BUILD)/rayd sh tests/integration/deploy_test.sh
 	RAYD=$(BUILD)/rayd $(if $(SAN),RAYD_TEST_SLOW=3) /usr/bin/python3 tests/integration/store_test.py
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/grade_batch_test.py
+	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/code_grade_test.py
 
 # Three daemons on one PostgreSQL behind nginx (tests/integration/farm_test.py):
 # once, against the plain build.
@@ -237,6 +255,7 @@ run: all $(GENERATED)
 PREFIX  ?= /usr/local
 BINDIR   = $(PREFIX)/bin
 DATADIR  = $(PREFIX)/share/rayd
+LIBEXECDIR = $(PREFIX)/libexec/rayd
 MANDIR   = $(PREFIX)/share/man/man1
 DOCDIR   = $(PREFIX)/share/doc/rayd
 UNITDIR  = $(PREFIX)/lib/systemd/system
@@ -248,7 +267,7 @@ $(INSTALL_BUILD)/prefix.stamp: FORCE
 
 $(INSTALL_BUILD)/version.o: api/util/version.c $(INSTALL_BUILD)/prefix.stamp $(BUILD)/gen/version.stamp
 	@$(CC) $(CPPFLAGS) $(INC_api_util) -DRD_VERSION=\"$(VERSION)\" -DRD_DATA_DIR=\"$(DATADIR)\" \
-	    $(filter-out -MMD -MP,$(CFLAGS)) -c $< -o $@
+	    -DRD_EVAL_PATH=\"$(LIBEXECDIR)/rayd-eval\" $(filter-out -MMD -MP,$(CFLAGS)) -c $< -o $@
 
 # The installed binary differs from build/rayd only in its data folder.
 $(INSTALL_BUILD)/rayd: $(DAEMON_OBJ) $(BUILD)/librayd.a $(INSTALL_BUILD)/version.o
@@ -264,9 +283,13 @@ $(INSTALL_BUILD)/rayd@.service: deploy/systemd/rayd@.service.in $(INSTALL_BUILD)
 	@sed 's|@BINDIR@|$(BINDIR)|g' $< > $@
 
 install: deps $(GENERATED)
-	@$(MAKE) --no-print-directory $(INSTALL_BUILD)/rayd $(INSTALL_BUILD)/rayd.1 $(INSTALL_BUILD)/rayd@.service
+	@$(MAKE) --no-print-directory $(INSTALL_BUILD)/rayd $(INSTALL_BUILD)/rayd.1 $(INSTALL_BUILD)/rayd@.service \
+	    $(BUILD)/rayd-eval
 	install -d $(DESTDIR)$(BINDIR) $(DESTDIR)$(DATADIR) $(DESTDIR)$(MANDIR) $(DESTDIR)$(DOCDIR) $(DESTDIR)$(UNITDIR)
 	install -m 0755 $(INSTALL_BUILD)/rayd $(DESTDIR)$(BINDIR)/rayd
+	install -D -m 0755 $(BUILD)/rayd-eval $(DESTDIR)$(LIBEXECDIR)/rayd-eval
+	cd daemon/codegrade/course && find . -type f | while read -r f; do \
+	    install -D -m 0644 "$$f" "$(DESTDIR)$(DATADIR)/course/$$f" || exit 1; done
 	install -m 0644 $(INSTALL_BUILD)/rayd.1 $(DESTDIR)$(MANDIR)/rayd.1
 	install -m 0644 $(INSTALL_BUILD)/rayd@.service $(DESTDIR)$(UNITDIR)/rayd@.service
 	install -m 0644 LICENSE README.md $(DESTDIR)$(DOCDIR)/
@@ -275,6 +298,7 @@ install: deps $(GENERATED)
 
 uninstall:
 	rm -f $(DESTDIR)$(BINDIR)/rayd $(DESTDIR)$(MANDIR)/rayd.1 $(DESTDIR)$(UNITDIR)/rayd@.service
+	rm -rf $(DESTDIR)$(LIBEXECDIR)
 	rm -rf $(DESTDIR)$(DATADIR) $(DESTDIR)$(DOCDIR)
 
 # Installs into temporary folders and runs the installed rayd from another.

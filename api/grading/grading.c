@@ -146,8 +146,8 @@ rd_error_code rd_grade_finish(rd_grade_output *o)
     return rd_grade_compare(o->reference, o->image, o->width, o->height, &o->thresholds, &o->result);
 }
 
-static rd_error_code render_reference(const rd_grader *g, const rd_scene *s, int threads, rd_grade_output *o,
-                                      rd_error *err)
+rd_error_code rd_grade_render_reference(const rd_grader *g, const rd_scene *s, int threads, rd_grade_output *o,
+                                        rd_error *err)
 {
     rd_render_options ro = {0};
     ro.threads = threads;
@@ -175,7 +175,7 @@ rd_error_code rd_grade_run(const rd_grader *g, const rd_grade_input *in, int thr
     rd_scene_init(&s);
     rd_error_code rc = rd_grade_prepare(g, in, &s, o, err);
     if (!rc && !o->reference)
-        rc = render_reference(g, &s, threads, o, err);
+        rc = rd_grade_render_reference(g, &s, threads, o, err);
     rd_scene_free(&s);
     if (!rc && rd_grade_finish(o))
         rc = rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory comparing the images");

@@ -92,6 +92,11 @@ rd_error_code rd_grade_prepare_reference(const rd_grader *g, const rd_grade_inpu
 rd_error_code rd_grade_set_reference(const rd_grader *g, rd_grade_output *o, const uint8_t *rgb, int w, int h,
                                      rd_error *err);
 
+/* Renders s with `threads` on the calling thread and sets it as o's
+ * reference (rd_grade_set_reference). */
+rd_error_code rd_grade_render_reference(const rd_grader *g, const rd_scene *s, int threads, rd_grade_output *o,
+                                        rd_error *err);
+
 /* Compares the image with the reference (both present). RD_ERR_NOMEM
  * when out of memory, with o->result incomplete. */
 rd_error_code rd_grade_finish(rd_grade_output *o);

@@ -13,4 +13,11 @@ const char *rd_data_dir(void);
 const char *rd_default_scenes_dir(void);
 const char *rd_default_assignments_dir(void);
 
+/* The code grader's files (docs/grading.md, "Grading code"): the course's
+ * headers and adapter (the source tree's daemon/codegrade/course, or
+ * $(PREFIX)/share/rayd/course), and the evaluator (build/rayd-eval, or
+ * $(PREFIX)/libexec/rayd/rayd-eval). Static strings. */
+const char *rd_default_course_dir(void);
+const char *rd_default_eval_path(void);
+
 #endif

@@ -8,6 +8,7 @@
 #include <stdio.h>
 
 #include "error_map.h"
+#include "grading.h"
 #include "scene_limits.h"
 #include "scene_overrides.h"
 
@@ -17,6 +18,11 @@ int rd_cmd_schema(int argc, char **argv);
 int rd_cmd_serve(int argc, char **argv);
 int rd_cmd_converge(int argc, char **argv);
 int rd_cmd_grade(int argc, char **argv);
+/* Writes the heat map of where o's image differs from its reference as a
+ * PNG file at path. */
+rd_error_code rd_cli_write_diff(const rd_grade_output *o, const char *path, rd_error *err);
+/* rayd grade --code: a student's calcReflectedLight (cmd_grade_code.c). */
+int rd_cmd_grade_code(int argc, char **argv);
 int rd_cmd_compare(int argc, char **argv);
 
 /* Removes every --limit-NAME VALUE (or --limit-NAME=VALUE) pair of the

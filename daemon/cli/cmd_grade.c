@@ -20,6 +20,7 @@
 static const char grade_help[] =
     "usage: rayd grade (--assignment NAME | --scene FILE) --image FILE [options]\n"
     "       rayd grade (--assignment NAME | --scene FILE) (--image FILE ... | --dir FOLDER) [--csv OUT.csv]\n"
+    "       rayd grade --assignment NAME --code FILE   (a student's calcReflectedLight: rayd grade --code --help)\n"
     "\n"
     "Compares a student's rendering with rayd's reference for the same scene and\n"
     "prints the verdict as JSON (docs/grading.md): pass or fail, RMSE, PSNR, SSIM,\n"
@@ -52,8 +53,7 @@ static const char grade_help[] =
     "not be read or written. Errors are those of POST /v1/grade for the same\n"
     "input (docs/grading.md).\n";
 
-/* The heat map of where the image differs, as a PNG file. */
-static rd_error_code write_diff(const rd_grade_output *o, const char *path, rd_error *err)
+rd_error_code rd_cli_write_diff(const rd_grade_output *o, const char *path, rd_error *err)
 {
     uint8_t *heat = malloc((size_t)o->width * (size_t)o->height * 3);
     if (!heat)
@@ -75,7 +75,7 @@ static int report(const rd_grade_output *o, const char *diff)
 {
     int status = o->result.pass ? RD_EXIT_OK : RD_EXIT_GRADE_FAIL;
     rd_error err = {0};
-    if (diff && write_diff(o, diff, &err)) {
+    if (diff && rd_cli_write_diff(o, diff, &err)) {
         fprintf(stderr, "rayd grade: %s\n", err.message);
         status = RD_EXIT_IO;
     }
@@ -435,6 +435,9 @@ static int class_make(class_list *c, char **src, const int *is_dir, int n)
 
 int rd_cmd_grade(int argc, char **argv)
 {
+    for (int i = 1; i < argc; i++)
+        if (strcmp(argv[i], "--code") == 0 || strncmp(argv[i], "--code=", 7) == 0)
+            return rd_cmd_grade_code(argc, argv);
     enum { O_ASSIGN = 256, O_SCENE, O_IMAGE, O_DIFF, O_ASSIGNMENTS, O_CACHE, O_THREADS, O_DIR, O_CSV };
     static const struct option opts[] = {{"assignment", required_argument, NULL, O_ASSIGN},
                                          {"scene", required_argument, NULL, O_SCENE},

@@ -39,3 +39,15 @@ rd_error_answer rd_grade_error_answer(rd_grade_stage stage, rd_error_code c)
     }
     return a;
 }
+
+rd_error_answer rd_code_error_answer(rd_grade_stage stage, rd_error_code c)
+{
+    if (stage != RD_GRADE_STAGE_NONE)
+        return rd_grade_error_answer(stage, c);
+    rd_error_answer a = rd_error_answer_for(c);
+    if (c == RD_ERR_INVALID)
+        a = (rd_error_answer){422, "bad_code", RD_EXIT_SCENE};
+    if (c == RD_ERR_IO)
+        a = (rd_error_answer){503, "sandbox_unavailable", RD_EXIT_IO};
+    return a;
+}

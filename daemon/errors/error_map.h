@@ -30,4 +30,10 @@ rd_error_answer rd_error_answer_for(rd_error_code c);
 /* The answer for a grade that failed at stage with code c. */
 rd_error_answer rd_grade_error_answer(rd_grade_stage stage, rd_error_code c);
 
+/* The answer for a code grade that could not run (codegrade.h): the
+ * assignment's stages as a grade's; then a file that is not C++ text is
+ * 422 bad_code, one too long 413 too_large, a sandbox that cannot start
+ * 503 sandbox_unavailable. */
+rd_error_answer rd_code_error_answer(rd_grade_stage stage, rd_error_code c);
+
 #endif

@@ -26,7 +26,8 @@ struct rd_server {
     atomic_ullong requests;
     atomic_int waiting; /* suspended synchronous renders */
     atomic_int stopped;
-    struct rd_grades *grades; /* grade results and the reference cache */
+    struct rd_grades *grades;         /* grade results and the reference cache */
+    struct rd_codegrades *codegrades; /* grading code (routes_code.c) */
     /* Every open connection with its deadline, for the reaper thread. */
     pthread_mutex_t conn_mu;
     pthread_cond_t conn_cv;
@@ -173,6 +174,26 @@ enum MHD_Result rd_route_batch_begin(rd_req *r);
 enum MHD_Result rd_route_batch_data(rd_req *r, const char *data, size_t size);
 enum MHD_Result rd_route_batch_post(rd_req *r, const char *rest);
 enum MHD_Result rd_route_batch_get(rd_req *r, const char *rest);
+
+/* A form's file part: appends size bytes to *buf (kept NUL-terminated);
+ * 0 when out of memory. A text field: appends to dst (NUL-terminated,
+ * cap bytes); 0 when it would not fit. (form.c) */
+int rd_form_append(unsigned char **buf, size_t *len, const char *data, size_t size);
+int rd_form_text(char *dst, size_t cap, const char *data, size_t size);
+
+/* POST /v1/grade/code; GET /v1/grade/code/skeleton/{material} and
+ * /v1/grade/code/{id}/lobe.svg (routes_code.c). */
+enum MHD_Result rd_route_code_begin(rd_req *r);
+enum MHD_Result rd_route_code_data(rd_req *r, const char *data, size_t size);
+enum MHD_Result rd_route_code(rd_req *r, const char *rest);
+enum MHD_Result rd_route_code_resumed(rd_req *r);
+enum MHD_Result rd_route_code_get(rd_req *r, const char *rest);
+/* Grading code's state: the configuration, whether the sandbox starts
+ * here (probed once, at start-up; NULL from unavailable when it does,
+ * else why not), the lobe plots kept. */
+struct rd_codegrades *rd_codegrades_new(const rd_server_options *opt, const rd_grader *grader);
+void rd_codegrades_free(struct rd_codegrades *c);
+const char *rd_codegrades_unavailable(const struct rd_codegrades *c);
 
 /* The instructors' routes' gate (--instructor-tokens, auth.h): 0 when the
  * request may go on, else its answer (404 off, 401, 403) is in *ret. */

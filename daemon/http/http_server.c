@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include "access.h"
+#include "codegrade.h"
 #include "http_internal.h"
 #include "log.h"
 #include "metrics.h"
@@ -618,6 +619,14 @@ rd_server_options rd_server_options_default(void)
     o.max_batch_expanded = (size_t)1 << 30;
     o.scenes_dir = rd_default_scenes_dir();
     o.assignments_dir = rd_default_assignments_dir();
+    o.bwrap = "/usr/bin/bwrap";
+    o.course_dir = rd_default_course_dir();
+    o.code_eval = rd_default_eval_path();
+    o.max_code_bytes = RD_CODE_MAX_BYTES_DEFAULT;
+    o.max_code_jobs = 2;
+    o.code_compile_ms = 30000;
+    o.code_run_ms = 20000;
+    o.sandbox_uid = 65534;
     return o;
 }
 
@@ -637,6 +646,7 @@ static void free_server(rd_server *s)
     rd_jq_stop(s->jobs);
     rd_farm_free(s->farm);
     rd_grades_free(s->grades);
+    rd_codegrades_free(s->codegrades);
     rd_access_free(s->access);
     rd_auth_free(s->auth);
     rd_metrics_free(s->metrics);
@@ -803,7 +813,8 @@ rd_server *rd_server_start(const rd_server_options *opt, rd_error *err)
     s->access = rd_access_new(opt, err);
     s->jobs = s->access ? rd_jq_start(&opt->jobs, err) : NULL;
     s->grades = s->jobs ? rd_grades_new(s->jobs, &s->opt) : NULL;
-    s->metrics = s->grades ? rd_metrics_new(rd_jq_hist_cover(opt->jobs.job_timeout_ms)) : NULL;
+    s->codegrades = s->grades ? rd_codegrades_new(&s->opt, rd_grades_grader(s->grades)) : NULL;
+    s->metrics = s->codegrades ? rd_metrics_new(rd_jq_hist_cover(opt->jobs.job_timeout_ms)) : NULL;
     if (!s->metrics || pthread_create(&s->reaper, NULL, reaper, s) != 0) {
         if (s->jobs && !s->metrics)
             rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");

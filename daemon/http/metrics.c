@@ -34,6 +34,7 @@ struct rd_metrics {
     route_stats routes[ROUTES_MAX]; /* [0] is "other" */
     uint64_t classes[6];            /* 1xx..5xx; [0] unused */
     uint64_t grades[3];             /* by rd_verdict */
+    uint64_t code_grades[3];        /* POST /v1/grade/code, by rd_verdict */
     uint64_t ref_hits, ref_misses;
 };
 
@@ -103,6 +104,14 @@ void rd_metrics_grade(rd_server *srv, rd_verdict v)
     rd_metrics *m = srv->metrics;
     pthread_mutex_lock(&m->mu);
     m->grades[v]++;
+    pthread_mutex_unlock(&m->mu);
+}
+
+void rd_metrics_code_grade(rd_server *srv, rd_verdict v)
+{
+    rd_metrics *m = srv->metrics;
+    pthread_mutex_lock(&m->mu);
+    m->code_grades[v]++;
     pthread_mutex_unlock(&m->mu);
 }
 
@@ -231,6 +240,10 @@ static void grade_metrics(rd_strbuf *out, const rd_metrics *m)
     family(out, "rayd_grades_total", "counter", "Grades answered, by verdict (error: the grade could not be made).");
     for (int v = 0; v < 3; v++)
         PUT("rayd_grades_total{verdict=\"%s\"} %llu\n", verdicts[v], (unsigned long long)m->grades[v]);
+    family(out, "rayd_code_grades_total", "counter",
+           "Students' calcReflectedLight graded, by verdict (error: the grade could not be made).");
+    for (int v = 0; v < 3; v++)
+        PUT("rayd_code_grades_total{verdict=\"%s\"} %llu\n", verdicts[v], (unsigned long long)m->code_grades[v]);
     family(out, "rayd_grade_reference_cache_total", "counter",
            "Grading references looked up: found cached (hit) or rendered (miss).");
     PUT("rayd_grade_reference_cache_total{result=\"hit\"} %llu\n", (unsigned long long)m->ref_hits);

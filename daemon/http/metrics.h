@@ -32,6 +32,7 @@ typedef enum { RD_VERDICT_PASS, RD_VERDICT_FAIL, RD_VERDICT_ERROR } rd_verdict;
 
 /* A grade was answered: with a verdict, or with an error of its pipeline. */
 void rd_metrics_grade(rd_server *srv, rd_verdict v);
+void rd_metrics_code_grade(rd_server *srv, rd_verdict v);
 
 /* A grade looked its reference up: cached, or to be rendered. */
 void rd_metrics_reference(rd_server *srv, int cached);

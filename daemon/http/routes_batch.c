@@ -99,27 +99,6 @@ static int add_image(batch_form *f, const rd_server_options *o, const char *stud
     return 1;
 }
 
-static int append(unsigned char **buf, size_t *len, const char *data, size_t size)
-{
-    unsigned char *p = realloc(*buf, *len + size + 1);
-    if (!p)
-        return 0;
-    memcpy(p + *len, data, size);
-    *len += size;
-    *buf = p;
-    return 1;
-}
-
-static int text_field(char *dst, size_t cap, const char *data, size_t size)
-{
-    size_t have = strlen(dst);
-    if (have + size >= cap)
-        return 0;
-    memcpy(dst + have, data, size);
-    dst[have + size] = 0;
-    return 1;
-}
-
 /* A file part's bytes; a new part starts at offset 0. */
 static enum MHD_Result file_part(rd_req *r, batch_form *f, int archive, const char *filename, const char *data,
                                  uint64_t off, size_t size)
@@ -145,13 +124,13 @@ static enum MHD_Result file_part(rd_req *r, batch_form *f, int archive, const ch
         return MHD_NO;
     }
     if (archive)
-        return append(&f->archive, &f->archive_len, data, size) ? MHD_YES : MHD_NO;
+        return rd_form_append(&f->archive, &f->archive_len, data, size) ? MHD_YES : MHD_NO;
     batch_image *im = &f->images[f->n - 1];
     if (im->len + size > o->max_body_bytes) {
         f->too_big = "--max-body-bytes (an image)";
         return MHD_NO;
     }
-    return append(&im->png, &im->len, data, size) ? MHD_YES : MHD_NO;
+    return rd_form_append(&im->png, &im->len, data, size) ? MHD_YES : MHD_NO;
 }
 
 static enum MHD_Result on_field(void *cls, enum MHD_ValueKind kind, const char *key, const char *filename,
@@ -171,7 +150,7 @@ static enum MHD_Result on_field(void *cls, enum MHD_ValueKind kind, const char *
         return file_part(r, f, key[0] == 'a', filename, data, off, size);
     char *dst = strcmp(key, "assignment") == 0 ? f->assignment : strcmp(key, "student") == 0 ? f->student : NULL;
     size_t cap = dst == f->assignment ? sizeof f->assignment : sizeof f->student;
-    if (dst && !text_field(dst, cap, data, size)) {
+    if (dst && !rd_form_text(dst, cap, data, size)) {
         f->bad = dst == f->assignment ? "the 'assignment' field is longer than an assignment name can be"
                                       : "a 'student' field is longer than a student id can be";
         return MHD_NO;

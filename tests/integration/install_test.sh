@@ -26,7 +26,8 @@ prefix="$T/prefix"
 make --no-print-directory -s install PREFIX="$prefix" >"$T/make.log" 2>&1 || bad "make install PREFIX=$prefix: $(tail -5 "$T/make.log")"
 rayd="$prefix/bin/rayd"
 for f in bin/rayd share/man/man1/rayd.1 lib/systemd/system/rayd@.service share/doc/rayd/LICENSE \
-    share/rayd/scenes/phong.cfg share/rayd/scenes/assignments/phong.cfg share/rayd/scenes/generated/knot.obj; do
+    share/rayd/scenes/phong.cfg share/rayd/scenes/assignments/phong.cfg share/rayd/scenes/generated/knot.obj \
+    libexec/rayd/rayd-eval share/rayd/course/Material.h share/rayd/course/skeleton/PhongMaterial.h; do
     [ -f "$prefix/$f" ] && ok || bad "make install did not install $f"
 done
 
@@ -42,6 +43,10 @@ cd "$T/elsewhere" || exit 1
 rc=$?
 [ "$rc" -eq 0 ] && grep -q '"pass":[[:space:]]*true' grade.out && ok ||
     bad "the installed rayd grades against its own assignments (exit $rc): $(cat err)"
+"$rayd" grade --assignment phong --code "$root/tests/codegrade/students/phong_ok.h" >code.out 2>err
+rc=$?
+[ "$rc" -eq 0 ] && grep -q '"pass":[[:space:]]*true' code.out && ok ||
+    bad "the installed rayd grades code with its own course and evaluator (exit $rc): $(cat err) $(head -c 300 code.out)"
 
 "$rayd" serve --listen 127.0.0.1:0 --port-file "$T/port" 2>"$T/serve.log" &
 daemon=$!

@@ -349,6 +349,31 @@ def grades(c, tmp):
     post({"scene": SCENE.replace("material = m\n", "material = nosuch\n").encode(), "image": good}, 422)
 
 
+def code_grades(c):
+    """POST /v1/grade/code on the tiny assignment (a diffuse sphere), its
+    errors, the skeletons and the lobe plot."""
+    G = "/v1/grade/code"
+    right = open("tests/codegrade/students/diffuse_ok.h", "rb").read()
+
+    def post(parts, expect, ctype=None):
+        body, ct = form_parts(parts)
+        return c.call("post", G, G, body, {"Content-Type": ctype or ct}, expect)
+
+    status, _, data = post([("assignment", None, b"tiny"), ("code", "DiffuseMaterial.h", right)], 200)
+    v = json.loads(data) if status == 200 else {}
+    check(v.get("pass") is True, "diffuse_ok did not pass the tiny assignment: %s" % str(v)[:300])
+    c.call("get", "/v1/grade/code/{id}/lobe.svg", v.get("lobe_url") or G + "/x/lobe.svg", expect=200)
+    c.call("get", "/v1/grade/code/{id}/lobe.svg", G + "/g0000000000000000/lobe.svg", expect=404)
+    c.call("get", "/v1/grade/code/skeleton/{material}", G + "/skeleton/phong", expect=200)
+    c.call("get", "/v1/grade/code/skeleton/{material}", G + "/skeleton/mirror", expect=404)
+    post([("assignment", None, b"tiny")], 400)
+    post([("assignment", None, b"nosuch"), ("code", "DiffuseMaterial.h", right)], 404)
+    post([("assignment", None, b"tiny"), ("code", "DiffuseMaterial.h", b"/" * 300000)], 413)
+    post([("assignment", None, b"tiny"), ("code", "DiffuseMaterial.h", right)], 415, ctype="text/plain")
+    post([("assignment", None, b"tiny"), ("code", "Diffuse Material.exe", right)], 422)  # bad_code
+    post([("assignment", None, b"broken"), ("code", "DiffuseMaterial.h", right)], 422)  # bad_assignment
+
+
 def class_batch(tmp):
     """The instructors' routes of a daemon with --instructor-tokens."""
     tokens = os.path.join(tmp, "tokens")
@@ -505,6 +530,8 @@ def draining(d, c):
     c.call("post", "/v1/jobs", "/v1/jobs", SCENE.encode(), CFG, 503)
     body, ct = form({"scene": SCENE.encode(), "image": png(16, 12, lambda x, y: (0, 0, 0))})
     c.call("post", "/v1/grade", "/v1/grade", body, {"Content-Type": ct}, 503)
+    body, ct = form_parts([("assignment", None, b"tiny"), ("code", "DiffuseMaterial.h", b"int x;")])
+    c.call("post", "/v1/grade/code", "/v1/grade/code", body, {"Content-Type": ct}, 503)
     status, _, _ = c.call("get", "/readyz", validate_it=False)
     if status != 404:
         c.call("get", "/readyz", expect=503)
@@ -527,6 +554,8 @@ REQUIRED = {
     ("/v1/grade/batch", "post"): {202, 400, 401, 403, 404, 415, 422},
     ("/v1/grade/batch/{id}", "get"): {200, 401, 403, 404}, ("/v1/grade/batch/{id}/{table}", "get"): {200},
     ("/v1/grades", "get"): {200, 400, 401, 403}, ("/v1/grades/{id}", "get"): {200, 404},
+    ("/v1/grade/code", "post"): {200, 400, 404, 413, 415, 422, 503},
+    ("/v1/grade/code/skeleton/{material}", "get"): {200, 404}, ("/v1/grade/code/{id}/lobe.svg", "get"): {200, 404},
 }
 
 
@@ -570,6 +599,7 @@ def main():
         renders(c)
         jobs(c)
         grades(c, tmp)
+        code_grades(c)
         wrong_methods(c)
         options(c)
         draining(d, c)

@@ -4,6 +4,8 @@
 
 #include "Material.h"
 
+#include <cstdlib>
+
 class PhongMaterial : public Material
 {
   public:
@@ -15,7 +17,8 @@ class PhongMaterial : public Material
 
     virtual vec3 calcReflectedLight(const HitRecord &record, const vec3 &incomingDir, const vec3 &outgoingDir)
     {
-        int *volatile p = nullptr;
+        // NULL at run time; the compiler cannot see it, so the store stays.
+        volatile int *p = (volatile int *)std::getenv("RAYD_NO_SUCH_VARIABLE");
         *p = 1;
         Real cosAlpha = -dot(record.normal, incomingDir);
         if (cosAlpha <= 0)

@@ -1,0 +1,436 @@
+#include "codegrade.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "code_frames.h"
+#include "code_image.h"
+#include "file_io.h"
+#include "rayd/clock.h"
+#include "sandbox.h"
+
+/* The types a student writes, simplest first, with the course's class. */
+static const struct {
+    rd_material_type type;
+    const char *word, *cls;
+    int kind; /* the adapter's RAYD_KIND */
+} kinds[] = {
+    {RD_MAT_DIFFUSE, "diffuse", "DiffuseMaterial", 1},
+    {RD_MAT_PHONG, "phong", "PhongMaterial", 2},
+    {RD_MAT_BLINN_PHONG, "blinn_phong", "BlinnPhongMaterial", 3},
+    {RD_MAT_COOK_TORRANCE, "cook_torrance", "CookTorranceMaterial", 4},
+};
+#define NKINDS (sizeof kinds / sizeof *kinds)
+
+/* The course's files the compile needs, copied into /rayd/course/. */
+static const char *const course_files[] = {
+    "my_algebra.h",
+    "HitRecord.h",
+    "Material.h",
+    "rayd_code.h",
+    "adapter.cpp",
+    "decl/DiffuseMaterial.h",
+    "decl/PhongMaterial.h",
+    "decl/BlinnPhongMaterial.h",
+    "decl/CookTorranceMaterial.h",
+};
+#define NCOURSE (sizeof course_files / sizeof *course_files)
+
+rd_codegrade_config rd_codegrade_config_default(void)
+{
+    rd_codegrade_config c;
+    memset(&c, 0, sizeof c);
+    c.compile_ms = 30000;
+    c.run_ms = 20000;
+    c.stall_ms = 2000;
+    c.max_queries = (size_t)1 << 20; /* 192 MiB of queries; an assignment takes some 100 000 */
+    c.max_bytes = RD_CODE_MAX_BYTES_DEFAULT;
+    c.threads = 1;
+    c.uid = 65534;
+    c.gid = 65534;
+    return c;
+}
+
+const char *rd_codegrade_class(rd_material_type t)
+{
+    for (size_t i = 0; i < NKINDS; i++)
+        if (kinds[i].type == t)
+            return kinds[i].cls;
+    return NULL;
+}
+
+static int kind_of(const rd_scene *s)
+{
+    int best = -1;
+    for (size_t i = 0; i < s->material_count; i++)
+        for (int k = 0; k < (int)NKINDS; k++)
+            if (s->materials[i].type == kinds[k].type && k > best)
+                best = k;
+    return best;
+}
+
+static int has_suffix(const char *s, const char *suffix)
+{
+    size_t a = strlen(s), b = strlen(suffix);
+    return a > b && strcmp(s + a - b, suffix) == 0;
+}
+
+/* A name the sandbox can hold and the compiler's messages can show: plain
+ * characters, a C++ suffix, and none of the course's own names. */
+static rd_error_code check_input(const rd_codegrade_config *cfg, const rd_codegrade_input *in, char dest[80],
+                                 rd_error *err)
+{
+    const char *f = in->filename ? in->filename : "";
+    size_t n = strlen(f);
+    int ok = n > 0 && n <= 64 && f[0] != '.' &&
+             strspn(f, "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz"
+                       "0123456789_.-") == n;
+    int cpp = has_suffix(f, ".cpp") || has_suffix(f, ".cc");
+    if (!ok || !(cpp || has_suffix(f, ".h") || has_suffix(f, ".hpp")))
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0,
+                            "the file's name \"%.64s\" is not a C++ header or source (PhongMaterial.h, or a .cpp)", f);
+    if (!in->source || in->len == 0)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "the file %s is empty", f);
+    if (in->len > cfg->max_bytes)
+        return rd_error_set(err, RD_ERR_LIMIT, 0, 0, "the file %s has %zu bytes; at most %zu (--max-code-bytes)", f,
+                            in->len, cfg->max_bytes);
+    if (memchr(in->source, '\0', in->len))
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "the file %s holds NUL bytes: it is not C++ text", f);
+    int clash = 0;
+    for (size_t i = 0; i < NCOURSE; i++)
+        clash |= strcmp(f, course_files[i]) == 0;
+    snprintf(dest, 80, "/work/%s", clash ? (cpp ? "student.cpp" : "student.h") : f);
+    return RD_OK;
+}
+
+/* The scene, its reference, the configurations and every call of the
+ * image, the configurations' first. */
+typedef struct {
+    rd_scene scene;
+    int kind;
+    rd_code_query *q;
+    size_t nq, cap;
+} prepared;
+
+static rd_error_code add_cases(prepared *p, rd_codegrade_result *out)
+{
+    p->cap = out->ncases + 4096;
+    p->q = calloc(p->cap, sizeof *p->q);
+    if (!p->q)
+        return RD_ERR_NOMEM;
+    for (size_t i = 0; i < out->ncases; i++) {
+        const rd_code_case *c = &out->cases[i];
+        rd_code_query *q = &p->q[p->nq++];
+        q->m = rd_code_material_of(&c->m);
+        q->h = (rayd_code_hit){{c->n.x, c->n.y, c->n.z}, {0, 0, 0}, 1};
+        memcpy(q->incoming, (double[3]){c->L.x, c->L.y, c->L.z}, sizeof q->incoming);
+        memcpy(q->outgoing, (double[3]){c->V.x, c->V.y, c->V.z}, sizeof q->outgoing);
+    }
+    return RD_OK;
+}
+
+static rd_error_code prepare(const rd_codegrade_config *cfg, const rd_codegrade_input *in, prepared *p,
+                             rd_codegrade_result *out, rd_error *err)
+{
+    rd_grade_input gi = {0};
+    gi.assignment = in->assignment;
+    rd_error_code rc = rd_grade_prepare_reference(&cfg->grader, &gi, &p->scene, &out->grade, err);
+    if (rc)
+        return rc;
+    snprintf(out->assignment, sizeof out->assignment, "%s", out->grade.assignment);
+    p->kind = kind_of(&p->scene);
+    out->grade.stage = RD_GRADE_STAGE_ASSIGNMENT; /* what fails now is the assignment's */
+    if (p->kind < 0)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0,
+                            "the assignment %s has no diffuse, phong, blinn_phong or cook_torrance material: "
+                            "there is no calcReflectedLight to grade",
+                            out->assignment);
+    out->material = kinds[p->kind].word;
+    out->class_name = kinds[p->kind].cls;
+    if (!out->grade.reference &&
+        (rc = rd_grade_render_reference(&cfg->grader, &p->scene, cfg->threads, &out->grade, err)))
+        return rc;
+    if ((rc = rd_code_cases(kinds[p->kind].type, &out->cases, &out->ncases, err)))
+        return rc;
+    if (add_cases(p, out))
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    rc = rd_code_record(&p->scene, kinds[p->kind].type, out->ncases + cfg->max_queries, &p->q, &p->nq, &p->cap, err);
+    if (!rc)
+        out->grade.stage = RD_GRADE_STAGE_NONE;
+    return rc;
+}
+
+/* The queries as the file the evaluator reads. */
+static unsigned char *queries_file(const prepared *p, size_t *len)
+{
+    rd_queries_header h = {RD_QUERIES_MAGIC, (uint32_t)p->nq};
+    *len = sizeof h + p->nq * sizeof *p->q;
+    unsigned char *b = malloc(*len);
+    if (b) {
+        memcpy(b, &h, sizeof h);
+        memcpy(b + sizeof h, p->q, p->nq * sizeof *p->q);
+    }
+    return b;
+}
+
+static rd_error_code run_sandbox(const rd_codegrade_config *cfg, const rd_codegrade_input *in, const char *dest,
+                                 const prepared *p, rd_sandbox_result *res, rd_error *err)
+{
+    size_t qlen;
+    unsigned char *qfile = queries_file(p, &qlen);
+    char paths[NCOURSE][1024], dests[NCOURSE][64], num[3][32];
+    rd_sandbox_file files[NCOURSE + 3];
+    if (!qfile)
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    for (size_t i = 0; i < NCOURSE; i++) {
+        snprintf(paths[i], sizeof paths[i], "%s/%s", cfg->course_dir, course_files[i]);
+        snprintf(dests[i], sizeof dests[i], "/rayd/course/%s", course_files[i]);
+        files[i] = (rd_sandbox_file){dests[i], paths[i], NULL, 0, 0};
+    }
+    files[NCOURSE] = (rd_sandbox_file){"/rayd/rayd-eval", cfg->eval, NULL, 0, 1};
+    files[NCOURSE + 1] = (rd_sandbox_file){"/rayd/queries.bin", NULL, qfile, qlen, 0};
+    files[NCOURSE + 2] = (rd_sandbox_file){dest, NULL, in->source, in->len, 0};
+    char kind[8];
+    snprintf(kind, sizeof kind, "%d", kinds[p->kind].kind);
+    snprintf(num[0], sizeof num[0], "%.0f", cfg->compile_ms);
+    snprintf(num[1], sizeof num[1], "%.0f", cfg->stall_ms);
+    snprintf(num[2], sizeof num[2], "%.0f", cfg->run_ms);
+    const char *argv[] = {"/rayd/rayd-eval",
+                          kind,
+                          kinds[p->kind].cls,
+                          dest,
+                          "/rayd/course",
+                          "/rayd/queries.bin",
+                          num[0],
+                          num[1],
+                          num[2],
+                          NULL};
+    rd_sandbox_spec sp = rd_sandbox_spec_default();
+    sp.bwrap = cfg->bwrap;
+    sp.files = files;
+    sp.nfiles = NCOURSE + 3;
+    sp.argv = argv;
+    sp.wall_ms = cfg->compile_ms + cfg->run_ms + 10000;
+    sp.cpu_s = (unsigned long)((cfg->compile_ms + cfg->run_ms) / 1000) + 5;
+    sp.data_max = p->nq * sizeof(rd_frame_value) + ((size_t)1 << 20);
+    /* bwrap writes the queries under the sandbox's limits too */
+    if (sp.file_size < qlen + ((size_t)1 << 20))
+        sp.file_size = qlen + ((size_t)1 << 20);
+    sp.uid = cfg->uid;
+    sp.gid = cfg->gid;
+    sp.cancel = cfg->cancel;
+    rd_error_code rc = rd_sandbox_run(&sp, res, err);
+    free(qfile);
+    return rc;
+}
+
+/* What the evaluator reported, each frame's size checked. */
+typedef struct {
+    const rd_frame_compile *compile;
+    const char *messages;
+    size_t messages_len;
+    const rd_frame_value *values;
+    const rd_frame_values *vhead;
+    const rd_frame_output *output;
+    const char *printed;
+    size_t printed_len;
+    const char *note;
+    size_t note_len;
+} frames;
+
+static void read_frames(const unsigned char *d, size_t len, size_t expect, frames *f)
+{
+    memset(f, 0, sizeof *f);
+    for (size_t i = 0; len - i >= sizeof(rd_frame_header);) {
+        rd_frame_header h;
+        memcpy(&h, d + i, sizeof h);
+        i += sizeof h;
+        if (h.len > len - i)
+            break;
+        const unsigned char *p = d + i;
+        i += h.len;
+        if (h.type == RD_FRAME_COMPILE && !f->compile && h.len >= sizeof *f->compile) {
+            f->compile = (const rd_frame_compile *)p;
+            f->messages = (const char *)p + sizeof *f->compile;
+            f->messages_len = h.len - sizeof *f->compile;
+        } else if (h.type == RD_FRAME_VALUES && !f->values && h.len >= sizeof *f->vhead) {
+            const rd_frame_values *v = (const rd_frame_values *)p;
+            if (v->count == expect && h.len == sizeof *v + expect * sizeof(rd_frame_value)) {
+                f->vhead = v;
+                f->values = (const rd_frame_value *)(p + sizeof *v);
+            }
+        } else if (h.type == RD_FRAME_OUTPUT && !f->output && h.len >= sizeof *f->output) {
+            f->output = (const rd_frame_output *)p;
+            f->printed = (const char *)p + sizeof *f->output;
+            f->printed_len = h.len - sizeof *f->output;
+        } else if (h.type == RD_FRAME_NOTE && !f->note) {
+            f->note = (const char *)p;
+            f->note_len = h.len;
+        }
+    }
+}
+
+static int value_status(int32_t s)
+{
+    switch (s) {
+    case RD_VALUE_RETURNED: return RD_CODE_RETURNED;
+    case RD_VALUE_CRASHED: return RD_CODE_CRASHED;
+    case RD_VALUE_EXITED: return RD_CODE_EXITED;
+    case RD_VALUE_TIMED_OUT: return RD_CODE_TIMED_OUT;
+    default: return RD_CODE_NOT_RUN;
+    }
+}
+
+static char *text_copy(const char *p, size_t n)
+{
+    char *t = malloc(n + 1);
+    if (t) {
+        for (size_t i = 0; i < n; i++)
+            t[i] = p[i] == '\n' || p[i] == '\t' || (unsigned char)p[i] >= 0x20 ? p[i] : '?';
+        t[n] = '\0';
+    }
+    return t;
+}
+
+/* The sandbox's end when the evaluator could not report its values. */
+static const char *sandbox_end_words(const rd_sandbox_result *r)
+{
+    switch (r->end) {
+    case RD_SANDBOX_TIMED_OUT: return "the code ran past the time limit";
+    case RD_SANDBOX_OUTPUT_LIMIT: return "the code printed past the output limit";
+    case RD_SANDBOX_DATA_LIMIT: return "the evaluator's report was too long";
+    case RD_SANDBOX_CANCELLED: return "the grade was cancelled";
+    case RD_SANDBOX_SIGNALED: return "the evaluator was killed by a signal";
+    default: return "the evaluator ended before reporting";
+    }
+}
+
+static void take_compile(const frames *f, const rd_sandbox_result *res, rd_codegrade_result *out)
+{
+    rd_code_compile *c = &out->compile;
+    if (!f->compile) {
+        c->result = RD_COMPILE_FAILED;
+        rd_code_compile_messages(c, res->output, res->output_len);
+        if (!out->note)
+            out->note = strdup(sandbox_end_words(res));
+        return;
+    }
+    c->result = f->compile->result;
+    c->status = f->compile->status;
+    c->ms = f->compile->ms;
+    rd_code_compile_messages(c, f->messages, f->messages_len);
+}
+
+/* The configurations' values, then the image's; NULL values: not run. */
+static void take_values(const frames *f, rd_codegrade_result *out, rd_frame_value *image, size_t nimage)
+{
+    for (size_t i = 0; i < out->ncases; i++) {
+        rd_code_value *v = &out->values[i];
+        v->status = f->values ? value_status(f->values[i].status) : RD_CODE_NOT_RUN;
+        v->got = f->values ? v3(f->values[i].rgb[0], f->values[i].rgb[1], f->values[i].rgb[2]) : v3(0, 0, 0);
+    }
+    for (size_t i = 0; i < nimage; i++)
+        image[i] = f->values ? f->values[out->ncases + i] : (rd_frame_value){RD_VALUE_NOT_RUN, 0, {0, 0, 0}};
+    if (f->vhead) {
+        out->restarts = f->vhead->restarts;
+        out->calls_ms = f->vhead->ms;
+    }
+    if (f->output) {
+        out->output_total = f->output->total;
+        out->output_limited = f->output->limited != 0;
+        out->output = text_copy(f->printed, f->printed_len);
+    }
+}
+
+/* The image with the student's values, graded like a student's PNG. */
+static rd_error_code grade_image(prepared *p, const rd_frame_value *image, rd_codegrade_result *out, rd_error *err)
+{
+    uint8_t *rgb = NULL;
+    int w, h;
+    size_t mismatched = 0;
+    rd_error_code rc = rd_code_replay(&p->scene, kinds[p->kind].type, p->q + out->ncases, image, out->image_calls, &rgb,
+                                      &w, &h, &mismatched, err);
+    if (rc)
+        return rc;
+    if (mismatched || w != out->grade.width || h != out->grade.height) {
+        free(rgb);
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0,
+                            "the image's shading calls were not the recorded ones (%zu differ): the render is "
+                            "not deterministic",
+                            mismatched);
+    }
+    out->grade.image = rgb;
+    if (rd_grade_finish(&out->grade))
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory comparing the images");
+    out->image_graded = 1;
+    return RD_OK;
+}
+
+static rd_error_code evaluate(const rd_sandbox_result *res, prepared *p, rd_codegrade_result *out, rd_error *err)
+{
+    frames f;
+    read_frames(res->data, res->data_len, p->nq, &f);
+    if (f.note)
+        out->note = text_copy(f.note, f.note_len);
+    take_compile(&f, res, out);
+    if (out->compile.result != RD_COMPILE_OK)
+        return RD_OK;
+    if (!f.values && !out->note)
+        out->note = strdup(sandbox_end_words(res));
+    out->image_calls = p->nq - out->ncases;
+    out->values = calloc(out->ncases ? out->ncases : 1, sizeof *out->values);
+    rd_frame_value *image = malloc((out->image_calls ? out->image_calls : 1) * sizeof *image);
+    if (!out->values || !image) {
+        free(image);
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    }
+    take_values(&f, out, image, out->image_calls);
+    rd_code_check(out->cases, out->values, out->ncases, &out->report);
+    rd_error_code rc = grade_image(p, image, out, err);
+    free(image);
+    return rc;
+}
+
+rd_error_code rd_codegrade_run(const rd_codegrade_config *cfg, const rd_codegrade_input *in, rd_codegrade_result *out,
+                               rd_error *err)
+{
+    double t0 = rd_now_ms();
+    memset(out, 0, sizeof *out);
+    out->compile.result = -1;
+    char dest[80];
+    rd_error_code rc = check_input(cfg, in, dest, err);
+    if (rc)
+        return rc;
+    prepared p;
+    memset(&p, 0, sizeof p);
+    rd_scene_init(&p.scene);
+    rc = prepare(cfg, in, &p, out, err);
+    rd_sandbox_result res;
+    memset(&res, 0, sizeof res);
+    if (!rc)
+        rc = run_sandbox(cfg, in, dest, &p, &res, err);
+    if (!rc) {
+        out->sandbox_ms = res.ms;
+        rc = evaluate(&res, &p, out, err);
+    }
+    rd_sandbox_result_free(&res);
+    rd_scene_free(&p.scene);
+    free(p.q);
+    out->pass =
+        !rc && out->compile.result == RD_COMPILE_OK && out->report.pass && out->image_graded && out->grade.result.pass;
+    out->ms = rd_now_ms() - t0;
+    return rc;
+}
+
+void rd_codegrade_result_free(rd_codegrade_result *r)
+{
+    free(r->compile.messages);
+    free(r->compile.diags);
+    free(r->cases);
+    free(r->values);
+    free(r->output);
+    free(r->note);
+    rd_grade_output_free(&r->grade);
+    memset(r, 0, sizeof *r);
+}

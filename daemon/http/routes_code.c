@@ -1,0 +1,371 @@
+/* POST /v1/grade/code (a student's calcReflectedLight, codegrade.h),
+ * GET /v1/grade/code/skeleton/{material}, GET /v1/grade/code/{id}/lobe.svg.
+ * A code grade runs on a render thread like any grade (the sandbox, then
+ * two renders of the assignment); at most --max-code-jobs at once, the
+ * rest answered 503 with Retry-After. */
+#include <cJSON.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "code_lobe.h"
+#include "codegrade.h"
+#include "error_map.h"
+#include "http_internal.h"
+#include "json_text.h"
+#include "log.h"
+#include "metrics.h"
+#include "sandbox.h"
+
+enum { LOBES_KEPT = 128, DISCARD_MAX = 1 << 20 };
+
+typedef struct {
+    char id[24];
+    char *svg;
+} lobe_entry;
+
+struct rd_codegrades {
+    rd_codegrade_config cfg; /* the grader's cache is the grades' */
+    int available;           /* the sandbox started at start-up */
+    char why[512];           /* else why not */
+    atomic_int active;
+    pthread_mutex_t mu;
+    lobe_entry lobes[LOBES_KEPT];
+    size_t next;
+};
+
+struct rd_codegrades *rd_codegrades_new(const rd_server_options *opt, const rd_grader *grader)
+{
+    struct rd_codegrades *c = calloc(1, sizeof *c);
+    if (!c)
+        return NULL;
+    c->cfg = rd_codegrade_config_default();
+    c->cfg.grader = *grader;
+    c->cfg.bwrap = opt->bwrap;
+    c->cfg.course_dir = opt->course_dir;
+    c->cfg.eval = opt->code_eval;
+    c->cfg.max_bytes = opt->max_code_bytes;
+    c->cfg.compile_ms = opt->code_compile_ms;
+    c->cfg.run_ms = opt->code_run_ms;
+    c->cfg.uid = c->cfg.gid = (uid_t)opt->sandbox_uid;
+    pthread_mutex_init(&c->mu, NULL);
+    rd_error err = {0};
+    c->available = rd_sandbox_probe(opt->bwrap, &err) == RD_OK;
+    if (!c->available) {
+        snprintf(c->why, sizeof c->why, "%s", err.message);
+        rd_log_msg(opt->log, "warning", "code grading is off (POST /v1/grade/code answers 503): %s", c->why);
+    }
+    return c;
+}
+
+void rd_codegrades_free(struct rd_codegrades *c)
+{
+    if (!c)
+        return;
+    for (size_t i = 0; i < LOBES_KEPT; i++)
+        free(c->lobes[i].svg);
+    pthread_mutex_destroy(&c->mu);
+    free(c);
+}
+
+const char *rd_codegrades_unavailable(const struct rd_codegrades *c) { return c->available ? NULL : c->why; }
+
+static void keep_lobe(struct rd_codegrades *c, const char *id, char *svg)
+{
+    pthread_mutex_lock(&c->mu);
+    lobe_entry *e = &c->lobes[c->next++ % LOBES_KEPT];
+    free(e->svg);
+    snprintf(e->id, sizeof e->id, "%s", id);
+    e->svg = svg;
+    pthread_mutex_unlock(&c->mu);
+}
+
+/* The form as it arrives: the assignment, the student, the file. */
+typedef struct {
+    struct MHD_PostProcessor *post;
+    unsigned char *code;
+    size_t code_len;
+    char filename[80];
+    char assignment[80];
+    char student[256];
+    int too_big;
+    const char *bad;
+} code_form;
+
+static void free_form(rd_req *r)
+{
+    code_form *f = r->state;
+    if (!f)
+        return;
+    if (f->post)
+        MHD_destroy_post_processor(f->post);
+    free(f->code);
+    free(f);
+    r->state = NULL;
+}
+
+static enum MHD_Result on_field(void *cls, enum MHD_ValueKind kind, const char *key, const char *filename,
+                                const char *content_type, const char *encoding, const char *data, uint64_t off,
+                                size_t size)
+{
+    (void)kind, (void)content_type, (void)encoding;
+    rd_req *r = cls;
+    code_form *f = r->state;
+    if (!key) {
+        f->bad = "a form part has no field name (Content-Disposition: form-data; name=\"...\")";
+        return MHD_NO;
+    }
+    if (size && !data)
+        return MHD_YES;
+    if (strcmp(key, "code") == 0) {
+        if (off == 0 && f->code_len) {
+            f->bad = "the form has more than one 'code' file";
+            return MHD_NO;
+        }
+        if (off == 0 &&
+            !rd_form_text(f->filename, sizeof f->filename, filename ? filename : "", filename ? strlen(filename) : 0)) {
+            f->bad = "the 'code' file's name is longer than a file name can be";
+            return MHD_NO;
+        }
+        if (f->code_len + size > r->srv->codegrades->cfg.max_bytes) {
+            f->too_big = 1;
+            return MHD_NO;
+        }
+        return rd_form_append(&f->code, &f->code_len, data, size) ? MHD_YES : MHD_NO;
+    }
+    char *dst = strcmp(key, "assignment") == 0 ? f->assignment : strcmp(key, "student") == 0 ? f->student : NULL;
+    size_t cap = dst == f->assignment ? sizeof f->assignment : sizeof f->student;
+    if (dst && !rd_form_text(dst, cap, data, size)) {
+        f->bad = "a form field ('assignment' or 'student') is longer than such a name can be";
+        return MHD_NO;
+    }
+    return MHD_YES; /* other fields are ignored */
+}
+
+enum MHD_Result rd_route_code_begin(rd_req *r)
+{
+    size_t max = r->srv->codegrades->cfg.max_bytes;
+    const char *cl = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
+    if (cl && strtoull(cl, NULL, 10) > max + 64 * 1024)
+        return rd_reply_too_large(r, "the form (the code may have --max-code-bytes)");
+    const char *ct = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
+    if (!ct || strncasecmp(ct, "multipart/form-data", 19) != 0)
+        return rd_reply_error(r, 415, "unsupported_media_type", NULL,
+                              "send multipart/form-data with 'assignment' and a 'code' file");
+    code_form *f = calloc(1, sizeof *f);
+    if (!f)
+        return MHD_NO;
+    r->state = f;
+    r->free_state = free_form;
+    f->post = MHD_create_post_processor(r->conn, 64 * 1024, on_field, r);
+    if (!f->post)
+        return rd_reply_error(r, 415, "unsupported_media_type", NULL, "the form could not be read");
+    return MHD_YES;
+}
+
+enum MHD_Result rd_route_code_data(rd_req *r, const char *data, size_t size)
+{
+    code_form *f = r->state;
+    if (!f || !f->post)
+        return MHD_YES;
+    if (f->bad || f->too_big) {
+        r->discarded += size;
+        return r->discarded > r->srv->codegrades->cfg.max_bytes + DISCARD_MAX ? MHD_NO : MHD_YES;
+    }
+    if (MHD_post_process(f->post, data, size) != MHD_YES && !f->bad && !f->too_big)
+        f->bad = "the form data is malformed";
+    return MHD_YES;
+}
+
+/* One code grade on a render thread. */
+typedef struct {
+    rd_server *srv;
+    unsigned char *code;
+    size_t code_len;
+    char filename[80], assignment[80], student[256];
+    rd_codegrade_result res;
+    int counted; /* holds one of --max-code-jobs until its sandbox has run */
+    char *json;  /* the answer */
+} code_task;
+
+static void free_task(void *arg)
+{
+    code_task *t = arg;
+    if (!t)
+        return;
+    if (t->counted)
+        atomic_fetch_sub(&t->srv->codegrades->active, 1);
+    free(t->code);
+    free(t->json);
+    rd_codegrade_result_free(&t->res);
+    free(t);
+}
+
+static rd_error_code prepare_code(void *arg, rd_scene *s, int *render, rd_error *err)
+{
+    (void)s;
+    code_task *t = arg;
+    *render = 0;
+    rd_codegrade_input in = {t->assignment, t->filename, (const char *)t->code, t->code_len};
+    rd_error_code rc = rd_codegrade_run(&t->srv->codegrades->cfg, &in, &t->res, err);
+    /* the job itself stays a while for its status: the slot goes now */
+    atomic_fetch_sub(&t->srv->codegrades->active, 1);
+    t->counted = 0;
+    return rc;
+}
+
+/* The image's verdict as the grades keep it (with its id and addresses)
+ * in place of the bare one; a grade whose code made no image is recorded
+ * as an error, so that the instructors see it too. */
+static int add_ids(code_task *t, cJSON *root, rd_error *err)
+{
+    char id[24] = "", *verdict = NULL;
+    if (t->res.image_graded) {
+        if (rd_grades_one(t->srv, &t->res.grade, t->student, NULL, id, &verdict, err))
+            return 0;
+        cJSON *v = cJSON_Parse(verdict);
+        free(verdict);
+        if (!v || !cJSON_ReplaceItemInObject(root, "image", v)) {
+            cJSON_Delete(v);
+            return 0;
+        }
+    } else {
+        rd_grades_error_record(t->srv, t->res.assignment, t->student, NULL,
+                               t->res.compile.result != 0 ? "the code did not compile" : "the code made no image", id);
+    }
+    char url[96];
+    snprintf(url, sizeof url, "/v1/grade/code/%s/lobe.svg", id);
+    char *svg = t->res.values ? rd_code_lobe_svg(t->res.cases, t->res.values, t->res.ncases) : NULL;
+    if (svg)
+        keep_lobe(t->srv->codegrades, id, svg);
+    return cJSON_AddStringToObject(root, "id", id) &&
+           (!*t->student || cJSON_AddStringToObject(root, "student", t->student)) &&
+           (svg ? cJSON_AddStringToObject(root, "lobe_url", url) : cJSON_AddNullToObject(root, "lobe_url"));
+}
+
+static rd_error_code finish_code(void *arg, const uint8_t *rgb, int w, int h, rd_error *err)
+{
+    (void)rgb, (void)w, (void)h;
+    code_task *t = arg;
+    cJSON *root = rd_codegrade_json(&t->res);
+    int ok = root && add_ids(t, root, err);
+    t->json = ok ? cJSON_PrintUnformatted(root) : NULL;
+    cJSON_Delete(root);
+    return t->json ? RD_OK : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+}
+
+static enum MHD_Result submit(rd_req *r, code_form *f)
+{
+    struct rd_codegrades *c = r->srv->codegrades;
+    code_task *t = calloc(1, sizeof *t);
+    if (!t)
+        return rd_reply_error(r, 503, "unavailable", NULL, "out of memory");
+    if (atomic_fetch_add(&c->active, 1) >= r->srv->opt.max_code_jobs) {
+        atomic_fetch_sub(&c->active, 1);
+        free(t);
+        return rd_reply_error_hdr(r, 503, "queue_full",
+                                  "as many code grades as --max-code-jobs are running: try again in a few seconds",
+                                  "Retry-After", "5");
+    }
+    t->srv = r->srv;
+    t->counted = 1;
+    t->code = f->code;
+    t->code_len = f->code_len;
+    f->code = NULL;
+    memcpy(t->filename, f->filename, sizeof t->filename);
+    memcpy(t->assignment, f->assignment, sizeof t->assignment);
+    memcpy(t->student, f->student, sizeof t->student);
+    rd_jq_task task = {prepare_code, finish_code, free_task, t, t->code_len};
+    rd_jq_submit_options so = {0};
+    return rd_req_submit(r, &task, &so);
+}
+
+enum MHD_Result rd_route_code(rd_req *r, const char *rest)
+{
+    (void)rest;
+    code_form *f = r->state;
+    const char *why = rd_codegrades_unavailable(r->srv->codegrades);
+    if (!f)
+        return rd_reply_error(r, 400, "parse_error", NULL, "no form");
+    if (f->too_big)
+        return rd_reply_too_large(r, "the 'code' file (--max-code-bytes)");
+    if (f->bad)
+        return rd_reply_error(r, 400, "parse_error", NULL, f->bad);
+    if (atomic_load(&r->srv->draining))
+        return rd_reply_draining(r);
+    if (why) {
+        char msg[700];
+        snprintf(msg, sizeof msg, "code grading is off on this server: its sandbox cannot start (%s)", why);
+        return rd_reply_error_hdr(r, 503, "sandbox_unavailable", msg, "Retry-After", "3600");
+    }
+    if (!f->code_len)
+        return rd_reply_error(r, 400, "parse_error", NULL, "the form has no 'code' file");
+    if (!f->assignment[0])
+        return rd_reply_error(r, 400, "parse_error", NULL, "the form has no 'assignment'");
+    return submit(r, f);
+}
+
+enum MHD_Result rd_route_code_resumed(rd_req *r)
+{
+    rd_jq_info info;
+    rd_jq_info_get(r->srv->jobs, r->job, &info);
+    code_task *t = rd_jq_task_arg(r->job);
+    if (info.status == RD_JQ_DONE && t->json) {
+        char *json = t->json;
+        t->json = NULL;
+        rd_metrics_code_grade(r->srv, t->res.pass ? RD_VERDICT_PASS : RD_VERDICT_FAIL);
+        return rd_reply_json(r, 200, json);
+    }
+    if (info.status == RD_JQ_FAILED) {
+        rd_error_answer a = rd_code_error_answer(t->res.grade.stage, info.error.code);
+        rd_metrics_code_grade(r->srv, RD_VERDICT_ERROR);
+        return rd_reply_error(r, a.http, a.code, &info.error, NULL);
+    }
+    if (info.hung_up)
+        return MHD_NO;
+    return rd_reply_error_hdr(r, 503, "cancelled", "the grade was cancelled (the server is shutting down)",
+                              "Retry-After", "5");
+}
+
+static enum MHD_Result skeleton(rd_req *r, const char *material)
+{
+    char *text = NULL;
+    size_t len = 0;
+    rd_error err = {0};
+    rd_error_code rc = rd_codegrade_skeleton(r->srv->codegrades->cfg.course_dir, material, &text, &len, &err);
+    if (rc == RD_ERR_NOT_FOUND)
+        return rd_reply_error(r, 404, "not_found", &err, NULL);
+    if (rc)
+        return rd_reply_error(r, 503, "unavailable", NULL, "the course's files cannot be read on this server");
+    return rd_reply(r, 200, "text/x-c++hdr; charset=utf-8", text, len, 1);
+}
+
+static enum MHD_Result lobe(rd_req *r, const char *id)
+{
+    struct rd_codegrades *c = r->srv->codegrades;
+    char *copy = NULL;
+    pthread_mutex_lock(&c->mu);
+    for (size_t i = 0; i < LOBES_KEPT && !copy; i++)
+        if (c->lobes[i].svg && strcmp(c->lobes[i].id, id) == 0)
+            copy = strdup(c->lobes[i].svg);
+    pthread_mutex_unlock(&c->mu);
+    if (!copy)
+        return rd_reply_error(r, 404, "not_found", NULL, "no such code grade (or it is no longer kept)");
+    return rd_reply(r, 200, "image/svg+xml", copy, strlen(copy), 1);
+}
+
+/* rest: "/skeleton/{material}" or "/{id}/lobe.svg" */
+enum MHD_Result rd_route_code_get(rd_req *r, const char *rest)
+{
+    char a[80], b[24];
+    if (sscanf(rest, "/skeleton/%63[a-z_]%1s", a, b) == 1)
+        return skeleton(r, a);
+    size_t n = strlen(rest);
+    if (n > 10 && n < 40 && strcmp(rest + n - 9, "/lobe.svg") == 0) {
+        snprintf(a, sizeof a, "%.*s", (int)(n - 10), rest + 1);
+        if (strspn(a, "g0123456789abcdef") == strlen(a))
+            return lobe(r, a);
+    }
+    return rd_reply_error(r, 404, "not_found", NULL,
+                          "no such resource: GET /v1/grade/code/skeleton/{material} or /v1/grade/code/{id}/lobe.svg");
+}

@@ -1,0 +1,297 @@
+"""Grading students' calcReflectedLight (docs/grading.md, "Grading code"):
+the CLI and POST /v1/grade/code give the same verdicts; correct code passes
+(in double and in float, header or .cpp); each typical mistake fails and is
+named; a compile error comes back with its file, line and column and no
+sandbox path; every hostile file is contained while the daemon keeps
+rendering; bad uploads are 4xx; a server whose sandbox cannot start answers
+503 and renders all the same. Prints the time a code grade takes.
+
+Run: RAYD=build/rayd python3 tests/integration/code_grade_test.py"""
+import concurrent.futures
+import json
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "support"))
+from rayd_http import RAYD, Checks, Daemon, form_parts, metric_value  # noqa: E402
+
+check = Checks("code grade")
+STUDENTS = "tests/codegrade/students"
+HOSTILE = "tests/codegrade/hostile"
+CLASS = {"diffuse": "DiffuseMaterial", "phong": "PhongMaterial", "blinn_phong": "BlinnPhongMaterial",
+         "cook_torrance": "CookTorranceMaterial"}
+# A fixture's mistake and the cause the grader must name first.
+MISTAKES = {
+    "diffuse_missing_max": "missing_max", "diffuse_light_reversed": "light_reversed",
+    "diffuse_ambient_inside": "ambient_inside", "diffuse_div_pi": "divided_by_pi",
+    "phong_missing_max": "missing_max", "phong_reflect_sign": "reflect_sign", "phong_blinn": "blinn_not_phong",
+    "phong_light_reversed": "light_reversed", "phong_ambient_inside": "ambient_inside",
+    "phong_shininess_half": "shininess_wrong", "phong_no_spec_clamp": "no_specular_clamp",
+    "phong_kd_missing": "kd_missing", "phong_nan": "not_finite",
+}
+PASSING = ["diffuse_ok", "diffuse_ok_float", "phong_ok", "phong_ok_float", "blinn_phong_ok", "cook_torrance_ok"]
+RENDER_PROBE = b"""[render]
+width = 16
+height = 12
+
+[camera]
+eye = 0 0 5
+target = 0 0 0
+
+[light key]
+type = point
+position = 2 3 4
+color = 1 1 1
+
+[material m]
+type = diffuse
+kd = 0.5 0.5 0.5
+
+[sphere]
+center = 0 0 0
+radius = 1
+material = m
+"""
+
+
+def assignment_of(name):
+    for a in ("cook_torrance", "blinn_phong", "diffuse", "phong"):
+        if name.startswith(a):
+            return a
+    return "phong"
+
+
+def post_code(d, assignment, filename, text, student="s1", timeout=180):
+    body, ct = form_parts([("assignment", None, assignment.encode()), ("student", None, student.encode()),
+                           ("code", filename, text)])
+    st, h, b = d.request("POST", "/v1/grade/code", body=body, headers={"Content-Type": ct}, timeout=timeout)
+    try:
+        return st, h, json.loads(b)
+    except ValueError:
+        return st, h, {"raw": b[:200]}
+
+
+def first_cause(v):
+    f = v.get("function") or {}
+    causes = f.get("causes") or []
+    return causes[0]["cause"] if causes else None
+
+
+def read(path):
+    with open(path, "rb") as f:
+        return f.read()
+
+
+def cli_checks(tmp):
+    t0 = time.time()
+    p = subprocess.run([RAYD, "grade", "--assignment", "phong", "--code", STUDENTS + "/phong_ok.h", "--diff",
+                        os.path.join(tmp, "diff.png")], capture_output=True, timeout=300)
+    ms = (time.time() - t0) * 1e3
+    v = json.loads(p.stdout or b"{}")
+    check(p.returncode == 0 and v.get("pass") is True, "the CLI passes phong_ok (exit %d, %s)" %
+          (p.returncode, p.stderr[-300:]))
+    check(os.path.getsize(os.path.join(tmp, "diff.png")) > 0, "the CLI writes --diff")
+    p = subprocess.run([RAYD, "grade", "--assignment", "phong", "--code", STUDENTS + "/phong_missing_max.h"],
+                       capture_output=True, timeout=300)
+    v = json.loads(p.stdout or b"{}")
+    check(p.returncode == 4 and first_cause(v) == "missing_max", "the CLI fails phong_missing_max with exit 4 "
+          "and names missing_max (exit %d, cause %s)" % (p.returncode, first_cause(v)))
+    p = subprocess.run([RAYD, "grade", "--assignment", "nope", "--code", STUDENTS + "/phong_ok.h"],
+                       capture_output=True, timeout=60)
+    check(p.returncode == 1 and b"nope" in p.stderr, "the CLI: no such assignment is exit 1 (%d)" % p.returncode)
+    p = subprocess.run([RAYD, "grade", "--assignment", "phong", "--code", STUDENTS + "/phong_ok.h", "--bwrap",
+                        "/nonexistent/bwrap"], capture_output=True, timeout=60)
+    check(p.returncode == 3 and b"sandbox" in p.stderr, "the CLI without a sandbox is exit 3 with why (%d, %s)" %
+          (p.returncode, p.stderr[-200:]))
+    return ms
+
+
+def students(d):
+    times = []
+    for name in PASSING + sorted(MISTAKES):
+        a = assignment_of(name)
+        t0 = time.time()
+        st, _, v = post_code(d, a, CLASS[a] + ".h", read("%s/%s.h" % (STUDENTS, name)))
+        times.append((time.time() - t0) * 1e3)
+        if name in PASSING:
+            check(st == 200 and v.get("pass") is True, "%s passes (%d: %s)" % (name, st, first_cause(v) or
+                                                                             v.get("error") or v.get("note")))
+        else:
+            check(st == 200 and v.get("pass") is False and first_cause(v) == MISTAKES[name],
+                  "%s fails naming %s (%d, got %s)" % (name, MISTAKES[name], st, first_cause(v)))
+            words = ((v.get("function") or {}).get("causes") or [{}])[0].get("words", "")
+            check(len(words) > 20, "%s: the cause has words for the student" % name)
+    st, _, v = post_code(d, "phong", "PhongMaterial.cpp", read(STUDENTS + "/phong_ok.cpp"))
+    check(st == 200 and v.get("pass") is True, "a .cpp upload passes (%d, %s)" % (st, v.get("compile")))
+    img = v.get("image") or {}
+    check(img.get("diff_url", "").startswith("/v1/grades/") and v.get("id"), "the image's verdict has its urls")
+    st, h, b = d.request("GET", v.get("lobe_url") or "/none")
+    check(st == 200 and h.get("content-type") == "image/svg+xml" and b.startswith(b"<svg") and b"NaN" not in b,
+          "the lobe plot is served (%d)" % st)
+    return times
+
+
+def compile_error(d):
+    src = read(STUDENTS + "/phong_ok.h").replace(b"return diffuse + specular;", b"return diffuse + specular")
+    line = src[:src.index(b"return diffuse + specular\n")].count(b"\n") + 1
+    st, _, v = post_code(d, "phong", "PhongMaterial.h", src)
+    c = v.get("compile") or {}
+    diags = [x for x in c.get("diagnostics", []) if x["severity"] == "error"]
+    check(st == 200 and v.get("pass") is False and c.get("ok") is False, "a syntax error fails to compile")
+    check(diags and diags[0]["file"] == "PhongMaterial.h" and diags[0]["line"] in (line, line + 1) and
+          diags[0]["column"] > 0, "the error names PhongMaterial.h:%d with a column (%s)" % (line, diags[:1]))
+    check("/work" not in c.get("messages", "") and "/rayd" not in c.get("messages", ""),
+          "the messages name no sandbox folder: %s" % c.get("messages", "")[:300])
+
+
+def listener():
+    """Something on 127.0.0.1:8080 for socket.h to reach if it could."""
+    s = socket.socket()
+    s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        s.bind(("127.0.0.1", 8080))
+        s.listen(8)
+        return s
+    except OSError:
+        s.close()
+        return None
+
+
+def hostile_expectation(name, st, v):
+    """Whether the answer shows name contained; and what was seen."""
+    f = v.get("function") or {}
+    c = v.get("compile") or {}
+    seen = "%d pass=%s compile=%s function=%s output=%s" % (st, v.get("pass"), c.get("result"),
+                                                           {k: f.get(k) for k in ("crashed", "exited", "timed_out",
+                                                                                  "not_run")},
+                                                           (v.get("output") or {}).get("limited"))
+    if st != 200:
+        return False, seen
+    if name in ("read_passwd", "read_data", "socket", "alloc_100g"):
+        return v.get("pass") is True, seen  # correct Phong unless it got out (or got 100 GB)
+    if name.startswith("include_"):
+        msgs = c.get("messages", "")
+        leaked = "root:" in msgs or "RAYD_" in msgs or socket.gethostname() in msgs
+        # the host's files are not there; /proc/self/environ is the compiler's own (empty) one
+        return not leaked and (c.get("ok") is False or name == "include_environ"), seen
+    if name == "compile_bomb":
+        return c.get("result") == "time_limit", seen
+    ok = v.get("pass") is False
+    if name in ("segfault", "abort"):
+        ok = ok and f.get("crashed", 0) > 0
+    if name == "exit0":
+        ok = ok and f.get("exited", 0) > 0
+    if name == "loop":
+        ok = ok and f.get("timed_out", 0) > 0
+    if name == "print_forever":
+        ok = ok and (v.get("output") or {}).get("limited") is True
+    return ok, seen
+
+
+def hostile(d):
+    lst = listener()
+    probes = []
+    with concurrent.futures.ThreadPoolExecutor(2) as pool:
+        for path in sorted(os.listdir(HOSTILE)):
+            name = path[:-2]
+            fut = pool.submit(post_code, d, "phong", "PhongMaterial.h", read(os.path.join(HOSTILE, path)))
+            while not fut.done():
+                st, _, _ = d.request("POST", "/v1/render", body=RENDER_PROBE, timeout=60)
+                probes.append(st)
+                time.sleep(0.2)
+            st, _, v = fut.result()
+            ok, seen = hostile_expectation(name, st, v)
+            check(ok, "hostile %s is contained: %s" % (name, seen))
+    if lst:
+        lst.close()
+    check(probes and all(s == 200 for s in probes), "renders went on during the hostile grades (%d probes, %s)" %
+          (len(probes), sorted(set(probes))))
+    if os.geteuid() == 0:  # the sandbox runs as 65534 only under root
+        for _ in range(50):  # killed trees take a moment to be reaped
+            left = subprocess.run(["pgrep", "-u", "65534"], capture_output=True).stdout.split()
+            if not left:
+                break
+            time.sleep(0.1)
+        check(not left, "no sandbox process is left (%s)" % left)
+
+
+def bad_uploads(d):
+    st, _, v = post_code(d, "phong", "PhongMaterial.h", b"x" * (64 * 1024 + 1))
+    check(st == 413, "a file over --max-code-bytes is 413 (%d)" % st)
+    st, _, v = post_code(d, "phong", "../PhongMaterial.h", b"int x;")
+    check(st == 422 and v.get("error", {}).get("code") == "bad_code", "a path as the file's name is 422 (%d)" % st)
+    st, _, v = post_code(d, "phong", "PhongMaterial.h", b"int x;\0")
+    check(st == 422, "NUL bytes are 422 (%d)" % st)
+    st, _, v = post_code(d, "nope", "PhongMaterial.h", b"int x;")
+    check(st == 404, "an unknown assignment is 404 (%d)" % st)
+    st, _, v = post_code(d, "mirror_only", "PhongMaterial.h", b"int x;")
+    check(st == 422, "an assignment with no material a student writes is 422 (%d, %s)" % (st, v))
+    body, ct = form_parts([("assignment", None, b"phong")])
+    st, _, _ = d.request("POST", "/v1/grade/code", body=body, headers={"Content-Type": ct})
+    check(st == 400, "no code file is 400 (%d)" % st)
+    st, _, _ = d.request("POST", "/v1/grade/code", body=b"{}", headers={"Content-Type": "application/json"})
+    check(st == 415, "not a form is 415 (%d)" % st)
+    st, _, b = d.request("GET", "/v1/grade/code/skeleton/phong")
+    check(st == 200 and b"class PhongMaterial" in b, "the phong skeleton is served (%d)" % st)
+    st, _, _ = d.request("GET", "/v1/grade/code/skeleton/../../etc")
+    check(st == 404, "no other file is served (%d)" % st)
+
+
+def busy(tmp):
+    with Daemon(tmp, ["--max-code-jobs", "1", "--code-run-seconds", "4"]) as d:
+        with concurrent.futures.ThreadPoolExecutor(1) as pool:
+            slow = pool.submit(post_code, d, "phong", "PhongMaterial.h", read(HOSTILE + "/loop.h"))
+            time.sleep(1.5)  # it is compiling or looping now
+            st, h, _ = post_code(d, "phong", "PhongMaterial.h", read(STUDENTS + "/phong_ok.h"))
+            check(st == 503 and h.get("retry-after"), "past --max-code-jobs is 503 with Retry-After (%d)" % st)
+            check(slow.result()[0] == 200, "the running grade ends")
+        st, _, v = post_code(d, "phong", "PhongMaterial.h", read(STUDENTS + "/phong_ok.h"))
+        check(st == 200 and v.get("pass") is True, "then the next one runs (%d)" % st)
+        _, _, m = d.request("GET", "/metrics")
+        check(metric_value(m.decode(), "rayd_code_grades_total", {"verdict": "pass"}) == 1,
+              "rayd_code_grades_total counts the pass")
+
+
+def no_sandbox(tmp):
+    with Daemon(tmp, ["--bwrap", "/nonexistent/bwrap"]) as d:
+        st, h, v = post_code(d, "phong", "PhongMaterial.h", read(STUDENTS + "/phong_ok.h"))
+        check(st == 503 and v.get("error", {}).get("code") == "sandbox_unavailable",
+              "no sandbox: 503 sandbox_unavailable (%d, %s)" % (st, v))
+        st, _, _ = d.request("POST", "/v1/render", body=RENDER_PROBE)
+        check(st == 200, "no sandbox: renders all the same (%d)" % st)
+        check("sandbox" in d.text(), "no sandbox: the log says so")
+
+
+def assignments(tmp):
+    """The bundled assignments, and one with no material a student writes."""
+    path = os.path.join(tmp, "assignments")
+    shutil.copytree("scenes/assignments", path)
+    with open(os.path.join(path, "mirror_only.cfg"), "w") as f:
+        f.write(RENDER_PROBE.decode().replace("type = diffuse", "type = perfect_specular"))
+    return path
+
+
+def main():
+    with tempfile.TemporaryDirectory() as tmp:
+        cli_ms = cli_checks(tmp)
+        with Daemon(tmp, ["--max-code-bytes", "65536", "--code-compile-seconds", "8", "--max-code-jobs", "2",
+                          "--assignments", assignments(tmp)]) as d:
+            times = students(d)
+            compile_error(d)
+            bad_uploads(d)
+            hostile(d)
+        busy(tmp)
+        no_sandbox(tmp)
+    times.sort()
+    print("code grade: CLI %.0f ms (with the reference rendered); HTTP median %.0f ms, max %.0f ms over %d files" %
+          (cli_ms, times[len(times) // 2], times[-1], len(times)))
+    return check.summary()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
