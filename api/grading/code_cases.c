@@ -21,15 +21,21 @@ static const char *const group_words[] = {
 const char *rd_code_group_name(rd_code_group g) { return (unsigned)g < RD_CODE_GROUPS ? group_names[g] : "?"; }
 const char *rd_code_group_words(rd_code_group g) { return (unsigned)g < RD_CODE_GROUPS ? group_words[g] : "?"; }
 
-/* Four parameter sets per type, coloured so that channels differ, with
+/* Five parameter sets per type, coloured so that channels differ, with
  * ambient never 0 (a student adding it shows). Shininess 7.5 is
- * fractional (pow of a negative cosine is NaN there), 1 and 101 odd. */
+ * fractional (pow of a negative cosine is NaN there), 1 and 101 odd;
+ * the stiff sets go to 1e6 and to roughness 0.02. */
+#define SETS 5
 static rd_material material(rd_material_type t, int set, int stiff)
 {
-    static const double kd[4][3] = {{0.8, 0.4, 0.2}, {0.2, 0.6, 0.9}, {0.5, 0.5, 0.5}, {0.9, 0.1, 0.3}};
-    static const double ks[4][3] = {{0.5, 0.45, 0.4}, {0.3, 0.3, 0.3}, {0.9, 0.8, 0.2}, {0.04, 0.2, 0.6}};
-    static const double shininess[4] = {1, 7.5, 32, 101}, stiff_shininess[4] = {1000, 4000, 10000, 2500};
-    static const double roughness[4] = {0.1, 0.3, 0.6, 1.0}, stiff_roughness[4] = {0.02, 0.05, 0.03, 0.04};
+    static const double kd[SETS][3] = {
+        {0.8, 0.4, 0.2}, {0.2, 0.6, 0.9}, {0.5, 0.5, 0.5}, {0.9, 0.1, 0.3}, {0.05, 0.3, 0.1}};
+    static const double ks[SETS][3] = {
+        {0.5, 0.45, 0.4}, {0.3, 0.3, 0.3}, {0.9, 0.8, 0.2}, {0.04, 0.2, 0.6}, {0.7, 0.7, 0.7}};
+    static const double shininess[SETS] = {0.5, 1, 7.5, 32, 101};
+    static const double stiff_shininess[SETS] = {1e3, 1e4, 1e5, 1e6, 3e5};
+    static const double roughness[SETS] = {0.1, 0.3, 0.6, 1.0, 0.2};
+    static const double stiff_roughness[SETS] = {0.02, 0.05, 0.03, 0.04, 0.025};
     rd_material m;
     rd_material_defaults(&m, t);
     m.kd = v3(kd[set][0], kd[set][1], kd[set][2]);
@@ -76,7 +82,7 @@ static int add(list *l, rd_code_group g, int stiff, rd_vec3 n, rd_vec3 L, rd_vec
     }
     rd_code_case *c = &l->v[l->n];
     memset(c, 0, sizeof *c);
-    c->m = material(l->type, (int)(l->n % 4), stiff);
+    c->m = material(l->type, (int)(l->n % SETS), stiff);
     c->n = n;
     c->L = L;
     c->V = V;
@@ -109,12 +115,16 @@ static int aimed_cases(list *l, rd_code_group g, int count, int stiff)
         rd_vec3 R = v3_reflect(L, n), V = R;
         if (g == RD_CODE_RETRO)
             V = v3_neg(L);
-        else if (stiff && i % 3)
-            V = around(l, R, cos(0.02 * (i % 7) / 7.0), 1);
-        if (v3_dot(V, n) <= 0)
-            V = R;
         if (add(l, g, stiff, n, L, V, 0))
             return -1;
+        /* the stiff ones within three widths of the highlight, exp(-n θ²/2) */
+        rd_code_case *c = &l->v[l->n - 1];
+        if (stiff && i % 4) {
+            double width = c->m.type == RD_MAT_COOK_TORRANCE ? c->m.roughness : sqrt(2 / c->m.shininess);
+            c->V = around(l, R, cos(3 * width * (i % 4) / 3.0), 1);
+            if (v3_dot(c->V, n) <= 0)
+                c->V = R;
+        }
     }
     return 0;
 }
@@ -129,16 +139,21 @@ static int normal_incidence(list *l, int count)
     return 0;
 }
 
-/* The plane of incidence z = 0, n = +y, the light 45° from the left; the
- * eye from -90° (back toward the light's side) to +90°, the mirror at 45°. */
-static int lobe(list *l)
+/* The plane of incidence z = 0, n = +y, the light from the left at 0°,
+ * 30° and 60°; the eye from -90° (the light's side) to +90°, the mirror
+ * at the light's angle. */
+static int lobes(list *l)
 {
-    rd_vec3 L = v3(sin(M_PI / 4), -cos(M_PI / 4), 0);
-    for (int a = -90; a <= 90; a += 2) {
-        double t = a * M_PI / 180;
-        if (add(l, RD_CODE_LOBE, 0, v3(0, 1, 0), L, v3(sin(t), cos(t), 0), a))
-            return -1;
-        l->v[l->n - 1].m = material(l->type, 0, 0);
+    for (int in = 0; in <= 60; in += 30) {
+        double a = in * M_PI / 180;
+        rd_vec3 L = v3(sin(a), -cos(a), 0);
+        for (int e = -90; e <= 90; e += 2) {
+            double t = e * M_PI / 180;
+            if (add(l, RD_CODE_LOBE, 0, v3(0, 1, 0), L, v3(sin(t), cos(t), 0), e))
+                return -1;
+            l->v[l->n - 1].m = material(l->type, 3, 0);
+            l->v[l->n - 1].incidence_deg = in;
+        }
     }
     return 0;
 }
@@ -150,12 +165,12 @@ rd_error_code rd_code_cases(rd_material_type type, rd_code_case **cases, size_t 
     if (type != RD_MAT_DIFFUSE && type != RD_MAT_PHONG && type != RD_MAT_BLINN_PHONG && type != RD_MAT_COOK_TORRANCE)
         return rd_error_set(err, RD_ERR_UNSUPPORTED, 0, 0, "no configurations for this material type");
     list l = {NULL, 0, 0, 0x636f646563617365ull, type};
-    int bad = random_cases(&l, RD_CODE_GENERAL, 120, 0.05, 1, 0.05, 1) ||
-              random_cases(&l, RD_CODE_BACK_LIT, 30, -1, -0.02, 0.05, 1) ||
-              random_cases(&l, RD_CODE_GRAZING, 20, 1e-4, 0.03, 0.05, 1) || aimed_cases(&l, RD_CODE_MIRROR, 20, 0) ||
-              normal_incidence(&l, 10) || aimed_cases(&l, RD_CODE_RETRO, 10, 0) ||
-              random_cases(&l, RD_CODE_VIEW_GRAZING, 15, 0.05, 1, 1e-4, 0.03) ||
-              (type != RD_MAT_DIFFUSE && aimed_cases(&l, RD_CODE_STIFF, 30, 1)) || lobe(&l);
+    int bad = random_cases(&l, RD_CODE_GENERAL, 1500, 0.05, 1, 0.05, 1) ||
+              random_cases(&l, RD_CODE_BACK_LIT, 300, -1, -0.02, 0.05, 1) ||
+              random_cases(&l, RD_CODE_GRAZING, 200, 1e-4, 0.03, 0.05, 1) || aimed_cases(&l, RD_CODE_MIRROR, 200, 0) ||
+              normal_incidence(&l, 100) || aimed_cases(&l, RD_CODE_RETRO, 100, 0) ||
+              random_cases(&l, RD_CODE_VIEW_GRAZING, 150, 0.05, 1, 1e-4, 0.03) ||
+              (type != RD_MAT_DIFFUSE && aimed_cases(&l, RD_CODE_STIFF, 400, 1)) || lobes(&l);
     if (bad) {
         free(l.v);
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");

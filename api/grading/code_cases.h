@@ -1,6 +1,6 @@
 /* The fixed configurations a student's calcReflectedLight is called on
  * (docs/grading.md, "Grading code: the configurations"): for each material
- * a student writes, a few hundred (normal, incoming, outgoing, material)
+ * a student writes, some 3000 (normal, incoming, outgoing, material)
  * in groups that each catch a kind of mistake. Deterministic: the same
  * list on every machine and every run. */
 #ifndef RD_CODE_CASES_H
@@ -35,7 +35,8 @@ typedef struct {
     rd_vec3 L;     /* unit, from the light to the surface (incomingDir) */
     rd_vec3 V;     /* unit, from the surface to the eye (outgoingDir) */
     rd_code_group group;
-    double angle_deg; /* LOBE: the eye's angle from the normal, toward the mirror direction positive */
+    double angle_deg;     /* LOBE: the eye's angle from the normal, toward the mirror direction positive */
+    double incidence_deg; /* LOBE: the light's angle from the normal */
 } rd_code_case;
 
 /* The configurations of a material type: diffuse, phong, blinn_phong or

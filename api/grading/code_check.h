@@ -22,7 +22,7 @@ typedef struct {
 /* A value is right when every channel is finite and within
  * RD_CODE_ABS_TOL + RD_CODE_REL_TOL * |expected| (code_check.c says why). */
 #define RD_CODE_ABS_TOL 2e-5
-#define RD_CODE_REL_TOL 5e-3
+#define RD_CODE_REL_TOL 1e-3
 
 #define RD_CODE_MAX_CAUSES 4
 

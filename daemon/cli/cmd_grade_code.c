@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include "cli.h"
+#include "code_frames.h"
 #include "codegrade.h"
 #include "file_io.h"
 #include "json_text.h"
@@ -32,14 +33,17 @@ static const char help[] =
     "  --bwrap PATH         bubblewrap (default: /usr/bin/bwrap)\n"
     "  --threads N          render threads for the reference (default: the cores)\n"
     "\n"
-    "Exit status: 0 pass; 4 graded and failing (including code that does not\n"
-    "compile); 1 usage or no such assignment; 2 a file that is not C++ text, too\n"
-    "long, or an assignment with no material a student writes; 3 a file could not\n"
-    "be read or written, or the sandbox cannot start here.\n";
+    "Exit status: 0 pass; 4 graded and failing; 2 the code does not compile (the\n"
+    "JSON has the compiler's messages), the file is not C++ text, or the assignment\n"
+    "has no material a student writes; 1 usage or no such assignment; 3 a file\n"
+    "could not be read or written, or the sandbox cannot start here.\n";
 
 static int report(const rd_codegrade_result *r, const char *diff)
 {
-    int status = r->pass ? RD_EXIT_OK : RD_EXIT_GRADE_FAIL;
+    int status = r->pass ? RD_EXIT_OK : r->compile.result != 0 ? RD_EXIT_SCENE : RD_EXIT_GRADE_FAIL;
+    if (r->compile.result != 0)
+        fprintf(stderr, "rayd grade: the code does not compile%s (compile.messages has the compiler's words)\n",
+                r->compile.result == RD_COMPILE_TIME_LIMIT ? " within the time limit" : "");
     rd_error err = {0};
     if (diff && r->image_graded && rd_cli_write_diff(&r->grade, diff, &err)) {
         fprintf(stderr, "rayd grade: %s\n", err.message);

@@ -86,10 +86,11 @@ static rd_error_code check_input(const rd_codegrade_config *cfg, const rd_codegr
     int ok = n > 0 && n <= 64 && f[0] != '.' &&
              strspn(f, "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz"
                        "0123456789_.-") == n;
-    int cpp = has_suffix(f, ".cpp") || has_suffix(f, ".cc");
+    int cpp = has_suffix(f, ".cpp") || has_suffix(f, ".cc") || has_suffix(f, ".c");
     if (!ok || !(cpp || has_suffix(f, ".h") || has_suffix(f, ".hpp")))
-        return rd_error_set(err, RD_ERR_INVALID, 0, 0,
-                            "the file's name \"%.64s\" is not a C++ header or source (PhongMaterial.h, or a .cpp)", f);
+        return rd_error_set(
+            err, RD_ERR_INVALID, 0, 0,
+            "the file's name \"%.64s\" is not a C++ header or source (PhongMaterial.h, or a .cpp or .c)", f);
     if (!in->source || in->len == 0)
         return rd_error_set(err, RD_ERR_INVALID, 0, 0, "the file %s is empty", f);
     if (in->len > cfg->max_bytes)

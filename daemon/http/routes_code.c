@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "code_frames.h"
 #include "code_lobe.h"
 #include "codegrade.h"
 #include "error_map.h"
@@ -117,14 +118,14 @@ static enum MHD_Result on_field(void *cls, enum MHD_ValueKind kind, const char *
     }
     if (size && !data)
         return MHD_YES;
-    if (strcmp(key, "code") == 0) {
+    if (strcmp(key, "source") == 0 || strcmp(key, "code") == 0) {
         if (off == 0 && f->code_len) {
-            f->bad = "the form has more than one 'code' file";
+            f->bad = "the form has more than one 'source' file";
             return MHD_NO;
         }
         if (off == 0 &&
             !rd_form_text(f->filename, sizeof f->filename, filename ? filename : "", filename ? strlen(filename) : 0)) {
-            f->bad = "the 'code' file's name is longer than a file name can be";
+            f->bad = "the 'source' file's name is longer than a file name can be";
             return MHD_NO;
         }
         if (f->code_len + size > r->srv->codegrades->cfg.max_bytes) {
@@ -151,7 +152,7 @@ enum MHD_Result rd_route_code_begin(rd_req *r)
     const char *ct = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
     if (!ct || strncasecmp(ct, "multipart/form-data", 19) != 0)
         return rd_reply_error(r, 415, "unsupported_media_type", NULL,
-                              "send multipart/form-data with 'assignment' and a 'code' file");
+                              "send multipart/form-data with 'assignment' and a 'source' file");
     code_form *f = calloc(1, sizeof *f);
     if (!f)
         return MHD_NO;
@@ -184,8 +185,9 @@ typedef struct {
     size_t code_len;
     char filename[80], assignment[80], student[256];
     rd_codegrade_result res;
-    int counted; /* holds one of --max-code-jobs until its sandbox has run */
-    char *json;  /* the answer */
+    int counted;     /* holds one of --max-code-jobs until its sandbox has run */
+    unsigned status; /* of the answer: 200, or 422 when it did not compile */
+    char *json;      /* the answer */
 } code_task;
 
 static void free_task(void *arg)
@@ -243,12 +245,39 @@ static int add_ids(code_task *t, cJSON *root, rd_error *err)
            (svg ? cJSON_AddStringToObject(root, "lobe_url", url) : cJSON_AddNullToObject(root, "lobe_url"));
 }
 
+/* Code that does not compile is 422 with the grade's body and an error
+ * naming the first of the compiler's errors. */
+static int add_compile_error(code_task *t, cJSON *root)
+{
+    const rd_code_compile *c = &t->res.compile;
+    t->status = c->result == 0 ? 200 : 422;
+    if (t->status == 200)
+        return 1;
+    char msg[700];
+    const rd_code_diag *d = NULL;
+    for (int i = 0; i < c->ndiags && !d; i++)
+        if (strstr(c->diags[i].severity, "error"))
+            d = &c->diags[i];
+    if (c->result == RD_COMPILE_TIME_LIMIT)
+        snprintf(msg, sizeof msg, "the compiler ran past --code-compile-seconds (%.0f s)",
+                 t->srv->codegrades->cfg.compile_ms / 1000);
+    else if (d)
+        snprintf(msg, sizeof msg, "the code does not compile: %s:%d:%d: %s", d->file, d->line, d->column, d->message);
+    else
+        snprintf(msg, sizeof msg, "the code does not compile (see compile.messages)");
+    cJSON *e = cJSON_AddObjectToObject(root, "error");
+    return e &&
+           cJSON_AddStringToObject(e, "code", c->result == RD_COMPILE_TIME_LIMIT ? "time_limit" : "compile_error") &&
+           cJSON_AddStringToObject(e, "message", msg) &&
+           (!d || (cJSON_AddNumberToObject(e, "line", d->line) && cJSON_AddNumberToObject(e, "column", d->column)));
+}
+
 static rd_error_code finish_code(void *arg, const uint8_t *rgb, int w, int h, rd_error *err)
 {
     (void)rgb, (void)w, (void)h;
     code_task *t = arg;
     cJSON *root = rd_codegrade_json(&t->res);
-    int ok = root && add_ids(t, root, err);
+    int ok = root && add_ids(t, root, err) && add_compile_error(t, root);
     t->json = ok ? cJSON_PrintUnformatted(root) : NULL;
     cJSON_Delete(root);
     return t->json ? RD_OK : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
@@ -288,7 +317,7 @@ enum MHD_Result rd_route_code(rd_req *r, const char *rest)
     if (!f)
         return rd_reply_error(r, 400, "parse_error", NULL, "no form");
     if (f->too_big)
-        return rd_reply_too_large(r, "the 'code' file (--max-code-bytes)");
+        return rd_reply_too_large(r, "the 'source' file (--max-code-bytes)");
     if (f->bad)
         return rd_reply_error(r, 400, "parse_error", NULL, f->bad);
     if (atomic_load(&r->srv->draining))
@@ -299,7 +328,7 @@ enum MHD_Result rd_route_code(rd_req *r, const char *rest)
         return rd_reply_error_hdr(r, 503, "sandbox_unavailable", msg, "Retry-After", "3600");
     }
     if (!f->code_len)
-        return rd_reply_error(r, 400, "parse_error", NULL, "the form has no 'code' file");
+        return rd_reply_error(r, 400, "parse_error", NULL, "the form has no 'source' file (the student's .h or .cpp)");
     if (!f->assignment[0])
         return rd_reply_error(r, 400, "parse_error", NULL, "the form has no 'assignment'");
     return submit(r, f);
@@ -314,7 +343,7 @@ enum MHD_Result rd_route_code_resumed(rd_req *r)
         char *json = t->json;
         t->json = NULL;
         rd_metrics_code_grade(r->srv, t->res.pass ? RD_VERDICT_PASS : RD_VERDICT_FAIL);
-        return rd_reply_json(r, 200, json);
+        return rd_reply_json(r, t->status, json);
     }
     if (info.status == RD_JQ_FAILED) {
         rd_error_answer a = rd_code_error_answer(t->res.grade.stage, info.error.code);

@@ -66,11 +66,11 @@ test("grade your code: pass, a named mistake, a compile error", { timeout: 4 * G
   await gradeIn(page, upload("phong_ok.h", "PhongMaterial.h"));
   assert.match(await page.textContent("#code-verdict"), /^PASS/);
   await page.waitForFunction(() => {
-    const i = document.getElementById("code-image"), l = document.getElementById("code-lobe");
+    const i = document.getElementById("code-diff"), l = document.getElementById("code-lobe");
     return i.complete && i.naturalWidth === 320 && l.complete && l.naturalWidth > 0;
   }, null, { timeout: 20_000 });
   assert.match(await page.textContent("#code-image-verdict"), /The image passes: .* from \d+ calls of your function/);
-  assert.match(await page.getAttribute("#code-diff-link", "href"), /^\/v1\/grades\/g[0-9a-f]+\/diff\.png$/);
+  assert.match(await page.getAttribute("#code-image-link", "href"), /^\/v1\/grades\/g[0-9a-f]+\/image\.png$/);
   await page.screenshot({ path: path.join(SHOTS, "1-pass.png"), fullPage: true });
 
   await gradeIn(page, upload("phong_missing_max.h", "PhongMaterial.h"));
@@ -83,6 +83,7 @@ test("grade your code: pass, a named mistake, a compile error", { timeout: 4 * G
 
   await gradeIn(page, upload("phong_ok.h", "PhongMaterial.h", (s) => s.replace("return diffuse + specular;", "return diffuse +;")));
   assert.match(await page.textContent("#code-verdict"), /does not compile/);
+  assert.match(await page.textContent("#code-msg"), /^the code does not compile: PhongMaterial\.h:\d+:\d+: /);
   const diag = await page.textContent("#code-diags li.error");
   assert.match(diag, /^PhongMaterial\.h:\d+:\d+: error: /);
   assert.doesNotMatch(await page.textContent("#code-messages"), /\/work\/|\/rayd\//);

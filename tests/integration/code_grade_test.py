@@ -68,7 +68,7 @@ def assignment_of(name):
 
 def post_code(d, assignment, filename, text, student="s1", timeout=180):
     body, ct = form_parts([("assignment", None, assignment.encode()), ("student", None, student.encode()),
-                           ("code", filename, text)])
+                           ("source", filename, text)])
     st, h, b = d.request("POST", "/v1/grade/code", body=body, headers={"Content-Type": ct}, timeout=timeout)
     try:
         return st, h, json.loads(b)
@@ -101,6 +101,13 @@ def cli_checks(tmp):
     v = json.loads(p.stdout or b"{}")
     check(p.returncode == 4 and first_cause(v) == "missing_max", "the CLI fails phong_missing_max with exit 4 "
           "and names missing_max (exit %d, cause %s)" % (p.returncode, first_cause(v)))
+    bad = os.path.join(tmp, "PhongMaterial.h")
+    with open(bad, "wb") as f:
+        f.write(read(STUDENTS + "/phong_ok.h").replace(b"return diffuse + specular;", b"return diffuse +;"))
+    p = subprocess.run([RAYD, "grade", "--assignment", "phong", "--code", bad], capture_output=True, timeout=300)
+    v = json.loads(p.stdout or b"{}")
+    check(p.returncode == 2 and (v.get("compile") or {}).get("ok") is False and b"does not compile" in p.stderr,
+          "the CLI: a compile error is exit 2 with the messages (%d)" % p.returncode)
     p = subprocess.run([RAYD, "grade", "--assignment", "nope", "--code", STUDENTS + "/phong_ok.h"],
                        capture_output=True, timeout=60)
     check(p.returncode == 1 and b"nope" in p.stderr, "the CLI: no such assignment is exit 1 (%d)" % p.returncode)
@@ -126,6 +133,8 @@ def students(d):
                   "%s fails naming %s (%d, got %s)" % (name, MISTAKES[name], st, first_cause(v)))
             words = ((v.get("function") or {}).get("causes") or [{}])[0].get("words", "")
             check(len(words) > 20, "%s: the cause has words for the student" % name)
+    st, _, v = post_code(d, "phong", "PhongMaterial.c", read(STUDENTS + "/phong_ok.cpp"))
+    check(st == 200 and v.get("pass") is True, "a .c upload passes (%d, %s)" % (st, v.get("compile")))
     st, _, v = post_code(d, "phong", "PhongMaterial.cpp", read(STUDENTS + "/phong_ok.cpp"))
     check(st == 200 and v.get("pass") is True, "a .cpp upload passes (%d, %s)" % (st, v.get("compile")))
     img = v.get("image") or {}
@@ -142,7 +151,11 @@ def compile_error(d):
     st, _, v = post_code(d, "phong", "PhongMaterial.h", src)
     c = v.get("compile") or {}
     diags = [x for x in c.get("diagnostics", []) if x["severity"] == "error"]
-    check(st == 200 and v.get("pass") is False and c.get("ok") is False, "a syntax error fails to compile")
+    err = v.get("error") or {}
+    check(st == 422 and err.get("code") == "compile_error" and v.get("pass") is False and c.get("ok") is False,
+          "a syntax error is 422 compile_error with the grade (%d, %s)" % (st, err))
+    check(err.get("line") in (line, line + 1) and "PhongMaterial.h" in err.get("message", ""),
+          "the error names the file and line: %s" % err)
     check(diags and diags[0]["file"] == "PhongMaterial.h" and diags[0]["line"] in (line, line + 1) and
           diags[0]["column"] > 0, "the error names PhongMaterial.h:%d with a column (%s)" % (line, diags[:1]))
     check("/work" not in c.get("messages", "") and "/rayd" not in c.get("messages", ""),
@@ -170,17 +183,19 @@ def hostile_expectation(name, st, v):
                                                            {k: f.get(k) for k in ("crashed", "exited", "timed_out",
                                                                                   "not_run")},
                                                            (v.get("output") or {}).get("limited"))
+    if name == "compile_bomb":
+        return st == 422 and c.get("result") == "time_limit" and (v.get("error") or {}).get("code") == "time_limit", seen
+    if name.startswith("include_") and name != "include_environ":
+        msgs = c.get("messages", "")
+        leaked = "root:" in msgs or "RAYD_" in msgs or socket.gethostname() in msgs
+        return st == 422 and not leaked and c.get("ok") is False, seen
     if st != 200:
         return False, seen
     if name in ("read_passwd", "read_data", "socket", "alloc_100g"):
         return v.get("pass") is True, seen  # correct Phong unless it got out (or got 100 GB)
-    if name.startswith("include_"):
+    if name == "include_environ":  # /proc/self/environ is the compiler's own, empty, environment
         msgs = c.get("messages", "")
-        leaked = "root:" in msgs or "RAYD_" in msgs or socket.gethostname() in msgs
-        # the host's files are not there; /proc/self/environ is the compiler's own (empty) one
-        return not leaked and (c.get("ok") is False or name == "include_environ"), seen
-    if name == "compile_bomb":
-        return c.get("result") == "time_limit", seen
+        return "RAYD_" not in msgs and "PATH=" not in msgs, seen
     ok = v.get("pass") is False
     if name in ("segfault", "abort"):
         ok = ok and f.get("crashed", 0) > 0
@@ -220,6 +235,29 @@ def hostile(d):
         check(not left, "no sandbox process is left (%s)" % left)
 
 
+def the_daemons_files(d, tmp):
+    """A student who knows where the daemon keeps its data and assignments
+    (this test's folders) cannot include or open them."""
+    data, scene = os.path.join(tmp, "var"), os.path.join(tmp, "assignments", "phong.cfg")
+    ok = read(STUDENTS + "/phong_ok.h")
+    inc = ok.replace(b'#include "Material.h"', b'#include "Material.h"\n#include "%s"' % scene.encode())
+    st, _, v = post_code(d, "phong", "PhongMaterial.h", inc)
+    msgs = (v.get("compile") or {}).get("messages", "")
+    check(st == 422 and "No such file" in msgs and "shininess = 10" not in msgs and "[render]" not in msgs,
+          "#include of the daemon's assignment fails without quoting it (%d: %s)" % (st, msgs[:200]))
+    probe = b"""
+        for (const char *p : {"%s", "%s", "%s"}) {
+            int fd = open(p, O_RDONLY);
+            if (fd >= 0) { close(fd); return vec3(100, 100, 100); }
+        }
+        Real cosAlpha""" % (data.encode(), scene.encode(), os.path.dirname(scene).encode())
+    opens = ok.replace(b"        Real cosAlpha", probe, 1).replace(b'#include "Material.h"',
+                                                                    b'#include "Material.h"\n#include <fcntl.h>\n#include <unistd.h>')
+    st, _, v = post_code(d, "phong", "PhongMaterial.h", opens)
+    check(st == 200 and v.get("pass") is True, "the daemon's data folder and assignments cannot be opened at run "
+          "time (%d, pass %s, %s)" % (st, v.get("pass"), (v.get("compile") or {}).get("messages", "")[:200]))
+
+
 def bad_uploads(d):
     st, _, v = post_code(d, "phong", "PhongMaterial.h", b"x" * (64 * 1024 + 1))
     check(st == 413, "a file over --max-code-bytes is 413 (%d)" % st)
@@ -233,7 +271,10 @@ def bad_uploads(d):
     check(st == 422, "an assignment with no material a student writes is 422 (%d, %s)" % (st, v))
     body, ct = form_parts([("assignment", None, b"phong")])
     st, _, _ = d.request("POST", "/v1/grade/code", body=body, headers={"Content-Type": ct})
-    check(st == 400, "no code file is 400 (%d)" % st)
+    check(st == 400, "no source file is 400 (%d)" % st)
+    body, ct = form_parts([("assignment", None, b"phong"), ("code", "PhongMaterial.h", read(STUDENTS + "/phong_ok.h"))])
+    st, _, b = d.request("POST", "/v1/grade/code", body=body, headers={"Content-Type": ct})
+    check(st == 200 and json.loads(b).get("pass") is True, "the file may be sent as 'code' too (%d)" % st)
     st, _, _ = d.request("POST", "/v1/grade/code", body=b"{}", headers={"Content-Type": "application/json"})
     check(st == 415, "not a form is 415 (%d)" % st)
     st, _, b = d.request("GET", "/v1/grade/code/skeleton/phong")
@@ -283,6 +324,7 @@ def main():
                           "--assignments", assignments(tmp)]) as d:
             times = students(d)
             compile_error(d)
+            the_daemons_files(d, tmp)
             bad_uploads(d)
             hostile(d)
         busy(tmp)

@@ -359,7 +359,7 @@ def code_grades(c):
         body, ct = form_parts(parts)
         return c.call("post", G, G, body, {"Content-Type": ctype or ct}, expect)
 
-    status, _, data = post([("assignment", None, b"tiny"), ("code", "DiffuseMaterial.h", right)], 200)
+    status, _, data = post([("assignment", None, b"tiny"), ("source", "DiffuseMaterial.h", right)], 200)
     v = json.loads(data) if status == 200 else {}
     check(v.get("pass") is True, "diffuse_ok did not pass the tiny assignment: %s" % str(v)[:300])
     c.call("get", "/v1/grade/code/{id}/lobe.svg", v.get("lobe_url") or G + "/x/lobe.svg", expect=200)
@@ -367,11 +367,12 @@ def code_grades(c):
     c.call("get", "/v1/grade/code/skeleton/{material}", G + "/skeleton/phong", expect=200)
     c.call("get", "/v1/grade/code/skeleton/{material}", G + "/skeleton/mirror", expect=404)
     post([("assignment", None, b"tiny")], 400)
-    post([("assignment", None, b"nosuch"), ("code", "DiffuseMaterial.h", right)], 404)
-    post([("assignment", None, b"tiny"), ("code", "DiffuseMaterial.h", b"/" * 300000)], 413)
-    post([("assignment", None, b"tiny"), ("code", "DiffuseMaterial.h", right)], 415, ctype="text/plain")
-    post([("assignment", None, b"tiny"), ("code", "Diffuse Material.exe", right)], 422)  # bad_code
-    post([("assignment", None, b"broken"), ("code", "DiffuseMaterial.h", right)], 422)  # bad_assignment
+    post([("assignment", None, b"nosuch"), ("source", "DiffuseMaterial.h", right)], 404)
+    post([("assignment", None, b"tiny"), ("source", "DiffuseMaterial.h", b"/" * 300000)], 413)
+    post([("assignment", None, b"tiny"), ("source", "DiffuseMaterial.h", right)], 415, ctype="text/plain")
+    post([("assignment", None, b"tiny"), ("source", "Diffuse Material.exe", right)], 422)  # bad_code
+    post([("assignment", None, b"broken"), ("source", "DiffuseMaterial.h", right)], 422)  # bad_assignment
+    post([("assignment", None, b"tiny"), ("source", "DiffuseMaterial.h", b"int x = ;\n")], 422)  # compile_error
 
 
 def class_batch(tmp):
@@ -530,7 +531,7 @@ def draining(d, c):
     c.call("post", "/v1/jobs", "/v1/jobs", SCENE.encode(), CFG, 503)
     body, ct = form({"scene": SCENE.encode(), "image": png(16, 12, lambda x, y: (0, 0, 0))})
     c.call("post", "/v1/grade", "/v1/grade", body, {"Content-Type": ct}, 503)
-    body, ct = form_parts([("assignment", None, b"tiny"), ("code", "DiffuseMaterial.h", b"int x;")])
+    body, ct = form_parts([("assignment", None, b"tiny"), ("source", "DiffuseMaterial.h", b"int x;")])
     c.call("post", "/v1/grade/code", "/v1/grade/code", body, {"Content-Type": ct}, 503)
     status, _, _ = c.call("get", "/readyz", validate_it=False)
     if status != 404:

@@ -8,7 +8,8 @@
  *
  * KIND is the adapter's RAYD_KIND (1 to 4), CLASS its RAYD_CLASS. A
  * student file ending in .cpp/.cc is compiled beside the adapter with the
- * class's declaration from COURSE_DIR/decl; any other is included by the
+ * class's declaration from COURSE_DIR/decl (g++ takes a .c for C++ too);
+ * any other is included by the
  * adapter. STALL_MS bounds one call, RUN_MS them all. Exit status 0 whatever the student's code did; 2 on a bad
  * invocation or input; 3 when fd 3 cannot be written. */
 #include <dlfcn.h>
@@ -129,7 +130,7 @@ static int ends_with(const char *s, const char *suffix)
 static void compiler_argv(const char *argv[32], char defs[4][512], int kind, const char *cls, const char *student,
                           const char *course)
 {
-    int cpp = ends_with(student, ".cpp") || ends_with(student, ".cc");
+    int cpp = ends_with(student, ".cpp") || ends_with(student, ".cc") || ends_with(student, ".c");
     int n = 0;
     snprintf(defs[0], sizeof defs[0], "-I%s", course);
     snprintf(defs[1], sizeof defs[1], cpp ? "-I%s/decl" : "-I%s", course);
