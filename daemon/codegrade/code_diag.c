@@ -11,11 +11,14 @@
 /* Where the sandbox keeps files; a student knows only the names. */
 static const char *const hidden[] = {"/work/", "/rayd/course/decl/", "/rayd/course/", "/tmp/"};
 
-static size_t hidden_prefix(const char *p)
+/* The raw text is not NUL-terminated: only the left bytes are compared. */
+static size_t hidden_prefix(const char *p, size_t left)
 {
-    for (size_t i = 0; i < sizeof hidden / sizeof *hidden; i++)
-        if (strncmp(p, hidden[i], strlen(hidden[i])) == 0)
-            return strlen(hidden[i]);
+    for (size_t i = 0; i < sizeof hidden / sizeof *hidden; i++) {
+        size_t n = strlen(hidden[i]);
+        if (n <= left && memcmp(p, hidden[i], n) == 0)
+            return n;
+    }
     return 0;
 }
 
@@ -23,7 +26,7 @@ static char *shorten(const char *raw, size_t len)
 {
     rd_strbuf b = {0};
     for (size_t i = 0; i < len;) {
-        size_t skip = hidden_prefix(raw + i);
+        size_t skip = hidden_prefix(raw + i, len - i);
         if (skip) {
             i += skip;
             continue;

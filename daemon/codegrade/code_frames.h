@@ -7,6 +7,7 @@
 #ifndef RD_CODE_FRAMES_H
 #define RD_CODE_FRAMES_H
 
+#include <stddef.h>
 #include <stdint.h>
 
 #include "rayd_code.h"
@@ -72,5 +73,30 @@ typedef struct {
     int32_t limited; /* it printed so much that the evaluation stopped */
     int32_t pad;
 } rd_frame_output;
+
+/* What the evaluator reported (the daemon's side, code_read.c). The fixed
+ * structs are copied out (frames need not be aligned); the texts and the
+ * values point into the data, which must outlive this. */
+typedef struct {
+    int has_compile, has_output;
+    rd_frame_compile compile;
+    const char *messages; /* the compiler's output, not NUL-terminated */
+    size_t messages_len;
+    rd_frame_values vhead;
+    const unsigned char *values; /* vhead.count rd_frame_value, or NULL */
+    rd_frame_output output;
+    const char *printed;
+    size_t printed_len;
+    const char *note;
+    size_t note_len;
+} rd_code_frames;
+
+/* Reads len bytes of frames; each frame's length is checked against what
+ * is left, the values' count against expect (else they count as absent);
+ * the first frame of each type is taken, unknown ones skipped. */
+void rd_code_read_frames(const unsigned char *data, size_t len, size_t expect, rd_code_frames *f);
+
+/* Value i (i < the count), or NOT_RUN when there are no values. */
+rd_frame_value rd_code_frame_value(const rd_code_frames *f, size_t i);
 
 #endif

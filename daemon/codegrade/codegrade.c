@@ -226,52 +226,6 @@ static rd_error_code run_sandbox(const rd_codegrade_config *cfg, const rd_codegr
     return rc;
 }
 
-/* What the evaluator reported, each frame's size checked. */
-typedef struct {
-    const rd_frame_compile *compile;
-    const char *messages;
-    size_t messages_len;
-    const rd_frame_value *values;
-    const rd_frame_values *vhead;
-    const rd_frame_output *output;
-    const char *printed;
-    size_t printed_len;
-    const char *note;
-    size_t note_len;
-} frames;
-
-static void read_frames(const unsigned char *d, size_t len, size_t expect, frames *f)
-{
-    memset(f, 0, sizeof *f);
-    for (size_t i = 0; len - i >= sizeof(rd_frame_header);) {
-        rd_frame_header h;
-        memcpy(&h, d + i, sizeof h);
-        i += sizeof h;
-        if (h.len > len - i)
-            break;
-        const unsigned char *p = d + i;
-        i += h.len;
-        if (h.type == RD_FRAME_COMPILE && !f->compile && h.len >= sizeof *f->compile) {
-            f->compile = (const rd_frame_compile *)p;
-            f->messages = (const char *)p + sizeof *f->compile;
-            f->messages_len = h.len - sizeof *f->compile;
-        } else if (h.type == RD_FRAME_VALUES && !f->values && h.len >= sizeof *f->vhead) {
-            const rd_frame_values *v = (const rd_frame_values *)p;
-            if (v->count == expect && h.len == sizeof *v + expect * sizeof(rd_frame_value)) {
-                f->vhead = v;
-                f->values = (const rd_frame_value *)(p + sizeof *v);
-            }
-        } else if (h.type == RD_FRAME_OUTPUT && !f->output && h.len >= sizeof *f->output) {
-            f->output = (const rd_frame_output *)p;
-            f->printed = (const char *)p + sizeof *f->output;
-            f->printed_len = h.len - sizeof *f->output;
-        } else if (h.type == RD_FRAME_NOTE && !f->note) {
-            f->note = (const char *)p;
-            f->note_len = h.len;
-        }
-    }
-}
-
 static int value_status(int32_t s)
 {
     switch (s) {
@@ -307,39 +261,39 @@ static const char *sandbox_end_words(const rd_sandbox_result *r)
     }
 }
 
-static void take_compile(const frames *f, const rd_sandbox_result *res, rd_codegrade_result *out)
+static void take_compile(const rd_code_frames *f, const rd_sandbox_result *res, rd_codegrade_result *out)
 {
     rd_code_compile *c = &out->compile;
-    if (!f->compile) {
+    if (!f->has_compile) {
         c->result = RD_COMPILE_FAILED;
         rd_code_compile_messages(c, res->output, res->output_len);
         if (!out->note)
             out->note = strdup(sandbox_end_words(res));
         return;
     }
-    c->result = f->compile->result;
-    c->status = f->compile->status;
-    c->ms = f->compile->ms;
+    c->result = f->compile.result;
+    c->status = f->compile.status;
+    c->ms = f->compile.ms;
     rd_code_compile_messages(c, f->messages, f->messages_len);
 }
 
 /* The configurations' values, then the image's; NULL values: not run. */
-static void take_values(const frames *f, rd_codegrade_result *out, rd_frame_value *image, size_t nimage)
+static void take_values(const rd_code_frames *f, rd_codegrade_result *out, rd_frame_value *image, size_t nimage)
 {
     for (size_t i = 0; i < out->ncases; i++) {
-        rd_code_value *v = &out->values[i];
-        v->status = f->values ? value_status(f->values[i].status) : RD_CODE_NOT_RUN;
-        v->got = f->values ? v3(f->values[i].rgb[0], f->values[i].rgb[1], f->values[i].rgb[2]) : v3(0, 0, 0);
+        rd_frame_value fv = rd_code_frame_value(f, i);
+        out->values[i].status = value_status(fv.status);
+        out->values[i].got = v3(fv.rgb[0], fv.rgb[1], fv.rgb[2]);
     }
     for (size_t i = 0; i < nimage; i++)
-        image[i] = f->values ? f->values[out->ncases + i] : (rd_frame_value){RD_VALUE_NOT_RUN, 0, {0, 0, 0}};
-    if (f->vhead) {
-        out->restarts = f->vhead->restarts;
-        out->calls_ms = f->vhead->ms;
+        image[i] = rd_code_frame_value(f, out->ncases + i);
+    if (f->values) {
+        out->restarts = f->vhead.restarts;
+        out->calls_ms = f->vhead.ms;
     }
-    if (f->output) {
-        out->output_total = f->output->total;
-        out->output_limited = f->output->limited != 0;
+    if (f->has_output) {
+        out->output_total = f->output.total;
+        out->output_limited = f->output.limited != 0;
         out->output = text_copy(f->printed, f->printed_len);
     }
 }
@@ -370,8 +324,8 @@ static rd_error_code grade_image(prepared *p, const rd_frame_value *image, rd_co
 
 static rd_error_code evaluate(const rd_sandbox_result *res, prepared *p, rd_codegrade_result *out, rd_error *err)
 {
-    frames f;
-    read_frames(res->data, res->data_len, p->nq, &f);
+    rd_code_frames f;
+    rd_code_read_frames(res->data, res->data_len, p->nq, &f);
     if (f.note)
         out->note = text_copy(f.note, f.note_len);
     take_compile(&f, res, out);

@@ -11,6 +11,8 @@
 #   form         POST /v1/grade multipart forms, through the real daemon
 #   query        POST /v1/render query parameters, through the real daemon
 #   archive      the upload archive reader (zip, tar, tar.gz)
+#   frames       the code grader's reading of its sandbox's frames and the
+#                compiler's messages
 # SECONDS is per target. For each target, in turn (the machine has two
 # cores and each libFuzzer process uses one), it
 #   1. builds build/fuzz/fuzz_TARGET with clang, libFuzzer, ASan and UBSan
@@ -46,9 +48,11 @@ die() {
     exit 2
 }
 
-ALL_TARGETS="cfg json obj png grade_file form query archive"
+ALL_TARGETS="cfg json obj png grade_file form query archive frames"
 # The targets that run the daemon in-process.
 HTTP_TARGETS="form query"
+# The targets that take some of the daemon's objects: the code grader's.
+CODE_TARGETS="frames"
 
 [ $# -ge 1 ] || usage
 SECS=$1
@@ -74,7 +78,7 @@ CC=clang
 command -v "$CC" >/dev/null 2>&1 || die "clang not found (apt-get install clang libclang-rt-14-dev)"
 need_daemon=0
 for t in $TARGETS; do
-    case " $HTTP_TARGETS " in
+    case " $HTTP_TARGETS $CODE_TARGETS " in
     *" $t "*) need_daemon=1 ;;
     esac
 done
@@ -158,7 +162,8 @@ done
 # the Makefile does), only for the targets that start it.
 DAEMON_OBJS=""
 if [ "$need_daemon" -eq 1 ]; then
-    for src in $(find daemon -name '*.c' | sort); do
+    # Not the sandbox's evaluator either: a program of its own, with its main().
+    for src in $(find daemon -name '*.c' -not -path 'daemon/codegrade/eval/*' | sort); do
         [ "$src" = daemon/main.c ] && continue
         obj=$OBJ/${src%.c}.o
         DAEMON_OBJS="$DAEMON_OBJS $obj"
@@ -188,6 +193,9 @@ for t in $TARGETS; do
     extra=""
     case " $HTTP_TARGETS " in
     *" $t "*) extra="$OBJ/tests/fuzz/fuzz_http.o $DAEMON_OBJS" ;;
+    esac
+    case " $CODE_TARGETS " in
+    *" $t "*) extra="$OBJ/daemon/codegrade/code_read.o $OBJ/daemon/codegrade/code_diag.o" ;;
     esac
     "$CC" $TGT_FLAGS -o "$OUT/fuzz_$t" "$OBJ/tests/fuzz/fuzz_$t.o" "$OBJ/tests/fuzz/fuzz_check.o" $extra \
         $LIB_OBJS $PKG_LIBS || die "linking $OUT/fuzz_$t failed"
