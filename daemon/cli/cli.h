@@ -21,6 +21,10 @@ int rd_cmd_grade(int argc, char **argv);
 /* Writes the heat map of where o's image differs from its reference as a
  * PNG file at path. */
 rd_error_code rd_cli_write_diff(const rd_grade_output *o, const char *path, rd_error *err);
+/* Writes o's heat map to diff (when both are given) and prints verdict
+ * (which it deletes); status, or RD_EXIT_IO when the heat map could not be
+ * written, RD_EXIT_SCENE when out of memory. */
+int rd_cli_grade_report(cJSON *verdict, const rd_grade_output *o, const char *diff, int status);
 /* rayd grade --code: a student's calcReflectedLight (cmd_grade_code.c). */
 int rd_cmd_grade_code(int argc, char **argv);
 int rd_cmd_compare(int argc, char **argv);

@@ -70,16 +70,14 @@ rd_error_code rd_cli_write_diff(const rd_grade_output *o, const char *path, rd_e
     return rc;
 }
 
-/* Prints the verdict; the exit status of a graded image. */
-static int report(const rd_grade_output *o, const char *diff)
+int rd_cli_grade_report(cJSON *verdict, const rd_grade_output *o, const char *diff, int status)
 {
-    int status = o->result.pass ? RD_EXIT_OK : RD_EXIT_GRADE_FAIL;
     rd_error err = {0};
-    if (diff && rd_cli_write_diff(o, diff, &err)) {
+    if (diff && o && rd_cli_write_diff(o, diff, &err)) {
         fprintf(stderr, "rayd grade: %s\n", err.message);
         status = RD_EXIT_IO;
     }
-    char *json = rd_json_print(rd_grade_json(o));
+    char *json = rd_json_print(verdict);
     if (!json) {
         fprintf(stderr, "rayd grade: out of memory\n");
         return RD_EXIT_SCENE;
@@ -87,6 +85,12 @@ static int report(const rd_grade_output *o, const char *diff)
     fputs(json, stdout);
     free(json);
     return status;
+}
+
+/* Prints the verdict; the exit status of a graded image. */
+static int report(const rd_grade_output *o, const char *diff)
+{
+    return rd_cli_grade_report(rd_grade_json(o), o, diff, o->result.pass ? RD_EXIT_OK : RD_EXIT_GRADE_FAIL);
 }
 
 /* A grade's error that is not a student's: the message, and the status. */

@@ -44,19 +44,7 @@ static int report(const rd_codegrade_result *r, const char *diff)
     if (r->compile.result != 0)
         fprintf(stderr, "rayd grade: the code does not compile%s (compile.messages has the compiler's words)\n",
                 r->compile.result == RD_COMPILE_TIME_LIMIT ? " within the time limit" : "");
-    rd_error err = {0};
-    if (diff && r->image_graded && rd_cli_write_diff(&r->grade, diff, &err)) {
-        fprintf(stderr, "rayd grade: %s\n", err.message);
-        status = RD_EXIT_IO;
-    }
-    char *json = rd_json_print(rd_codegrade_json(r));
-    if (!json) {
-        fprintf(stderr, "rayd grade: out of memory\n");
-        return RD_EXIT_SCENE;
-    }
-    fputs(json, stdout);
-    free(json);
-    return status;
+    return rd_cli_grade_report(rd_codegrade_json(r), r->image_graded ? &r->grade : NULL, diff, status);
 }
 
 static int run(rd_codegrade_config *cfg, const char *assignment, const char *path, const char *diff)

@@ -181,6 +181,34 @@ enum MHD_Result rd_route_batch_get(rd_req *r, const char *rest);
 int rd_form_append(unsigned char **buf, size_t *len, const char *data, size_t size);
 int rd_form_text(char *dst, size_t cap, const char *data, size_t size);
 
+/* A multipart form as it arrives: the first member of each route's form
+ * struct (the request's state). libmicrohttpd 0.9.75 cannot answer in the
+ * middle of an upload, so a form found bad stops being parsed and the rest
+ * of it is read and dropped; the answer goes out once it has all arrived
+ * (one that runs far past the limit has its connection closed instead). */
+typedef struct {
+    struct MHD_PostProcessor *post;
+    const char *bad;     /* malformed: why */
+    const char *too_big; /* a part passed a limit: the limit's flag */
+} rd_form;
+
+typedef struct {
+    size_t size;           /* of the route's form struct, calloc'ed */
+    size_t max_total;      /* a larger Content-Length is 413 at once ... */
+    const char *too_large; /* ... naming this */
+    const char *hint;      /* what to send, when it is not multipart/form-data (415) */
+    MHD_PostDataIterator on_field;
+    void (*free_state)(rd_req *r);
+} rd_form_spec;
+
+/* The headers have arrived: 413, 415, or the form set up as r's state. */
+enum MHD_Result rd_form_begin(rd_req *r, const rd_form_spec *spec);
+/* Body bytes: parsed, or dropped once the form is bad or too big, up to
+ * discard_max dropped bytes in all, after which the connection closes. */
+enum MHD_Result rd_form_data(rd_req *r, const char *data, size_t size, size_t discard_max);
+/* Destroys the post processor (the route frees its own struct). */
+void rd_form_end(rd_form *f);
+
 /* POST /v1/grade/code; GET /v1/grade/code/skeleton/{material} and
  * /v1/grade/code/{id}/lobe.svg (routes_code.c). */
 enum MHD_Result rd_route_code_begin(rd_req *r);

@@ -29,17 +29,15 @@ enum { STUDENT_MAX = sizeof(((batch_image *)0)->student) };
 
 /* The form as it arrives (the request's state). */
 typedef struct {
-    struct MHD_PostProcessor *post;
+    rd_form form;
     char assignment[80];
     char student[STUDENT_MAX]; /* a `student` field names the image part after it */
     batch_image *images;
     size_t n, cap;
     unsigned char *archive;
     size_t archive_len;
-    int archives;        /* archive parts seen */
-    size_t bytes;        /* of every file part */
-    const char *too_big; /* the limit passed */
-    const char *bad;     /* malformed: why */
+    int archives; /* archive parts seen */
+    size_t bytes; /* of every file part */
 } batch_form;
 
 static void free_images(batch_image *im, size_t n)
@@ -54,8 +52,7 @@ static void free_form(rd_req *r)
     batch_form *f = r->state;
     if (!f)
         return;
-    if (f->post)
-        MHD_destroy_post_processor(f->post);
+    rd_form_end(&f->form);
     free_images(f->images, f->n);
     free(f->archive);
     free(f);
@@ -82,7 +79,7 @@ static void student_of(const char *filename, char *out, size_t size)
 static int add_image(batch_form *f, const rd_server_options *o, const char *student)
 {
     if (f->n >= o->max_batch_images) {
-        f->too_big = "--max-batch-images";
+        f->form.too_big = "--max-batch-images";
         return 0;
     }
     if (f->n == f->cap) {
@@ -115,19 +112,19 @@ static enum MHD_Result file_part(rd_req *r, batch_form *f, int archive, const ch
             return MHD_NO;
     }
     if (off == 0 && archive && ++f->archives > 1) {
-        f->bad = "give one 'archive' part";
+        f->form.bad = "give one 'archive' part";
         return MHD_NO;
     }
     f->bytes += size;
     if (f->bytes > o->max_batch_bytes) {
-        f->too_big = "--max-batch-bytes";
+        f->form.too_big = "--max-batch-bytes";
         return MHD_NO;
     }
     if (archive)
         return rd_form_append(&f->archive, &f->archive_len, data, size) ? MHD_YES : MHD_NO;
     batch_image *im = &f->images[f->n - 1];
     if (im->len + size > o->max_body_bytes) {
-        f->too_big = "--max-body-bytes (an image)";
+        f->form.too_big = "--max-body-bytes (an image)";
         return MHD_NO;
     }
     return rd_form_append(&im->png, &im->len, data, size) ? MHD_YES : MHD_NO;
@@ -141,7 +138,7 @@ static enum MHD_Result on_field(void *cls, enum MHD_ValueKind kind, const char *
     rd_req *r = cls;
     batch_form *f = r->state;
     if (!key) {
-        f->bad = "a form part has no field name (Content-Disposition: form-data; name=\"...\")";
+        f->form.bad = "a form part has no field name (Content-Disposition: form-data; name=\"...\")";
         return MHD_NO;
     }
     if (size && !data)
@@ -151,8 +148,8 @@ static enum MHD_Result on_field(void *cls, enum MHD_ValueKind kind, const char *
     char *dst = strcmp(key, "assignment") == 0 ? f->assignment : strcmp(key, "student") == 0 ? f->student : NULL;
     size_t cap = dst == f->assignment ? sizeof f->assignment : sizeof f->student;
     if (dst && !rd_form_text(dst, cap, data, size)) {
-        f->bad = dst == f->assignment ? "the 'assignment' field is longer than an assignment name can be"
-                                      : "a 'student' field is longer than a student id can be";
+        f->form.bad = dst == f->assignment ? "the 'assignment' field is longer than an assignment name can be"
+                                           : "a 'student' field is longer than a student id can be";
         return MHD_NO;
     }
     return MHD_YES;
@@ -186,37 +183,18 @@ enum MHD_Result rd_route_batch_begin(rd_req *r)
     enum MHD_Result ret;
     if (rd_require_instructor(r, &ret))
         return ret;
-    const rd_server_options *o = &r->srv->opt;
-    const char *cl = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
-    if (cl && strtoull(cl, NULL, 10) > o->max_batch_bytes + (1u << 20))
-        return rd_reply_too_large(r, "the batch (--max-batch-bytes)");
-    const char *ct = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
-    if (!ct || strncasecmp(ct, "multipart/form-data", 19) != 0)
-        return rd_reply_error(r, 415, "unsupported_media_type", NULL,
-                              "send multipart/form-data with 'assignment' and 'image' files or one 'archive'");
-    batch_form *f = calloc(1, sizeof *f);
-    if (!f)
-        return MHD_NO;
-    r->state = f;
-    r->free_state = free_form;
-    f->post = MHD_create_post_processor(r->conn, 64 * 1024, on_field, r);
-    if (!f->post)
-        return rd_reply_error(r, 415, "unsupported_media_type", NULL, "the form could not be read");
-    return MHD_YES;
+    rd_form_spec spec = {sizeof(batch_form),
+                         r->srv->opt.max_batch_bytes + (1u << 20),
+                         "the batch (--max-batch-bytes)",
+                         "send multipart/form-data with 'assignment' and 'image' files or one 'archive'",
+                         on_field,
+                         free_form};
+    return rd_form_begin(r, &spec);
 }
 
 enum MHD_Result rd_route_batch_data(rd_req *r, const char *data, size_t size)
 {
-    batch_form *f = r->state;
-    if (!f || !f->post)
-        return MHD_YES;
-    if (f->bad || f->too_big) {
-        r->discarded += size;
-        return r->discarded > r->srv->opt.max_batch_bytes + (1u << 20) ? MHD_NO : MHD_YES;
-    }
-    if (MHD_post_process(f->post, data, size) != MHD_YES && !f->bad && !f->too_big)
-        f->bad = "the form data is malformed";
-    return MHD_YES;
+    return rd_form_data(r, data, size, r->srv->opt.max_batch_bytes + (1u << 20));
 }
 
 /* An archive's files become the batch's images (folders and names as
@@ -232,9 +210,9 @@ static rd_error_code take_file(void *user, const char *name, const unsigned char
     char student[STUDENT_MAX];
     student_of(name, student, sizeof student);
     if (!add_image(x->f, x->o, student))
-        return x->f->too_big ? rd_error_set(err, RD_ERR_LIMIT, 0, 0, "more than %zu images (--max-batch-images)",
-                                            x->o->max_batch_images)
-                             : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+        return x->f->form.too_big ? rd_error_set(err, RD_ERR_LIMIT, 0, 0, "more than %zu images (--max-batch-images)",
+                                                 x->o->max_batch_images)
+                                  : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
     batch_image *im = &x->f->images[x->f->n - 1];
     if (!(im->png = malloc(len ? len : 1)))
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
@@ -276,19 +254,19 @@ static const char *duplicate_student(const batch_form *f)
 
 static enum MHD_Result form_errors(rd_req *r, batch_form *f)
 {
-    if (f->too_big) {
+    if (f->form.too_big) {
         const rd_server_options *o = &r->srv->opt;
         char msg[160];
-        if (strcmp(f->too_big, "--max-batch-images") == 0)
+        if (strcmp(f->form.too_big, "--max-batch-images") == 0)
             snprintf(msg, sizeof msg, "the batch has more than %zu images (--max-batch-images)", o->max_batch_images);
-        else if (strcmp(f->too_big, "--max-batch-bytes") == 0)
+        else if (strcmp(f->form.too_big, "--max-batch-bytes") == 0)
             snprintf(msg, sizeof msg, "the batch is over %zu bytes (--max-batch-bytes)", o->max_batch_bytes);
         else
             snprintf(msg, sizeof msg, "an image is over %zu bytes (--max-body-bytes)", o->max_body_bytes);
         return rd_reply_error(r, 413, "too_large", NULL, msg);
     }
-    if (f->bad)
-        return rd_reply_error(r, 400, "parse_error", NULL, f->bad);
+    if (f->form.bad)
+        return rd_reply_error(r, 400, "parse_error", NULL, f->form.bad);
     if (!f->assignment[0])
         return rd_reply_error(r, 400, "parse_error", NULL, "the form has no 'assignment'");
     if (f->archives && f->n)
@@ -303,7 +281,7 @@ enum MHD_Result rd_route_batch_post(rd_req *r, const char *rest)
     batch_form *f = r->state;
     if (!f)
         return rd_reply_error(r, 400, "parse_error", NULL, "no form");
-    if (f->too_big || f->bad || !f->assignment[0] || (f->archives && f->n))
+    if (f->form.too_big || f->form.bad || !f->assignment[0] || (f->archives && f->n))
         return form_errors(r, f);
     if (atomic_load(&srv->draining))
         return rd_reply_draining(r);

@@ -83,14 +83,12 @@ static void keep_lobe(struct rd_codegrades *c, const char *id, char *svg)
 
 /* The form as it arrives: the assignment, the student, the file. */
 typedef struct {
-    struct MHD_PostProcessor *post;
+    rd_form form;
     unsigned char *code;
     size_t code_len;
     char filename[80];
     char assignment[80];
     char student[256];
-    int too_big;
-    const char *bad;
 } code_form;
 
 static void free_form(rd_req *r)
@@ -98,8 +96,7 @@ static void free_form(rd_req *r)
     code_form *f = r->state;
     if (!f)
         return;
-    if (f->post)
-        MHD_destroy_post_processor(f->post);
+    rd_form_end(&f->form);
     free(f->code);
     free(f);
     r->state = NULL;
@@ -113,23 +110,23 @@ static enum MHD_Result on_field(void *cls, enum MHD_ValueKind kind, const char *
     rd_req *r = cls;
     code_form *f = r->state;
     if (!key) {
-        f->bad = "a form part has no field name (Content-Disposition: form-data; name=\"...\")";
+        f->form.bad = "a form part has no field name (Content-Disposition: form-data; name=\"...\")";
         return MHD_NO;
     }
     if (size && !data)
         return MHD_YES;
     if (strcmp(key, "source") == 0 || strcmp(key, "code") == 0) {
         if (off == 0 && f->code_len) {
-            f->bad = "the form has more than one 'source' file";
+            f->form.bad = "the form has more than one 'source' file";
             return MHD_NO;
         }
         if (off == 0 &&
             !rd_form_text(f->filename, sizeof f->filename, filename ? filename : "", filename ? strlen(filename) : 0)) {
-            f->bad = "the 'source' file's name is longer than a file name can be";
+            f->form.bad = "the 'source' file's name is longer than a file name can be";
             return MHD_NO;
         }
         if (f->code_len + size > r->srv->codegrades->cfg.max_bytes) {
-            f->too_big = 1;
+            f->form.too_big = "--max-code-bytes";
             return MHD_NO;
         }
         return rd_form_append(&f->code, &f->code_len, data, size) ? MHD_YES : MHD_NO;
@@ -137,7 +134,7 @@ static enum MHD_Result on_field(void *cls, enum MHD_ValueKind kind, const char *
     char *dst = strcmp(key, "assignment") == 0 ? f->assignment : strcmp(key, "student") == 0 ? f->student : NULL;
     size_t cap = dst == f->assignment ? sizeof f->assignment : sizeof f->student;
     if (dst && !rd_form_text(dst, cap, data, size)) {
-        f->bad = "a form field ('assignment' or 'student') is longer than such a name can be";
+        f->form.bad = "a form field ('assignment' or 'student') is longer than such a name can be";
         return MHD_NO;
     }
     return MHD_YES; /* other fields are ignored */
@@ -145,37 +142,18 @@ static enum MHD_Result on_field(void *cls, enum MHD_ValueKind kind, const char *
 
 enum MHD_Result rd_route_code_begin(rd_req *r)
 {
-    size_t max = r->srv->codegrades->cfg.max_bytes;
-    const char *cl = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
-    if (cl && strtoull(cl, NULL, 10) > max + 64 * 1024)
-        return rd_reply_too_large(r, "the form (the code may have --max-code-bytes)");
-    const char *ct = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
-    if (!ct || strncasecmp(ct, "multipart/form-data", 19) != 0)
-        return rd_reply_error(r, 415, "unsupported_media_type", NULL,
-                              "send multipart/form-data with 'assignment' and a 'source' file");
-    code_form *f = calloc(1, sizeof *f);
-    if (!f)
-        return MHD_NO;
-    r->state = f;
-    r->free_state = free_form;
-    f->post = MHD_create_post_processor(r->conn, 64 * 1024, on_field, r);
-    if (!f->post)
-        return rd_reply_error(r, 415, "unsupported_media_type", NULL, "the form could not be read");
-    return MHD_YES;
+    rd_form_spec spec = {sizeof(code_form),
+                         r->srv->codegrades->cfg.max_bytes + 64 * 1024,
+                         "the form (the code may have --max-code-bytes)",
+                         "send multipart/form-data with 'assignment' and a 'source' file",
+                         on_field,
+                         free_form};
+    return rd_form_begin(r, &spec);
 }
 
 enum MHD_Result rd_route_code_data(rd_req *r, const char *data, size_t size)
 {
-    code_form *f = r->state;
-    if (!f || !f->post)
-        return MHD_YES;
-    if (f->bad || f->too_big) {
-        r->discarded += size;
-        return r->discarded > r->srv->codegrades->cfg.max_bytes + DISCARD_MAX ? MHD_NO : MHD_YES;
-    }
-    if (MHD_post_process(f->post, data, size) != MHD_YES && !f->bad && !f->too_big)
-        f->bad = "the form data is malformed";
-    return MHD_YES;
+    return rd_form_data(r, data, size, r->srv->codegrades->cfg.max_bytes + DISCARD_MAX);
 }
 
 /* One code grade on a render thread. */
@@ -316,10 +294,10 @@ enum MHD_Result rd_route_code(rd_req *r, const char *rest)
     const char *why = rd_codegrades_unavailable(r->srv->codegrades);
     if (!f)
         return rd_reply_error(r, 400, "parse_error", NULL, "no form");
-    if (f->too_big)
+    if (f->form.too_big)
         return rd_reply_too_large(r, "the 'source' file (--max-code-bytes)");
-    if (f->bad)
-        return rd_reply_error(r, 400, "parse_error", NULL, f->bad);
+    if (f->form.bad)
+        return rd_reply_error(r, 400, "parse_error", NULL, f->form.bad);
     if (atomic_load(&r->srv->draining))
         return rd_reply_draining(r);
     if (why) {

@@ -56,15 +56,13 @@ struct rd_grades {
 
 /* The form as it arrives, on the HTTP thread (the request's state). */
 typedef struct {
-    struct MHD_PostProcessor *post;
+    rd_form form;
     char *image;
     size_t image_len;
     char *scene;
     size_t scene_len;
     char assignment[80];
     char student[256];
-    int too_big;
-    const char *bad; /* the form is malformed: why (answered once it has arrived) */
 } grade_form;
 
 /* One grade on a render thread: prepared (rd_grade_prepare, which finds a
@@ -205,8 +203,7 @@ static void free_form(rd_req *r)
     grade_form *g = r->state;
     if (!g)
         return;
-    if (g->post)
-        MHD_destroy_post_processor(g->post);
+    rd_form_end(&g->form);
     free(g->image);
     free(g->scene);
     free(g);
@@ -223,7 +220,7 @@ static enum MHD_Result on_field(void *cls, enum MHD_ValueKind kind, const char *
     /* A part without a Content-Disposition name (or with an unquoted one)
      * comes with no key at all. */
     if (!key) {
-        g->bad = "a form part has no field name (Content-Disposition: form-data; name=\"...\")";
+        g->form.bad = "a form part has no field name (Content-Disposition: form-data; name=\"...\")";
         return MHD_NO;
     }
     if (size && !data)
@@ -243,7 +240,7 @@ static enum MHD_Result on_field(void *cls, enum MHD_ValueKind kind, const char *
             g->student[have + size] = 0;
             return MHD_YES;
         }
-        g->bad = "the 'student' field is longer than a student id can be";
+        g->form.bad = "the 'student' field is longer than a student id can be";
         return MHD_NO;
     } else if (strcmp(key, "assignment") == 0) {
         size_t have = strlen(g->assignment);
@@ -252,13 +249,13 @@ static enum MHD_Result on_field(void *cls, enum MHD_ValueKind kind, const char *
             g->assignment[have + size] = 0;
             return MHD_YES;
         }
-        g->bad = "the 'assignment' field is longer than an assignment name can be";
+        g->form.bad = "the 'assignment' field is longer than an assignment name can be";
         return MHD_NO;
     } else {
         return MHD_YES; /* other fields are ignored */
     }
     if (*len + size > r->srv->opt.max_body_bytes) {
-        g->too_big = 1;
+        g->form.too_big = "--max-body-bytes";
         return MHD_NO;
     }
     char *p = realloc(*buf, *len + size + 1);
@@ -273,40 +270,18 @@ static enum MHD_Result on_field(void *cls, enum MHD_ValueKind kind, const char *
 
 enum MHD_Result rd_route_grade_begin(rd_req *r)
 {
-    const char *cl = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_LENGTH);
-    if (cl && strtoull(cl, NULL, 10) > FORM_FIELDS * r->srv->opt.max_body_bytes)
-        return rd_reply_too_large(r, "the form (each field may have --max-body-bytes)");
-    const char *ct = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
-    if (!ct || strncasecmp(ct, "multipart/form-data", 19) != 0)
-        return rd_reply_error(r, 415, "unsupported_media_type", NULL,
-                              "send multipart/form-data with 'image' and 'assignment' or 'scene'");
-    grade_form *g = calloc(1, sizeof *g);
-    if (!g)
-        return MHD_NO;
-    r->state = g;
-    r->free_state = free_form;
-    g->post = MHD_create_post_processor(r->conn, 64 * 1024, on_field, r);
-    if (!g->post)
-        return rd_reply_error(r, 415, "unsupported_media_type", NULL, "the form could not be read");
-    return MHD_YES;
+    rd_form_spec spec = {sizeof(grade_form),
+                         FORM_FIELDS * r->srv->opt.max_body_bytes,
+                         "the form (each field may have --max-body-bytes)",
+                         "send multipart/form-data with 'image' and 'assignment' or 'scene'",
+                         on_field,
+                         free_form};
+    return rd_form_begin(r, &spec);
 }
 
-/* libmicrohttpd 0.9.75 cannot answer in the middle of an upload, so a form
- * found bad stops being parsed and the rest of it is read and dropped; the
- * answer goes out once it has all arrived (one that runs far past the limit
- * has its connection closed instead). */
 enum MHD_Result rd_route_grade_data(rd_req *r, const char *data, size_t size)
 {
-    grade_form *g = r->state;
-    if (!g || !g->post)
-        return MHD_YES;
-    if (g->bad || g->too_big) {
-        r->discarded += size;
-        return r->discarded > FORM_FIELDS * r->srv->opt.max_body_bytes + DISCARD_MAX ? MHD_NO : MHD_YES;
-    }
-    if (MHD_post_process(g->post, data, size) != MHD_YES && !g->bad && !g->too_big)
-        g->bad = "the form data is malformed";
-    return MHD_YES;
+    return rd_form_data(r, data, size, FORM_FIELDS * r->srv->opt.max_body_bytes + DISCARD_MAX);
 }
 
 /* The verdict with the kept images' addresses, the grade's id and its
@@ -461,10 +436,10 @@ enum MHD_Result rd_route_grade(rd_req *r, const char *rest)
     grade_form *g = r->state;
     if (!g)
         return rd_reply_error(r, 400, "parse_error", NULL, "no form");
-    if (g->too_big)
+    if (g->form.too_big)
         return rd_reply_too_large(r, "a form field");
-    if (g->bad)
-        return rd_reply_error(r, 400, "parse_error", NULL, g->bad);
+    if (g->form.bad)
+        return rd_reply_error(r, 400, "parse_error", NULL, g->form.bad);
     if (atomic_load(&srv->draining))
         return rd_reply_draining(r);
     if (!g->image || !g->image_len)
