@@ -347,7 +347,7 @@ static cJSON *example(const rd_code_case *c, const rd_code_value *v)
 {
     cJSON *e = cJSON_CreateObject(), *m = e ? cJSON_AddObjectToObject(e, "material") : NULL;
     int ok =
-        m && cJSON_AddStringToObject(e, "group", rd_code_group_name(c->group)) && put(e, "n", triple(c->n)) &&
+        m && cJSON_AddStringToObject(e, "group", rd_code_group_name(c->group)) && put(e, "N", triple(c->n)) &&
         put(e, "L", triple(c->L)) && put(e, "V", triple(c->V)) && put(e, "expected", triple(expected(c))) &&
         (v->status == RD_CODE_RETURNED ? put(e, "got", triple(v->got)) : cJSON_AddNullToObject(e, "got") != NULL) &&
         put(m, "kd", triple(c->m.kd)) && put(m, "ks", triple(c->m.ks)) && put(m, "ambient", triple(c->m.ambient)) &&

@@ -456,6 +456,11 @@ def main(argv=None):
     # Sections that keep their tables beside their code add them to MARKERS
     # when imported (the store section does).
     from . import sections as _registers  # noqa: F401
+    # Run as `python3 -m rayd_bench.report` this module is __main__, and the
+    # sections registered their tables in rayd_bench.report: take them.
+    from . import report as _package_report
+    for k, v in _package_report.MARKERS.items():
+        MARKERS.setdefault(k, v)
     try:
         sections = load(a.results)
     except (OSError, ValueError, KeyError) as e:

@@ -205,11 +205,17 @@ static int add_ids(code_task *t, cJSON *root, rd_error *err)
             return 0;
         cJSON *v = cJSON_Parse(verdict);
         free(verdict);
+        cJSON *diff = cJSON_GetObjectItem(v, "diff_url");
         if (!v || !cJSON_ReplaceItemInObject(root, "image", v)) {
             cJSON_Delete(v);
             return 0;
         }
+        /* the heat map's address beside the lobe's, as for an image's grade */
+        if (!cJSON_AddStringToObject(root, "diff_url", cJSON_IsString(diff) ? diff->valuestring : ""))
+            return 0;
     } else {
+        if (!cJSON_AddNullToObject(root, "diff_url"))
+            return 0;
         rd_grades_error_record(t->srv, t->res.assignment, t->student, NULL,
                                t->res.compile.result != 0 ? "the code did not compile" : "the code made no image", id);
     }

@@ -138,7 +138,14 @@ def students(d):
     st, _, v = post_code(d, "phong", "PhongMaterial.cpp", read(STUDENTS + "/phong_ok.cpp"))
     check(st == 200 and v.get("pass") is True, "a .cpp upload passes (%d, %s)" % (st, v.get("compile")))
     img = v.get("image") or {}
-    check(img.get("diff_url", "").startswith("/v1/grades/") and v.get("id"), "the image's verdict has its urls")
+    check(img.get("diff_url", "").startswith("/v1/grades/") and v.get("id") and v.get("diff_url") == img["diff_url"],
+          "the image's verdict has its urls, and diff_url is beside lobe_url")
+    st, h, b = d.request("GET", v.get("diff_url") or "/none")
+    check(st == 200 and b.startswith(b"\x89PNG"), "the heat map is served (%d)" % st)
+    _, _, v2 = post_code(d, "phong", "PhongMaterial.h", read(STUDENTS + "/phong_reflect_sign.h"))
+    ex = v2["function"]["causes"][0]["example"]
+    check(all(k in ex for k in ("N", "L", "V", "expected", "got", "material", "group")),
+          "a cause's example has N, L, V, expected and got: %s" % sorted(ex))
     st, h, b = d.request("GET", v.get("lobe_url") or "/none")
     check(st == 200 and h.get("content-type") == "image/svg+xml" and b.startswith(b"<svg") and b"NaN" not in b,
           "the lobe plot is served (%d)" % st)
