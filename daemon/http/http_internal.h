@@ -238,6 +238,15 @@ void rd_grades_set_store(struct rd_grades *g, rd_store *s);
  * only). */
 rd_error_code rd_grades_one(rd_server *srv, const rd_grade_output *o, const char *student, const char *batch_id,
                             char id[24], char **verdict, rd_error *err);
+/* rd_grades_one in two steps, for a grade whose record says more than the
+ * image's verdict (a code grade: pass is the function's and the image's):
+ * the images kept with the verdict and a malloc'ed copy of the heat map
+ * for the record (both the caller's to free); then the record, with pass
+ * and the verdict text the caller gives. */
+rd_error_code rd_grades_keep(rd_server *srv, const rd_grade_output *o, const char *student, char id[24], char **verdict,
+                             unsigned char **diff, size_t *diff_len, rd_error *err);
+void rd_grades_record(rd_server *srv, const rd_grade_output *o, const char *id, const char *student,
+                      const char *batch_id, int pass, const char *verdict, const unsigned char *diff, size_t diff_len);
 /* The record of a student whose image could not be graded. */
 void rd_grades_error_record(rd_server *srv, const char *assignment, const char *student, const char *batch_id,
                             const char *message, char id[24]);

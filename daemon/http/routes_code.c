@@ -163,9 +163,12 @@ typedef struct {
     size_t code_len;
     char filename[80], assignment[80], student[256];
     rd_codegrade_result res;
-    int counted;     /* holds one of --max-code-jobs until its sandbox has run */
-    unsigned status; /* of the answer: 200, or 422 when it did not compile */
-    char *json;      /* the answer */
+    int counted;         /* holds one of --max-code-jobs until its sandbox has run */
+    unsigned status;     /* of the answer: 200, or 422 when it did not compile */
+    char *json;          /* the answer */
+    char id[24];         /* the image's grade, once kept */
+    unsigned char *diff; /* its heat map for the record */
+    size_t diff_len;
 } code_task;
 
 static void free_task(void *arg)
@@ -177,6 +180,7 @@ static void free_task(void *arg)
         atomic_fetch_sub(&t->srv->codegrades->active, 1);
     free(t->code);
     free(t->json);
+    free(t->diff);
     rd_codegrade_result_free(&t->res);
     free(t);
 }
@@ -195,13 +199,14 @@ static rd_error_code prepare_code(void *arg, rd_scene *s, int *render, rd_error 
 }
 
 /* The image's verdict as the grades keep it (with its id and addresses)
- * in place of the bare one; a grade whose code made no image is recorded
- * as an error, so that the instructors see it too. */
+ * in place of the bare one; the record follows in finish_code. A grade
+ * whose code made no image is recorded as an error, so that the
+ * instructors see it too. */
 static int add_ids(code_task *t, cJSON *root, rd_error *err)
 {
-    char id[24] = "", *verdict = NULL;
+    char *verdict = NULL;
     if (t->res.image_graded) {
-        if (rd_grades_one(t->srv, &t->res.grade, t->student, NULL, id, &verdict, err))
+        if (rd_grades_keep(t->srv, &t->res.grade, t->student, t->id, &verdict, &t->diff, &t->diff_len, err))
             return 0;
         cJSON *v = cJSON_Parse(verdict);
         free(verdict);
@@ -217,14 +222,15 @@ static int add_ids(code_task *t, cJSON *root, rd_error *err)
         if (!cJSON_AddNullToObject(root, "diff_url"))
             return 0;
         rd_grades_error_record(t->srv, t->res.assignment, t->student, NULL,
-                               t->res.compile.result != 0 ? "the code did not compile" : "the code made no image", id);
+                               t->res.compile.result != 0 ? "the code did not compile" : "the code made no image",
+                               t->id);
     }
     char url[96];
-    snprintf(url, sizeof url, "/v1/grade/code/%s/lobe.svg", id);
+    snprintf(url, sizeof url, "/v1/grade/code/%s/lobe.svg", t->id);
     char *svg = t->res.values ? rd_code_lobe_svg(t->res.cases, t->res.values, t->res.ncases) : NULL;
     if (svg)
-        keep_lobe(t->srv->codegrades, id, svg);
-    return cJSON_AddStringToObject(root, "id", id) &&
+        keep_lobe(t->srv->codegrades, t->id, svg);
+    return cJSON_AddStringToObject(root, "id", t->id) &&
            (!*t->student || cJSON_AddStringToObject(root, "student", t->student)) &&
            (svg ? cJSON_AddStringToObject(root, "lobe_url", url) : cJSON_AddNullToObject(root, "lobe_url"));
 }
@@ -264,6 +270,9 @@ static rd_error_code finish_code(void *arg, const uint8_t *rgb, int w, int h, rd
     int ok = root && add_ids(t, root, err) && add_compile_error(t, root);
     t->json = ok ? cJSON_PrintUnformatted(root) : NULL;
     cJSON_Delete(root);
+    /* the record's pass is the whole grade's, its verdict this answer */
+    if (t->json && t->res.image_graded)
+        rd_grades_record(t->srv, &t->res.grade, t->id, t->student, NULL, t->res.pass, t->json, t->diff, t->diff_len);
     return t->json ? RD_OK : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
 }
 

@@ -354,9 +354,10 @@ static rd_error_code finish_grade(void *arg, const uint8_t *rgb, int w, int h, r
  * minute. A store that cannot take it is logged; the grade is answered
  * anyway (its images stay in memory). Grades of a given scene rather than
  * an assignment are not records: they belong to no course. */
-static void record(struct rd_grades *g, const rd_grade_output *o, const char *id, const char *student,
-                   const char *batch_id, const char *verdict, const unsigned char *diff, size_t diff_len)
+void rd_grades_record(rd_server *srv, const rd_grade_output *o, const char *id, const char *student,
+                      const char *batch_id, int pass, const char *verdict, const unsigned char *diff, size_t diff_len)
 {
+    struct rd_grades *g = srv->grades;
     rd_store *s = atomic_load(&g->store);
     if (!s || !o->assignment[0])
         return;
@@ -366,7 +367,7 @@ static void record(struct rd_grades *g, const rd_grade_output *o, const char *id
                           .batch_id = batch_id,
                           .assignment = o->assignment,
                           .student = student ? student : "",
-                          .pass = o->result.pass,
+                          .pass = pass,
                           .failed_fraction = o->result.failed_fraction,
                           .max_abs = o->result.max_abs,
                           .psnr_db = o->result.psnr_db,
@@ -382,18 +383,30 @@ static void record(struct rd_grades *g, const rd_grade_output *o, const char *id
         rd_store_grades_expire(s, (int64_t)g->ttl_ms, NULL, &err);
 }
 
+rd_error_code rd_grades_keep(rd_server *srv, const rd_grade_output *o, const char *student, char id[24], char **verdict,
+                             unsigned char **diff, size_t *diff_len, rd_error *err)
+{
+    *diff = NULL;
+    *diff_len = 0;
+    keep(srv->grades, o, id, diff, diff_len);
+    *verdict = verdict_json(o, id, student);
+    if (*verdict)
+        return RD_OK;
+    free(*diff);
+    *diff = NULL;
+    return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+}
+
 rd_error_code rd_grades_one(rd_server *srv, const rd_grade_output *o, const char *student, const char *batch_id,
                             char id[24], char **verdict, rd_error *err)
 {
-    struct rd_grades *g = srv->grades;
-    unsigned char *diff = NULL;
-    size_t diff_len = 0;
-    keep(g, o, id, &diff, &diff_len);
-    *verdict = verdict_json(o, id, student);
-    if (*verdict)
-        record(g, o, id, student, batch_id, *verdict, diff, diff_len);
+    unsigned char *diff;
+    size_t diff_len;
+    rd_error_code rc = rd_grades_keep(srv, o, student, id, verdict, &diff, &diff_len, err);
+    if (!rc)
+        rd_grades_record(srv, o, id, student, batch_id, o->result.pass, *verdict, diff, diff_len);
     free(diff);
-    return *verdict ? RD_OK : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    return rc;
 }
 
 void rd_grades_error_record(rd_server *srv, const char *assignment, const char *student, const char *batch_id,

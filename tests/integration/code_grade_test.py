@@ -265,6 +265,30 @@ def the_daemons_files(d, tmp):
           "time (%d, pass %s, %s)" % (st, v.get("pass"), (v.get("compile") or {}).get("messages", "")[:200]))
 
 
+TOKEN = "code-class-token-0123456789abcdef"
+
+
+def records(d):
+    """A code grade's record says the whole grade: a missing max passes the
+    image but not the function, and the record fails; one that does not
+    compile is an error row."""
+    auth = {"Authorization": "Bearer " + TOKEN}
+    st, _, v = post_code(d, "phong", "PhongMaterial.h", read(STUDENTS + "/phong_missing_max.h"), student="maxless")
+    check(st == 200 and v["image"]["pass"] is True and v["pass"] is False, "phong_missing_max: the image passes, "
+          "the grade fails (%d)" % st)
+    post_code(d, "phong", "PhongMaterial.h", b"not C++\n", student="broken")
+    st, _, b = d.request("GET", "/v1/grades?student=maxless", headers=auth)
+    rows = json.loads(b).get("grades", []) if st == 200 else []
+    check(len(rows) == 1 and rows[0]["pass"] is False, "maxless's record fails: %s" % rows)
+    st, _, b = d.request("GET", "/v1/grades/" + v["id"])
+    rec = json.loads(b) if st == 200 else {}
+    check(rec.get("function", {}).get("pass") is False and rec.get("class") == "PhongMaterial",
+          "the record's verdict is the code grade's (%d)" % st)
+    st, _, b = d.request("GET", "/v1/grades?student=broken", headers=auth)
+    rows = json.loads(b).get("grades", []) if st == 200 else []
+    check(len(rows) == 1 and "compile" in (rows[0].get("error") or ""), "broken's record is an error: %s" % rows)
+
+
 def bad_uploads(d):
     st, _, v = post_code(d, "phong", "PhongMaterial.h", b"x" * (64 * 1024 + 1))
     check(st == 413, "a file over --max-code-bytes is 413 (%d)" % st)
@@ -327,11 +351,15 @@ def assignments(tmp):
 def main():
     with tempfile.TemporaryDirectory() as tmp:
         cli_ms = cli_checks(tmp)
+        tokens = os.path.join(tmp, "tokens")
+        with open(tokens, "w") as f:
+            f.write(TOKEN + "\n")
         with Daemon(tmp, ["--max-code-bytes", "65536", "--code-compile-seconds", "8", "--max-code-jobs", "2",
-                          "--assignments", assignments(tmp)]) as d:
+                          "--assignments", assignments(tmp), "--instructor-tokens", tokens]) as d:
             times = students(d)
             compile_error(d)
             the_daemons_files(d, tmp)
+            records(d)
             bad_uploads(d)
             hostile(d)
         busy(tmp)
