@@ -37,6 +37,7 @@ static rd_material material(rd_material_type t, int set, int stiff)
     static const double roughness[SETS] = {0.1, 0.3, 0.6, 1.0, 0.2};
     static const double stiff_roughness[SETS] = {0.02, 0.05, 0.03, 0.04, 0.025};
     rd_material m;
+    memset(&m, 0, sizeof m); /* no name, texture, nor reflect callback */
     rd_material_defaults(&m, t);
     m.kd = v3(kd[set][0], kd[set][1], kd[set][2]);
     m.ks = v3(ks[set][0], ks[set][1], ks[set][2]);

@@ -93,6 +93,15 @@ static rd_rgb v_reflect_sign(const rd_code_case *c)
     return lit(c, incidence(c), pow(fmax(highlight_cos(c, -1), 0), c->m.shininess));
 }
 
+/* H = normalize(L + V), as if incomingDir pointed to the light, with no
+ * early return. Where L + V is 0 this is finite and the student's NaN is
+ * not: that stays "not_finite". */
+static rd_rgb v_half_sum(const rd_code_case *c)
+{
+    double nh = v3_dot(c->n, v3_normalize(v3_add(c->L, c->V)));
+    return lit(c, fmax(incidence(c), 0), pow(fmax(nh, 0), c->m.shininess));
+}
+
 static rd_rgb v_light_reversed(const rd_code_case *c) { return rd_reflected_light(&c->m, c->n, v3_neg(c->L), c->V); }
 static rd_rgb v_ambient(const rd_code_case *c) { return v3_add(expected(c), c->m.ambient); }
 static rd_rgb v_pi(const rd_code_case *c) { return v3_scale(expected(c), 1 / M_PI); }
@@ -171,6 +180,16 @@ static const mistake mistakes[] = {
     {"phong_not_blinn",
      "That is Phong's R·V highlight. Blinn-Phong uses max(N·H, 0)^n with H = normalize(outgoingDir - incomingDir).",
      v_other_model, BLI},
+    {"half_vector_sign",
+     "The highlight uses the half vector normalize(incomingDir + outgoingDir): that is not Phong's highlight, and it "
+     "is 0/0 when the eye looks straight back at the light. Phong's is max(R·V, 0)^n with R = reflect(incomingDir, "
+     "N).",
+     v_half_sum, PHO},
+    {"half_vector_sign",
+     "The half vector has the wrong sign: incomingDir points from the light to the surface, so H = "
+     "normalize(outgoingDir - incomingDir); normalize(incomingDir + outgoingDir) is not halfway between the light "
+     "and the eye, and is 0/0 when the eye looks straight back at the light.",
+     v_half_sum, BLI},
     {"shininess_wrong", "The highlight has the wrong width: the exponent must be exactly shininess (not shininess/2).",
      v_half_exponent, LOBES},
     {"shininess_wrong", "The highlight has the wrong width: the exponent must be exactly shininess (not 2 shininess).",
@@ -198,15 +217,19 @@ static int same(double got, double want)
     return fabs(got - want) <= 10 * (RD_CODE_ABS_TOL + RD_CODE_REL_TOL * fabs(want));
 }
 
+/* A mistake explains a failing value when it fails there too (else a
+ * formula that is right at a configuration would explain any value just
+ * outside the tolerance) and gives what the student got. */
 static int explains(const mistake *k, const rd_code_case *c, const rd_code_value *v)
 {
     rd_rgb w = k->formula(c);
-    return same(v->got.x, w.x) && same(v->got.y, w.y) && same(v->got.z, w.z);
+    rd_code_value as_mistake = {w, RD_CODE_RETURNED};
+    return !rd_code_value_ok(c, &as_mistake) && same(v->got.x, w.x) && same(v->got.y, w.y) && same(v->got.z, w.z);
 }
 
 /* ---- the report ---------------------------------------------------------- */
 
-enum { OPEN = 1, EXPLAINED = 2 }; /* a failing configuration's state */
+enum { OPEN = 1, EXPLAINED = 2, RIGHT = 3 }; /* a configuration's state: failing (open, explained), right */
 
 static void add_cause(rd_code_report *r, const char *cause, const char *words, size_t count, size_t example)
 {
@@ -220,12 +243,14 @@ static const char *const status_words[] = {
     "configuration it happened on; after 16 the rest were not run.",
     "calcReflectedLight ended the program (exit()): return the colour instead.",
     "calcReflectedLight did not return within the time limit (an endless loop?); the rest were not run.",
+    "calcReflectedLight was not called on these configurations: the run stopped before them (after crashes, a call "
+    "that did not return, too much printed output, or the time limit for all the calls).",
 };
-static const char *const status_ids[] = {NULL, "crashed", "exited", "timed_out"};
+static const char *const status_ids[] = {NULL, "crashed", "exited", "timed_out", "not_run"};
 
 static void status_causes(rd_code_report *r, const rd_code_value *v, size_t n)
 {
-    for (int s = RD_CODE_CRASHED; s <= RD_CODE_TIMED_OUT; s++) {
+    for (int s = RD_CODE_CRASHED; s <= RD_CODE_NOT_RUN; s++) {
         size_t count = 0, first = 0;
         for (size_t i = 0; i < n; i++)
             if (v[i].status == s && !count++)
@@ -234,21 +259,36 @@ static void status_causes(rd_code_report *r, const rd_code_value *v, size_t n)
     }
 }
 
-/* The mistake that explains most of the open failures, or -1. */
+/* Whether the mistake's formula is wrong at c (a student who makes it is). */
+static int wrong_there(const mistake *k, const rd_code_case *c)
+{
+    rd_code_value as_mistake = {k->formula(c), RD_CODE_RETURNED};
+    return !rd_code_value_ok(c, &as_mistake);
+}
+
+/* The mistake that explains most of the open failures, less the right
+ * values it would have made wrong (of two formulas that both explain the
+ * failures, the one the student's right values agree with), or -1. */
 static int best_mistake(const rd_code_case *c, const rd_code_value *v, const unsigned char *state, size_t n,
                         size_t *count, size_t *example)
 {
     int best = -1;
+    long best_score = 0;
     *count = 0;
-    for (size_t k = 0; k < NMISTAKES; k++) {
+    for (size_t k = 0; n && k < NMISTAKES; k++) {
         if (!(mistakes[k].types & type_bit(c[0].m.type)))
             continue;
-        size_t m = 0, first = 0;
-        for (size_t i = 0; i < n; i++)
+        size_t m = 0, first = 0, contradicted = 0;
+        for (size_t i = 0; i < n; i++) {
             if (state[i] == OPEN && explains(&mistakes[k], &c[i], &v[i]) && !m++)
                 first = i;
-        if (m > *count) {
+            else if (state[i] == RIGHT && wrong_there(&mistakes[k], &c[i]))
+                contradicted++;
+        }
+        long score = (long)m - (long)contradicted;
+        if (m && score > best_score) {
             best = (int)k;
+            best_score = score;
             *count = m;
             *example = first;
         }
@@ -309,7 +349,7 @@ void rd_code_check(const rd_code_case *c, const rd_code_value *v, size_t n, rd_c
         r->not_run += v[i].status == RD_CODE_NOT_RUN;
         r->not_finite += v[i].status == RD_CODE_RETURNED && !v3_is_finite(v[i].got);
         if (i < m)
-            state[i] = !ok && v[i].status == RD_CODE_RETURNED ? OPEN : 0;
+            state[i] = ok ? RIGHT : v[i].status == RD_CODE_RETURNED ? OPEN : 0;
     }
     r->pass = r->failed == 0;
     status_causes(r, v, n);

@@ -298,7 +298,10 @@ static enum MHD_Result submit(rd_req *r, code_form *f)
     memcpy(t->assignment, f->assignment, sizeof t->assignment);
     memcpy(t->student, f->student, sizeof t->student);
     rd_jq_task task = {prepare_code, finish_code, free_task, t, t->code_len};
-    rd_jq_submit_options so = {0};
+    /* internal: freed with the request, so a grade cancelled before it
+     * started gives its slot back at once rather than when a kept job
+     * would expire */
+    rd_jq_submit_options so = {.internal = 1};
     return rd_req_submit(r, &task, &so);
 }
 

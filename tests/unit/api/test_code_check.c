@@ -116,6 +116,8 @@ static rd_rgb p_kd_missing(const rd_code_case *c)
 {
     return cos_in(c) <= 0 ? v3(0, 0, 0) : lit(c, 0, pow(fmax(v3_dot(mirror(c), c->V), 0), c->m.shininess));
 }
+static rd_rgb p_ks_missing(const rd_code_case *c) { return cos_in(c) <= 0 ? v3(0, 0, 0) : lit(c, cos_in(c), 0); }
+
 /* H = normalize(L + V): 0/0 when the eye looks back at the light. */
 static rd_rgb p_nan(const rd_code_case *c)
 {
@@ -193,11 +195,34 @@ Test(code_check, each_usual_mistake_is_named)
         {RD_MAT_PHONG, d_ambient, "ambient_inside"},
         {RD_MAT_COOK_TORRANCE, d_ambient, "ambient_inside"},
         {RD_MAT_BLINN_PHONG, d_pi, "divided_by_pi"},
+        {RD_MAT_PHONG, p_ks_missing, "ks_missing"},
     };
     for (size_t i = 0; i < sizeof m / sizeof *m; i++) {
         const char *got = first_cause(m[i].t, m[i].f);
         cr_expect_str_eq(got, m[i].cause, "mistake %zu is named %s, not %s", i, got, m[i].cause);
     }
+}
+
+/* H = normalize(L + V): NaN where the eye looks back at the light, and the
+ * wrong half vector everywhere else; both are named, the NaN first. */
+Test(code_check, a_half_vector_of_the_wrong_sign_is_named_after_its_nan)
+{
+    rd_code_case *c;
+    rd_code_value *v;
+    size_t n;
+    rd_code_report r = grade(RD_MAT_PHONG, p_nan, &c, &v, &n);
+    cr_assert_geq(r.ncauses, 2);
+    cr_assert_str_eq(r.causes[0].cause, "not_finite");
+    cr_assert_str_eq(r.causes[1].cause, "half_vector_sign");
+    free(c);
+    free(v);
+}
+
+Test(code_check, no_configurations_pass_and_name_nothing)
+{
+    rd_code_report r;
+    rd_code_check(NULL, NULL, 0, &r);
+    cr_assert(r.pass && r.ncauses == 0 && r.configurations == 0);
 }
 
 Test(code_check, crashes_time_outs_and_calls_not_run_are_counted_and_named_first)
@@ -222,15 +247,17 @@ Test(code_check, crashes_time_outs_and_calls_not_run_are_counted_and_named_first
     cr_assert_str_eq(r.causes[0].cause, "crashed");
     cr_assert_eq(r.causes[0].count, 3);
     cr_assert_str_eq(r.causes[1].cause, "timed_out");
-    cr_assert_str_eq(r.causes[2].cause, "not_finite");
-    cr_assert_eq(r.causes[2].example, 20);
+    cr_assert_str_eq(r.causes[2].cause, "not_run");
+    cr_assert_eq(r.causes[2].count, 6);
+    cr_assert_str_eq(r.causes[3].cause, "not_finite");
+    cr_assert_eq(r.causes[3].example, 20);
     cJSON *j = rd_code_report_json(&r, c, v);
     cr_assert_not_null(j);
     char *text = cJSON_PrintUnformatted(j);
     cr_assert_null(strstr(text, "nan"), "NaN is not JSON: %s", text);
     cJSON *causes = cJSON_GetObjectItem(j, "causes");
     cr_assert_eq(cJSON_GetArraySize(causes), r.ncauses);
-    cJSON *ex = cJSON_GetObjectItem(cJSON_GetArrayItem(causes, 2), "example");
+    cJSON *ex = cJSON_GetObjectItem(cJSON_GetArrayItem(causes, 3), "example");
     cr_assert(cJSON_IsNull(cJSON_GetArrayItem(cJSON_GetObjectItem(ex, "got"), 1)), "the NaN channel is null");
     cr_assert_not_null(cJSON_GetObjectItem(ex, "expected"));
     cr_assert_eq(cJSON_GetObjectItem(j, "crashed")->valuedouble, 3);
