@@ -277,6 +277,11 @@ def test_sighup():
     shutil.copy("scenes/assignments/phong.cfg", assignments)
     d = Daemon(["--log-file", log, "--assignments", assignments])
     d.request("GET", "/healthz?before=1")
+    # The access line is written once the answer has gone out: wait for it,
+    # or a slow build may write it after the reopen.
+    deadline = time.time() + 5
+    while "before=1" not in open(log).read() and time.time() < deadline:
+        time.sleep(0.02)
     os.rename(log, log + ".1")
     shutil.copy("scenes/assignments/diffuse.cfg", assignments)
     d.send(signal.SIGHUP)

@@ -16,7 +16,7 @@ class BlinnPhongMaterial : public Material
 
     virtual vec3 calcReflectedLight(const HitRecord &record, const vec3 &incomingDir, const vec3 &outgoingDir)
     {
-        // TODO: return I_d + I_s as in equation (8) without the ambient term I_a:
+        // Fill in: return I_d + I_s as in equation (8) without the ambient term I_a:
         //   I_d = k_d max{cos(alpha), 0}               (equation (2))
         //   I_s = k_s max{N . H, 0}^n, n = shininess   (equation (7) with N . H for cos(gamma))
         // record.normal is N, the unit surface normal.

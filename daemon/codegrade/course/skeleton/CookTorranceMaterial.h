@@ -16,7 +16,7 @@ class CookTorranceMaterial : public Material
 
     virtual vec3 calcReflectedLight(const HitRecord &record, const vec3 &incomingDir, const vec3 &outgoingDir)
     {
-        // TODO: return I_d + I_s as in equation (8) without the ambient term I_a:
+        // Fill in: return I_d + I_s as in equation (8) without the ambient term I_a:
         //   I_d = k_d max{cos(alpha), 0}               (equation (2))
         //   I_s = F D G / (4 (N . V))                  (the Cook-Torrance BRDF times cos(alpha))
         // record.normal is N, the unit surface normal.

@@ -13,7 +13,7 @@ class DiffuseMaterial : public Material
 
     virtual vec3 calcReflectedLight(const HitRecord &record, const vec3 &incomingDir, const vec3 &outgoingDir)
     {
-        // TODO: return the diffusely reflected light, equation (2):
+        // Fill in: return the diffusely reflected light, equation (2):
         //   I_d = k_d max{cos(alpha), 0}, for each of R, G and B (equations (3)-(5)).
         // record.normal is N, the unit surface normal.
         // incomingDir is L, a unit vector pointing FROM the light TO the surface,

@@ -15,7 +15,7 @@ class PhongMaterial : public Material
 
     virtual vec3 calcReflectedLight(const HitRecord &record, const vec3 &incomingDir, const vec3 &outgoingDir)
     {
-        // TODO: return I_d + I_s, equation (8) without the ambient term I_a:
+        // Fill in: return I_d + I_s, equation (8) without the ambient term I_a:
         //   I_d = k_d max{cos(alpha), 0}               (equation (2))
         //   I_s = k_s cos^n(gamma), n = shininess      (equation (7))
         // record.normal is N, the unit surface normal.
