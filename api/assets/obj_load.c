@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "rayd/memory.h"
 #include "scene_value.h"
 #include "utf8.h"
 #include "value_parse.h"
@@ -36,15 +37,7 @@ static rd_error_code fail(obj *o, const char *at, rd_error_code code, const char
 
 static int grow(void **arr, size_t *cap, size_t count, size_t sz)
 {
-    if (count < *cap)
-        return 1;
-    size_t nc = *cap ? *cap * 2 : 256;
-    void *p = realloc(*arr, nc * sz);
-    if (!p)
-        return 0;
-    *arr = p;
-    *cap = nc;
-    return 1;
+    return rd_grow_array(arr, cap, count + 1, sz, 256);
 }
 
 /* Room for one more vertex entry: grown, or for a shared array only
@@ -419,9 +412,9 @@ static int prepare_ranges(range *rs, int n, const char *text, size_t bad, const 
         rs[i].v0 = v, rs[i].vn0 = vn, rs[i].vt0 = vt;
         v += rs[i].v, vn += rs[i].vn, vt += rs[i].vt;
     }
-    out->positions = malloc((v + 1) * sizeof *out->positions);
-    out->normals = malloc((vn + 1) * sizeof *out->normals);
-    out->uvs = malloc((vt + 1) * sizeof *out->uvs);
+    out->positions = rd_big_malloc((v + 1) * sizeof *out->positions);
+    out->normals = rd_big_malloc((vn + 1) * sizeof *out->normals);
+    out->uvs = rd_big_malloc((vt + 1) * sizeof *out->uvs);
     if (!out->positions || !out->normals || !out->uvs)
         return 0;
     for (int i = 0; i < n; i++) {
@@ -448,7 +441,7 @@ static int join_ranges(range *rs, int n, size_t max_tris, rd_mesh *out, rd_warni
         nf += rs[i].m.nfaces;
     if (nf > max_tris)
         return 0;
-    out->faces = malloc((nf + 1) * sizeof *out->faces);
+    out->faces = rd_big_malloc((nf + 1) * sizeof *out->faces);
     if (!out->faces)
         return 0;
     for (int i = 0; i < n; i++) {

@@ -10,6 +10,7 @@
 
 #include "asset_source.h"
 #include "file_io.h"
+#include "rayd/memory.h"
 #include "scene_load.h"
 
 static int name_ok(const char *n)
@@ -155,14 +156,9 @@ rd_error_code rd_assignment_list(const char *dir, rd_assignment **list, size_t *
         name[len - 4] = 0;
         if (!name_ok(name))
             continue;
-        if (*n == cap) {
-            cap = cap ? cap * 2 : 16;
-            rd_assignment *p = realloc(*list, cap * sizeof *p);
-            if (!p) {
-                rc = rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
-                break;
-            }
-            *list = p;
+        if (!rd_grow_array((void **)list, &cap, *n + 1, sizeof **list, 16)) {
+            rc = rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+            break;
         }
         rd_assignment *a = &(*list)[(*n)++];
         rd_error why = {0};

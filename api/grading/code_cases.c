@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "hash.h"
+#include "rayd/memory.h"
 
 static const char *const group_names[] = {
 #define RD_CODE_GROUP_NAME(id, word, words) word,
@@ -73,14 +74,8 @@ static rd_vec3 around(list *l, rd_vec3 a, double c0, double c1)
 
 static int add(list *l, rd_code_group g, int stiff, rd_vec3 n, rd_vec3 L, rd_vec3 V, double angle)
 {
-    if (l->n == l->cap) {
-        size_t cap = l->cap ? l->cap * 2 : 512;
-        rd_code_case *v = realloc(l->v, cap * sizeof *v);
-        if (!v)
-            return -1;
-        l->v = v;
-        l->cap = cap;
-    }
+    if (!rd_grow_array((void **)&l->v, &l->cap, l->n + 1, sizeof *l->v, 512))
+        return -1;
     rd_code_case *c = &l->v[l->n];
     memset(c, 0, sizeof *c);
     c->m = material(l->type, (int)(l->n % SETS), stiff);

@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "rayd/memory.h"
 #include "scene_builder.h"
 #include "utf8.h"
 
@@ -122,14 +123,8 @@ static rd_error_code key_value(parser *ps, int line, const char *ls, const char 
         return rd_builder_error(ps->b, err, RD_ERR_SYNTAX, key_loc,
                                 "key '%.*s' outside any section; start one with a header such as [render]",
                                 (int)rd_utf8_prefix(k, klen, 60), k);
-    if (ps->n == ps->cap) {
-        size_t nc = ps->cap ? ps->cap * 2 : 16;
-        rd_entry *e = realloc(ps->entries, nc * sizeof *e);
-        if (!e)
-            return rd_builder_error(ps->b, err, RD_ERR_NOMEM, key_loc, "out of memory");
-        ps->entries = e;
-        ps->cap = nc;
-    }
+    if (!rd_grow_array((void **)&ps->entries, &ps->cap, ps->n + 1, sizeof *ps->entries, 16))
+        return rd_builder_error(ps->b, err, RD_ERR_NOMEM, key_loc, "out of memory");
     rd_entry *e = &ps->entries[ps->n++];
     memset(e, 0, sizeof *e);
     e->key = k;

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "name_set.h"
+#include "rayd/memory.h"
 #include "scene_keys.h"
 #include "suggest.h"
 #include "utf8.h"
@@ -449,14 +450,8 @@ static rd_error_code check_section(rd_builder *b, rd_section_kind sec, void *bas
 
 static rd_error_code add_ref(rd_builder *b, size_t object, rd_loc l, rd_error *err)
 {
-    if (b->nrefs == b->caprefs) {
-        size_t nc = b->caprefs ? b->caprefs * 2 : 64;
-        mat_ref *p = realloc(b->refs, nc * sizeof *p);
-        if (!p)
-            return rd_builder_error(b, err, RD_ERR_NOMEM, l, "out of memory");
-        b->refs = p;
-        b->caprefs = nc;
-    }
+    if (!rd_grow_array((void **)&b->refs, &b->caprefs, b->nrefs + 1, sizeof *b->refs, 64))
+        return rd_builder_error(b, err, RD_ERR_NOMEM, l, "out of memory");
     mat_ref *r = &b->refs[b->nrefs];
     r->object = object;
     r->line = l.line;

@@ -8,6 +8,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "rayd/memory.h"
+
 rd_error_code rd_read_file(const char *path, size_t max_bytes, const char *flag, char **out, size_t *len, rd_error *err)
 {
     *out = NULL;
@@ -28,7 +30,7 @@ rd_error_code rd_read_file(const char *path, size_t max_bytes, const char *flag,
                             (long long)st.st_size, max_bytes, flag);
     }
     size_t n = (size_t)st.st_size;
-    char *buf = malloc(n + 1);
+    char *buf = rd_big_malloc(n + 1);
     if (!buf) {
         close(fd);
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "%s: out of memory", path);

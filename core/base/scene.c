@@ -1,5 +1,7 @@
 #include "rayd/scene.h"
 
+#include "rayd/memory.h"
+
 #include <stdlib.h>
 #include <string.h>
 
@@ -49,14 +51,8 @@ void rd_scene_free(rd_scene *s)
 /* Grows *arr (of *cap elements of size sz) to hold one more; NULL on failure. */
 static void *grow(void **arr, size_t *count, size_t *cap, size_t sz)
 {
-    if (*count == *cap) {
-        size_t ncap = *cap ? *cap * 2 : 8;
-        void *p = realloc(*arr, ncap * sz);
-        if (!p)
-            return NULL;
-        *arr = p;
-        *cap = ncap;
-    }
+    if (!rd_grow_array(arr, cap, *count + 1, sz, 8))
+        return NULL;
     char *slot = (char *)*arr + (*count)++ * sz;
     memset(slot, 0, sz);
     return slot;

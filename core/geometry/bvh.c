@@ -5,6 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "rayd/memory.h"
+
 /* BINS: SAH bins per axis. LEAF_MAX: primitives per leaf the estimate of
  * node count assumes. SMALL_LEAF: a node this small becomes a leaf when no
  * split is cheaper; a larger one is split even so. */
@@ -88,14 +90,8 @@ typedef struct {
 
 static uint32_t new_node(builder *bd)
 {
-    if (bd->nnodes == bd->cap) {
-        size_t nc = bd->cap ? bd->cap * 2 : 64;
-        rd_bvh_node *p = realloc(bd->nodes, nc * sizeof *p);
-        if (!p)
-            return UINT32_MAX;
-        bd->nodes = p;
-        bd->cap = nc;
-    }
+    if (!rd_grow_array((void **)&bd->nodes, &bd->cap, bd->nnodes + 1, sizeof *bd->nodes, 64))
+        return UINT32_MAX;
     return (uint32_t)bd->nnodes++;
 }
 
@@ -224,14 +220,8 @@ static void *subtree_main(void *arg)
 /* Appends t's nodes to bd, moving their child indices along. */
 static int append(builder *bd, const subtree *t, uint32_t *base)
 {
-    while (bd->cap < bd->nnodes + t->bd.nnodes) {
-        size_t nc = bd->cap ? bd->cap * 2 : 64;
-        rd_bvh_node *p = realloc(bd->nodes, nc * sizeof *p);
-        if (!p)
-            return 0;
-        bd->nodes = p;
-        bd->cap = nc;
-    }
+    if (!rd_grow_array((void **)&bd->nodes, &bd->cap, bd->nnodes + t->bd.nnodes, sizeof *bd->nodes, 64))
+        return 0;
     *base = (uint32_t)bd->nnodes;
     for (size_t i = 0; i < t->bd.nnodes; i++) {
         rd_bvh_node n = t->bd.nodes[i];
@@ -317,9 +307,9 @@ rd_error_code rd_bvh_build_threads(rd_bvh *b, const rd_vec3 *lo, const rd_vec3 *
         return RD_OK;
     if (n >= UINT32_MAX / 2)
         return rd_error_set(err, RD_ERR_LIMIT, 0, 0, "too many primitives for one BVH");
-    builder bd = {NULL, 0, 2 * n / LEAF_MAX + 16, malloc(n * sizeof *bd.r), threads < 1 ? 1 : threads};
-    b->prims = malloc(n * sizeof *b->prims);
-    bd.nodes = malloc(bd.cap * sizeof *bd.nodes);
+    builder bd = {NULL, 0, 2 * n / LEAF_MAX + 16, rd_big_malloc(n * sizeof *bd.r), threads < 1 ? 1 : threads};
+    b->prims = rd_big_malloc(n * sizeof *b->prims);
+    bd.nodes = rd_big_malloc(bd.cap * sizeof *bd.nodes);
     if (!bd.r || !b->prims || !bd.nodes) {
         free(bd.r);
         free(bd.nodes);

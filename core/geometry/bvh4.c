@@ -3,6 +3,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "rayd/memory.h"
+
 /* The binary children a node takes: the two of its binary node, then the
  * largest inner one among them opened up, while fewer than four. */
 static int gather(const rd_bvh *b, uint32_t node, uint32_t slot[4])
@@ -48,14 +50,8 @@ typedef struct {
 
 static uint32_t new_node(collapser *c)
 {
-    if (c->w->nnodes == c->cap) {
-        size_t nc = c->cap * 2;
-        rd_bvh4_node *p = realloc(c->w->nodes, nc * sizeof *p);
-        if (!p)
-            return UINT32_MAX;
-        c->w->nodes = p;
-        c->cap = nc;
-    }
+    if (!rd_grow_array((void **)&c->w->nodes, &c->cap, c->w->nnodes + 1, sizeof *c->w->nodes, 64))
+        return UINT32_MAX;
     return (uint32_t)c->w->nnodes++;
 }
 
@@ -99,7 +95,7 @@ rd_error_code rd_bvh4_build(rd_bvh4 *w, const rd_bvh *b, rd_error *err)
     if (b->nnodes == 0)
         return RD_OK;
     collapser c = {w, b, b->nnodes / 2 + 4};
-    w->nodes = malloc(c.cap * sizeof *w->nodes);
+    w->nodes = rd_big_malloc(c.cap * sizeof *w->nodes);
     if (!w->nodes)
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory building the BVH");
     w->nnodes = 1;

@@ -1,6 +1,7 @@
 #include "world.h"
 
 #include "rayd/clock.h"
+#include "rayd/memory.h"
 
 #include <float.h>
 #include <stdlib.h>
@@ -81,7 +82,7 @@ rd_error_code rd_world_build_threads(rd_world *w, const rd_scene *s, int threads
     w->planes = malloc((np + 1) * sizeof *w->planes);
     w->plane_mat = malloc((np + 1) * sizeof(int32_t));
     w->plane_obj = malloc((np + 1) * sizeof(int32_t));
-    w->tris = malloc((nt + 1) * sizeof *w->tris);
+    w->tris = rd_big_malloc((nt + 1) * sizeof *w->tris);
     if (!w->spheres || !w->sphere_mat || !w->sphere_obj || !w->planes || !w->plane_mat || !w->plane_obj || !w->tris)
         return nomem(w, err);
     for (size_t i = 0; i < s->object_count; i++) {
@@ -121,7 +122,7 @@ rd_error_code rd_world_build_threads(rd_world *w, const rd_scene *s, int threads
     size_t nb = w->nspheres + w->ntris;
     if (nb > RD_WORLD_BVH_MIN) {
         double t0 = rd_now_ms();
-        rd_vec3 *lo = malloc(nb * sizeof *lo), *hi = malloc(nb * sizeof *hi);
+        rd_vec3 *lo = rd_big_malloc(nb * sizeof *lo), *hi = rd_big_malloc(nb * sizeof *hi);
         if (!lo || !hi) {
             free(lo);
             free(hi);

@@ -15,6 +15,7 @@
 #include "json_text.h"
 #include "png_write.h"
 #include "rayd/clock.h"
+#include "rayd/memory.h"
 #include "version.h"
 
 static const char grade_help[] =
@@ -158,14 +159,8 @@ static void class_free(class_list *c)
 /* Appends a copy of path; 0, or -1 when out of memory. */
 static int class_add(class_list *c, const char *path)
 {
-    if (c->n == c->cap) {
-        size_t cap = c->cap ? c->cap * 2 : 16;
-        student_image *v = realloc(c->v, cap * sizeof *v);
-        if (!v)
-            return -1;
-        c->v = v;
-        c->cap = cap;
-    }
+    if (!rd_grow_array((void **)&c->v, &c->cap, c->n + 1, sizeof *c->v, 16))
+        return -1;
     const char *slash = strrchr(path, '/');
     const char *base = slash && slash[1] ? slash + 1 : path;
     const char *dot = strrchr(base, '.');
@@ -201,14 +196,9 @@ static int class_add_dir(class_list *c, const char *folder)
         size_t len = strlen(e->d_name);
         if (e->d_name[0] == '.' || len < 5 || strcasecmp(e->d_name + len - 4, ".png") != 0)
             continue;
-        if (n == cap) {
-            cap = cap ? cap * 2 : 64;
-            char **v = realloc(names, cap * sizeof *v);
-            if (!v) {
-                status = RD_EXIT_SCENE;
-                break;
-            }
-            names = v;
+        if (!rd_grow_array((void **)&names, &cap, n + 1, sizeof *names, 64)) {
+            status = RD_EXIT_SCENE;
+            break;
         }
         if (!(names[n] = strdup(e->d_name)))
             status = RD_EXIT_SCENE;

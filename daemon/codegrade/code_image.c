@@ -3,6 +3,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "rayd/memory.h"
 #include "rayd/render.h"
 
 typedef struct {
@@ -52,15 +53,9 @@ static rd_rgb record(void *user, const rd_material *m, rd_vec3 n, rd_vec3 p, dou
         c->over = 1;
         return v3(0, 0, 0);
     }
-    if (c->n == c->cap) {
-        size_t cap = c->cap ? c->cap * 2 : 4096;
-        rd_code_query *q = realloc(c->q, cap * sizeof *q);
-        if (!q) {
-            c->over = 2;
-            return v3(0, 0, 0);
-        }
-        c->q = q;
-        c->cap = cap;
+    if (!rd_grow_array((void **)&c->q, &c->cap, c->n + 1, sizeof *c->q, 4096)) {
+        c->over = 2;
+        return v3(0, 0, 0);
     }
     c->q[c->n++] = query_of(m, n, p, t, L, V);
     return v3(0, 0, 0);

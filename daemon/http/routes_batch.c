@@ -17,6 +17,7 @@
 #include "hash.h"
 #include "http_internal.h"
 #include "rayd/clock.h"
+#include "rayd/memory.h"
 
 typedef rd_grade_batch_image batch_image;
 
@@ -82,14 +83,8 @@ static int add_image(batch_form *f, const rd_server_options *o, const char *stud
         f->form.too_big = "--max-batch-images";
         return 0;
     }
-    if (f->n == f->cap) {
-        size_t cap = f->cap ? 2 * f->cap : 16;
-        batch_image *p = realloc(f->images, cap * sizeof *p);
-        if (!p)
-            return 0;
-        f->images = p;
-        f->cap = cap;
-    }
+    if (!rd_grow_array((void **)&f->images, &f->cap, f->n + 1, sizeof *f->images, 16))
+        return 0;
     batch_image *im = &f->images[f->n++];
     memset(im, 0, sizeof *im);
     snprintf(im->student, sizeof im->student, "%s", student);

@@ -15,6 +15,7 @@
 #include <time.h>
 
 #include "migrations.h"
+#include "rayd/memory.h"
 #include "store_internal.h"
 
 typedef struct {
@@ -453,14 +454,8 @@ static rd_error_code sq_image(rd_store *s, const char *id, rd_store_image_kind k
 /* Room for entry k of a list read row by row, doubling it when full. */
 static rd_error_code room_for(size_t k, size_t *cap, void **list, size_t size, const char *what, rd_error *err)
 {
-    if (k < *cap)
-        return RD_OK;
-    size_t nc = *cap ? 2 * *cap : 16;
-    void *more = realloc(*list, nc * size);
-    if (!more)
+    if (!rd_grow_array(list, cap, k + 1, size, 16))
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no memory for %s", what);
-    *list = more;
-    *cap = nc;
     return RD_OK;
 }
 
