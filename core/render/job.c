@@ -6,6 +6,7 @@
 
 #include "camera.h"
 #include "rayd/clock.h"
+#include "rayd/memory.h"
 #include "trace.h"
 
 /* Per-pixel state lives in separate arrays, each allocated only when the
@@ -102,14 +103,14 @@ rd_error_code rd_job_create(const rd_scene *s, const rd_job_options *opt, rd_job
      * read-then-write of a pixel then copies the page and flushes every
      * CPU's TLB, which serialised the threads. Each tile writes its own
      * pixels' starting values before its first pass instead. */
-    j->mean = malloc(npix * 3 * sizeof *j->mean);
-    j->n = malloc(npix * sizeof *j->n);
+    j->mean = rd_big_malloc(npix * 3 * sizeof *j->mean);
+    j->n = rd_big_malloc(npix * sizeof *j->n);
     if (estimating) {
-        j->half = malloc(npix * 6 * sizeof *j->half);
-        j->nh = malloc(npix * 2 * sizeof *j->nh);
+        j->half = rd_big_malloc(npix * 6 * sizeof *j->half);
+        j->nh = rd_big_malloc(npix * 2 * sizeof *j->nh);
     }
     if (j->adaptive)
-        j->stat = malloc(npix * 6 * sizeof *j->stat);
+        j->stat = rd_big_malloc(npix * 6 * sizeof *j->stat);
     if (!j->mean || !j->n || (estimating && (!j->half || !j->nh)) || (j->adaptive && !j->stat)) {
         rd_job_free(j);
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory for a %dx%d image", s->render.width,

@@ -20,6 +20,7 @@
 
 #include "rayd/render.h"
 #include "rayd/scene.h"
+#include "support/rng.h"
 #include "support/scene_fixture.h"
 
 #define assert_px(bytes, w, x, y, r, g, b)                                                                             \
@@ -193,6 +194,45 @@ Test(render, exact_display_function)
     uint8_t want[9] = {0, 255, 128, 0, 255, 1, 64, 0, 255};
     for (int i = 0; i < 9; i++)
         cr_assert_eq(b[i], want[i], "byte %d = %d, expected %d", i, b[i], want[i]);
+}
+
+/* A whole image's bytes are rd_display8 of each channel, whatever shortcut
+ * rd_image_to_rgb8 takes: every value near the 255 steps of each gamma
+ * (the formula's edge and the doubles around it), random ones, and those
+ * clamped. */
+Test(render, image_bytes_are_display8_of_every_channel)
+{
+    const double gammas[] = {1, 2.2, 2, 1.8, 0.45, 3};
+    size_t n = 0, cap = 3 * 80000;
+    double *v = malloc(cap * sizeof *v);
+    uint8_t *got = malloc(cap);
+    cr_assert(v && got);
+    for (size_t gi = 0; gi < sizeof gammas / sizeof *gammas; gi++) {
+        double g = gammas[gi];
+        test_rng r = {0x5eed + gi};
+        n = 0;
+        const double fixed[] = {0, 1, -0.0, -1, 2, INFINITY, -INFINITY, 4.9e-324, 1e-300, 0.5, 1 - 1e-16};
+        for (size_t i = 0; i < sizeof fixed / sizeof *fixed; i++)
+            v[n++] = fixed[i];
+        for (int k = 1; k < 256; k++) {
+            double e = pow((k - 0.5) / 255, g);
+            for (int d = -40; d <= 40; d++) {
+                double c = e;
+                for (int s = 0; s < (d < 0 ? -d : d); s++)
+                    c = nextafter(c, d < 0 ? 0 : 2);
+                v[n++] = c;
+            }
+        }
+        while (n < cap)
+            v[n++] = rng_uniform(&r) * 1.1 - 0.05;
+        rd_image img = {(int)(cap / 3), 1, v};
+        rd_image_to_rgb8(&img, g, got);
+        for (size_t i = 0; i < n; i++)
+            if (got[i] != rd_display8(v[i], g))
+                cr_assert_fail("gamma %g: %.17g gives %d, rd_display8 %d", g, v[i], got[i], rd_display8(v[i], g));
+    }
+    free(v);
+    free(got);
 }
 
 Test(render, exact_background_for_misses)
