@@ -294,6 +294,66 @@ static int build(builder *bd, uint32_t node, size_t first, size_t count, int dep
     return build(bd, right, mid, first + count - mid, depth + 1);
 }
 
+/* The records of primitives [first, first + count), from fn's bounds. */
+typedef struct {
+    rec *r;
+    size_t first, count;
+    rd_bvh_bounds_fn fn;
+    const void *ctx;
+} rec_run;
+
+static void *recs_fill(void *arg)
+{
+    const rec_run *a = arg;
+    rd_vec3 lo[RD_BVH_RUN], hi[RD_BVH_RUN];
+    for (size_t i = a->first; i < a->first + a->count; i += RD_BVH_RUN) {
+        size_t k = a->first + a->count - i < RD_BVH_RUN ? a->first + a->count - i : RD_BVH_RUN;
+        a->fn(a->ctx, i, k, lo, hi);
+        for (size_t j = 0; j < k; j++) {
+            rec *x = &a->r[i + j];
+            double l[3] = {lo[j].x, lo[j].y, lo[j].z}, h[3] = {hi[j].x, hi[j].y, hi[j].z};
+            for (int c = 0; c < 3; c++) {
+                x->b.lo[c] = down(l[c]);
+                x->b.hi[c] = up(h[c]);
+                x->c[c] = (float)(0.5 * l[c] + 0.5 * h[c]);
+            }
+            x->id = (uint32_t)(i + j);
+        }
+    }
+    return NULL;
+}
+
+/* On two threads when big: the records' pages are first written here, and
+ * that first touch (the kernel zeroing them) is a good part of the build. */
+static void recs_make(rec *r, size_t n, rd_bvh_bounds_fn fn, const void *ctx, int threads)
+{
+    rec_run a[2] = {{r, 0, n, fn, ctx}, {r, n, 0, fn, ctx}};
+    pthread_t th;
+    int spawned = 0;
+    if (threads > 1 && n >= PARALLEL_MIN) {
+        a[0].count = n / 2;
+        a[1].first = n / 2;
+        a[1].count = n - n / 2;
+        spawned = pthread_create(&th, NULL, recs_fill, &a[1]) == 0;
+    }
+    recs_fill(&a[0]);
+    if (spawned)
+        pthread_join(th, NULL);
+    else
+        recs_fill(&a[1]);
+}
+
+typedef struct {
+    const rd_vec3 *lo, *hi;
+} arrays;
+
+static void from_arrays(const void *ctx, size_t first, size_t count, rd_vec3 *lo, rd_vec3 *hi)
+{
+    const arrays *a = ctx;
+    memcpy(lo, a->lo + first, count * sizeof *lo);
+    memcpy(hi, a->hi + first, count * sizeof *hi);
+}
+
 rd_error_code rd_bvh_build(rd_bvh *b, const rd_vec3 *lo, const rd_vec3 *hi, size_t n, rd_error *err)
 {
     return rd_bvh_build_threads(b, lo, hi, n, 1, err);
@@ -301,6 +361,12 @@ rd_error_code rd_bvh_build(rd_bvh *b, const rd_vec3 *lo, const rd_vec3 *hi, size
 
 rd_error_code rd_bvh_build_threads(rd_bvh *b, const rd_vec3 *lo, const rd_vec3 *hi, size_t n, int threads,
                                    rd_error *err)
+{
+    arrays a = {lo, hi};
+    return rd_bvh_build_from(b, n, from_arrays, &a, threads, err);
+}
+
+rd_error_code rd_bvh_build_from(rd_bvh *b, size_t n, rd_bvh_bounds_fn fn, const void *ctx, int threads, rd_error *err)
 {
     memset(b, 0, sizeof *b);
     if (n == 0)
@@ -316,15 +382,7 @@ rd_error_code rd_bvh_build_threads(rd_bvh *b, const rd_vec3 *lo, const rd_vec3 *
         rd_bvh_free(b);
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory building the BVH");
     }
-    for (size_t i = 0; i < n; i++) {
-        double l[3] = {lo[i].x, lo[i].y, lo[i].z}, h[3] = {hi[i].x, hi[i].y, hi[i].z};
-        for (int k = 0; k < 3; k++) {
-            bd.r[i].b.lo[k] = down(l[k]);
-            bd.r[i].b.hi[k] = up(h[k]);
-            bd.r[i].c[k] = (float)(0.5 * l[k] + 0.5 * h[k]);
-        }
-        bd.r[i].id = (uint32_t)i;
-    }
+    recs_make(bd.r, n, fn, ctx, bd.threads);
     b->nprims = n;
     bd.nnodes = 1;
     int ok = build(&bd, 0, 0, n, 0);

@@ -44,6 +44,13 @@ rd_error_code rd_bvh_build(rd_bvh *b, const rd_vec3 *lo, const rd_vec3 *hi, size
  * in depth-first order, so the tree is the one rd_bvh_build makes. */
 rd_error_code rd_bvh_build_threads(rd_bvh *b, const rd_vec3 *lo, const rd_vec3 *hi, size_t n, int threads,
                                    rd_error *err);
+/* The same with the bounds asked for in runs: fn writes the double bounds
+ * of primitives [first, first + count) (count at most RD_BVH_RUN) into lo
+ * and hi. It is called from up to `threads` threads at once, on disjoint
+ * runs, so a big scene needs no array of all its bounds. */
+enum { RD_BVH_RUN = 256 };
+typedef void (*rd_bvh_bounds_fn)(const void *ctx, size_t first, size_t count, rd_vec3 *lo, rd_vec3 *hi);
+rd_error_code rd_bvh_build_from(rd_bvh *b, size_t n, rd_bvh_bounds_fn fn, const void *ctx, int threads, rd_error *err);
 void rd_bvh_free(rd_bvh *b);
 
 /* Precomputed for slab tests: 1/d, and for a zero direction component a

@@ -33,20 +33,32 @@ static rd_error_code nomem(rd_world *w, rd_error *err)
     return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory preparing the scene");
 }
 
+void rd_world_bounds_of(const rd_world *w, size_t first, size_t count, rd_vec3 *lo, rd_vec3 *hi)
+{
+    for (size_t k = 0; k < count; k++) {
+        size_t i = first + k;
+        if (i < w->nspheres) {
+            rd_vec3 r = v3(w->spheres[i].r, w->spheres[i].r, w->spheres[i].r);
+            lo[k] = v3_sub(w->spheres[i].c, r);
+            hi[k] = v3_add(w->spheres[i].c, r);
+            continue;
+        }
+        const rd_vec3 *v = w->tris[i - w->nspheres].v;
+        lo[k] = v3(fmin(v[0].x, fmin(v[1].x, v[2].x)), fmin(v[0].y, fmin(v[1].y, v[2].y)),
+                   fmin(v[0].z, fmin(v[1].z, v[2].z)));
+        hi[k] = v3(fmax(v[0].x, fmax(v[1].x, v[2].x)), fmax(v[0].y, fmax(v[1].y, v[2].y)),
+                   fmax(v[0].z, fmax(v[1].z, v[2].z)));
+    }
+}
+
 void rd_world_bounds(const rd_world *w, rd_vec3 *lo, rd_vec3 *hi)
 {
-    for (size_t i = 0; i < w->nspheres; i++) {
-        rd_vec3 r = v3(w->spheres[i].r, w->spheres[i].r, w->spheres[i].r);
-        lo[i] = v3_sub(w->spheres[i].c, r);
-        hi[i] = v3_add(w->spheres[i].c, r);
-    }
-    for (size_t i = 0; i < w->ntris; i++) {
-        const rd_vec3 *v = w->tris[i].v;
-        lo[w->nspheres + i] = v3(fmin(v[0].x, fmin(v[1].x, v[2].x)), fmin(v[0].y, fmin(v[1].y, v[2].y)),
-                                 fmin(v[0].z, fmin(v[1].z, v[2].z)));
-        hi[w->nspheres + i] = v3(fmax(v[0].x, fmax(v[1].x, v[2].x)), fmax(v[0].y, fmax(v[1].y, v[2].y)),
-                                 fmax(v[0].z, fmax(v[1].z, v[2].z)));
-    }
+    rd_world_bounds_of(w, 0, w->nspheres + w->ntris, lo, hi);
+}
+
+static void bounds_fn(const void *ctx, size_t first, size_t count, rd_vec3 *lo, rd_vec3 *hi)
+{
+    rd_world_bounds_of(ctx, first, count, lo, hi);
 }
 
 rd_error_code rd_world_build(rd_world *w, const rd_scene *s, rd_error *err)
@@ -122,16 +134,7 @@ rd_error_code rd_world_build_threads(rd_world *w, const rd_scene *s, int threads
     size_t nb = w->nspheres + w->ntris;
     if (nb > RD_WORLD_BVH_MIN) {
         double t0 = rd_now_ms();
-        rd_vec3 *lo = rd_big_malloc(nb * sizeof *lo), *hi = rd_big_malloc(nb * sizeof *hi);
-        if (!lo || !hi) {
-            free(lo);
-            free(hi);
-            return nomem(w, err);
-        }
-        rd_world_bounds(w, lo, hi);
-        rd_error_code rc = rd_bvh_build_threads(&w->bvh, lo, hi, nb, threads, err);
-        free(lo);
-        free(hi);
+        rd_error_code rc = rd_bvh_build_from(&w->bvh, nb, bounds_fn, w, threads, err);
         if (!rc)
             rc = rd_bvh4_build(&w->bvh4, &w->bvh, err);
         if (rc) {

@@ -59,6 +59,8 @@ rd_error_code rd_world_build_threads(rd_world *w, const rd_scene *s, int threads
 /* The bounds the BVH is built over, of spheres then triangles (nspheres +
  * ntris entries each, the caller's). */
 void rd_world_bounds(const rd_world *w, rd_vec3 *lo, rd_vec3 *hi);
+/* Of primitives [first, first + count) only, into lo[0..count). */
+void rd_world_bounds_of(const rd_world *w, size_t first, size_t count, rd_vec3 *lo, rd_vec3 *hi);
 void rd_world_free(rd_world *w);
 
 /* Bytes the world holds (surfaces, BVH nodes and indices). */
