@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "parallel.h"
 #include "rayd/memory.h"
 
 /* BINS: SAH bins per axis. LEAF_MAX: primitives per leaf the estimate of
@@ -282,7 +283,10 @@ static int build(builder *bd, uint32_t node, size_t first, size_t count, int dep
         return make_leaf(n, first, count);
     n->axis = (uint16_t)(sp.axis < 0 ? 0 : sp.axis);
     n->count = 0;
-    if (bd->threads > 1 && count >= PARALLEL_MIN)
+    /* A lopsided split (a scene's floor against its million-triangle
+     * model) would leave one thread idle: the threads go on down instead. */
+    size_t small = mid - first < first + count - mid ? mid - first : first + count - mid;
+    if (bd->threads > 1 && small >= PARALLEL_MIN && small >= count / 4)
         return build_children_parallel(bd, node, first, mid, first + count, depth);
     uint32_t left = new_node(bd);
     if (left == UINT32_MAX || !build(bd, left, first, mid - first, depth + 1))
@@ -297,17 +301,16 @@ static int build(builder *bd, uint32_t node, size_t first, size_t count, int dep
 /* The records of primitives [first, first + count), from fn's bounds. */
 typedef struct {
     rec *r;
-    size_t first, count;
     rd_bvh_bounds_fn fn;
     const void *ctx;
 } rec_run;
 
-static void *recs_fill(void *arg)
+static void recs_fill(void *arg, size_t first, size_t count)
 {
     const rec_run *a = arg;
     rd_vec3 lo[RD_BVH_RUN], hi[RD_BVH_RUN];
-    for (size_t i = a->first; i < a->first + a->count; i += RD_BVH_RUN) {
-        size_t k = a->first + a->count - i < RD_BVH_RUN ? a->first + a->count - i : RD_BVH_RUN;
+    for (size_t i = first; i < first + count; i += RD_BVH_RUN) {
+        size_t k = first + count - i < RD_BVH_RUN ? first + count - i : RD_BVH_RUN;
         a->fn(a->ctx, i, k, lo, hi);
         for (size_t j = 0; j < k; j++) {
             rec *x = &a->r[i + j];
@@ -320,27 +323,6 @@ static void *recs_fill(void *arg)
             x->id = (uint32_t)(i + j);
         }
     }
-    return NULL;
-}
-
-/* On two threads when big: the records' pages are first written here, and
- * that first touch (the kernel zeroing them) is a good part of the build. */
-static void recs_make(rec *r, size_t n, rd_bvh_bounds_fn fn, const void *ctx, int threads)
-{
-    rec_run a[2] = {{r, 0, n, fn, ctx}, {r, n, 0, fn, ctx}};
-    pthread_t th;
-    int spawned = 0;
-    if (threads > 1 && n >= PARALLEL_MIN) {
-        a[0].count = n / 2;
-        a[1].first = n / 2;
-        a[1].count = n - n / 2;
-        spawned = pthread_create(&th, NULL, recs_fill, &a[1]) == 0;
-    }
-    recs_fill(&a[0]);
-    if (spawned)
-        pthread_join(th, NULL);
-    else
-        recs_fill(&a[1]);
 }
 
 typedef struct {
@@ -382,7 +364,8 @@ rd_error_code rd_bvh_build_from(rd_bvh *b, size_t n, rd_bvh_bounds_fn fn, const 
         rd_bvh_free(b);
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory building the BVH");
     }
-    recs_make(bd.r, n, fn, ctx, bd.threads);
+    rec_run rr = {bd.r, fn, ctx};
+    rd_parallel_runs(n, PARALLEL_MIN, bd.threads, recs_fill, &rr);
     b->nprims = n;
     bd.nnodes = 1;
     int ok = build(&bd, 0, 0, n, 0);

@@ -8,6 +8,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "parallel.h"
 #include "triangle.h"
 
 /* What the last closest-hit search found, before the hit is filled in. */
@@ -59,6 +60,31 @@ void rd_world_bounds(const rd_world *w, rd_vec3 *lo, rd_vec3 *hi)
 static void bounds_fn(const void *ctx, size_t first, size_t count, rd_vec3 *lo, rd_vec3 *hi)
 {
     rd_world_bounds_of(ctx, first, count, lo, hi);
+}
+
+/* A mesh's faces as world triangles, [first, first + count) of them. */
+typedef struct {
+    const rd_world *w;
+    const rd_object *o;
+    int32_t object;
+    rd_wtri *tris;
+} mesh_fill;
+
+enum { FILL_MIN = 65536 };
+
+static void fill_faces(void *arg, size_t first, size_t count)
+{
+    const mesh_fill *mf = arg;
+    const rd_mesh *m = &mf->w->scene->meshes[mf->o->mesh];
+    for (size_t f = first; f < first + count; f++) {
+        rd_wtri *t = &mf->tris[f];
+        for (int c = 0; c < 3; c++)
+            t->v[c] = rd_world_local(mf->w, m->positions[m->faces[f].v[c]]);
+        t->material = mf->o->material;
+        t->object = mf->object;
+        t->mesh = mf->o->mesh;
+        t->face = (uint32_t)f;
+    }
 }
 
 rd_error_code rd_world_build(rd_world *w, const rd_scene *s, rd_error *err)
@@ -119,16 +145,9 @@ rd_error_code rd_world_build_threads(rd_world *w, const rd_scene *s, int threads
             t->mesh = -1;
             t->face = 0;
         } else {
-            const rd_mesh *m = &s->meshes[o->mesh];
-            for (size_t f = 0; f < m->nfaces; f++) {
-                rd_wtri *t = &w->tris[w->ntris++];
-                for (int c = 0; c < 3; c++)
-                    t->v[c] = rd_world_local(w, m->positions[m->faces[f].v[c]]);
-                t->material = o->material;
-                t->object = (int32_t)i;
-                t->mesh = o->mesh;
-                t->face = (uint32_t)f;
-            }
+            mesh_fill mf = {w, o, (int32_t)i, w->tris + w->ntris};
+            rd_parallel_runs(s->meshes[o->mesh].nfaces, FILL_MIN, threads, fill_faces, &mf);
+            w->ntris += s->meshes[o->mesh].nfaces;
         }
     }
     size_t nb = w->nspheres + w->ntris;
