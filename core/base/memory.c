@@ -8,7 +8,9 @@
 
 enum { HUGE_MIN = 4 << 20 };
 
-void rd_mem_hint_huge(void *p, size_t bytes)
+/* Huge pages under the whole pages of [p, p + bytes), asked for before the
+ * block is first written: pages already touched stay as they are. */
+static void hint_huge(void *p, size_t bytes)
 {
 #ifdef MADV_HUGEPAGE
     if (!p || bytes < HUGE_MIN)
@@ -29,15 +31,8 @@ void rd_mem_hint_huge(void *p, size_t bytes)
 void *rd_big_malloc(size_t bytes)
 {
     void *p = malloc(bytes);
-    rd_mem_hint_huge(p, bytes);
+    hint_huge(p, bytes);
     return p;
-}
-
-void *rd_big_realloc(void *p, size_t bytes)
-{
-    void *q = realloc(p, bytes);
-    rd_mem_hint_huge(q, bytes);
-    return q;
 }
 
 int rd_grow_array(void **arr, size_t *cap, size_t need, size_t size, size_t first)
