@@ -56,7 +56,7 @@ static rd_error_code folder_read(const rd_asset_source *src, const char *name, s
     if (rc)
         return rc;
     char *text;
-    rc = rd_read_file(real_file, max_bytes, flag, &text, len, err);
+    rc = rd_read_file_threads(real_file, max_bytes, flag, src->threads, &text, len, err);
     if (rc == RD_OK)
         *data = (unsigned char *)text;
     else if (rc == RD_ERR_IO || rc == RD_ERR_LIMIT) {

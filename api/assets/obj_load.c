@@ -330,6 +330,7 @@ typedef struct {
     const char *text;
     size_t bad, max_tris;
     const char *flag;
+    rd_mesh_face *dest; /* where the join puts its faces */
 } range;
 
 static void count_range(range *r)
@@ -361,6 +362,16 @@ static void *parse_range(void *arg)
 static void *count_main(void *arg)
 {
     count_range(arg);
+    return NULL;
+}
+
+/* A range's faces into the joined array, each range on its own thread:
+ * the copy is the first write of those pages. */
+static void *copy_main(void *arg)
+{
+    range *r = arg;
+    if (r->m.nfaces)
+        memcpy(r->dest, r->m.faces, r->m.nfaces * sizeof *r->dest);
     return NULL;
 }
 
@@ -445,9 +456,10 @@ static int join_ranges(range *rs, int n, size_t max_tris, rd_mesh *out, rd_warni
     if (!out->faces)
         return 0;
     for (int i = 0; i < n; i++) {
-        memcpy(out->faces + out->nfaces, rs[i].m.faces, rs[i].m.nfaces * sizeof *out->faces);
+        rs[i].dest = out->faces + out->nfaces;
         out->nfaces += rs[i].m.nfaces;
     }
+    run_ranges(rs, n, copy_main);
     const range *last = &rs[n - 1];
     out->npositions = last->m.npositions, out->nnormals = last->m.nnormals, out->nuvs = last->m.nuvs;
     const warning_rec *mtl = NULL;

@@ -2,6 +2,7 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -10,7 +11,69 @@
 
 #include "rayd/memory.h"
 
+/* [first, first + count) of fd into buf + first; 0 on a read error or a
+ * file that ended early. */
+typedef struct {
+    int fd;
+    char *buf;
+    size_t first, count;
+    int ok;
+} piece;
+
+static void *read_piece(void *arg)
+{
+    piece *p = arg;
+    size_t got = 0;
+    while (got < p->count) {
+        ssize_t k = pread(p->fd, p->buf + p->first + got, p->count - got, (off_t)(p->first + got));
+        if (k < 0 && errno == EINTR)
+            continue;
+        if (k <= 0)
+            break;
+        got += (size_t)k;
+    }
+    p->ok = got == p->count;
+    return NULL;
+}
+
+/* Below this a file is read on one thread. */
+enum { PIECES_MAX = 8, PIECE_MIN = 8 << 20 };
+
+/* The pieces read at once: the buffer's pages are first written (and
+ * zeroed by the kernel) by the thread that reads into them, so a big file
+ * costs each thread its share. */
+static int read_pieces(int fd, char *buf, size_t n, int threads)
+{
+    int k = threads < 1 ? 1 : (threads > PIECES_MAX ? PIECES_MAX : threads);
+    if ((size_t)k > n / PIECE_MIN)
+        k = n / PIECE_MIN ? (int)(n / PIECE_MIN) : 1;
+    piece ps[PIECES_MAX];
+    pthread_t th[PIECES_MAX];
+    int started[PIECES_MAX] = {0};
+    for (int i = 0; i < k; i++)
+        ps[i] =
+            (piece){fd, buf, n / (size_t)k * (size_t)i, i == k - 1 ? n - n / (size_t)k * (size_t)i : n / (size_t)k, 0};
+    for (int i = 1; i < k; i++)
+        started[i] = pthread_create(&th[i], NULL, read_piece, &ps[i]) == 0;
+    read_piece(&ps[0]);
+    int ok = ps[0].ok;
+    for (int i = 1; i < k; i++) {
+        if (started[i])
+            pthread_join(th[i], NULL);
+        else
+            read_piece(&ps[i]);
+        ok = ok && ps[i].ok;
+    }
+    return ok;
+}
+
 rd_error_code rd_read_file(const char *path, size_t max_bytes, const char *flag, char **out, size_t *len, rd_error *err)
+{
+    return rd_read_file_threads(path, max_bytes, flag, 1, out, len, err);
+}
+
+rd_error_code rd_read_file_threads(const char *path, size_t max_bytes, const char *flag, int threads, char **out,
+                                   size_t *len, rd_error *err)
 {
     *out = NULL;
     *len = 0;
@@ -35,17 +98,11 @@ rd_error_code rd_read_file(const char *path, size_t max_bytes, const char *flag,
         close(fd);
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "%s: out of memory", path);
     }
-    size_t got = 0;
-    while (got < n) {
-        ssize_t k = read(fd, buf + got, n - got);
-        if (k < 0 && errno == EINTR)
-            continue;
-        if (k <= 0)
-            break;
-        got += (size_t)k;
-    }
+    int ok = read_pieces(fd, buf, n, threads);
+    /* A file that grew since fstat is read as it was then; one that shrank
+     * is a read error. */
     close(fd);
-    if (got != n) {
+    if (!ok) {
         free(buf);
         return rd_error_set(err, RD_ERR_IO, 0, 0, "%s: read error", path);
     }

@@ -14,6 +14,11 @@
 rd_error_code rd_read_file(const char *path, size_t max_bytes, const char *flag, char **out, size_t *len,
                            rd_error *err);
 
+/* The same, a file of 16 MiB or more read in pieces on up to `threads`
+ * threads at once (a mesh of a million triangles is a 100 MB file). */
+rd_error_code rd_read_file_threads(const char *path, size_t max_bytes, const char *flag, int threads, char **out,
+                                   size_t *len, rd_error *err);
+
 /* Writes bytes to path, replacing it only once the whole file is written
  * (through a temporary file in the same folder, renamed at the end). A
  * path that is neither a regular file nor a folder (/dev/null, a FIFO, a
