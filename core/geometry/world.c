@@ -455,9 +455,13 @@ int rd_world_any_hint(const rd_world *w, rd_ray r, double tmax, uint32_t *last)
     for (size_t i = 0; i < w->nspheres; i++)
         if (rd_sphere_intersect(&w->spheres[i], r, tmax) > 0)
             return 1;
+    if (!w->ntris)
+        return 0;
+    /* The ray's part of the triangle test once, not once a triangle. */
+    rd_tri_ray tr = rd_tri_ray_make(r);
     double bary[3];
     for (size_t i = 0; i < w->ntris; i++)
-        if (rd_tri_intersect(w->tris[i].v, r, tmax, bary) > 0)
+        if (rd_tri_intersect_ray(w->tris[i].v, &tr, tmax, bary) > 0)
             return 1;
     return 0;
 }
