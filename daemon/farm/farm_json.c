@@ -162,6 +162,11 @@ static void add_stats(cJSON *o, const rd_store_job_info *in)
     cJSON_Delete(st);
 }
 
+/* From one wall-clock stamp to a later one. The stamps come from different
+ * readings of the wall clock (and with PostgreSQL from its server's), which
+ * may step back a little: a job once read queued_ms -2. */
+static double span_ms(int64_t from, int64_t to) { return to > from ? (double)(to - from) : 0; }
+
 char *farm_job_json(const rd_store_job_info *in)
 {
     cJSON *o = cJSON_CreateObject();
@@ -171,8 +176,8 @@ char *farm_job_json(const rd_store_job_info *in)
     cJSON_AddStringToObject(o, "id", in->id);
     cJSON_AddStringToObject(o, "status", rd_store_status_name(in->status));
     cJSON_AddNumberToObject(o, "progress", progress_of(in, sched));
-    cJSON_AddNumberToObject(o, "elapsed_ms", in->started_ms ? (double)(end - in->started_ms) : 0);
-    cJSON_AddNumberToObject(o, "queued_ms", (double)((in->started_ms ? in->started_ms : end) - in->submitted_ms));
+    cJSON_AddNumberToObject(o, "elapsed_ms", in->started_ms ? span_ms(in->started_ms, end) : 0);
+    cJSON_AddNumberToObject(o, "queued_ms", span_ms(in->submitted_ms, in->started_ms ? in->started_ms : end));
     cJSON_AddNumberToObject(o, "width", in->width);
     cJSON_AddNumberToObject(o, "height", in->height);
     add_stats(o, in);
