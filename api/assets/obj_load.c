@@ -1,6 +1,5 @@
 #include "obj_load.h"
 
-#include <pthread.h>
 #include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -8,6 +7,7 @@
 #include <string.h>
 
 #include "rayd/memory.h"
+#include "rayd/parallel.h"
 #include "scene_value.h"
 #include "utf8.h"
 #include "value_parse.h"
@@ -315,7 +315,7 @@ static rd_error_code parse_one_thread(const char *text, size_t len, const char *
  * shared vertex arrays and their own faces, joined in order. Anything
  * unusual (an error, a file past a limit, bad UTF-8) is parsed again on one
  * thread, whose answer and messages are the reference. */
-enum { MAX_RANGES = 16, RANGE_MIN_BYTES = 1 << 20 };
+enum { MAX_RANGES = RD_PIECES_MAX, RANGE_MIN_BYTES = 1 << 20 };
 
 typedef struct {
     const char *begin, *end;
@@ -352,43 +352,23 @@ static void count_range(range *r)
     r->line0 = lines; /* until the prefix sum: this range's own line count */
 }
 
-static void *parse_range(void *arg)
+/* The passes over the ranges, each range on its own thread
+ * (rd_run_each). */
+static void parse_range(void *ctx, int i)
 {
-    range *r = arg;
+    range *r = &((range *)ctx)[i];
     r->rc = parse_lines(&r->o, r->text, r->begin, r->end, r->bad, r->max_tris, r->flag, &r->ws);
-    return NULL;
 }
 
-static void *count_main(void *arg)
-{
-    count_range(arg);
-    return NULL;
-}
+static void count_main(void *ctx, int i) { count_range(&((range *)ctx)[i]); }
 
-/* A range's faces into the joined array, each range on its own thread:
- * the copy is the first write of those pages. */
-static void *copy_main(void *arg)
+/* A range's faces into the joined array: the copy is the first write of
+ * those pages, so each range makes its own. */
+static void copy_main(void *ctx, int i)
 {
-    range *r = arg;
+    range *r = &((range *)ctx)[i];
     if (r->m.nfaces)
         memcpy(r->dest, r->m.faces, r->m.nfaces * sizeof *r->dest);
-    return NULL;
-}
-
-/* Runs fn over the ranges, one on this thread and the rest on new ones. */
-static void run_ranges(range *rs, int n, void *(*fn)(void *))
-{
-    pthread_t th[MAX_RANGES];
-    int started[MAX_RANGES] = {0};
-    for (int i = 1; i < n; i++)
-        started[i] = pthread_create(&th[i], NULL, fn, &rs[i]) == 0;
-    fn(&rs[0]);
-    for (int i = 1; i < n; i++) {
-        if (started[i])
-            pthread_join(th[i], NULL);
-        else
-            fn(&rs[i]);
-    }
 }
 
 static int cut(const char *text, size_t len, int threads, range *rs)
@@ -459,7 +439,7 @@ static int join_ranges(range *rs, int n, size_t max_tris, rd_mesh *out, rd_warni
         rs[i].dest = out->faces + out->nfaces;
         out->nfaces += rs[i].m.nfaces;
     }
-    run_ranges(rs, n, copy_main);
+    rd_run_each(n, copy_main, rs);
     const range *last = &rs[n - 1];
     out->npositions = last->m.npositions, out->nnormals = last->m.nnormals, out->nuvs = last->m.nuvs;
     const warning_rec *mtl = NULL;
@@ -502,10 +482,10 @@ rd_error_code rd_obj_parse_threads(const char *text, size_t len, const char *sou
         threads = (int)(len / RANGE_MIN_BYTES);
     range rs[MAX_RANGES];
     int n = cut(text, len, threads, rs);
-    run_ranges(rs, n, count_main);
+    rd_run_each(n, count_main, rs);
     int ok = prepare_ranges(rs, n, text, bad, source, max_tris, flag, out);
     if (ok) {
-        run_ranges(rs, n, parse_range);
+        rd_run_each(n, parse_range, rs);
         for (int i = 0; i < n; i++)
             ok = ok && rs[i].rc == RD_OK;
     }

@@ -2,7 +2,7 @@
 
 #include <errno.h>
 #include <fcntl.h>
-#include <pthread.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -10,62 +10,36 @@
 #include <unistd.h>
 
 #include "rayd/memory.h"
+#include "rayd/parallel.h"
 
-/* [first, first + count) of fd into buf + first; 0 on a read error or a
- * file that ended early. */
+/* Bytes [first, first + count) of the file into buf + first; a read error
+ * or a file that ended early clears ok. */
 typedef struct {
     int fd;
     char *buf;
-    size_t first, count;
-    int ok;
-} piece;
+    atomic_int ok;
+} pieces;
 
-static void *read_piece(void *arg)
+static void read_piece(void *ctx, size_t first, size_t count)
 {
-    piece *p = arg;
+    pieces *p = ctx;
     size_t got = 0;
-    while (got < p->count) {
-        ssize_t k = pread(p->fd, p->buf + p->first + got, p->count - got, (off_t)(p->first + got));
+    while (got < count) {
+        ssize_t k = pread(p->fd, p->buf + first + got, count - got, (off_t)(first + got));
         if (k < 0 && errno == EINTR)
             continue;
         if (k <= 0)
             break;
         got += (size_t)k;
     }
-    p->ok = got == p->count;
-    return NULL;
+    if (got != count)
+        atomic_store(&p->ok, 0);
 }
 
-/* Below this a file is read on one thread. */
-enum { PIECES_MAX = 8, PIECE_MIN = 8 << 20 };
-
-/* The pieces read at once: the buffer's pages are first written (and
- * zeroed by the kernel) by the thread that reads into them, so a big file
- * costs each thread its share. */
-static int read_pieces(int fd, char *buf, size_t n, int threads)
-{
-    int k = threads < 1 ? 1 : (threads > PIECES_MAX ? PIECES_MAX : threads);
-    if ((size_t)k > n / PIECE_MIN)
-        k = n / PIECE_MIN ? (int)(n / PIECE_MIN) : 1;
-    piece ps[PIECES_MAX];
-    pthread_t th[PIECES_MAX];
-    int started[PIECES_MAX] = {0};
-    for (int i = 0; i < k; i++)
-        ps[i] =
-            (piece){fd, buf, n / (size_t)k * (size_t)i, i == k - 1 ? n - n / (size_t)k * (size_t)i : n / (size_t)k, 0};
-    for (int i = 1; i < k; i++)
-        started[i] = pthread_create(&th[i], NULL, read_piece, &ps[i]) == 0;
-    read_piece(&ps[0]);
-    int ok = ps[0].ok;
-    for (int i = 1; i < k; i++) {
-        if (started[i])
-            pthread_join(th[i], NULL);
-        else
-            read_piece(&ps[i]);
-        ok = ok && ps[i].ok;
-    }
-    return ok;
-}
+/* Below twice this a file is read on one thread. The pieces are read at
+ * once because the buffer's pages are first written (and zeroed by the
+ * kernel) by the thread that reads into them. */
+enum { PIECE_MIN = 8 << 20 };
 
 rd_error_code rd_read_file(const char *path, size_t max_bytes, const char *flag, char **out, size_t *len, rd_error *err)
 {
@@ -98,7 +72,9 @@ rd_error_code rd_read_file_threads(const char *path, size_t max_bytes, const cha
         close(fd);
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "%s: out of memory", path);
     }
-    int ok = read_pieces(fd, buf, n, threads);
+    pieces ps = {fd, buf, 1};
+    rd_parallel_runs(n, PIECE_MIN, threads, read_piece, &ps);
+    int ok = atomic_load(&ps.ok);
     /* A file that grew since fstat is read as it was then; one that shrank
      * is a read error. */
     close(fd);

@@ -1,12 +1,11 @@
 #include "bvh.h"
 
 #include <float.h>
-#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "parallel.h"
 #include "rayd/memory.h"
+#include "rayd/parallel.h"
 
 /* BINS: SAH bins per axis. LEAF_MAX: primitives per leaf the estimate of
  * node count assumes. SMALL_LEAF: a node this small becomes a leaf when no
@@ -210,12 +209,12 @@ typedef struct {
     int depth, ok;
 } subtree;
 
-static void *subtree_main(void *arg)
+/* Subtree i of the two (rd_run_each): 0 on this thread, 1 on a new one. */
+static void subtree_main(void *ctx, int i)
 {
-    subtree *t = arg;
+    subtree *t = &((subtree *)ctx)[i];
     uint32_t root = new_node(&t->bd);
     t->ok = root != UINT32_MAX && build(&t->bd, root, t->first, t->count, t->depth);
-    return NULL;
 }
 
 /* Appends t's nodes to bd, moving their child indices along. */
@@ -233,26 +232,20 @@ static int append(builder *bd, const subtree *t, uint32_t *base)
     return 1;
 }
 
-/* Both children of node at once: the left on a new thread, the right on
- * this one, each into its own array, then joined left first. */
+/* Both children of node at once: the left on this thread, the right on a
+ * new one, each into its own array, then joined left first. */
 static int build_children_parallel(builder *bd, uint32_t node, size_t first, size_t mid, size_t end, int depth)
 {
     int tl = bd->threads / 2;
-    subtree l = {{NULL, 0, 0, bd->r, tl}, first, mid - first, depth + 1, 0};
-    subtree r = {{NULL, 0, 0, bd->r, bd->threads - tl}, mid, end - mid, depth + 1, 0};
-    pthread_t th;
-    int spawned = pthread_create(&th, NULL, subtree_main, &l) == 0;
-    if (!spawned)
-        subtree_main(&l);
-    subtree_main(&r);
-    if (spawned)
-        pthread_join(th, NULL);
+    subtree t[2] = {{{NULL, 0, 0, bd->r, tl}, first, mid - first, depth + 1, 0},
+                    {{NULL, 0, 0, bd->r, bd->threads - tl}, mid, end - mid, depth + 1, 0}};
+    rd_run_each(2, subtree_main, t);
     uint32_t lb, rb;
-    int ok = l.ok && r.ok && append(bd, &l, &lb) && append(bd, &r, &rb);
+    int ok = t[0].ok && t[1].ok && append(bd, &t[0], &lb) && append(bd, &t[1], &rb);
     if (ok)
         bd->nodes[node].offset = rb;
-    free(l.bd.nodes);
-    free(r.bd.nodes);
+    free(t[0].bd.nodes);
+    free(t[1].bd.nodes);
     return ok;
 }
 

@@ -8,7 +8,7 @@
 #include <string.h>
 #include <time.h>
 
-#include "parallel.h"
+#include "rayd/parallel.h"
 #include "triangle.h"
 
 /* What the last closest-hit search found, before the hit is filled in. */
