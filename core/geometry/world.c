@@ -8,11 +8,9 @@
 #include <string.h>
 #include <time.h>
 
+#include "prim.h"
 #include "rayd/parallel.h"
 #include "triangle.h"
-
-/* What the last closest-hit search found, before the hit is filled in. */
-enum { K_NONE, K_SPHERE, K_PLANE, K_TRI };
 
 void rd_world_free(rd_world *w)
 {
@@ -180,43 +178,6 @@ size_t rd_world_bytes(const rd_world *w)
            w->bvh4.nnodes * sizeof *w->bvh4.nodes;
 }
 
-typedef struct {
-    double t;
-    int kind;
-    size_t idx;
-    double bary[3];
-} best_hit;
-
-static inline void test_prim(const rd_world *w, uint32_t id, rd_ray r, const rd_tri_ray *tr, best_hit *b)
-{
-    if (id < w->nspheres) {
-        double t = rd_sphere_intersect(&w->spheres[id], r, b->t);
-        if (t > 0) {
-            b->t = t;
-            b->kind = K_SPHERE;
-            b->idx = id;
-        }
-    } else {
-        size_t k = id - w->nspheres;
-        double bary[3];
-        double t = rd_tri_intersect_ray(w->tris[k].v, tr, b->t, bary);
-        if (t > 0) {
-            b->t = t;
-            b->kind = K_TRI;
-            b->idx = k;
-            memcpy(b->bary, bary, sizeof bary);
-        }
-    }
-}
-
-static inline int any_prim(const rd_world *w, uint32_t id, rd_ray r, const rd_tri_ray *tr, double tmax)
-{
-    if (id < w->nspheres)
-        return rd_sphere_intersect(&w->spheres[id], r, tmax) > 0;
-    double bary[3];
-    return rd_tri_intersect_ray(w->tris[id - w->nspheres].v, tr, tmax, bary) > 0;
-}
-
 /* A node or leaf to visit, with the distance at which the ray enters it. */
 typedef struct {
     uint32_t idx, count;
@@ -226,28 +187,28 @@ typedef struct {
 /* The walks, written once and compiled for each box test: the test is
  * inlined into its loop. */
 #define RD_WALK_CLOSEST(NAME, ATTR, TEST)                                                                              \
-    ATTR static void NAME(const rd_world *w, rd_ray r, best_hit *b)                                                    \
+    ATTR static void NAME(const rd_world *w, rd_ray r, rd_best *b)                                                     \
     {                                                                                                                  \
         rd_bvh_ray br = rd_bvh_ray_make(r);                                                                            \
-        /* Sphere-only worlds skip the shear and its three divisions. */                                               \
-        rd_tri_ray tr = w->ntris ? rd_tri_ray_make(r) : (rd_tri_ray){r.o, 0, 0, 0, 0, 0, 0, 0};                        \
+        rd_tri_ray tr = rd_prim_tri_ray(w, r);                                                                         \
         visit stack[RD_BVH4_STACK];                                                                                    \
         int sp = 0;                                                                                                    \
         stack[sp++] = (visit){0, 0, 0};                                                                                \
         while (sp > 0) {                                                                                               \
             visit v = stack[--sp];                                                                                     \
-            /* Entered beyond the closest hit so far: nothing in it is closer. */                                      \
-            if (v.t > b->t)                                                                                            \
+            /* Entered beyond the cut: nothing in it can win (prim.h). */                                              \
+            if (v.t > b->cut)                                                                                          \
                 continue;                                                                                              \
             if (v.count) {                                                                                             \
+                double floor = rd_leaf_floor(v.t);                                                                     \
                 for (uint32_t i = 0; i < v.count; i++)                                                                 \
-                    test_prim(w, w->bvh.prims[v.idx + i], r, &tr, b);                                                  \
+                    rd_prim_closest(w, w->bvh.prims[v.idx + i], r, &tr, floor, b);                                     \
                 continue;                                                                                              \
             }                                                                                                          \
             const rd_bvh4_node *n = &w->bvh4.nodes[v.idx];                                                             \
             double tn[4];                                                                                              \
-            unsigned m = TEST(n, &br, b->t, tn);                                                                       \
-            /* Farthest first onto the stack: the nearest is searched first and shrinks b->t. */                       \
+            unsigned m = TEST(n, &br, b->cut, tn);                                                                     \
+            /* Farthest first onto the stack: the nearest is searched first and shrinks the cut. */                    \
             int base = sp;                                                                                             \
             for (int i = 0; i < 4; i++) {                                                                              \
                 if (!(m >> i & 1))                                                                                     \
@@ -267,9 +228,8 @@ typedef struct {
     ATTR static int NAME(const rd_world *w, rd_ray r, double tmax, uint32_t *last)                                     \
     {                                                                                                                  \
         rd_bvh_ray br = rd_bvh_ray_make(r);                                                                            \
-        /* Sphere-only worlds skip the shear and its three divisions. */                                               \
-        rd_tri_ray tr = w->ntris ? rd_tri_ray_make(r) : (rd_tri_ray){r.o, 0, 0, 0, 0, 0, 0, 0};                        \
-        if (last && *last && any_prim(w, *last - 1, r, &tr, tmax))                                                     \
+        rd_tri_ray tr = rd_prim_tri_ray(w, r);                                                                         \
+        if (last && *last && rd_prim_any(w, *last - 1, r, &tr, tmax))                                                  \
             return 1;                                                                                                  \
         uint32_t stack[RD_BVH4_STACK];                                                                                 \
         int sp = 0;                                                                                                    \
@@ -287,7 +247,7 @@ typedef struct {
                 }                                                                                                      \
                 for (uint32_t k = 0; k < n->count[i]; k++) {                                                           \
                     uint32_t id = w->bvh.prims[n->child[i] + k];                                                       \
-                    if (any_prim(w, id, r, &tr, tmax)) {                                                               \
+                    if (rd_prim_any(w, id, r, &tr, tmax)) {                                                            \
                         if (last)                                                                                      \
                             *last = id + 1;                                                                            \
                         return 1;                                                                                      \
@@ -305,7 +265,7 @@ RD_WALK_CLOSEST(closest_avx2, __attribute__((noinline, target("avx2"))), rd_bvh4
 RD_WALK_ANY(any_sse2, __attribute__((noinline)), rd_bvh4_test_sse2)
 RD_WALK_ANY(any_avx2, __attribute__((noinline, target("avx2"))), rd_bvh4_test_avx2)
 
-static void bvh_closest(const rd_world *w, rd_ray r, best_hit *b)
+static void bvh_closest(const rd_world *w, rd_ray r, rd_best *b)
 {
     if (w->avx2)
         closest_avx2(w, r, b);
@@ -318,7 +278,7 @@ static int bvh_any(const rd_world *w, rd_ray r, double tmax, uint32_t *last)
     return w->avx2 ? any_avx2(w, r, tmax, last) : any_sse2(w, r, tmax, last);
 }
 
-static void fill_tri(const rd_world *w, const best_hit *b, rd_hit *h)
+static void fill_tri(const rd_world *w, const rd_best *b, rd_hit *h)
 {
     const rd_wtri *t = &w->tris[b->idx];
     const double *bc = b->bary;
@@ -356,72 +316,69 @@ static void fill_tri(const rd_world *w, const best_hit *b, rd_hit *h)
     }
     h->material = t->material;
     h->object = t->object;
-    h->prim_kind = K_TRI;
+    h->prim_kind = RD_K_TRI;
     h->prim = b->idx;
     memcpy(h->bary, bc, sizeof h->bary);
 }
 
-int rd_world_closest(const rd_world *w, rd_ray r, double tmax, rd_hit *h)
+void rd_world_planes_closest(const rd_world *w, rd_ray r, rd_best *b)
 {
-    best_hit b = {tmax, K_NONE, 0, {0, 0, 0}};
     for (size_t i = 0; i < w->nplanes; i++) {
-        double t = rd_plane_intersect(&w->planes[i], r, b.t);
-        if (t > 0) {
-            b.t = t;
-            b.kind = K_PLANE;
-            b.idx = i;
-        }
+        double t = rd_plane_intersect(&w->planes[i], r, b->t);
+        if (t > 0)
+            rd_best_set(b, t, RD_K_PLANE, i, UINT32_MAX);
     }
-    if (w->use_bvh) {
-        bvh_closest(w, r, &b);
-    } else {
-        /* A few primitives: plain loops, no per-primitive dispatch. */
-        for (size_t i = 0; i < w->nspheres; i++) {
-            double t = rd_sphere_intersect(&w->spheres[i], r, b.t);
-            if (t > 0) {
-                b.t = t;
-                b.kind = K_SPHERE;
-                b.idx = i;
-            }
-        }
-        rd_tri_ray tr;
-        if (w->ntris)
-            tr = rd_tri_ray_make(r);
-        for (size_t i = 0; i < w->ntris; i++)
-            test_prim(w, (uint32_t)(w->nspheres + i), r, &tr, &b);
-    }
-    if (b.kind == K_NONE)
-        return 0;
-    h->t = b.t;
+}
+
+void rd_world_finish_hit(const rd_world *w, rd_ray r, const rd_best *b, rd_hit *h)
+{
+    h->t = b->t;
     h->u = h->v = 0;
-    if (b.kind == K_SPHERE) {
-        rd_sphere_fill_hit(&w->spheres[b.idx], r, h);
+    if (b->kind == RD_K_SPHERE) {
+        rd_sphere_fill_hit(&w->spheres[b->idx], r, h);
         h->n = h->ng;
-        h->material = w->sphere_mat[b.idx];
-        h->object = w->sphere_obj[b.idx];
-    } else if (b.kind == K_PLANE) {
-        rd_plane_fill_hit(&w->planes[b.idx], r, h);
+        h->material = w->sphere_mat[b->idx];
+        h->object = w->sphere_obj[b->idx];
+    } else if (b->kind == RD_K_PLANE) {
+        rd_plane_fill_hit(&w->planes[b->idx], r, h);
         h->n = h->ng;
-        h->material = w->plane_mat[b.idx];
-        h->object = w->plane_obj[b.idx];
+        h->material = w->plane_mat[b->idx];
+        h->object = w->plane_obj[b->idx];
     } else {
-        fill_tri(w, &b, h);
+        fill_tri(w, b, h);
     }
-    h->prim_kind = b.kind;
-    h->prim = b.idx;
+    h->prim_kind = b->kind;
+    h->prim = b->idx;
     h->front = v3_dot(h->ng, r.d) < 0;
     if (v3_dot(h->n, r.d) > 0)
         h->n = v3_neg(h->n);
+}
+
+int rd_world_closest(const rd_world *w, rd_ray r, double tmax, rd_hit *h)
+{
+    rd_best b = rd_best_make(tmax);
+    rd_world_planes_closest(w, r, &b);
+    if (w->use_bvh) {
+        bvh_closest(w, r, &b);
+    } else {
+        /* A few primitives: one loop in id order, which is the tie order. */
+        rd_tri_ray tr = rd_prim_tri_ray(w, r);
+        for (size_t i = 0; i < w->nspheres + w->ntris; i++)
+            rd_prim_closest(w, (uint32_t)i, r, &tr, 0, &b);
+    }
+    if (b.kind == RD_K_NONE)
+        return 0;
+    rd_world_finish_hit(w, r, &b, h);
     return 1;
 }
 
 void rd_world_hit_uv(const rd_world *w, rd_hit *h)
 {
-    if (h->prim_kind == K_SPHERE) {
+    if (h->prim_kind == RD_K_SPHERE) {
         rd_sphere_uv(&w->spheres[h->prim], h);
-    } else if (h->prim_kind == K_PLANE) {
+    } else if (h->prim_kind == RD_K_PLANE) {
         rd_plane_uv(&w->planes[h->prim], h);
-    } else if (h->prim_kind == K_TRI) {
+    } else if (h->prim_kind == RD_K_TRI) {
         const rd_wtri *t = &w->tris[h->prim];
         const double *b = h->bary;
         double uv[3][2] = {{0, 0}, {1, 0}, {0, 1}};

@@ -85,4 +85,19 @@ int rd_world_any(const rd_world *w, rd_ray r, double tmax);
  * (POV-Ray's light buffer); the answer is the same with or without it. */
 int rd_world_any_hint(const rd_world *w, rd_ray r, double tmax, uint32_t *last);
 
+/* Packets of coherent rays (packet.c): camera rays through neighbouring
+ * pixels, or shadow rays from neighbouring hits towards one light. Each
+ * ray's answer is exactly the one the single-ray function gives it; a
+ * packet saves the walk of the nodes all its rays pass through. */
+#define RD_PACKET_MAX 16
+
+/* rd_world_closest for r[0..n), n at most RD_PACKET_MAX: bit i of the
+ * result set when ray i hit, and h[i] filled then. */
+unsigned rd_world_closest_packet(const rd_world *w, const rd_ray *r, int n, double tmax, rd_hit *h);
+
+/* rd_world_any_hint for r[0..n) within tmax[0..n): bit i set when ray i is
+ * blocked. *last (may be NULL) is tried first by every ray and left at an
+ * occluder of the packet. */
+unsigned rd_world_any_packet(const rd_world *w, const rd_ray *r, const double *tmax, int n, uint32_t *last);
+
 #endif

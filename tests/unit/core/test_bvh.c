@@ -22,6 +22,7 @@
 #include <string.h>
 
 #include "bvh.h"
+#include "prim.h"
 #include "rayd/scene.h"
 #include "sphere.h"
 #include "support/rng.h"
@@ -369,7 +370,7 @@ static rd_ray make_ray(const rd_world *w, test_rng *r, const ray_mix *mix)
 /* ---- the comparison ----------------------------------------------------------------- */
 
 typedef struct {
-    long rays, hits, ties, ulp_order, closest_bad, any_bad;
+    long rays, hits, ulp_order, closest_bad, any_bad;
 } cmp_stats;
 
 static void report(const char *what, long i, rd_ray r, const char *msg)
@@ -392,7 +393,7 @@ static void report(const char *what, long i, rd_ray r, const char *msg)
 static cmp_stats compare(const char *what, const rd_scene *s, const rd_world *w, test_rng *rng, long nrays,
                          const ray_mix *mix, rd_ray (*custom)(const rd_world *, test_rng *, long))
 {
-    cmp_stats st = {0, 0, 0, 0, 0, 0};
+    cmp_stats st = {0, 0, 0, 0, 0};
     prim_ref *map = object_map(w, s->object_count);
     bsphere *bs = bounding_spheres(w);
     char msg[400];
@@ -429,7 +430,9 @@ static cmp_stats compare(const char *what, const rd_scene *s, const rd_world *w,
                     bad = 1;
                 }
             } else if (got.kind != bf.kind || got.idx != bf.idx) {
-                st.ties++; /* same t, another primitive: both hit there */
+                snprintf(msg, sizeof msg, "a tie at t = %.17g went to primitive %d:%zu, not the first %d:%zu", h.t,
+                         got.kind, got.idx, bf.kind, bf.idx);
+                bad = 1;
             }
         }
         if (bad && st.closest_bad++ < 5)
@@ -440,9 +443,8 @@ static cmp_stats compare(const char *what, const rd_scene *s, const rd_world *w,
             report(what, i, r, msg);
         }
     }
-    if (st.ties || st.ulp_order)
-        cr_log_info("%s: %ld exact ties, %ld hits within rounding of another (of %ld hits)", what, st.ties,
-                    st.ulp_order, st.hits);
+    if (st.ulp_order)
+        cr_log_info("%s: %ld hits within rounding of another (of %ld hits)", what, st.ulp_order, st.hits);
     free(bs);
     free(map);
     return st;
@@ -456,6 +458,83 @@ static void expect_agreement(const char *what, cmp_stats st, long min_hits)
                  st.rays);
     /* Enough rays hit for the comparison to mean something. */
     cr_assert_geq(st.hits, min_hits, "%s: only %ld of %ld rays hit", what, st.hits, st.rays);
+}
+
+/* ---- packets ------------------------------------------------------------------------- */
+
+static int same_hit(const rd_hit *a, const rd_hit *b)
+{
+    return a->t == b->t && a->object == b->object && a->prim == b->prim && a->prim_kind == b->prim_kind &&
+           a->material == b->material && a->front == b->front && a->perr == b->perr &&
+           !memcmp(&a->p, &b->p, sizeof a->p) && !memcmp(&a->n, &b->n, sizeof a->n) &&
+           !memcmp(&a->ng, &b->ng, sizeof a->ng) &&
+           (a->prim_kind != RD_K_TRI || !memcmp(a->bary, b->bary, sizeof a->bary));
+}
+
+/* A packet of n rays: kind 0 from one origin within a cone (camera rays;
+ * some cones cross an axis, so directions differ in sign), kind 1 from the
+ * hits of such a packet (or points along it) towards one point, ending
+ * there (shadow rays), kind 2 unrelated rays. */
+static int make_packet(const rd_world *w, test_rng *r, const ray_mix *mix, int kind, rd_ray *rays, double *tmax)
+{
+    int n = 1 + rng_int(r, RD_PACKET_MAX);
+    rd_vec3 o = rng_point(r, mix->lo, mix->hi), axis = rng_unit(r);
+    double spread = pow(10, rng_range(r, -4, 0));
+    rd_vec3 to = rng_point(r, mix->lo, mix->hi);
+    for (int i = 0; i < n; i++) {
+        tmax[i] = INFINITY;
+        if (kind == 2) {
+            rays[i] = make_ray(w, r, mix);
+            continue;
+        }
+        rd_ray c = {o, v3_normalize(v3_add(axis, v3_scale(rng_point(r, -1, 1), spread)))};
+        if (rng_int(r, 8) == 0)
+            c.d = v3_normalize(v3(c.d.x, rng_int(r, 2) ? 0.0 : -0.0, c.d.z));
+        if (kind == 0) {
+            rays[i] = c;
+            continue;
+        }
+        rd_hit h;
+        rd_vec3 p = rd_world_closest(w, c, INFINITY, &h) ? h.p : rd_ray_at(c, rng_range(r, 0, 10));
+        rays[i] = (rd_ray){p, v3_sub(to, p)};
+        tmax[i] = 1;
+    }
+    return n;
+}
+
+/* npackets of each kind; returns how many rays hit, and fails on the first
+ * ray whose packet answer differs from its own. */
+static long expect_packets(const char *what, const rd_world *w, test_rng *r, int npackets, const ray_mix *mix)
+{
+    static const ray_mix whole = {-12, 12, 10, 10};
+    long hits = 0;
+    for (int p = 0; p < 3 * npackets; p++) {
+        rd_ray rays[RD_PACKET_MAX];
+        double tmax[RD_PACKET_MAX];
+        int kind = p % 3, n = make_packet(w, r, mix ? mix : &whole, kind, rays, tmax);
+        rd_hit hp[RD_PACKET_MAX];
+        double limit = kind == 1 ? 1 : (rng_int(r, 4) == 0 ? rng_range(r, 0.5, 30) : INFINITY);
+        unsigned found = rd_world_closest_packet(w, rays, n, limit, hp);
+        uint32_t last_p = 0, last_s = 0;
+        unsigned blocked = rd_world_any_packet(w, rays, tmax, n, rng_int(r, 2) ? &last_p : NULL);
+        for (int i = 0; i < n; i++) {
+            rd_hit h;
+            int hit = rd_world_closest(w, rays[i], limit, &h);
+            hits += hit;
+            if ((found >> i & 1) != (unsigned)hit || (hit && !same_hit(&hp[i], &h))) {
+                report(what, p, rays[i], "the packet's closest hit differs from the ray's own");
+                cr_assert_fail("%s: packet kind %d, ray %d of %d: closest %s, alone %s (t %.17g / %.17g)", what, kind,
+                               i, n, found >> i & 1 ? "hit" : "missed", hit ? "hit" : "missed", hp[i].t, h.t);
+            }
+            int any = rd_world_any_hint(w, rays[i], tmax[i], &last_s);
+            if ((blocked >> i & 1) != (unsigned)any) {
+                report(what, p, rays[i], "the packet's any-hit differs from the ray's own");
+                cr_assert_fail("%s: packet kind %d, ray %d of %d: blocked %u, alone %d", what, kind, i, n,
+                               blocked >> i & 1, any);
+            }
+        }
+    }
+    return hits;
 }
 
 static void build(rd_world *w, const rd_scene *s)
@@ -479,6 +558,7 @@ Test(bvh, random_triangle_soup)
     ray_mix mix = {-12, 12, 10, 10};
     cmp_stats st = compare("triangle soup", &s, &w, &rng, 100000, &mix, NULL);
     expect_agreement("triangle soup", st, 20000);
+    cr_assert_gt(expect_packets("triangle soup", &w, &rng, 2000, &mix), 1000, "too few packet rays hit");
     rd_world_free(&w);
     rd_scene_free(&s);
 }
@@ -500,6 +580,7 @@ Test(bvh, random_spheres)
     ray_mix mix = {-12, 12, 10, 10};
     cmp_stats st = compare("spheres", &s, &w, &rng, 100000, &mix, NULL);
     expect_agreement("spheres", st, 20000);
+    cr_assert_gt(expect_packets("spheres", &w, &rng, 2000, &mix), 1000, "too few packet rays hit");
     rd_world_free(&w);
     rd_scene_free(&s);
 }
@@ -550,6 +631,7 @@ Test(bvh, degenerate_and_flat_triangles_with_spheres)
     ray_mix mix = {-10, 10, 25, 25};
     cmp_stats st = compare("degenerate/flat mix", &s, &w, &rng, 100000, &mix, NULL);
     expect_agreement("degenerate/flat mix", st, 20000);
+    cr_assert_gt(expect_packets("degenerate/flat mix", &w, &rng, 2000, &mix), 1000, "too few packet rays hit");
     rd_world_free(&w);
     rd_scene_free(&s);
 }
@@ -590,6 +672,7 @@ Test(bvh, ten_thousand_identical_centroids)
     /* Fewer rays: each brute-force query tests 10,000 triangles. */
     cmp_stats st = compare("identical centroids", &s, &w, &rng, 5000, NULL, cluster_ray);
     expect_agreement("identical centroids", st, 2500);
+    cr_assert_gt(expect_packets("identical centroids", &w, &rng, 2000, NULL), 1000, "too few packet rays hit");
     /* And leaves stay small although SAH cannot split: no leaf of
      * thousands. */
     size_t biggest = 0;
@@ -641,6 +724,7 @@ Test(bvh, grid_aligned_triangles_and_axis_rays)
     check_invariants(&w);
     cmp_stats st = compare("grid", &s, &w, &rng, 100000, NULL, grid_ray);
     expect_agreement("grid", st, 5000);
+    cr_assert_gt(expect_packets("grid", &w, &rng, 2000, NULL), 1000, "too few packet rays hit");
     rd_world_free(&w);
     rd_scene_free(&s);
 }

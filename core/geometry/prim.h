@@ -1,0 +1,125 @@
+/* The bounded primitives' tests as the BVH walks call them, shared by the
+ * single-ray walks (world.c) and the packet walks (packet.c).
+ *
+ * A closest hit must not depend on the order in which a walk meets the
+ * primitives, or a packet (whose order is the packet's, not the ray's)
+ * could shade a pixel differently from a lone ray. Two rules make it so:
+ *
+ * - Between primitives at exactly the same t, the lower BVH id (spheres,
+ *   then triangles, in scene order) wins, as in the plain loops of a world
+ *   without a BVH. A plane (tested first) keeps a tie, as before.
+ * - A walk skips a box only when its entry t0 exceeds the cut, the best t
+ *   so far times 1 + 2^-18; and a primitive's hit counts only when t is at
+ *   least its leaf box's entry times 1 - 2^-20 (its floor). A skipped box
+ *   therefore holds no hit that could win or tie, whenever it is skipped.
+ *   Entries are monotone under containment (rounding is monotone, and a
+ *   parent's float box contains its children's), so this holds for inner
+ *   nodes too. The floor only drops a hit that rounding put before its own
+ *   box by a millionth of its distance, which sound geometry never does.
+ *
+ * So the closest hit is the least (t, id) over the hits that count,
+ * whatever the walk. */
+#ifndef RD_PRIM_H
+#define RD_PRIM_H
+
+#include <stdint.h>
+#include <string.h>
+
+#include "triangle.h"
+#include "world.h"
+
+/* What a closest-hit search has found so far. */
+enum { RD_K_NONE, RD_K_SPHERE, RD_K_PLANE, RD_K_TRI };
+
+#define RD_CUT_UP (1 + 0x1p-18)
+#define RD_FLOOR_DOWN (1 - 0x1p-20)
+
+typedef struct {
+    double t;     /* the hit's distance; tmax while none */
+    double limit; /* what a primitive's t must stay below to be taken */
+    double cut;   /* boxes entered beyond it are skipped */
+    int kind;     /* RD_K_* */
+    size_t idx;   /* index among its kind */
+    uint32_t id;  /* BVH id of a sphere or triangle */
+    double bary[3];
+} rd_best;
+
+/* The next double above t > 0 (t itself when infinite): a BVH primitive
+ * at exactly t must still be tested, to compare ids. */
+static inline double rd_next_up(double t)
+{
+    if (!(t < INFINITY))
+        return t;
+    uint64_t bits;
+    memcpy(&bits, &t, sizeof bits);
+    bits++;
+    memcpy(&t, &bits, sizeof t);
+    return t;
+}
+
+static inline rd_best rd_best_make(double tmax)
+{
+    return (rd_best){tmax, tmax, tmax * RD_CUT_UP, RD_K_NONE, 0, UINT32_MAX, {0, 0, 0}};
+}
+
+/* The floor of a leaf whose box the ray enters at t0. */
+static inline double rd_leaf_floor(double t0) { return t0 * RD_FLOOR_DOWN; }
+
+/* Whether a primitive at t (already below b->limit) with BVH id `id`
+ * replaces b. */
+static inline int rd_best_takes(const rd_best *b, double t, uint32_t id) { return t < b->t || id < b->id; }
+
+static inline void rd_best_set(rd_best *b, double t, int kind, size_t idx, uint32_t id)
+{
+    b->t = t;
+    b->kind = kind;
+    b->idx = idx;
+    b->id = id;
+    /* Ties with a plane (found first) or with tmax itself are lost. */
+    b->limit = kind == RD_K_PLANE ? t : rd_next_up(t);
+    b->cut = t * RD_CUT_UP;
+}
+
+/* Primitive id against b; floor: its leaf's (0 outside a BVH). */
+static inline __attribute__((always_inline)) void rd_prim_closest(const rd_world *w, uint32_t id, rd_ray r,
+                                                                  const rd_tri_ray *tr, double floor, rd_best *b)
+{
+    if (id < w->nspheres) {
+        double t = rd_sphere_intersect(&w->spheres[id], r, b->limit);
+        if (t > 0 && t >= floor && rd_best_takes(b, t, id))
+            rd_best_set(b, t, RD_K_SPHERE, id, id);
+        return;
+    }
+    size_t k = id - w->nspheres;
+    double bary[3];
+    double t = rd_tri_intersect_ray(w->tris[k].v, tr, b->limit, bary);
+    if (t > 0 && t >= floor && rd_best_takes(b, t, id)) {
+        rd_best_set(b, t, RD_K_TRI, k, id);
+        memcpy(b->bary, bary, sizeof bary);
+    }
+}
+
+static inline __attribute__((always_inline)) int rd_prim_any(const rd_world *w, uint32_t id, rd_ray r,
+                                                             const rd_tri_ray *tr, double tmax)
+{
+    if (id < w->nspheres)
+        return rd_sphere_intersect(&w->spheres[id], r, tmax) > 0;
+    double bary[3];
+    return rd_tri_intersect_ray(w->tris[id - w->nspheres].v, tr, tmax, bary) > 0;
+}
+
+/* The triangle test's per-ray part; sphere-only worlds skip its shear and
+ * three divisions. */
+static inline rd_tri_ray rd_prim_tri_ray(const rd_world *w, rd_ray r)
+{
+    return w->ntris ? rd_tri_ray_make(r) : (rd_tri_ray){r.o, 0, 0, 0, 0, 0, 0, 0};
+}
+
+/* The planes, tested before anything else (they win ties). */
+void rd_world_planes_closest(const rd_world *w, rd_ray r, rd_best *b);
+
+/* h from what a search found (b->kind not RD_K_NONE), as rd_world_closest
+ * fills it. */
+void rd_world_finish_hit(const rd_world *w, rd_ray r, const rd_best *b, rd_hit *h);
+
+#endif
