@@ -356,6 +356,25 @@ def t_embree(sec):
     return "\n".join(out)
 
 
+def t_embree_packets(sec):
+    rows = []
+    for r in sec["rows"]:
+        b = r["best"]
+        if "rayd_packets_render_ms" not in b:
+            continue
+        rm, pm = mrays(r["rays_rayd"], b["rayd_render_ms"]), mrays(r["rays_rayd"], b["rayd_packets_render_ms"])
+        rows.append([r["scene"], r["threads"], f(rm, "%.2f"), f(pm, "%.2f"), ratio(pm, rm),
+                     ratio(pm, embree_mrays(r, "packet"))])
+    if not rows:
+        return "(this run measured no `--packets all` renders)"
+    return "\n".join([
+        "`rayd render --packets all` (4x4 pixel blocks: camera rays and shadow rays towards each point or "
+        "directional light walked as packets; the same image and ray counts) against rayd ray by ray, on the "
+        "runs of the table above.", "",
+        table(["scene", "threads", "rayd ray by ray Mrays/s", "rayd --packets all Mrays/s", "packets / ray by ray",
+               "packets / Embree 16-wide"], rows)])
+
+
 def t_embree_rays(sec):
     rows = []
     for r in sec["rows"]:
@@ -401,6 +420,7 @@ def t_primitives(sec):
 MARKERS = {
     "scenes": ("scenes", t_scenes), "large": ("large", t_large), "cfg2pov": ("large", t_cfg2pov),
     "bvh": ("large", t_bvh), "embree": ("embree", t_embree), "embree-rays": ("embree", t_embree_rays),
+    "embree-packets": ("embree", t_embree_packets),
     "primitives": ("primitives", t_primitives), "base": ("base", t_base), "http": ("http", t_http), "overload": ("overload", t_overload),
     "mixed": ("mixed", t_mixed), "converge": ("converge", t_converge),
     "equal-adaptive": ("equal", t_equal_adaptive), "equal-povray": ("equal", t_equal_povray),

@@ -32,6 +32,7 @@ struct rd_job {
     float *stat;  /* 6 a pixel: display mean and Welford sum of squares; adaptive only */
     int tile, tiles_x, tiles_total;
     int progressive, adaptive;
+    unsigned packets; /* RD_PACKETS_*; 0 without a BVH */
     int pass, pass_samples;
     double mean_weight; /* adaptive: mean of w_i at the pass start */
     double deadline_ms;
@@ -94,6 +95,7 @@ rd_error_code rd_job_create(const rd_scene *s, const rd_job_options *opt, rd_job
         free(j);
         return rc;
     }
+    j->packets = opt && j->plan.world.use_bvh ? opt->packets & (RD_PACKETS_CAMERA | RD_PACKETS_SHADOW) : 0;
     size_t npix = (size_t)s->render.width * (size_t)s->render.height;
     j->tiles_x = (s->render.width + j->tile - 1) / j->tile;
     j->tiles_total = j->tiles_x * ((s->render.height + j->tile - 1) / j->tile);
@@ -256,22 +258,32 @@ static double finite_or_zero(double x, uint64_t *bad)
     return isnan(x) ? 0 : (x > 0 ? DBL_MAX : -DBL_MAX);
 }
 
-static void render_pixel(rd_job *j, int x, int y, rd_job_counts *c, rd_ray_counts *rc)
+/* One pixel's samples in this pass: how many, and the two half-sets'
+ * patterns they are drawn from. */
+typedef struct {
+    int x, y, samples, centre;
+    uint64_t index;
+    uint32_t first, in_half[2], count[2], pattern_half[2];
+} pixel_run;
+
+static void pixel_begin(const rd_job *j, int x, int y, pixel_run *pr)
 {
     const rd_scene *s = j->scene;
-    uint64_t index = (uint64_t)y * (uint64_t)s->render.width + (uint64_t)x;
+    memset(pr, 0, sizeof *pr);
+    pr->x = x;
+    pr->y = y;
+    pr->index = (uint64_t)y * (uint64_t)s->render.width + (uint64_t)x;
     int pass = j->pass, samples = j->pass_samples;
     /* Pass 0 keeps the pattern of a plain render; later passes draw new ones. */
     uint64_t pass_seed = s->render.seed + (uint64_t)pass * 0x9e3779b97f4a7c15ULL;
-    double g = s->render.gamma;
-    int centre = pass == 0 && samples == 1 && !j->progressive;
+    pr->centre = pass == 0 && samples == 1 && !j->progressive;
     if (j->adaptive && pass > 0 && j->mean_weight > 0) {
         /* This pixel's share depends only on its own state and the mean taken
          * at the pass start: the same whatever thread renders it. Half the
          * pass goes to every pixel alike, so none whose first samples
          * happened to agree is starved; the other half follows the error.
          * The cap only stops a single pixel from stalling its tile. */
-        double want = samples * (0.5 + 0.5 * weight(j, index) / j->mean_weight);
+        double want = samples * (0.5 + 0.5 * weight(j, pr->index) / j->mean_weight);
         if (want > 64.0 * samples)
             want = 64.0 * samples;
         /* Every want below -1 gives no sample; stopping there keeps the cast
@@ -280,57 +292,114 @@ static void render_pixel(rd_job *j, int x, int y, rd_job_counts *c, rd_ray_count
          * rounding made negative. */
         else if (!(want >= -1))
             want = -1;
-        rd_rng pick = rd_rng_make(pass_seed ^ 0xadab7e5ULL, index, j->n[index]);
+        rd_rng pick = rd_rng_make(pass_seed ^ 0xadab7e5ULL, pr->index, j->n[pr->index]);
         samples = (int)want + (rd_rng_next(&pick) < want - floor(want));
         if (samples < 1)
-            samples = j->n[index] < 2 ? 1 : 0;
+            samples = j->n[pr->index] < 2 ? 1 : 0;
     }
+    pr->samples = samples;
     /* Which half-set each of this pass's samples joins, and its index there.
      * A centre sample needs no pattern at all. */
-    uint32_t first = j->n[index];
-    double *mean = &j->mean[3 * index];
-    uint32_t in_half[2] = {0, 0}, count[2] = {0, 0};
-    uint32_t pattern_half[2] = {0, 0};
-    if (!centre) {
+    pr->first = j->n[pr->index];
+    if (!pr->centre) {
         for (int k = 0; k < samples; k++)
-            count[(first + (uint32_t)k) & 1]++;
-        pattern_half[0] = rd_pattern(pass_seed, index);
-        pattern_half[1] = rd_pattern(pass_seed ^ 0x6a09e667f3bcc909ULL, index);
+            pr->count[(pr->first + (uint32_t)k) & 1]++;
+        pr->pattern_half[0] = rd_pattern(pass_seed, pr->index);
+        pr->pattern_half[1] = rd_pattern(pass_seed ^ 0x6a09e667f3bcc909ULL, pr->index);
     }
-    for (int k = 0; k < samples; k++) {
+}
+
+/* The camera ray of the pixel's next sample (k-th of the pass), and the
+ * random numbers its tracing draws. */
+static rd_ray pixel_ray(const rd_job *j, pixel_run *pr, int k, rd_rng *rng)
+{
+    int h = (int)((pr->first + (uint32_t)k) & 1);
+    double px = 0.5, py = 0.5;
+    if (!pr->centre)
+        rd_cmj(pr->in_half[h]++, pr->count[h], pr->pattern_half[h], &px, &py);
+    /* Only area lights draw random numbers during tracing. */
+    *rng = (rd_rng){0};
+    if (j->plan.stochastic)
+        *rng = rd_rng_make(j->scene->render.seed, pr->index, (uint64_t)j->n[pr->index]);
+    return rd_pinhole_ray(&j->cam, pr->x + px, pr->y + py);
+}
+
+/* Adds the k-th sample's colour to the pixel's means. */
+static void pixel_add(rd_job *j, const pixel_run *pr, int k, rd_rgb col, rd_job_counts *c)
+{
+    uint64_t index = pr->index;
+    int h = (int)((pr->first + (uint32_t)k) & 1);
+    double *mean = &j->mean[3 * index];
+    double cv[3] = {finite_or_zero(col.x, &c->nonfinite), finite_or_zero(col.y, &c->nonfinite),
+                    finite_or_zero(col.z, &c->nonfinite)};
+    uint32_t n = ++j->n[index];
+    for (int ch = 0; ch < 3; ch++)
+        mean[ch] += (cv[ch] - mean[ch]) / n;
+    if (j->half) {
+        uint32_t nh = ++j->nh[2 * index + h];
+        float *hm = &j->half[6 * index + 3 * h];
+        for (int ch = 0; ch < 3; ch++)
+            hm[ch] = (float)(hm[ch] + (cv[ch] - hm[ch]) / nh);
+    }
+    /* The spread of display values only steers adaptive passes. */
+    if (j->stat) {
+        double g = j->scene->render.gamma;
+        float *dmean = &j->stat[6 * index], *m2 = dmean + 3;
+        for (int ch = 0; ch < 3; ch++) {
+            double d = rd_display(cv[ch], g), delta = d - dmean[ch];
+            dmean[ch] = (float)(dmean[ch] + delta / n);
+            m2[ch] = (float)(m2[ch] + delta * (d - dmean[ch]));
+        }
+    }
+}
+
+static void render_pixel(rd_job *j, int x, int y, rd_job_counts *c, rd_ray_counts *rc)
+{
+    pixel_run pr;
+    pixel_begin(j, x, y, &pr);
+    for (int k = 0; k < pr.samples; k++) {
         if (rd_counts_tick(rc))
             return;
-        int h = (int)((first + (uint32_t)k) & 1);
-        double px = 0.5, py = 0.5;
-        if (!centre)
-            rd_cmj(in_half[h]++, count[h], pattern_half[h], &px, &py);
-        rd_ray r = rd_pinhole_ray(&j->cam, x + px, y + py);
-        /* Only area lights draw random numbers during tracing. */
-        rd_rng rng = {0};
-        if (j->plan.stochastic)
-            rng = rd_rng_make(s->render.seed, index, (uint64_t)j->n[index]);
+        rd_rng rng;
+        rd_ray r = pixel_ray(j, &pr, k, &rng);
         c->camera++;
-        rd_rgb col = rd_trace(&j->plan, r, 0, &rng, rc);
-        double cv[3] = {finite_or_zero(col.x, &c->nonfinite), finite_or_zero(col.y, &c->nonfinite),
-                        finite_or_zero(col.z, &c->nonfinite)};
-        uint32_t n = ++j->n[index];
-        for (int ch = 0; ch < 3; ch++)
-            mean[ch] += (cv[ch] - mean[ch]) / n;
-        if (j->half) {
-            uint32_t nh = ++j->nh[2 * index + h];
-            float *hm = &j->half[6 * index + 3 * h];
-            for (int ch = 0; ch < 3; ch++)
-                hm[ch] = (float)(hm[ch] + (cv[ch] - hm[ch]) / nh);
+        pixel_add(j, &pr, k, rd_trace(&j->plan, r, 0, &rng, rc), c);
+    }
+}
+
+/* The pixels [x0, x1) x [y0, y1) (at most RD_PACKET_MAX of them) traced
+ * together: their k-th samples form a packet of camera rays from the eye,
+ * which rd_trace_packet traces to the same colours as one by one. Each
+ * pixel still gets its samples in order. */
+enum { BLOCK = 4 };
+
+static void render_block(rd_job *j, int x0, int y0, int x1, int y1, rd_job_counts *c, rd_ray_counts *rc)
+{
+    pixel_run pr[RD_PACKET_MAX];
+    int n = 0, most = 0;
+    for (int y = y0; y < y1; y++)
+        for (int x = x0; x < x1; x++) {
+            pixel_begin(j, x, y, &pr[n]);
+            most = pr[n].samples > most ? pr[n].samples : most;
+            n++;
         }
-        /* The spread of display values only steers adaptive passes. */
-        if (j->stat) {
-            float *dmean = &j->stat[6 * index], *m2 = dmean + 3;
-            for (int ch = 0; ch < 3; ch++) {
-                double d = rd_display(cv[ch], g), delta = d - dmean[ch];
-                dmean[ch] = (float)(dmean[ch] + delta / n);
-                m2[ch] = (float)(m2[ch] + delta * (d - dmean[ch]));
-            }
+    for (int k = 0; k < most; k++) {
+        rd_ray r[RD_PACKET_MAX];
+        rd_rng rng[RD_PACKET_MAX];
+        rd_rgb col[RD_PACKET_MAX];
+        int who[RD_PACKET_MAX], m = 0;
+        for (int i = 0; i < n; i++) {
+            if (k >= pr[i].samples)
+                continue;
+            if (rd_counts_tick(rc))
+                return;
+            r[m] = pixel_ray(j, &pr[i], k, &rng[m]);
+            who[m++] = i;
         }
+        c->camera += (uint64_t)m;
+        rd_trace_packet(&j->plan, r, m, j->packets, rng, rc, col);
+        for (int i = 0; i < m; i++)
+            pixel_add(j, &pr[who[i]], k, col[i], c);
     }
 }
 
@@ -370,9 +439,16 @@ int rd_job_render_tile(rd_job *j, int t, rd_job_counts *c)
         }
     rd_ray_counts rc;
     rd_counts_init(&rc, j->deadline_ms, j->cancel);
-    for (int y = y0; y < y1 && !rc.stopped; y++) {
-        for (int x = x0; x < x1 && !rc.stopped; x++)
-            render_pixel(j, x, y, c, &rc);
+    if (j->packets) {
+        /* Neighbouring camera rays walk the same nodes: packets of
+         * BLOCK x BLOCK pixels share the walk (world.h). */
+        for (int y = y0; y < y1 && !rc.stopped; y += BLOCK)
+            for (int x = x0; x < x1 && !rc.stopped; x += BLOCK)
+                render_block(j, x, y, x + BLOCK < x1 ? x + BLOCK : x1, y + BLOCK < y1 ? y + BLOCK : y1, c, &rc);
+    } else {
+        for (int y = y0; y < y1 && !rc.stopped; y++)
+            for (int x = x0; x < x1 && !rc.stopped; x++)
+                render_pixel(j, x, y, c, &rc);
     }
     c->shadow += rc.shadow;
     c->secondary += rc.secondary;

@@ -90,7 +90,7 @@ rd_error_code rd_render(const rd_scene *s, const rd_render_options *opt_in, rd_i
     memset(stats, 0, sizeof *stats);
     int threads = opt.threads < 1 ? 1 : opt.threads;
     rd_job_options jo = {
-        opt.tile, {s->render.samples, opt.time_budget_ms, opt.target_error, opt.adaptive}, opt.threads};
+        opt.tile, {s->render.samples, opt.time_budget_ms, opt.target_error, opt.adaptive}, opt.threads, opt.packets};
     rd_job *job;
     rd_error_code rc = rd_job_create(s, &jo, &job, err);
     if (rc)

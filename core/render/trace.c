@@ -73,20 +73,18 @@ void rd_plan_free(rd_plan *p)
     memset(p, 0, sizeof *p);
 }
 
-/* Not inlined: it would grow every recursion level's stack frame. */
-__attribute__((noinline)) static int shadowed(const rd_plan *p, const rd_hit *h, const rd_light_sample *ls,
-                                              size_t light, rd_ray_counts *counts)
+/* The shadow ray towards a light sample: 0 when there is none to trace (the
+ * light is not blocked), else 1 with the ray and its tmax. */
+static int shadow_ray(const rd_hit *h, const rd_light_sample *ls, rd_ray *sr, double *tmax)
 {
-    uint32_t *last = light < RD_OCCLUDER_LIGHTS ? &counts->occluder[light] : NULL;
-    rd_ray sr;
-    sr.o = rd_offset_origin(h, ls->to_light);
-    counts->shadow++;
+    sr->o = rd_offset_origin(h, ls->to_light);
     if (ls->infinite) {
-        sr.d = ls->to_light;
-        return rd_world_any_hint(&p->world, sr, INFINITY, last);
+        sr->d = ls->to_light;
+        *tmax = INFINITY;
+        return 1;
     }
     /* Aim from the pushed-off origin, so the ray still ends at the light. */
-    rd_vec3 d = v3_add(ls->to_light, v3_sub(h->p, sr.o));
+    rd_vec3 d = v3_add(ls->to_light, v3_sub(h->p, sr->o));
     double span = v3_max_abs(d);
     if (!(span > 0) || !isfinite(span))
         return 0;
@@ -105,15 +103,32 @@ __attribute__((noinline)) static int shadowed(const rd_plan *p, const rd_hit *h,
     int e = (int)((bits >> 52) & 0x7ff) - 1023;
     if (e < -1000 || e > 1000) {
         e = ilogb(span);
-        sr.d = v3(ldexp(d.x, -e), ldexp(d.y, -e), ldexp(d.z, -e));
-        return rd_world_any_hint(&p->world, sr, ldexp(end, e), last);
+        sr->d = v3(ldexp(d.x, -e), ldexp(d.y, -e), ldexp(d.z, -e));
+        *tmax = ldexp(end, e);
+        return 1;
     }
     double down, up;
     uint64_t b1 = (uint64_t)(1023 - e) << 52, b2 = (uint64_t)(1023 + e) << 52;
     memcpy(&down, &b1, sizeof down);
     memcpy(&up, &b2, sizeof up);
-    sr.d = v3_scale(d, down);
-    return rd_world_any_hint(&p->world, sr, end * up, last);
+    sr->d = v3_scale(d, down);
+    *tmax = end * up;
+    return 1;
+}
+
+static uint32_t *occluder_of(rd_ray_counts *counts, size_t light)
+{
+    return light < RD_OCCLUDER_LIGHTS ? &counts->occluder[light] : NULL;
+}
+
+/* Not inlined: it would grow every recursion level's stack frame. */
+__attribute__((noinline)) static int shadowed(const rd_plan *p, const rd_hit *h, const rd_light_sample *ls,
+                                              size_t light, rd_ray_counts *counts)
+{
+    rd_ray sr;
+    double tmax;
+    counts->shadow++;
+    return shadow_ray(h, ls, &sr, &tmax) && rd_world_any_hint(&p->world, sr, tmax, occluder_of(counts, light));
 }
 
 void rd_counts_init(rd_ray_counts *c, double deadline_ms, const atomic_int *cancel)
@@ -168,12 +183,18 @@ static rd_rgb trace_secondary(const rd_plan *p, const rd_hit *h, rd_vec3 dir, in
 
 static int is_black(rd_rgb c) { return c.x == 0 && c.y == 0 && c.z == 0; }
 
-rd_rgb rd_trace(const rd_plan *p, rd_ray r, int depth, rd_rng *rng, rd_ray_counts *counts)
+/* The light already known to reach a hit or not, for shade(): a packet's
+ * shadow rays are traced before its hits are shaded. */
+enum { VIS_TRACE = -1, VIS_OPEN = 0, VIS_BLOCKED = 1 };
+
+/* The colour of r's hit. vis (NULL: trace every shadow ray here) says, for
+ * each of the first RD_OCCLUDER_LIGHTS lights, whether its one sample is
+ * blocked, or VIS_TRACE to trace it here. */
+static rd_rgb shade(const rd_plan *p, rd_ray r, const rd_hit *hit, int depth, rd_rng *rng, rd_ray_counts *counts,
+                    const signed char *vis)
 {
     const rd_scene *s = p->scene;
-    rd_hit h;
-    if (!rd_world_closest(&p->world, r, INFINITY, &h))
-        return s->render.background;
+    rd_hit h = *hit;
     const rd_material *m = &s->materials[h.material];
     if (m->type == RD_MAT_PSEUDO_NORMAL_COLOR)
         return v3((h.n.x + 1) * 0.5, (h.n.y + 1) * 0.5, (h.n.z + 1) * 0.5);
@@ -205,7 +226,8 @@ rd_rgb rd_trace(const rd_plan *p, rd_ray r, int depth, rd_rng *rng, rd_ray_count
                 /* A light behind the surface contributes 0: no shadow ray. */
                 if (!(-v3_dot(h.n, ls.L) > 0))
                     continue;
-                if (shadowed(p, &h, &ls, i, counts))
+                int known = vis && i < RD_OCCLUDER_LIGHTS ? vis[i] : VIS_TRACE;
+                if (known == VIS_TRACE ? shadowed(p, &h, &ls, i, counts) : known == VIS_BLOCKED)
                     continue;
                 color = saturate(v3_add(color, v3_mul(ls.color, rd_calc_reflected_light(m, &h, ls.L, V))));
             }
@@ -236,4 +258,70 @@ rd_rgb rd_trace(const rd_plan *p, rd_ray r, int depth, rd_rng *rng, rd_ray_count
         color = saturate(v3_add(color, v3_mul(m->ks, saturate(sum))));
     }
     return color;
+}
+
+rd_rgb rd_trace(const rd_plan *p, rd_ray r, int depth, rd_rng *rng, rd_ray_counts *counts)
+{
+    rd_hit h;
+    if (!rd_world_closest(&p->world, r, INFINITY, &h))
+        return p->scene->render.background;
+    return shade(p, r, &h, depth, rng, counts, NULL);
+}
+
+/* Whether shade() gives hit h direct light from the plan's lights. */
+static int lit_directly(const rd_plan *p, const rd_hit *h)
+{
+    const rd_material *m = &p->scene->materials[h->material];
+    return m->type != RD_MAT_PSEUDO_NORMAL_COLOR && !rd_material_is_recursive(m);
+}
+
+/* The shadow rays of light `light` from the packet's hits, traced as one
+ * packet; vis[i][light] gets each ray's answer (or VIS_OPEN where shade()
+ * will not ask). Counted as shadowed() counts them. */
+static void shadow_packet(const rd_plan *p, const rd_hit *h, unsigned lit, size_t light, rd_ray_counts *counts,
+                          signed char vis[][RD_OCCLUDER_LIGHTS])
+{
+    const rd_light_prep *lp = &p->lights[light];
+    rd_ray sr[RD_PACKET_MAX];
+    double tmax[RD_PACKET_MAX];
+    int who[RD_PACKET_MAX], n = 0;
+    for (unsigned m = lit; m; m &= m - 1) {
+        int i = __builtin_ctz(m);
+        vis[i][light] = VIS_OPEN;
+        rd_light_sample ls;
+        if (!rd_light_sample_at(lp, h[i].p, 0, 0.5, 0.5, &ls) || !(-v3_dot(h[i].n, ls.L) > 0))
+            continue;
+        counts->shadow++;
+        if (shadow_ray(&h[i], &ls, &sr[n], &tmax[n]))
+            who[n++] = i;
+    }
+    unsigned blocked = rd_world_any_packet(&p->world, sr, tmax, n, occluder_of(counts, light));
+    for (int k = 0; k < n; k++)
+        vis[who[k]][light] = blocked >> k & 1 ? VIS_BLOCKED : VIS_OPEN;
+}
+
+void rd_trace_packet(const rd_plan *p, const rd_ray *r, int n, unsigned how, rd_rng *rng, rd_ray_counts *counts,
+                     rd_rgb *out)
+{
+    rd_hit h[RD_PACKET_MAX];
+    unsigned found = 0, lit = 0;
+    if (how & RD_PACKETS_CAMERA) {
+        found = rd_world_closest_packet(&p->world, r, n, INFINITY, h);
+    } else {
+        for (int i = 0; i < n; i++)
+            found |= (unsigned)rd_world_closest(&p->world, r[i], INFINITY, &h[i]) << i;
+    }
+    signed char vis[RD_PACKET_MAX][RD_OCCLUDER_LIGHTS];
+    memset(vis, VIS_TRACE, sizeof vis);
+    if (how & RD_PACKETS_SHADOW) {
+        for (unsigned m = found; m; m &= m - 1)
+            lit |= (unsigned)lit_directly(p, &h[__builtin_ctz(m)]) << __builtin_ctz(m);
+        /* An area light's samples are drawn with the hit's random numbers,
+         * in shade()'s order: those stay there. */
+        for (size_t i = 0; i < p->nlights && i < RD_OCCLUDER_LIGHTS && lit; i++)
+            if (p->lights[i].type != RD_LIGHT_AREA)
+                shadow_packet(p, h, lit, i, counts, vis);
+    }
+    for (int i = 0; i < n; i++)
+        out[i] = found >> i & 1 ? shade(p, r[i], &h[i], 0, &rng[i], counts, vis[i]) : p->scene->render.background;
 }

@@ -6,6 +6,7 @@
 #include <stdint.h>
 
 #include "light.h"
+#include "rayd/job.h"
 #include "sampler.h"
 #include "world.h"
 
@@ -62,5 +63,12 @@ void rd_plan_free(rd_plan *p);
 /* Radiance along r (unit direction), recursing while depth < max_depth.
  * rng supplies area-light jitter; counts gets the shadow and secondary rays. */
 rd_rgb rd_trace(const rd_plan *p, rd_ray r, int depth, rd_rng *rng, rd_ray_counts *counts);
+
+/* rd_trace(p, r[i], 0, &rng[i], counts) for n camera rays (n at most
+ * RD_PACKET_MAX), into out[i]: the same colours and counts to the bit,
+ * with what `how` names (RD_PACKETS_*, rayd/job.h) traced as packets
+ * (world.h) and the rest ray by ray. */
+void rd_trace_packet(const rd_plan *p, const rd_ray *r, int n, unsigned how, rd_rng *rng, rd_ray_counts *counts,
+                     rd_rgb *out);
 
 #endif

@@ -12,6 +12,7 @@
 #include "hdr_write.h"
 #include "png_write.h"
 #include "progress_bar.h"
+#include "rayd/job.h"
 #include "rayd/render.h"
 #include "scene_open.h"
 
@@ -36,6 +37,11 @@ static const char render_help[] = "usage: rayd render SCENE -o OUT [options]\n"
                                   "      --target-error E    render in passes until the error estimate is <= E\n"
                                   "                      (either makes the samples the cap, not the count)\n"
                                   "      --adaptive      later passes spend samples where the estimated error is\n"
+                                  "      --packets camera|shadow|all|none  trace the rays of 4x4 pixel blocks\n"
+                                  "                      in packets: the camera rays, the shadow rays towards\n"
+                                  "                      point, spot and directional lights, or both; the\n"
+                                  "                      same image and counts, at another speed (none, the\n"
+                                  "                      default: ray by ray)\n"
                                   "      --stats-format text|json|both  the statistics as the line below (text,\n"
                                   "                      the default), as one JSON object on one line (json), or\n"
                                   "                      the line and then the object (both)\n"
@@ -221,6 +227,23 @@ static void print_help(void)
     fputs(render_help_tail, stdout);
 }
 
+static int packets_of(const char *arg, unsigned *out)
+{
+    static const struct {
+        const char *name;
+        unsigned bits;
+    } names[] = {{"none", 0},
+                 {"camera", RD_PACKETS_CAMERA},
+                 {"shadow", RD_PACKETS_SHADOW},
+                 {"all", RD_PACKETS_CAMERA | RD_PACKETS_SHADOW}};
+    for (size_t i = 0; i < sizeof names / sizeof names[0]; i++)
+        if (!strcmp(arg, names[i].name)) {
+            *out = names[i].bits;
+            return 0;
+        }
+    return usage_error("--packets: expected camera, shadow, all or none, got '%s'", arg);
+}
+
 /* The options after the limits and the overrides: 0, HELP_PRINTED or the
  * exit status of a usage error. */
 static int parse_option(int c, const char *arg, render_args *a)
@@ -239,6 +262,7 @@ static int parse_option(int c, const char *arg, render_args *a)
     case 'e': return positive("--target-error", arg, &a->ro.target_error);
     case 'a': a->ro.adaptive = 1; return 0;
     case 's': return stats_format_of(arg, &a->stats_format);
+    case 'k': return packets_of(arg, &a->ro.packets);
     case 'p': a->bar = RD_BAR_ON; return 0;
     case 'q': a->bar = RD_BAR_OFF; return 0;
     default: return usage_error(c == ':' ? "%s needs a value" : "unknown option '%s'", arg);
@@ -258,6 +282,7 @@ static int parse_args(int argc, char **argv, render_args *a)
                                          {"target-error", required_argument, NULL, 'e'},
                                          {"adaptive", no_argument, NULL, 'a'},
                                          {"stats-format", required_argument, NULL, 's'},
+                                         {"packets", required_argument, NULL, 'k'},
                                          {"progress", no_argument, NULL, 'p'},
                                          {"quiet", no_argument, NULL, 'q'},
                                          {NULL, 0, NULL, 0}};

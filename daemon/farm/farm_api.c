@@ -56,7 +56,7 @@ static rd_error_code check_room(rd_farm *f, size_t need, rd_error *err)
 rd_error_code rd_farm_submit(rd_farm *f, const char *scene, size_t len, const char *format, const rd_job_params *p,
                              const rd_scene *s, char id[RD_STORE_ID_MAX], rd_error *err)
 {
-    rd_job_options jo = {f->opt.tile, p->progress, 1};
+    rd_job_options jo = {f->opt.tile, p->progress, 1, 0};
     jo.progress.max_samples = s->render.samples < 1 ? 1 : s->render.samples;
     size_t need = rd_job_estimate_bytes(s, &jo);
     rd_error_code rc = check_room(f, need, err);

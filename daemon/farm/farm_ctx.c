@@ -95,7 +95,7 @@ static rd_error_code build(rd_farm *f, rd_store *h, farm_ctx *c, rd_error *err)
         return rc;
     /* The cap of the schedule (and of progress) is the scene's samples. */
     c->params.progress.max_samples = c->scene.render.samples < 1 ? 1 : c->scene.render.samples;
-    rd_job_options jo = {f->opt.tile, c->params.progress, 1};
+    rd_job_options jo = {f->opt.tile, c->params.progress, 1, 0};
     size_t need = rd_job_estimate_bytes(&c->scene, &jo);
     pthread_mutex_lock(&f->mu); /* the metrics read it */
     c->charged = need;

@@ -11,7 +11,12 @@ configuration, and the best of each figure is kept. rayd's rate is its camera
 + shadow rays over its render time without the BVH build (time_ms -
 prepare_ms), as in the large section; Embree's is the same rays over its
 trace time, its build (rtcCommitScene, one thread) timed apart. The driver
-checks that both count the same rays and that Embree's two modes agree."""
+checks that both count the same rays and that Embree's two modes agree.
+
+rayd also renders each scene with `--packets all` (4x4 pixel blocks traced
+as packets of camera rays and of shadow rays; the same image and counts),
+taking its turn with the others, so that its packets are measured against
+its own ray-by-ray walk and against Embree's 16-wide packets."""
 import json
 import math
 import os
@@ -132,7 +137,7 @@ def compare_one(ctx, name, scene, expect, threads, modes, rayd_extra=()):
     records and the best figures."""
     w, h = ctx.size
     h_path = harness(ctx)
-    rr, er = [], []
+    rr, er, pr = [], [], []
     for _ in range(ctx.runs):
         r, st = measure.rayd_render(ctx.rayd, scene, "/dev/null", w, h, threads,
                                     ["--samples", "1"] + MAX_OBJECTS + list(rayd_extra), cwd=ctx.root)
@@ -142,6 +147,13 @@ def compare_one(ctx, name, scene, expect, threads, modes, rayd_extra=()):
             raise measure.Failed("%s: rayd traced %d secondary rays; Embree's harness traces none"
                                  % (name, st["secondary_rays"]))
         rr.append(dict(r.record(), stats=measure.stats_record(st), render_ms=st["time_ms"] - st["prepare_ms"]))
+        r, sp = measure.rayd_render(ctx.rayd, scene, "/dev/null", w, h, threads,
+                                    ["--samples", "1", "--packets", "all"] + MAX_OBJECTS + list(rayd_extra),
+                                    cwd=ctx.root)
+        if (sp["camera_rays"], sp["shadow_rays"]) != (st["camera_rays"], st["shadow_rays"]):
+            raise measure.Failed("%s: rayd --packets all traced %d + %d rays, ray by ray %d + %d" % (
+                name, sp["camera_rays"], sp["shadow_rays"], st["camera_rays"], st["shadow_rays"]))
+        pr.append(dict(r.record(), stats=measure.stats_record(sp), render_ms=sp["time_ms"] - sp["prepare_ms"]))
         e, out = measure.embree_trace(h_path, scene, w, h, threads, modes, MAX_OBJECTS, cwd=ctx.root)
         if out["rayd_primitives"] != expect:
             raise measure.Failed("%s: embree_trace built %d primitives, not %d"
@@ -150,13 +162,14 @@ def compare_one(ctx, name, scene, expect, threads, modes, rayd_extra=()):
     last, eo = rr[-1]["stats"], er[-1]["out"]
     best = measure.best
     row = {
-        "scene": name, "threads": threads, "width": w, "height": h, "rayd": rr, "embree": er,
+        "scene": name, "threads": threads, "width": w, "height": h, "rayd": rr, "rayd_packets": pr, "embree": er,
         "camera_rays": last["camera_rays"], "shadow_rays": last["shadow_rays"], "rays_rayd": measure.rays(last),
         "primitives": last["primitives"], "bvh_nodes": last["bvh_nodes"],
         "embree_version": eo["embree"], "quality": eo["quality"], "build_threads": eo["build_threads"],
         "native_ray16": eo["native_ray16"], "tile": eo["tile"],
         "best": {
             "rayd_render_ms": best(x["render_ms"] for x in rr),
+            "rayd_packets_render_ms": best(x["render_ms"] for x in pr),
             "rayd_time_ms": best(x["stats"]["time_ms"] for x in rr),
             "rayd_bvh_build_ms": best(x["stats"]["bvh_build_ms"] for x in rr),
             "embree_build_ms": best(x["out"]["build_ms"] for x in er),

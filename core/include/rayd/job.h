@@ -44,7 +44,16 @@ typedef struct {
     /* Threads that may build the BVH (the same tree whatever the number);
      * < 1 means 1. */
     int build_threads;
+    /* Rays traced in packets of the pixels of a 4x4 block (RD_PACKETS_*
+     * bits; 0: ray by ray): the same image and counts to the bit, at
+     * another speed (bench/README.md measures it). Only a world with a
+     * BVH is walked in packets. */
+    unsigned packets;
 } rd_job_options;
+
+/* The camera rays' closest hits, and the shadow rays towards each point,
+ * spot or directional light. */
+enum { RD_PACKETS_CAMERA = 1, RD_PACKETS_SHADOW = 2 };
 
 /* The most memory a job of this scene holds, in bytes: the scene itself,
  * its world and BVH (with what building them needs), the per-pixel state

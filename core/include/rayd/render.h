@@ -32,6 +32,7 @@ typedef struct {
     double time_budget_ms; /* <= 0: none */
     double target_error;   /* <= 0: none */
     int adaptive;          /* later passes spend samples where the error is */
+    unsigned packets;      /* rd_job_options.packets (job.h) */
 } rd_render_options;
 
 /* Renders s as its render section says. On RD_ERR_CANCELLED the image is

@@ -18,6 +18,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "rayd/job.h"
 #include "rayd/render.h"
 #include "rayd/scene.h"
 #include "support/rng.h"
@@ -665,5 +666,65 @@ Test(render, invalid_camera_leaves_image_empty)
     rd_error err = {0};
     cr_assert_eq(rd_render(&s, NULL, &img, &st, &err), RD_ERR_INVALID);
     cr_assert_null(img.rgb);
+    rd_scene_free(&s);
+}
+
+/* Packets (rd_render_options.packets) change how rays are walked, never
+ * what they find: every material, light type (area lights included, which
+ * stay ray by ray), planes, a textureless mix of 300 small spheres and
+ * triangles (so that the world has a BVH), progressive and adaptive
+ * passes, and tiles that cut the 4x4 blocks, give the same bytes, linear
+ * image, error estimate and ray counts as ray by ray. */
+Test(render, packets_give_the_same_image)
+{
+    rd_scene s;
+    all_materials_scene(&s, 45, 31);
+    s.render.samples = 3;
+    add_area_light(&s, v3(-1, 5, -1), v3(2, 0, 0), v3(0, 0, 2), 2, v3(0.4, 0.4, 0.4));
+    test_rng g = {99};
+    for (int i = 0; i < 300; i++) {
+        double x = rng_range(&g, -3, 3), z = rng_range(&g, -3, 0);
+        int mat = rng_int(&g, (int)s.material_count);
+        if (i % 2)
+            add_sphere(&s, v3(x, 0.1, z), 0.08, mat);
+        else
+            add_triangle(&s, v3(x, 0, z), v3(x + 0.2, 0.05, z), v3(x, 0.25, z + 0.1), mat);
+    }
+    rd_render_options schedules[3] = {{0}};
+    schedules[1].target_error = 1e-12;
+    schedules[1].time_budget_ms = 1e9;
+    schedules[2] = schedules[1];
+    schedules[2].adaptive = 1;
+    for (int sc = 0; sc < 3; sc++) {
+        rd_render_options o1 = schedules[sc];
+        o1.threads = 1;
+        o1.tile = 16;
+        rd_image ref;
+        rd_render_stats st_ref;
+        uint8_t *b_ref = render_bytes(&s, &o1, &ref, &st_ref);
+        cr_assert_gt(st_ref.bvh_nodes, 0, "the scene must have a BVH for packets to be walked");
+        size_t n = (size_t)45 * 31 * 3;
+        unsigned how[] = {RD_PACKETS_CAMERA, RD_PACKETS_SHADOW, RD_PACKETS_CAMERA | RD_PACKETS_SHADOW};
+        int tiles[] = {16, 7, 5};
+        for (int c = 0; c < 3; c++) {
+            rd_render_options o = schedules[sc];
+            o.threads = 1 + c % 2;
+            o.tile = tiles[c];
+            o.packets = how[c];
+            rd_image img;
+            rd_render_stats st;
+            uint8_t *b = render_bytes(&s, &o, &img, &st);
+            cr_assert(memcmp(b, b_ref, n) == 0, "schedule %d packets %u tile %d: bytes differ", sc, how[c], o.tile);
+            cr_assert(memcmp(img.rgb, ref.rgb, n * sizeof(double)) == 0, "schedule %d packets %u: linear image differs",
+                      sc, how[c]);
+            cr_assert(st.error_estimate == st_ref.error_estimate && st.camera_rays == st_ref.camera_rays &&
+                          st.shadow_rays == st_ref.shadow_rays && st.secondary_rays == st_ref.secondary_rays,
+                      "schedule %d packets %u: estimate or ray counts differ", sc, how[c]);
+            rd_image_free(&img);
+            free(b);
+        }
+        rd_image_free(&ref);
+        free(b_ref);
+    }
     rd_scene_free(&s);
 }

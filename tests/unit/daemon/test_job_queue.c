@@ -299,7 +299,7 @@ Test(job_queue, second_job_waits_for_memory)
     rd_scene_init(&s);
     cr_assert_eq(rd_scene_parse(runaway_scene, strlen(runaway_scene), RD_FMT_CFG, "<t>", NULL, &s, &err), RD_OK);
     s.render.width = s.render.height = 512;
-    rd_job_options jo = {RD_JOB_TILE, {0}, 1};
+    rd_job_options jo = {RD_JOB_TILE, {0}, 1, 0};
     size_t need = rd_job_estimate_bytes(&s, &jo);
     rd_scene_free(&s);
     /* Room for one and a half. */
