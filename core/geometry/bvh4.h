@@ -106,4 +106,7 @@ rd_bvh4_test_avx2(const rd_bvh4_node *n, const rd_bvh_ray *r, double tmax, doubl
 /* 1 when this CPU runs the AVX2 test. */
 int rd_bvh4_cpu_has_avx2(void);
 
+/* 1 when this CPU runs AVX-512 (packet.c's eight-ray node test). */
+int rd_bvh4_cpu_has_avx512(void);
+
 #endif

@@ -1,153 +1,175 @@
 /* Packets of up to RD_PACKET_MAX coherent rays walked through the
  * four-wide BVH together (world.h, rd_world_closest_packet).
  *
- * An inner node is tested once for the whole packet, against bounds of
- * what every ray's own slab test would compute: the packet's origins and
- * inverse directions span per-axis intervals, and since rounding is
- * monotone, the rounded slab distances at the intervals' corners bound
- * each ray's rounded distances with no epsilon (the robust widening is
- * applied to the bound just as to each ray). A box the bounds reject, no
- * ray of the packet accepts. An axis on which the packet's directions
- * differ in sign, or one of them is zero, is left out of the bounds, which
- * only makes them looser.
+ * Each node is tested for all the packet's rays still walking there, and
+ * each ray with its own slab test: the masks of the rays that enter each
+ * child go down with it. With AVX-512 the test runs eight rays to a
+ * register, one child at a time, with the same double operations in the
+ * same order as the four-wide test of one ray (bvh4.h), so every lane gets
+ * exactly the accept bit and entry distance that test gives its ray; other
+ * CPUs run that test ray by ray. A packet thus saves the loads, the stack
+ * and the branches of the nodes its rays share, and with AVX-512 half the
+ * box arithmetic; each ray makes exactly the decisions of its own walk.
  *
- * Leaves are reached ray by ray: each ray tests the leaves' boxes with its
- * own slab test, and the primitives with the same tests as a lone ray.
- * Any-hit answers do not depend on order; closest hits do not either,
- * since prim.h breaks ties by id. So every ray's answer is exactly the one
- * rd_world_closest or rd_world_any_hint gives it. */
+ * Closest hits: a ray tests a child within its own cut, a leaf's
+ * primitives with its own floor (prim.h), so its hit is the one its own
+ * walk finds whatever order the packet takes. Any-hit answers do not
+ * depend on order. */
 #include <float.h>
+#include <immintrin.h>
 #include <math.h>
 
 #include "prim.h"
 #include "world.h"
 
+/* A packet's rays as the node tests read them. */
 typedef struct {
-    double omin[3], omax[3], imin[3], imax[3];
-    int use[3], neg[3];
-} frustum;
+    rd_bvh_ray br[RD_PACKET_MAX];
+    /* By lanes, for AVX-512: two groups of eight. */
+    double o[3][RD_PACKET_MAX], inv[3][RD_PACKET_MAX];
+    uint8_t neg[3][2], flat[3][2];
+} packet;
 
-static void frustum_make(const rd_bvh_ray *br, unsigned rays, frustum *f)
+static void packet_lanes(packet *p, int n)
 {
-    for (int k = 0; k < 3; k++) {
-        f->use[k] = 1;
-        f->neg[k] = -1;
-        f->omin[k] = f->imin[k] = INFINITY;
-        f->omax[k] = f->imax[k] = -INFINITY;
-    }
-    for (unsigned m = rays; m; m &= m - 1) {
-        const rd_bvh_ray *b = &br[__builtin_ctz(m)];
+    memset(p->neg, 0, sizeof p->neg);
+    memset(p->flat, 0, sizeof p->flat);
+    for (int i = 0; i < RD_PACKET_MAX; i++) {
+        const rd_bvh_ray *b = &p->br[i < n ? i : 0];
         const double o[3] = {b->o.x, b->o.y, b->o.z}, inv[3] = {b->inv.x, b->inv.y, b->inv.z};
         for (int k = 0; k < 3; k++) {
-            if (b->flat[k] || (f->neg[k] >= 0 && f->neg[k] != b->neg[k]))
-                f->use[k] = 0;
-            f->neg[k] = b->neg[k];
-            f->omin[k] = o[k] < f->omin[k] ? o[k] : f->omin[k];
-            f->omax[k] = o[k] > f->omax[k] ? o[k] : f->omax[k];
-            f->imin[k] = inv[k] < f->imin[k] ? inv[k] : f->imin[k];
-            f->imax[k] = inv[k] > f->imax[k] ? inv[k] : f->imax[k];
+            p->o[k][i] = o[k];
+            p->inv[k][i] = inv[k];
+            p->neg[k][i / 8] |= (uint8_t)(b->neg[k] << (i % 8));
+            p->flat[k][i / 8] |= (uint8_t)(b->flat[k] << (i % 8));
         }
     }
 }
 
-static inline __attribute__((always_inline)) double min4(double a, double b, double c, double d)
-{
-    double x = a < b ? a : b, y = c < d ? c : d;
-    return x < y ? x : y;
-}
+/* Which rays of a node's visitors enter each child (mask[c]), and where
+ * (t[c][i]); a ray's tmax is tmax[i]. */
+typedef struct {
+    unsigned mask[4];
+    double t[4][RD_PACKET_MAX];
+} node_hits;
 
-static inline __attribute__((always_inline)) double max4(double a, double b, double c, double d)
-{
-    double x = a > b ? a : b, y = c > d ? c : d;
-    return x > y ? x : y;
-}
+#define RD_NODE_PER_RAY(NAME, ATTR, TEST)                                                                              \
+    ATTR static inline void NAME(const rd_bvh4_node *n, const packet *p, unsigned rays, const double *tmax,            \
+                                 node_hits *nh)                                                                        \
+    {                                                                                                                  \
+        nh->mask[0] = nh->mask[1] = nh->mask[2] = nh->mask[3] = 0;                                                     \
+        for (unsigned m = rays; m; m &= m - 1) {                                                                       \
+            int i = __builtin_ctz(m);                                                                                  \
+            double tn[4];                                                                                              \
+            for (unsigned hit = TEST(n, &p->br[i], tmax[i], tn); hit; hit &= hit - 1) {                                \
+                int c = __builtin_ctz(hit);                                                                            \
+                nh->mask[c] |= 1u << i;                                                                                \
+                nh->t[c][i] = tn[c];                                                                                   \
+            }                                                                                                          \
+        }                                                                                                              \
+    }
 
-/* The children of n that some ray of the packet may meet within
- * [0, tmax]; tnear[i] a lower bound of every ray's entry into child i. */
-static inline __attribute__((always_inline)) unsigned frustum_test(const rd_bvh4_node *n, const frustum *f, double tmax,
-                                                                   double tnear[4])
+RD_NODE_PER_RAY(node_sse2, __attribute__((always_inline)), rd_bvh4_test_sse2)
+RD_NODE_PER_RAY(node_avx2, __attribute__((always_inline, target("avx2"))), rd_bvh4_test_avx2)
+
+/* rd_bvh4_test_avx2 for eight rays and one child: its operations lane by
+ * lane, a flat axis's lanes kept out of the distances by the mask as that
+ * test skips them. */
+#define RD_AVX512 "avx512f,avx2"
+static inline __attribute__((always_inline, target(RD_AVX512))) __mmask8
+box8(const rd_bvh4_node *n, int c, const packet *p, int g, __m512d tmax, __m512d *tnear)
 {
-    double t0[4] = {0, 0, 0, 0}, t1[4] = {tmax, tmax, tmax, tmax};
+    __m512d t0 = _mm512_setzero_pd(), t1 = tmax;
+    const __m512d widen = _mm512_set1_pd(RD_BVH4_WIDEN);
+    __mmask8 in = 0xff;
     for (int k = 0; k < 3; k++) {
-        if (!f->use[k])
-            continue;
-        const float *lo = f->neg[k] ? n->hi[k] : n->lo[k], *hi = f->neg[k] ? n->lo[k] : n->hi[k];
-        const double omin = f->omin[k], omax = f->omax[k], imin = f->imin[k], imax = f->imax[k];
-        for (int c = 0; c < 4; c++) {
-            double x0 = (double)lo[c] - omax, x1 = (double)lo[c] - omin;
-            double y0 = (double)hi[c] - omax, y1 = (double)hi[c] - omin;
-            double a = min4(x0 * imin, x0 * imax, x1 * imin, x1 * imax);
-            double b = max4(y0 * imin, y0 * imax, y1 * imin, y1 * imax) * RD_BVH4_WIDEN;
-            t0[c] = a > t0[c] ? a : t0[c];
-            t1[c] = b < t1[c] ? b : t1[c];
-        }
+        __m512d lo = _mm512_set1_pd(n->lo[k][c]), hi = _mm512_set1_pd(n->hi[k][c]);
+        __m512d o = _mm512_loadu_pd(p->o[k] + 8 * g), inv = _mm512_loadu_pd(p->inv[k] + 8 * g);
+        __mmask8 neg = p->neg[k][g], flat = p->flat[k][g];
+        __mmask8 inside = _mm512_cmp_pd_mask(o, lo, _CMP_GE_OQ) & _mm512_cmp_pd_mask(o, hi, _CMP_LE_OQ);
+        in &= (__mmask8)(~flat | inside);
+        __m512d l = _mm512_mask_blend_pd(neg, lo, hi), u = _mm512_mask_blend_pd(neg, hi, lo);
+        __m512d a = _mm512_mul_pd(_mm512_sub_pd(l, o), inv);
+        __m512d b = _mm512_mul_pd(_mm512_mul_pd(_mm512_sub_pd(u, o), inv), widen);
+        t0 = _mm512_mask_max_pd(t0, (__mmask8)~flat, a, t0);
+        t1 = _mm512_mask_min_pd(t1, (__mmask8)~flat, b, t1);
     }
-    unsigned mask = 0;
-    for (int c = 0; c < 4; c++) {
-        tnear[c] = t0[c];
-        /* An unused slot's box is empty (lo > hi): with every axis left
-         * out, nothing else would turn it away. */
-        mask |= (unsigned)(t0[c] <= t1[c] && n->lo[0][c] <= n->hi[0][c]) << c;
-    }
-    return mask;
+    *tnear = t0;
+    return in & _mm512_cmp_pd_mask(t0, t1, _CMP_LE_OQ);
 }
 
-/* An inner node to visit, and a lower bound of every ray's entry. */
+static inline __attribute__((always_inline, target(RD_AVX512))) void
+node_avx512(const rd_bvh4_node *n, const packet *p, unsigned rays, const double *tmax, node_hits *nh)
+{
+    nh->mask[0] = nh->mask[1] = nh->mask[2] = nh->mask[3] = 0;
+    for (int g = 0; g < 2; g++) {
+        __mmask8 act = (__mmask8)(rays >> (8 * g));
+        if (!act)
+            continue;
+        __m512d tm = _mm512_loadu_pd(tmax + 8 * g);
+        for (int c = 0; c < 4; c++) {
+            __m512d t0;
+            __mmask8 m = box8(n, c, p, g, tm, &t0) & act;
+            nh->mask[c] |= (unsigned)m << (8 * g);
+            _mm512_storeu_pd(nh->t[c] + 8 * g, t0);
+        }
+    }
+}
+
+/* A node to visit, the rays that visit it, and the least of their entries. */
 typedef struct {
     uint32_t idx;
+    unsigned rays;
     double t;
 } pvisit;
 
-/* The largest cut of the packet's rays: a box entered beyond it by every
- * ray is skipped by every ray. */
-static inline double widest_cut(const rd_best *b, unsigned rays)
+static inline double least_entry(const node_hits *nh, int c)
 {
-    double t = 0;
-    for (unsigned m = rays; m; m &= m - 1) {
-        double c = b[__builtin_ctz(m)].cut;
-        t = c > t ? c : t;
-    }
+    double t = INFINITY;
+    for (unsigned m = nh->mask[c]; m; m &= m - 1)
+        t = nh->t[c][__builtin_ctz(m)] < t ? nh->t[c][__builtin_ctz(m)] : t;
     return t;
 }
 
-/* Inner children are visited nearest first by the packet's bounds; leaf
- * children at once, ray by ray, each ray with its own box test, cut and
- * floor (prim.h), as its own walk would. */
-#define RD_PACKET_CLOSEST(NAME, ATTR, TEST)                                                                            \
-    ATTR static void NAME(const rd_world *w, const rd_ray *r, const rd_bvh_ray *br, const rd_tri_ray *tr,              \
-                          unsigned rays, rd_best *b)                                                                   \
+/* Leaves are searched as soon as their node is tested, ray by ray; inner
+ * children go on the stack nearest on top. */
+#define RD_PACKET_CLOSEST(NAME, ATTR, NODE)                                                                            \
+    ATTR static void NAME(const rd_world *w, const rd_ray *r, const packet *p, const rd_tri_ray *tr, unsigned rays,    \
+                          rd_best *b)                                                                                  \
     {                                                                                                                  \
-        frustum f;                                                                                                     \
-        frustum_make(br, rays, &f);                                                                                    \
+        double cut[RD_PACKET_MAX];                                                                                     \
+        for (int i = 0; i < RD_PACKET_MAX; i++)                                                                        \
+            cut[i] = rays >> i & 1 ? b[i].cut : 0;                                                                     \
         pvisit stack[RD_BVH4_STACK];                                                                                   \
         int sp = 0;                                                                                                    \
-        stack[sp++] = (pvisit){0, 0};                                                                                  \
+        stack[sp++] = (pvisit){0, rays, 0};                                                                            \
         while (sp > 0) {                                                                                               \
             pvisit v = stack[--sp];                                                                                    \
-            double tcut = widest_cut(b, rays);                                                                         \
-            if (v.t > tcut)                                                                                            \
+            /* The rays that still reach the node within their cut. */                                                 \
+            unsigned live = 0;                                                                                         \
+            for (unsigned m = v.rays; m; m &= m - 1)                                                                   \
+                live |= (unsigned)(v.t <= cut[__builtin_ctz(m)]) << __builtin_ctz(m);                                  \
+            if (!live)                                                                                                 \
                 continue;                                                                                              \
             const rd_bvh4_node *n = &w->bvh4.nodes[v.idx];                                                             \
-            double tn[4];                                                                                              \
-            unsigned fm = frustum_test(n, &f, tcut, tn), leaves = 0;                                                   \
-            for (int c = 0; c < 4; c++)                                                                                \
-                leaves |= (unsigned)((fm >> c & 1) && n->count[c]) << c;                                               \
-            for (unsigned m = leaves ? rays : 0; m; m &= m - 1) {                                                      \
-                int i = __builtin_ctz(m);                                                                              \
-                double ti[4];                                                                                          \
-                for (unsigned hit = TEST(n, &br[i], b[i].cut, ti) & leaves; hit; hit &= hit - 1) {                     \
-                    int c = __builtin_ctz(hit);                                                                        \
-                    double floor = rd_leaf_floor(ti[c]);                                                               \
+            node_hits nh;                                                                                              \
+            NODE(n, p, live, cut, &nh);                                                                                \
+            for (int c = 0; c < 4; c++) {                                                                              \
+                if (!n->count[c])                                                                                      \
+                    continue;                                                                                          \
+                for (unsigned m = nh.mask[c]; m; m &= m - 1) {                                                         \
+                    int i = __builtin_ctz(m);                                                                          \
+                    double floor = rd_leaf_floor(nh.t[c][i]);                                                          \
                     for (uint32_t k = 0; k < n->count[c]; k++)                                                         \
                         rd_prim_closest(w, w->bvh.prims[n->child[c] + k], r[i], &tr[i], floor, &b[i]);                 \
+                    cut[i] = b[i].cut;                                                                                 \
                 }                                                                                                      \
             }                                                                                                          \
-            /* Farthest first onto the stack, so the nearest is searched first. */                                     \
             int base = sp;                                                                                             \
             for (int c = 0; c < 4; c++) {                                                                              \
-                if (!(fm >> c & 1) || n->count[c])                                                                     \
+                if (n->count[c] || !nh.mask[c])                                                                        \
                     continue;                                                                                          \
-                pvisit e = {n->child[c], tn[c]};                                                                       \
+                pvisit e = {n->child[c], nh.mask[c], least_entry(&nh, c)};                                             \
                 int j = sp++;                                                                                          \
                 while (j > base && stack[j - 1].t < e.t) {                                                             \
                     stack[j] = stack[j - 1];                                                                           \
@@ -158,44 +180,47 @@ static inline double widest_cut(const rd_best *b, unsigned rays)
         }                                                                                                              \
     }
 
-#define RD_PACKET_ANY(NAME, ATTR, TEST)                                                                                \
-    ATTR static unsigned NAME(const rd_world *w, const rd_ray *r, const rd_bvh_ray *br, const rd_tri_ray *tr,          \
+#define RD_PACKET_ANY(NAME, ATTR, NODE)                                                                                \
+    ATTR static unsigned NAME(const rd_world *w, const rd_ray *r, const packet *p, const rd_tri_ray *tr,               \
                               const double *tmax, unsigned rays, uint32_t *last)                                       \
     {                                                                                                                  \
-        frustum f;                                                                                                     \
-        frustum_make(br, rays, &f);                                                                                    \
-        double tcut = 0;                                                                                               \
-        for (unsigned m = rays; m; m &= m - 1)                                                                         \
-            tcut = tmax[__builtin_ctz(m)] > tcut ? tmax[__builtin_ctz(m)] : tcut;                                      \
+        double tm[RD_PACKET_MAX];                                                                                      \
+        for (int i = 0; i < RD_PACKET_MAX; i++)                                                                        \
+            tm[i] = rays >> i & 1 ? tmax[i] : 0;                                                                       \
         unsigned blocked = 0;                                                                                          \
-        uint32_t stack[RD_BVH4_STACK];                                                                                 \
+        struct {                                                                                                       \
+            uint32_t idx;                                                                                              \
+            unsigned rays;                                                                                             \
+        } stack[RD_BVH4_STACK];                                                                                        \
         int sp = 0;                                                                                                    \
-        stack[sp++] = 0;                                                                                               \
+        stack[sp].idx = 0;                                                                                             \
+        stack[sp++].rays = rays;                                                                                       \
         while (sp > 0 && rays) {                                                                                       \
-            const rd_bvh4_node *n = &w->bvh4.nodes[stack[--sp]];                                                       \
-            double tn[4];                                                                                              \
-            unsigned fm = frustum_test(n, &f, tcut, tn), leaves = 0;                                                   \
+            sp--;                                                                                                      \
+            unsigned live = stack[sp].rays & rays;                                                                     \
+            if (!live)                                                                                                 \
+                continue;                                                                                              \
+            const rd_bvh4_node *n = &w->bvh4.nodes[stack[sp].idx];                                                     \
+            node_hits nh;                                                                                              \
+            NODE(n, p, live, tm, &nh);                                                                                 \
             for (int c = 0; c < 4; c++) {                                                                              \
-                if (!(fm >> c & 1))                                                                                    \
+                if (!n->count[c]) {                                                                                    \
+                    if (nh.mask[c]) {                                                                                  \
+                        stack[sp].idx = n->child[c];                                                                   \
+                        stack[sp++].rays = nh.mask[c];                                                                 \
+                    }                                                                                                  \
                     continue;                                                                                          \
-                if (n->count[c])                                                                                       \
-                    leaves |= 1u << c;                                                                                 \
-                else                                                                                                   \
-                    stack[sp++] = n->child[c];                                                                         \
-            }                                                                                                          \
-            for (unsigned m = leaves ? rays : 0; m; m &= m - 1) {                                                      \
-                int i = __builtin_ctz(m);                                                                              \
-                unsigned hit = TEST(n, &br[i], tmax[i], tn) & leaves;                                                  \
-                for (; hit; hit &= hit - 1) {                                                                          \
-                    int c = __builtin_ctz(hit);                                                                        \
-                    uint32_t k = 0;                                                                                    \
-                    while (k < n->count[c] && !rd_prim_any(w, w->bvh.prims[n->child[c] + k], r[i], &tr[i], tmax[i]))   \
-                        k++;                                                                                           \
-                    if (k < n->count[c]) {                                                                             \
-                        *last = w->bvh.prims[n->child[c] + k] + 1;                                                     \
-                        blocked |= 1u << i;                                                                            \
-                        rays &= ~(1u << i);                                                                            \
-                        break;                                                                                         \
+                }                                                                                                      \
+                for (unsigned m = nh.mask[c] & rays; m; m &= m - 1) {                                                  \
+                    int i = __builtin_ctz(m);                                                                          \
+                    for (uint32_t k = 0; k < n->count[c]; k++) {                                                       \
+                        uint32_t id = w->bvh.prims[n->child[c] + k];                                                   \
+                        if (rd_prim_any(w, id, r[i], &tr[i], tmax[i])) {                                               \
+                            *last = id + 1;                                                                            \
+                            blocked |= 1u << i;                                                                        \
+                            rays &= ~(1u << i);                                                                        \
+                            break;                                                                                     \
+                        }                                                                                              \
                     }                                                                                                  \
                 }                                                                                                      \
             }                                                                                                          \
@@ -203,10 +228,12 @@ static inline double widest_cut(const rd_best *b, unsigned rays)
         return blocked;                                                                                                \
     }
 
-RD_PACKET_CLOSEST(closest_sse2, __attribute__((noinline)), rd_bvh4_test_sse2)
-RD_PACKET_CLOSEST(closest_avx2, __attribute__((noinline, target("avx2"))), rd_bvh4_test_avx2)
-RD_PACKET_ANY(any_sse2, __attribute__((noinline)), rd_bvh4_test_sse2)
-RD_PACKET_ANY(any_avx2, __attribute__((noinline, target("avx2"))), rd_bvh4_test_avx2)
+RD_PACKET_CLOSEST(closest_sse2, __attribute__((noinline)), node_sse2)
+RD_PACKET_CLOSEST(closest_avx2, __attribute__((noinline, target("avx2"))), node_avx2)
+RD_PACKET_CLOSEST(closest_avx512, __attribute__((noinline, target(RD_AVX512))), node_avx512)
+RD_PACKET_ANY(any_sse2, __attribute__((noinline)), node_sse2)
+RD_PACKET_ANY(any_avx2, __attribute__((noinline, target("avx2"))), node_avx2)
+RD_PACKET_ANY(any_avx512, __attribute__((noinline, target(RD_AVX512))), node_avx512)
 
 unsigned rd_world_closest_packet(const rd_world *w, const rd_ray *r, int n, double tmax, rd_hit *h)
 {
@@ -217,19 +244,23 @@ unsigned rd_world_closest_packet(const rd_world *w, const rd_ray *r, int n, doub
         return found;
     }
     rd_best b[RD_PACKET_MAX];
-    rd_bvh_ray br[RD_PACKET_MAX];
+    packet p;
     rd_tri_ray tr[RD_PACKET_MAX];
     for (int i = 0; i < n; i++) {
         b[i] = rd_best_make(tmax);
         rd_world_planes_closest(w, r[i], &b[i]);
-        br[i] = rd_bvh_ray_make(r[i]);
+        p.br[i] = rd_bvh_ray_make(r[i]);
         tr[i] = rd_prim_tri_ray(w, r[i]);
     }
     unsigned all = (1u << n) - 1;
-    if (w->avx2)
-        closest_avx2(w, r, br, tr, all, b);
-    else
-        closest_sse2(w, r, br, tr, all, b);
+    if (w->avx512) {
+        packet_lanes(&p, n);
+        closest_avx512(w, r, &p, tr, all, b);
+    } else if (w->avx2) {
+        closest_avx2(w, r, &p, tr, all, b);
+    } else {
+        closest_sse2(w, r, &p, tr, all, b);
+    }
     unsigned found = 0;
     for (int i = 0; i < n; i++) {
         if (b[i].kind == RD_K_NONE)
@@ -249,7 +280,7 @@ unsigned rd_world_any_packet(const rd_world *w, const rd_ray *r, const double *t
         return blocked;
     }
     unsigned blocked = 0, rays = 0;
-    rd_bvh_ray br[RD_PACKET_MAX];
+    packet p;
     rd_tri_ray tr[RD_PACKET_MAX];
     for (int i = 0; i < n; i++) {
         int hit = 0;
@@ -263,12 +294,26 @@ unsigned rd_world_any_packet(const rd_world *w, const rd_ray *r, const double *t
             blocked |= 1u << i;
             continue;
         }
-        br[i] = rd_bvh_ray_make(r[i]);
+        p.br[i] = rd_bvh_ray_make(r[i]);
         rays |= 1u << i;
     }
     if (!rays)
         return blocked;
     uint32_t sink = 0;
     uint32_t *keep = last ? last : &sink;
-    return blocked | (w->avx2 ? any_avx2(w, r, br, tr, tmax, rays, keep) : any_sse2(w, r, br, tr, tmax, rays, keep));
+    if (w->avx512) {
+        /* Lanes of rays that are not walked hold the first ray (never
+         * read): their arithmetic stays finite. */
+        for (int i = 0; i < n; i++)
+            if (!(rays >> i & 1))
+                p.br[i] = p.br[__builtin_ctz(rays)];
+        packet_lanes(&p, n);
+        blocked |= any_avx512(w, r, &p, tr, tmax, rays, keep);
+    } else {
+        blocked |= w->avx2 ? any_avx2(w, r, &p, tr, tmax, rays, keep) : any_sse2(w, r, &p, tr, tmax, rays, keep);
+    }
+    /* As rd_world_any_hint: a packet that all reached the light forgets. */
+    if (!blocked)
+        *keep = 0;
+    return blocked;
 }

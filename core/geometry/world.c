@@ -164,6 +164,7 @@ rd_error_code rd_world_build_threads(rd_world *w, const rd_scene *s, int threads
         w->bvh.nodes = NULL;
         w->bvh.nnodes = 0;
         w->avx2 = rd_bvh4_cpu_has_avx2();
+        w->avx512 = w->avx2 && rd_bvh4_cpu_has_avx512();
         w->use_bvh = 1;
         w->build_ms = rd_now_ms() - t0;
     }
@@ -275,7 +276,12 @@ static void bvh_closest(const rd_world *w, rd_ray r, rd_best *b)
 
 static int bvh_any(const rd_world *w, rd_ray r, double tmax, uint32_t *last)
 {
-    return w->avx2 ? any_avx2(w, r, tmax, last) : any_sse2(w, r, tmax, last);
+    int blocked = w->avx2 ? any_avx2(w, r, tmax, last) : any_sse2(w, r, tmax, last);
+    /* A ray that reached its light forgets the occluder: in the light, the
+     * next ray would test it in vain (world.h). */
+    if (!blocked && last)
+        *last = 0;
+    return blocked;
 }
 
 static void fill_tri(const rd_world *w, const rd_best *b, rd_hit *h)

@@ -44,6 +44,7 @@ typedef struct {
     rd_bvh bvh;   /* over spheres (ids < nspheres) then triangles; only its prims are kept */
     rd_bvh4 bvh4; /* the same, four children a node: what rays walk */
     int avx2;     /* walk it with the AVX2 box test */
+    int avx512;   /* and packets with eight rays to an AVX-512 register */
     int use_bvh;
     rd_vec3 origin;  /* world position of the camera-relative origin */
     double build_ms; /* time spent building the BVH */
@@ -80,9 +81,11 @@ void rd_world_hit_uv(const rd_world *w, rd_hit *h);
 int rd_world_any(const rd_world *w, rd_ray r, double tmax);
 
 /* The same, trying the primitive *last first (0: none; else its BVH id + 1)
- * and leaving there the one that blocked this ray. Shadow rays towards one
- * light from neighbouring points are mostly blocked by the same occluder
- * (POV-Ray's light buffer); the answer is the same with or without it. */
+ * and leaving there the one that blocked this ray, or 0 when the BVH held
+ * none. Shadow rays towards one light from neighbouring points are mostly
+ * blocked by the same occluder (POV-Ray's light buffer), and mostly not at
+ * all where the previous one was not; the answer is the same with or
+ * without it. */
 int rd_world_any_hint(const rd_world *w, rd_ray r, double tmax, uint32_t *last);
 
 /* Packets of coherent rays (packet.c): camera rays through neighbouring

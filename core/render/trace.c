@@ -187,24 +187,24 @@ static int is_black(rd_rgb c) { return c.x == 0 && c.y == 0 && c.z == 0; }
  * shadow rays are traced before its hits are shaded. */
 enum { VIS_TRACE = -1, VIS_OPEN = 0, VIS_BLOCKED = 1 };
 
-/* The colour of r's hit. vis (NULL: trace every shadow ray here) says, for
+/* The colour of r's hit h (its texture coordinates filled in when its
+ * material asks for them). vis (NULL: trace every shadow ray here) says, for
  * each of the first RD_OCCLUDER_LIGHTS lights, whether its one sample is
  * blocked, or VIS_TRACE to trace it here. */
-static rd_rgb shade(const rd_plan *p, rd_ray r, const rd_hit *hit, int depth, rd_rng *rng, rd_ray_counts *counts,
+static rd_rgb shade(const rd_plan *p, rd_ray r, rd_hit *h, int depth, rd_rng *rng, rd_ray_counts *counts,
                     const signed char *vis)
 {
     const rd_scene *s = p->scene;
-    rd_hit h = *hit;
-    const rd_material *m = &s->materials[h.material];
+    const rd_material *m = &s->materials[h->material];
     if (m->type == RD_MAT_PSEUDO_NORMAL_COLOR)
-        return v3((h.n.x + 1) * 0.5, (h.n.y + 1) * 0.5, (h.n.z + 1) * 0.5);
+        return v3((h->n.x + 1) * 0.5, (h->n.y + 1) * 0.5, (h->n.z + 1) * 0.5);
 
     rd_material textured;
     if (m->type == RD_MAT_TEXTURED_PHONG) {
         /* Only textured materials pay for texture coordinates and lookups. */
-        rd_world_hit_uv(&p->world, &h);
+        rd_world_hit_uv(&p->world, h);
         textured = *m;
-        textured.kd = rd_texture_sample(&s->textures[m->texture_index], h.u * m->uv_scale, h.v * m->uv_scale);
+        textured.kd = rd_texture_sample(&s->textures[m->texture_index], h->u * m->uv_scale, h->v * m->uv_scale);
         m = &textured;
     }
     rd_vec3 V = v3_neg(r.d);
@@ -221,15 +221,15 @@ static rd_rgb shade(const rd_plan *p, rd_ray r, const rd_hit *hit, int depth, rd
                     uy = rd_rng_next(rng);
                 }
                 rd_light_sample ls;
-                if (!rd_light_sample_at(lp, h.p, k, ux, uy, &ls))
+                if (!rd_light_sample_at(lp, h->p, k, ux, uy, &ls))
                     continue;
                 /* A light behind the surface contributes 0: no shadow ray. */
-                if (!(-v3_dot(h.n, ls.L) > 0))
+                if (!(-v3_dot(h->n, ls.L) > 0))
                     continue;
                 int known = vis && i < RD_OCCLUDER_LIGHTS ? vis[i] : VIS_TRACE;
-                if (known == VIS_TRACE ? shadowed(p, &h, &ls, i, counts) : known == VIS_BLOCKED)
+                if (known == VIS_TRACE ? shadowed(p, h, &ls, i, counts) : known == VIS_BLOCKED)
                     continue;
-                color = saturate(v3_add(color, v3_mul(ls.color, rd_calc_reflected_light(m, &h, ls.L, V))));
+                color = saturate(v3_add(color, v3_mul(ls.color, rd_calc_reflected_light(m, h, ls.L, V))));
             }
         }
     }
@@ -238,22 +238,22 @@ static rd_rgb shade(const rd_plan *p, rd_ray r, const rd_hit *hit, int depth, rd
     if (depth >= s->render.max_depth || is_black(m->ks))
         return color;
     if (m->type == RD_MAT_PERFECT_SPECULAR) {
-        rd_vec3 d = v3_normalize(v3_reflect(r.d, h.n));
-        color = saturate(v3_add(color, v3_mul(m->ks, trace_secondary(p, &h, d, depth, rng, counts))));
+        rd_vec3 d = v3_normalize(v3_reflect(r.d, h->n));
+        color = saturate(v3_add(color, v3_mul(m->ks, trace_secondary(p, h, d, depth, rng, counts))));
     } else if (m->type == RD_MAT_SPECULAR_REFRACTION) {
-        double n1 = h.front ? 1.0 : m->ior, n2 = h.front ? m->ior : 1.0;
-        double cosi = -v3_dot(r.d, h.n), cost;
+        double n1 = h->front ? 1.0 : m->ior, n2 = h->front ? m->ior : 1.0;
+        double cosi = -v3_dot(r.d, h->n), cost;
         double F = rd_fresnel_dielectric(cosi, n1, n2, &cost);
         rd_rgb sum = v3(0, 0, 0);
         if (F > 0) {
-            rd_vec3 d = v3_normalize(v3_reflect(r.d, h.n));
-            sum = v3_scale(trace_secondary(p, &h, d, depth, rng, counts), F);
+            rd_vec3 d = v3_normalize(v3_reflect(r.d, h->n));
+            sum = v3_scale(trace_secondary(p, h, d, depth, rng, counts), F);
         }
         if (F < 1) {
             double eta = n1 / n2;
-            rd_vec3 t = v3_add(v3_scale(r.d, eta), v3_scale(h.n, eta * rd_clamp01(cosi) - cost));
+            rd_vec3 t = v3_add(v3_scale(r.d, eta), v3_scale(h->n, eta * rd_clamp01(cosi) - cost));
             t = v3_normalize(t);
-            sum = v3_add(sum, v3_scale(trace_secondary(p, &h, t, depth, rng, counts), 1 - F));
+            sum = v3_add(sum, v3_scale(trace_secondary(p, h, t, depth, rng, counts), 1 - F));
         }
         color = saturate(v3_add(color, v3_mul(m->ks, saturate(sum))));
     }

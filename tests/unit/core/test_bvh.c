@@ -502,9 +502,23 @@ static int make_packet(const rd_world *w, test_rng *r, const ray_mix *mix, int k
     return n;
 }
 
-/* npackets of each kind; returns how many rays hit, and fails on the first
- * ray whose packet answer differs from its own. */
+/* npackets of each kind, walked with every node test this CPU runs
+ * (AVX-512, AVX2, SSE2: the world's flags, turned off on shallow copies);
+ * returns how many rays hit, and fails on the first ray whose packet
+ * answer differs from its own. */
+static long expect_packets_with(const char *what, const rd_world *w, test_rng *r, int npackets, const ray_mix *mix);
+
 static long expect_packets(const char *what, const rd_world *w, test_rng *r, int npackets, const ray_mix *mix)
+{
+    rd_world v = *w;
+    long hits = expect_packets_with(what, &v, r, npackets, mix);
+    v.avx512 = 0;
+    hits += expect_packets_with(what, &v, r, npackets / 4, mix);
+    v.avx2 = 0;
+    return hits + expect_packets_with(what, &v, r, npackets / 4, mix);
+}
+
+static long expect_packets_with(const char *what, const rd_world *w, test_rng *r, int npackets, const ray_mix *mix)
 {
     static const ray_mix whole = {-12, 12, 10, 10};
     long hits = 0;
@@ -523,14 +537,16 @@ static long expect_packets(const char *what, const rd_world *w, test_rng *r, int
             hits += hit;
             if ((found >> i & 1) != (unsigned)hit || (hit && !same_hit(&hp[i], &h))) {
                 report(what, p, rays[i], "the packet's closest hit differs from the ray's own");
-                cr_assert_fail("%s: packet kind %d, ray %d of %d: closest %s, alone %s (t %.17g / %.17g)", what, kind,
-                               i, n, found >> i & 1 ? "hit" : "missed", hit ? "hit" : "missed", hp[i].t, h.t);
+                cr_assert_fail("%s (avx512 %d, avx2 %d): packet kind %d, ray %d of %d: closest %s, alone %s (t %.17g / "
+                               "%.17g)",
+                               what, w->avx512, w->avx2, kind, i, n, found >> i & 1 ? "hit" : "missed",
+                               hit ? "hit" : "missed", hp[i].t, h.t);
             }
             int any = rd_world_any_hint(w, rays[i], tmax[i], &last_s);
             if ((blocked >> i & 1) != (unsigned)any) {
                 report(what, p, rays[i], "the packet's any-hit differs from the ray's own");
-                cr_assert_fail("%s: packet kind %d, ray %d of %d: blocked %u, alone %d", what, kind, i, n,
-                               blocked >> i & 1, any);
+                cr_assert_fail("%s (avx512 %d, avx2 %d): packet kind %d, ray %d of %d: blocked %u, alone %d", what,
+                               w->avx512, w->avx2, kind, i, n, blocked >> i & 1, any);
             }
         }
     }
