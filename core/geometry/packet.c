@@ -170,12 +170,7 @@ static inline double least_entry(const node_hits *nh, int c)
                 if (n->count[c] || !nh.mask[c])                                                                        \
                     continue;                                                                                          \
                 pvisit e = {n->child[c], nh.mask[c], least_entry(&nh, c)};                                             \
-                int j = sp++;                                                                                          \
-                while (j > base && stack[j - 1].t < e.t) {                                                             \
-                    stack[j] = stack[j - 1];                                                                           \
-                    j--;                                                                                               \
-                }                                                                                                      \
-                stack[j] = e;                                                                                          \
+                RD_PUSH_NEAREST_ON_TOP(stack, sp, base, e);                                                            \
             }                                                                                                          \
         }                                                                                                              \
     }

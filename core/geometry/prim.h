@@ -115,6 +115,19 @@ static inline rd_tri_ray rd_prim_tri_ray(const rd_world *w, rd_ray r)
     return w->ntris ? rd_tri_ray_make(r) : (rd_tri_ray){r.o, 0, 0, 0, 0, 0, 0, 0};
 }
 
+/* Pushes entry e (with a field t) onto a walk's stack, among the entries
+ * above index base kept in decreasing t, so that the nearest is searched
+ * first and shrinks the cut the soonest. */
+#define RD_PUSH_NEAREST_ON_TOP(stack, sp, base, e)                                                                     \
+    do {                                                                                                               \
+        int j_ = (sp)++;                                                                                               \
+        while (j_ > (base) && (stack)[j_ - 1].t < (e).t) {                                                             \
+            (stack)[j_] = (stack)[j_ - 1];                                                                             \
+            j_--;                                                                                                      \
+        }                                                                                                              \
+        (stack)[j_] = (e);                                                                                             \
+    } while (0)
+
 /* The planes, tested before anything else (they win ties). */
 void rd_world_planes_closest(const rd_world *w, rd_ray r, rd_best *b);
 

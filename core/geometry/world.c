@@ -209,18 +209,12 @@ typedef struct {
             const rd_bvh4_node *n = &w->bvh4.nodes[v.idx];                                                             \
             double tn[4];                                                                                              \
             unsigned m = TEST(n, &br, b->cut, tn);                                                                     \
-            /* Farthest first onto the stack: the nearest is searched first and shrinks the cut. */                    \
             int base = sp;                                                                                             \
             for (int i = 0; i < 4; i++) {                                                                              \
                 if (!(m >> i & 1))                                                                                     \
                     continue;                                                                                          \
                 visit c = {n->child[i], n->count[i], tn[i]};                                                           \
-                int j = sp++;                                                                                          \
-                while (j > base && stack[j - 1].t < c.t) {                                                             \
-                    stack[j] = stack[j - 1];                                                                           \
-                    j--;                                                                                               \
-                }                                                                                                      \
-                stack[j] = c;                                                                                          \
+                RD_PUSH_NEAREST_ON_TOP(stack, sp, base, c);                                                            \
             }                                                                                                          \
         }                                                                                                              \
     }
