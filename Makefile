@@ -22,7 +22,11 @@ endif
 CORE_FILES := $(sort $(shell find core -name '*.[ch]'))
 CORE_HASH := $(shell cat $(CORE_FILES) 2>/dev/null | sha1sum | cut -c1-12)
 CPPFLAGS := -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L
-CFLAGS   := -std=c11 -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -g $(OPT) -MMD -MP
+# -ffp-contract=off: a*b+c is never fused into one rounding. clang fuses by
+# default where the target has FMA (AVX-512 code), and the same arithmetic
+# must give the same bits in every function, under gcc and clang alike
+# (a packet's rays against the same rays alone, core/geometry/packet.c).
+CFLAGS   := -std=c11 -ffp-contract=off -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes -g $(OPT) -MMD -MP
 PKG_CFLAGS = $(shell pkg-config --cflags $(PKGS))
 PKG_LIBS   = $(shell pkg-config --libs $(PKGS)) -lm -lpthread
 

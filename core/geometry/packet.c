@@ -195,7 +195,8 @@ static inline double least_entry(const node_hits *nh, int c)
             unsigned live = stack[sp].rays & rays;                                                                     \
             if (!live)                                                                                                 \
                 continue;                                                                                              \
-            const rd_bvh4_node *n = &w->bvh4.nodes[stack[sp].idx];                                                     \
+            uint32_t node = stack[sp].idx;                                                                             \
+            const rd_bvh4_node *n = &w->bvh4.nodes[node];                                                              \
             node_hits nh;                                                                                              \
             NODE(n, p, live, tm, &nh);                                                                                 \
             for (int c = 0; c < 4; c++) {                                                                              \
@@ -211,7 +212,7 @@ static inline double least_entry(const node_hits *nh, int c)
                     for (uint32_t k = 0; k < n->count[c]; k++) {                                                       \
                         uint32_t id = w->bvh.prims[n->child[c] + k];                                                   \
                         if (rd_prim_any(w, id, r[i], &tr[i], tmax[i])) {                                               \
-                            *last = id + 1;                                                                            \
+                            *last = rd_world_hint(node, c);                                                            \
                             blocked |= 1u << i;                                                                        \
                             rays &= ~(1u << i);                                                                        \
                             break;                                                                                     \
@@ -282,14 +283,14 @@ unsigned rd_world_any_packet(const rd_world *w, const rd_ray *r, const double *t
         for (size_t k = 0; k < w->nplanes && !hit; k++)
             hit = rd_plane_intersect(&w->planes[k], r[i], tmax[i]) > 0;
         tr[i] = rd_prim_tri_ray(w, r[i]);
-        /* The occluder of the last blocked ray first (world.h). */
+        p.br[i] = rd_bvh_ray_make(r[i]);
+        /* The leaf that blocked the last blocked ray first (world.h). */
         if (!hit && last && *last)
-            hit = rd_prim_any(w, *last - 1, r[i], &tr[i], tmax[i]);
+            hit = rd_world_hint_blocks(w, r[i], &p.br[i], &tr[i], tmax[i], *last);
         if (hit) {
             blocked |= 1u << i;
             continue;
         }
-        p.br[i] = rd_bvh_ray_make(r[i]);
         rays |= 1u << i;
     }
     if (!rays)

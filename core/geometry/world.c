@@ -163,6 +163,10 @@ rd_error_code rd_world_build_threads(rd_world *w, const rd_scene *s, int threads
         free(w->bvh.nodes);
         w->bvh.nodes = NULL;
         w->bvh.nnodes = 0;
+        if (w->bvh4.nnodes >= (size_t)1 << 30) {
+            rd_world_free(w);
+            return rd_error_set(err, RD_ERR_INVALID, 0, 0, "the scene's BVH has more than 2^30 nodes");
+        }
         w->avx2 = rd_bvh4_cpu_has_avx2();
         w->avx512 = w->avx2 && rd_bvh4_cpu_has_avx512();
         w->use_bvh = 1;
@@ -224,13 +228,14 @@ typedef struct {
     {                                                                                                                  \
         rd_bvh_ray br = rd_bvh_ray_make(r);                                                                            \
         rd_tri_ray tr = rd_prim_tri_ray(w, r);                                                                         \
-        if (last && *last && rd_prim_any(w, *last - 1, r, &tr, tmax))                                                  \
+        if (last && *last && rd_world_hint_blocks(w, r, &br, &tr, tmax, *last))                                        \
             return 1;                                                                                                  \
         uint32_t stack[RD_BVH4_STACK];                                                                                 \
         int sp = 0;                                                                                                    \
         stack[sp++] = 0;                                                                                               \
         while (sp > 0) {                                                                                               \
-            const rd_bvh4_node *n = &w->bvh4.nodes[stack[--sp]];                                                       \
+            uint32_t node = stack[--sp];                                                                               \
+            const rd_bvh4_node *n = &w->bvh4.nodes[node];                                                              \
             double tn[4];                                                                                              \
             unsigned m = TEST(n, &br, tmax, tn);                                                                       \
             for (int i = 0; i < 4; i++) {                                                                              \
@@ -244,7 +249,7 @@ typedef struct {
                     uint32_t id = w->bvh.prims[n->child[i] + k];                                                       \
                     if (rd_prim_any(w, id, r, &tr, tmax)) {                                                            \
                         if (last)                                                                                      \
-                            *last = id + 1;                                                                            \
+                            *last = rd_world_hint(node, i);                                                            \
                         return 1;                                                                                      \
                     }                                                                                                  \
                 }                                                                                                      \
@@ -266,6 +271,24 @@ static void bvh_closest(const rd_world *w, rd_ray r, rd_best *b)
         closest_avx2(w, r, b);
     else
         closest_sse2(w, r, b);
+}
+
+int rd_world_hint_blocks(const rd_world *w, rd_ray r, const rd_bvh_ray *br, const rd_tri_ray *tr, double tmax,
+                         uint32_t hint)
+{
+    uint32_t node = (hint - 1) >> 2;
+    int slot = (int)((hint - 1) & 3);
+    if (!w->use_bvh || node >= w->bvh4.nnodes)
+        return 0;
+    const rd_bvh4_node *n = &w->bvh4.nodes[node];
+    double tn[4];
+    /* The SSE2 test accepts exactly what the others accept (bvh4.h). */
+    if (!n->count[slot] || !(rd_bvh4_test_sse2(n, br, tmax, tn) >> slot & 1))
+        return 0;
+    for (uint32_t k = 0; k < n->count[slot]; k++)
+        if (rd_prim_any(w, w->bvh.prims[n->child[slot] + k], r, tr, tmax))
+            return 1;
+    return 0;
 }
 
 static int bvh_any(const rd_world *w, rd_ray r, double tmax, uint32_t *last)

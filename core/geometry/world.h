@@ -17,6 +17,7 @@
 #include "rayd/error.h"
 #include "rayd/scene.h"
 #include "sphere.h"
+#include "triangle.h"
 
 /* Below this many bounded primitives a plain loop beats the BVH. */
 #define RD_WORLD_BVH_MIN 8
@@ -80,13 +81,24 @@ void rd_world_hit_uv(const rd_world *w, rd_hit *h);
 /* 1 when anything lies on the ray at t in (0, tmax); stops at the first. */
 int rd_world_any(const rd_world *w, rd_ray r, double tmax);
 
-/* The same, trying the primitive *last first (0: none; else its BVH id + 1)
- * and leaving there the one that blocked this ray, or 0 when the BVH held
- * none. Shadow rays towards one light from neighbouring points are mostly
- * blocked by the same occluder (POV-Ray's light buffer), and mostly not at
- * all where the previous one was not; the answer is the same with or
- * without it. */
+/* The same, trying first the leaf *last names (0: none; else a value this
+ * function left there) and leaving there the leaf that blocked this ray,
+ * or 0 when the BVH held none. Shadow rays towards one light from
+ * neighbouring points are mostly blocked by the same occluder (POV-Ray's
+ * light buffer), and mostly not at all where the previous one was not. A
+ * leaf is tried only when the ray's own box test accepts it, as the walk
+ * would, so the answer is the same with or without the hint: a primitive's
+ * test can report a grazing hit outside its box, which the walk never
+ * asks for. */
 int rd_world_any_hint(const rd_world *w, rd_ray r, double tmax, uint32_t *last);
+
+/* Whether the leaf `hint` names (as rd_world_any_hint leaves it) blocks the
+ * ray: its box as the ray's walk tests it, then its primitives. */
+int rd_world_hint_blocks(const rd_world *w, rd_ray r, const rd_bvh_ray *br, const rd_tri_ray *tr, double tmax,
+                         uint32_t hint);
+
+/* The hint naming child `slot` of four-wide node `node`. */
+static inline uint32_t rd_world_hint(uint32_t node, int slot) { return (node << 2 | (uint32_t)slot) + 1; }
 
 /* Packets of coherent rays (packet.c): camera rays through neighbouring
  * pixels, or shadow rays from neighbouring hits towards one light. Each
@@ -99,8 +111,8 @@ int rd_world_any_hint(const rd_world *w, rd_ray r, double tmax, uint32_t *last);
 unsigned rd_world_closest_packet(const rd_world *w, const rd_ray *r, int n, double tmax, rd_hit *h);
 
 /* rd_world_any_hint for r[0..n) within tmax[0..n): bit i set when ray i is
- * blocked. *last (may be NULL) is tried first by every ray and left at an
- * occluder of the packet. */
+ * blocked. *last (may be NULL) is tried first by every ray and left at a
+ * leaf that blocked one of them, or 0 when none did. */
 unsigned rd_world_any_packet(const rd_world *w, const rd_ray *r, const double *tmax, int n, uint32_t *last);
 
 #endif

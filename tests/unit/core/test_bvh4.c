@@ -233,7 +233,6 @@ Test(bvh4, occluder_hint_never_changes_the_answer)
     test_rng r = {99};
     uint32_t last = 0;
     long blocked = 0, hinted = 0;
-    size_t nb = w.nspheres + w.ntris;
     rd_ray ray = {v3(0, 0, 0), v3(1, 0, 0)};
     for (long k = 0; k < 20000; k++) {
         if (k % 8 == 0) {
@@ -244,9 +243,11 @@ Test(bvh4, occluder_hint_never_changes_the_answer)
             ray.o = v3_add(ray.o, v3_scale(rng_unit(&r), 0.01));
         }
         double tmax = rng_range(&r, 0.5, 3);
-        /* Sometimes a stale or arbitrary hint, as after another ray. */
+        /* Sometimes a stale or arbitrary hint, as after another ray: any
+         * leaf, any slot (inner or unused), or no node at all. */
         if (rng_int(&r, 4) == 0)
-            last = (uint32_t)rng_int(&r, (int)nb) + 1;
+            last = rng_int(&r, 8) ? rd_world_hint((uint32_t)rng_int(&r, (int)w.bvh4.nnodes), rng_int(&r, 4))
+                                  : (uint32_t)rng_u64(&r);
         uint32_t before = last;
         int want = rd_world_any(&w, ray, tmax);
         int got = rd_world_any_hint(&w, ray, tmax, &last);
@@ -255,8 +256,9 @@ Test(bvh4, occluder_hint_never_changes_the_answer)
             blocked++;
             hinted += last == before;
             /* What the hint now names blocks this ray. */
-            uint32_t again = last;
-            cr_assert(again >= 1 && again <= nb, "the hint is no primitive");
+            uint32_t again = last, node = (last - 1) >> 2;
+            cr_assert(last >= 1 && node < w.bvh4.nnodes && w.bvh4.nodes[node].count[(last - 1) & 3],
+                      "the hint is no leaf");
             cr_assert_eq(rd_world_any_hint(&w, ray, tmax, &again), 1);
             cr_assert_eq(again, last, "a blocking hint was replaced");
         }
