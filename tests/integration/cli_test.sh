@@ -157,6 +157,20 @@ assert o["stopped_by"] == "samples" and o["passes"] == 1 and len(o["curve"]) == 
 cmp -s "$T/j1.png" "$T/j2.png" && ok || bad "--stats-format json changes the image"
 expect_exit 1 "--stats-format xml" -- "$RAYD" render scenes/phong.cfg -o "$T/j3.png" --stats-format xml
 grep -q "stats-format: expected text, json or both" "$T/err" && ok || bad "--stats-format xml message: $(cat "$T/err")"
+# --packets: the same PNG and ray counts as ray by ray, on a mesh (a BVH),
+# with 2 samples a pixel and a size no block divides; a bad value is a
+# usage error that names the choices.
+"$RAYD" render scenes/mesh.cfg -o "$T/p0.png" --width 37 --height 29 --samples 2 --threads 2 2>"$T/e0"
+for how in camera shadow all; do
+    "$RAYD" render scenes/mesh.cfg -o "$T/p1.png" --width 37 --height 29 --samples 2 --threads 2 --packets "$how" \
+        2>"$T/e1"
+    cmp -s "$T/p0.png" "$T/p1.png" && ok || bad "--packets $how changes the image"
+    c0=$(grep -o 'camera_rays=2146 shadow_rays=[0-9]*' "$T/e0")
+    [ -n "$c0" ] && [ "$c0" = "$(grep -o 'camera_rays=[0-9]* shadow_rays=[0-9]*' "$T/e1")" ] && ok ||
+        bad "--packets $how changes the counts: $(cat "$T/e1")"
+done
+expect_exit 1 "--packets some" -- "$RAYD" render scenes/mesh.cfg -o "$T/p2.png" --packets some
+grep -q "packets: expected camera, shadow, all or none" "$T/err" && ok || bad "--packets some message: $(cat "$T/err")"
 expect_exit 0 "rayd render --help" -- "$RAYD" render --help
 grep -q -- "--stats-format" "$T/out" && ok || bad "render --help does not explain --stats-format"
 
