@@ -72,8 +72,15 @@ static double wait_status(rd_jq *q, rd_jq_job *j, rd_jq_status st, double timeou
         struct timespec ts = {0, 1000000};
         nanosleep(&ts, NULL);
     }
-    cr_assert_eq(status_of(q, j), st, "status %s, not %s, after %.0f ms", rd_jq_status_name(status_of(q, j)),
-                 rd_jq_status_name(st), timeout_ms);
+    if (status_of(q, j) != st) {
+        /* What the queue was doing, for a failure that does not reproduce. */
+        rd_jq_metrics m;
+        rd_jq_metrics_get(q, &m);
+        cr_assert_fail("status %s, not %s, after %.0f ms; the queue: %zu running, %zu waiting for memory, %zu bytes "
+                       "reserved",
+                       rd_jq_status_name(status_of(q, j)), rd_jq_status_name(st), timeout_ms, (size_t)m.running,
+                       (size_t)m.waiting_memory, (size_t)m.memory_reserved);
+    }
     return rd_now_ms() - t0;
 }
 
