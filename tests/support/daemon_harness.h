@@ -61,8 +61,11 @@ typedef struct {
     int done;
 } bg_req;
 
-/* Slow and small work. */
-#define SLOW_QUERY "?width=320&height=240&samples=64"
+/* Slow and small work: seconds on an idle machine, and long enough that a
+ * test stalled for seconds between seeing it run and cancelling it (as
+ * happens here straight after a build) still finds it running. Every test
+ * cancels it or lets a time limit end it. */
+#define SLOW_QUERY "?width=320&height=240&samples=256"
 
 #define SMALL_QUERY "?width=8&height=8"
 

@@ -64,6 +64,12 @@ static rd_jq_status status_of(rd_jq *q, rd_jq_job *j)
     return in.status;
 }
 
+/* How long a wait for a job's status may take. Long: in runs straight after
+ * a build this machine has stalled a test for over 10 s (a cancelled
+ * runaway still counted as running), and a wait ends as soon as the status
+ * is reached, so the bound costs nothing when all is well. */
+#define WAIT_MS 60000.0
+
 /* Polls until the job reaches st or timeout_ms passes; the time it took. */
 static double wait_status(rd_jq *q, rd_jq_job *j, rd_jq_status st, double timeout_ms)
 {
@@ -94,7 +100,7 @@ Test(job_queue, eviction_drops_the_oldest_finished)
     char ids[6][24];
     for (int i = 0; i < 6; i++) {
         rd_jq_job *j = submit(q, small_scene, NULL, RD_OK);
-        wait_status(q, j, RD_JQ_DONE, 10000);
+        wait_status(q, j, RD_JQ_DONE, WAIT_MS);
         rd_jq_info in;
         rd_jq_info_get(q, j, &in);
         memcpy(ids[i], in.id, sizeof ids[i]);
@@ -128,7 +134,7 @@ Test(job_queue, histograms_cover_the_job_timeout)
         cr_assert_not_null(q);
         for (int k = 0; k < 2; k++) {
             rd_jq_job *j = submit(q, small_scene, NULL, RD_OK);
-            wait_status(q, j, RD_JQ_DONE, 10000);
+            wait_status(q, j, RD_JQ_DONE, WAIT_MS);
             rd_jq_job_unref(j);
         }
         rd_jq_metrics m;
@@ -159,7 +165,7 @@ Test(job_queue, many_jobs_keep_exactly_the_newest)
     static char ids[N][24];
     for (int i = 0; i < N; i++) {
         rd_jq_job *j = submit(q, small_scene, NULL, RD_OK);
-        wait_status(q, j, RD_JQ_DONE, 10000);
+        wait_status(q, j, RD_JQ_DONE, WAIT_MS);
         rd_jq_info in;
         rd_jq_info_get(q, j, &in);
         memcpy(ids[i], in.id, sizeof ids[i]);
@@ -191,7 +197,7 @@ Test(job_queue, result_memory_drops_the_oldest_images)
     rd_jq *q = rd_jq_start(&o, &err);
     cr_assert_not_null(q);
     rd_jq_job *first = submit(q, small_scene, NULL, RD_OK);
-    wait_status(q, first, RD_JQ_DONE, 10000);
+    wait_status(q, first, RD_JQ_DONE, WAIT_MS);
     unsigned char *png;
     size_t len;
     cr_assert_eq(rd_jq_png(q, first, 0, &png, &len, &err), RD_OK, "%s", err.message);
@@ -205,7 +211,7 @@ Test(job_queue, result_memory_drops_the_oldest_images)
     rd_jq_job *jobs[5];
     for (int i = 0; i < 5; i++) {
         jobs[i] = submit(q, small_scene, NULL, RD_OK);
-        wait_status(q, jobs[i], RD_JQ_DONE, 10000);
+        wait_status(q, jobs[i], RD_JQ_DONE, WAIT_MS);
     }
     for (int i = 0; i < 5; i++) {
         rd_error_code rc = rd_jq_png(q, jobs[i], 0, &png, &len, &err);
@@ -237,7 +243,7 @@ Test(job_queue, a_small_job_overtakes_a_big_one)
                                     "[material m]\ntype = diffuse\nkd = 0.5 0.5 0.5\n"
                                     "[sphere]\ncenter = 0 0 0\nradius = 1\nmaterial = m\n";
     rd_jq_job *big = submit(q, big_scene, NULL, RD_OK);
-    wait_status(q, big, RD_JQ_RUNNING, 10000);
+    wait_status(q, big, RD_JQ_RUNNING, WAIT_MS);
     rd_jq_job *small = submit(q, small_scene, NULL, RD_OK);
     rd_jq_info in, bin;
     for (rd_jq_info_get(q, small, &in); !in.prepared; rd_jq_info_get(q, small, &in)) {
@@ -266,7 +272,7 @@ Test(job_queue, finished_jobs_expire_after_their_ttl)
     rd_jq *q = rd_jq_start(&o, &err);
     cr_assert_not_null(q);
     rd_jq_job *j = submit(q, small_scene, NULL, RD_OK);
-    wait_status(q, j, RD_JQ_DONE, 10000);
+    wait_status(q, j, RD_JQ_DONE, WAIT_MS);
     rd_jq_info in;
     rd_jq_info_get(q, j, &in);
     rd_jq_job_unref(j);
@@ -289,7 +295,7 @@ Test(job_queue, job_over_the_budget_fails_naming_the_flag)
     rd_error err;
     rd_jq *q = rd_jq_start(&o, &err);
     rd_jq_job *j = submit(q, small_scene, "1024", RD_OK);
-    wait_status(q, j, RD_JQ_FAILED, 10000);
+    wait_status(q, j, RD_JQ_FAILED, WAIT_MS);
     rd_jq_info in;
     rd_jq_info_get(q, j, &in);
     cr_assert_eq(in.error.code, RD_ERR_LIMIT);
@@ -314,7 +320,7 @@ Test(job_queue, second_job_waits_for_memory)
     rd_jq *q = rd_jq_start(&o, &err);
     rd_jq_job *a = submit(q, runaway_scene, "512", RD_OK);
     rd_jq_job *b = submit(q, runaway_scene, "512", RD_OK);
-    wait_status(q, a, RD_JQ_RUNNING, 10000);
+    wait_status(q, a, RD_JQ_RUNNING, WAIT_MS);
     rd_jq_metrics m;
     for (int i = 0; i < 2000; i++) {
         rd_jq_metrics_get(q, &m);
@@ -328,9 +334,9 @@ Test(job_queue, second_job_waits_for_memory)
     cr_assert_eq(status_of(q, b), RD_JQ_QUEUED);
     cr_assert_leq(m.memory_reserved, o.memory_budget);
     rd_jq_cancel(q, a);
-    wait_status(q, b, RD_JQ_RUNNING, 10000);
+    wait_status(q, b, RD_JQ_RUNNING, WAIT_MS);
     rd_jq_cancel(q, b);
-    wait_status(q, b, RD_JQ_CANCELLED, 10000);
+    wait_status(q, b, RD_JQ_CANCELLED, WAIT_MS);
     rd_jq_job_unref(a);
     rd_jq_job_unref(b);
     rd_jq_stop(q);
@@ -344,8 +350,8 @@ Test(job_queue, cancel_stops_a_runaway_render_inside_a_pixel)
     rd_jq *q = rd_jq_start(&o, &err);
     rd_jq_job *a = submit(q, runaway_scene, NULL, RD_OK);
     rd_jq_job *b = submit(q, runaway_scene, NULL, RD_OK);
-    wait_status(q, a, RD_JQ_RUNNING, 10000);
-    wait_status(q, b, RD_JQ_RUNNING, 10000);
+    wait_status(q, a, RD_JQ_RUNNING, WAIT_MS);
+    wait_status(q, b, RD_JQ_RUNNING, WAIT_MS);
     struct timespec settle = {0, 50 * 1000000L};
     nanosleep(&settle, NULL);
     cr_assert_eq(rd_jq_cancel(q, a), 1);
@@ -367,7 +373,7 @@ Test(job_queue, timeout_fails_with_its_own_code)
     rd_error err;
     rd_jq *q = rd_jq_start(&o, &err);
     rd_jq_job *j = submit(q, runaway_scene, NULL, RD_OK);
-    wait_status(q, j, RD_JQ_FAILED, 10000);
+    wait_status(q, j, RD_JQ_FAILED, WAIT_MS);
     rd_jq_info in;
     rd_jq_info_get(q, j, &in);
     cr_assert_eq(in.error.code, RD_ERR_TIMEOUT);
@@ -413,7 +419,7 @@ Test(job_queue, internal_work_is_neither_listed_nor_counted)
     rd_jq_submit_options so = {.watch_fd = -1, .internal = 1};
     rd_jq_job *j;
     cr_assert_eq(rd_jq_submit(q, &t, &so, &j, &err), RD_OK);
-    wait_status(q, j, RD_JQ_DONE, 10000);
+    wait_status(q, j, RD_JQ_DONE, WAIT_MS);
     cr_assert(atomic_load(&ran));
     rd_jq_info in;
     rd_jq_info_get(q, j, &in);
@@ -442,8 +448,8 @@ Test(job_queue, preparing_does_not_wait_for_busy_render_threads)
     rd_jq *q = rd_jq_start(&o, &err);
     rd_jq_job *a = submit(q, runaway_scene, NULL, RD_OK);
     rd_jq_job *b = submit(q, runaway_scene, NULL, RD_OK);
-    wait_status(q, a, RD_JQ_RUNNING, 10000);
-    wait_status(q, b, RD_JQ_RUNNING, 10000);
+    wait_status(q, a, RD_JQ_RUNNING, WAIT_MS);
+    wait_status(q, b, RD_JQ_RUNNING, WAIT_MS);
     rd_jq_task t = {bad_scene, NULL, NULL, NULL, 0};
     rd_jq_submit_options so = {.watch_fd = -1};
     rd_jq_job *c;
