@@ -279,15 +279,14 @@ unsigned rd_world_any_packet(const rd_world *w, const rd_ray *r, const double *t
     packet p;
     rd_tri_ray tr[RD_PACKET_MAX];
     for (int i = 0; i < n; i++) {
-        int hit = 0;
-        for (size_t k = 0; k < w->nplanes && !hit; k++)
-            hit = rd_plane_intersect(&w->planes[k], r[i], tmax[i]) > 0;
+        if (rd_world_planes_any(w, r[i], tmax[i])) {
+            blocked |= 1u << i;
+            continue;
+        }
         tr[i] = rd_prim_tri_ray(w, r[i]);
         p.br[i] = rd_bvh_ray_make(r[i]);
         /* The leaf that blocked the last blocked ray first (world.h). */
-        if (!hit && last && *last)
-            hit = rd_world_hint_blocks(w, r[i], &p.br[i], &tr[i], tmax[i], *last);
-        if (hit) {
+        if (last && *last && rd_world_hint_blocks(w, r[i], &p.br[i], &tr[i], tmax[i], *last)) {
             blocked |= 1u << i;
             continue;
         }

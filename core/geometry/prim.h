@@ -128,6 +128,9 @@ static inline rd_tri_ray rd_prim_tri_ray(const rd_world *w, rd_ray r)
         (stack)[j_] = (e);                                                                                             \
     } while (0)
 
+/* 1 when a plane lies on the ray at t in (0, tmax). */
+int rd_world_planes_any(const rd_world *w, rd_ray r, double tmax);
+
 /* The planes, tested before anything else (they win ties). */
 void rd_world_planes_closest(const rd_world *w, rd_ray r, rd_best *b);
 

@@ -425,11 +425,18 @@ void rd_world_hit_uv(const rd_world *w, rd_hit *h)
 
 int rd_world_any(const rd_world *w, rd_ray r, double tmax) { return rd_world_any_hint(w, r, tmax, NULL); }
 
-int rd_world_any_hint(const rd_world *w, rd_ray r, double tmax, uint32_t *last)
+int rd_world_planes_any(const rd_world *w, rd_ray r, double tmax)
 {
     for (size_t i = 0; i < w->nplanes; i++)
         if (rd_plane_intersect(&w->planes[i], r, tmax) > 0)
             return 1;
+    return 0;
+}
+
+int rd_world_any_hint(const rd_world *w, rd_ray r, double tmax, uint32_t *last)
+{
+    if (rd_world_planes_any(w, r, tmax))
+        return 1;
     if (w->use_bvh)
         return bvh_any(w, r, tmax, last);
     for (size_t i = 0; i < w->nspheres; i++)

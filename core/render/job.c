@@ -302,8 +302,9 @@ static void pixel_begin(const rd_job *j, int x, int y, pixel_run *pr)
      * A centre sample needs no pattern at all. */
     pr->first = j->n[pr->index];
     if (!pr->centre) {
-        for (int k = 0; k < samples; k++)
-            pr->count[(pr->first + (uint32_t)k) & 1]++;
+        /* Samples k = 0, 2, 4, ... join half first & 1: the larger half. */
+        pr->count[pr->first & 1] = (uint32_t)(samples + 1) / 2;
+        pr->count[(pr->first + 1) & 1] = (uint32_t)samples / 2;
         pr->pattern_half[0] = rd_pattern(pass_seed, pr->index);
         pr->pattern_half[1] = rd_pattern(pass_seed ^ 0x6a09e667f3bcc909ULL, pr->index);
     }
