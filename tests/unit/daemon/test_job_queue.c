@@ -64,11 +64,11 @@ static rd_jq_status status_of(rd_jq *q, rd_jq_job *j)
     return in.status;
 }
 
-/* How long a wait for a job's status may take. Long: in runs straight after
- * a build this machine has stalled a test for over 10 s (a cancelled
- * runaway still counted as running), and a wait ends as soon as the status
- * is reached, so the bound costs nothing when all is well. */
-#define WAIT_MS 60000.0
+/* How long a wait for a job's status may take. In runs of the whole suite a
+ * cancelled runaway job has been seen still running 60 s after its cancel
+ * (second_job_waits_for_memory, now and before packets): an open bug, not
+ * a slow machine, so a longer bound would only make that failure slower. */
+#define WAIT_MS 10000.0
 
 /* Polls until the job reaches st or timeout_ms passes; the time it took. */
 static double wait_status(rd_jq *q, rd_jq_job *j, rd_jq_status st, double timeout_ms)
