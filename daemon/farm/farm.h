@@ -75,7 +75,7 @@ const char *rd_farm_engine(const rd_farm *f);
 
 /* Commits a job: the scene text as uploaded (len bytes, format "cfg" or
  * "json"), the parameters it was read with, and s, the scene as read (for
- * its size and memory), which the farm only reads. Writes its id (16 hex
+ * its size and memory), which the farm only reads. Writes its id (32 hex
  * digits) into id. RD_ERR_BUSY when --queue jobs are queued or running,
  * RD_ERR_LIMIT when it could never fit the memory budget, RD_ERR_IO when
  * the store is unreachable. Call it on a render thread: it waits for the

@@ -4,8 +4,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "capability.h"
 #include "farm_internal.h"
-#include "hash.h"
 
 const char *rd_farm_engine(const rd_farm *f) { return rd_store_engine_name(f->api); }
 
@@ -14,12 +14,6 @@ rd_error_code rd_farm_ping(rd_farm *f, rd_error *err)
     rd_error_code rc = rd_store_ping(f->api, err);
     farm_store_result(f, rc);
     return rc;
-}
-
-/* An id nobody can guess from another (the ids of GET are capabilities). */
-static void new_id(char id[RD_STORE_ID_MAX])
-{
-    snprintf(id, RD_STORE_ID_MAX, "%016llx", (unsigned long long)rd_random_key());
 }
 
 /* The schedule's first pass as the core will begin it (rd_job_first_pass),
@@ -64,11 +58,13 @@ rd_error_code rd_farm_submit(rd_farm *f, const char *scene, size_t len, const ch
         return rc;
     int w = s->render.width, h = s->render.height, t = f->opt.tile;
     int64_t now = rd_wall_ms();
+    char fresh[RD_STORE_ID_MAX];
+    rc = rd_cap_new(fresh, 0, err); /* the ids of GET and DELETE are capabilities */
+    if (rc)
+        return rc;
     char *sched = first_schedule(&jo.progress, now);
     if (!sched)
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
-    char fresh[RD_STORE_ID_MAX];
-    new_id(fresh);
     rd_store_job_spec spec = {.id = fresh,
                               .scene = scene,
                               .scene_len = len,

@@ -8,6 +8,7 @@
 #include <stdatomic.h>
 
 #include "auth.h"
+#include "capability.h"
 #include "error_map.h"
 #include "grading.h"
 #include "rayd/error.h"
@@ -144,6 +145,11 @@ enum MHD_Result rd_reply_error_hdr(rd_req *r, unsigned status, const char *code,
 
 enum MHD_Result rd_reply_json(rd_req *r, unsigned status, char *json_text);
 
+/* The answer to a waiting client whose job (what: "render", "grade") was
+ * cancelled: none when the client itself hung up; 409 when a DELETE of
+ * its id stopped it; 503 with Retry-After when the server is stopping. */
+enum MHD_Result rd_reply_cancelled(rd_req *r, const rd_jq_info *info, const char *what);
+
 /* Route handlers (router.c lists which serve what). */
 enum MHD_Result rd_render_begin(rd_req *r);
 enum MHD_Result rd_route_render_sync(rd_req *r, const char *rest);
@@ -237,19 +243,19 @@ void rd_grades_set_store(struct rd_grades *g, rd_store *s);
  * and student) in *verdict, its record stored (an assignment's grade
  * only). */
 rd_error_code rd_grades_one(rd_server *srv, const rd_grade_output *o, const char *student, const char *batch_id,
-                            char id[24], char **verdict, rd_error *err);
+                            char id[RD_CAP_MAX], char **verdict, rd_error *err);
 /* rd_grades_one in two steps, for a grade whose record says more than the
  * image's verdict (a code grade: pass is the function's and the image's):
  * the images kept with the verdict and a malloc'ed copy of the heat map
  * for the record (both the caller's to free); then the record, with pass
  * and the verdict text the caller gives. */
-rd_error_code rd_grades_keep(rd_server *srv, const rd_grade_output *o, const char *student, char id[24], char **verdict,
-                             unsigned char **diff, size_t *diff_len, rd_error *err);
+rd_error_code rd_grades_keep(rd_server *srv, const rd_grade_output *o, const char *student, char id[RD_CAP_MAX],
+                             char **verdict, unsigned char **diff, size_t *diff_len, rd_error *err);
 void rd_grades_record(rd_server *srv, const rd_grade_output *o, const char *id, const char *student,
                       const char *batch_id, int pass, const char *verdict, const unsigned char *diff, size_t diff_len);
 /* The record of a student whose image could not be graded. */
 void rd_grades_error_record(rd_server *srv, const char *assignment, const char *student, const char *batch_id,
-                            const char *message, char id[24]);
+                            const char *message, char id[RD_CAP_MAX]);
 
 /* A batch's images: the grades take them over. */
 typedef struct {

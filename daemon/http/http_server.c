@@ -359,6 +359,19 @@ enum MHD_Result rd_reply_json(rd_req *r, unsigned status, char *json_text)
     return rd_reply(r, status, "application/json", json_text, strlen(json_text), 1);
 }
 
+enum MHD_Result rd_reply_cancelled(rd_req *r, const rd_jq_info *info, const char *what)
+{
+    char msg[160];
+    if (info->hung_up)
+        return MHD_NO; /* nobody to answer: close, and the log says so */
+    if (info->requested) {
+        snprintf(msg, sizeof msg, "the %s was cancelled: DELETE /v1/jobs/%s", what, info->id);
+        return rd_reply_error(r, 409, "cancelled", NULL, msg);
+    }
+    snprintf(msg, sizeof msg, "the %s was cancelled: the server is shutting down", what);
+    return rd_reply_error_hdr(r, 503, "cancelled", msg, "Retry-After", "5");
+}
+
 enum MHD_Result rd_reply_too_large(rd_req *r, const char *what)
 {
     char msg[160];
@@ -624,6 +637,7 @@ rd_server_options rd_server_options_default(void)
     o.code_eval = rd_default_eval_path();
     o.max_code_bytes = RD_CODE_MAX_BYTES_DEFAULT;
     o.max_code_jobs = 2;
+    o.max_code_jobs_per_client = 1;
     o.code_compile_ms = 30000;
     o.code_run_ms = 20000;
     o.sandbox_uid = 65534;

@@ -14,7 +14,6 @@
 #include "archive.h"
 #include "assignment.h"
 #include "grade_table.h"
-#include "hash.h"
 #include "http_internal.h"
 #include "rayd/clock.h"
 #include "rayd/memory.h"
@@ -394,7 +393,7 @@ static void grade_image(grade_batch *b, size_t i)
     rd_scene s;
     rd_scene_init(&s);
     rd_error err = {0};
-    char id[24];
+    char id[RD_CAP_MAX];
     rd_error_code rc = b->failed.code ? b->failed.code : rd_grade_prepare(g, &in, &s, &o, &err);
     if (b->failed.code)
         err = b->failed;
@@ -452,7 +451,7 @@ static rd_error_code submit_slices(grade_batch *b, rd_error *err)
         pthread_mutex_lock(&b->mu);
         b->refs++;
         pthread_mutex_unlock(&b->mu);
-        rd_jq_task task = {grade_slice, NULL, free_batch_task, t, 0};
+        rd_jq_task task = {grade_slice, NULL, free_batch_task, t, 0, NULL};
         rd_jq_submit_options so = {.watch_fd = -1}; /* registered: the queue holds it until it ends */
         rd_jq_job *job;
         rd_error_code rc = rd_jq_submit(srv->jobs, &task, &so, &job, err);
@@ -490,11 +489,6 @@ static rd_error_code finish_reference(void *arg, const uint8_t *rgb, int w, int 
     return RD_OK;
 }
 
-static void new_id(char id[RD_STORE_ID_MAX])
-{
-    snprintf(id, RD_STORE_ID_MAX, "%016llx", (unsigned long long)rd_random_key());
-}
-
 rd_error_code rd_grades_batch_start(rd_server *srv, const char *assignment, rd_grade_batch_image *images, size_t n,
                                     char id[RD_STORE_ID_MAX], rd_error *err)
 {
@@ -504,8 +498,9 @@ rd_error_code rd_grades_batch_start(rd_server *srv, const char *assignment, rd_g
     rd_error_code rc = !b || !t ? rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory")
                        : !s     ? rd_error_set(err, RD_ERR_IO, 0, 0, "the store is not open yet")
                                 : RD_OK;
+    if (!rc)
+        rc = rd_cap_new(b->id, 0, err);
     if (!rc) {
-        new_id(b->id);
         rc = rd_store_batch_create(s, b->id, assignment, (int)n, err);
     }
     if (rc) {
@@ -522,7 +517,7 @@ rd_error_code rd_grades_batch_start(rd_server *srv, const char *assignment, rd_g
     pthread_mutex_init(&b->mu, NULL);
     t->b = b;
     memcpy(id, b->id, RD_STORE_ID_MAX);
-    rd_jq_task task = {prepare_reference, finish_reference, free_batch_task, t, 0};
+    rd_jq_task task = {prepare_reference, finish_reference, free_batch_task, t, 0, NULL};
     rd_jq_submit_options so = {.watch_fd = -1}; /* registered: the queue holds it until it ends */
     rd_jq_job *job;
     rc = rd_jq_submit(srv->jobs, &task, &so, &job, err);

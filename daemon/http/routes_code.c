@@ -2,7 +2,10 @@
  * GET /v1/grade/code/skeleton/{material}, GET /v1/grade/code/{id}/lobe.svg.
  * A code grade runs on a render thread like any grade (the sandbox, then
  * two renders of the assignment); at most --max-code-jobs at once, the
- * rest answered 503 with Retry-After. */
+ * rest answered 503 with Retry-After, and at most
+ * --max-code-jobs-per-client of one client, so that one client cannot
+ * hold every slot. A client that hangs up cancels its grade: the queue's
+ * watchdog sees it, and the job's stop flag ends the sandbox. */
 #include <cJSON.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -21,7 +24,7 @@
 enum { LOBES_KEPT = 128, DISCARD_MAX = 1 << 20 };
 
 typedef struct {
-    char id[24];
+    char id[RD_CAP_MAX];
     char *svg;
 } lobe_entry;
 
@@ -29,10 +32,16 @@ struct rd_codegrades {
     rd_codegrade_config cfg; /* the grader's cache is the grades' */
     int available;           /* the sandbox started at start-up */
     char why[512];           /* else why not */
-    atomic_int active;
     pthread_mutex_t mu;
     lobe_entry lobes[LOBES_KEPT];
     size_t next;
+    /* The slots, under mu: active of max_total taken, by clients holding
+     * n each (max_total entries, as no more clients can hold one). */
+    int active, max_total, max_client;
+    struct {
+        char client[64];
+        int n;
+    } * holders;
 };
 
 struct rd_codegrades *rd_codegrades_new(const rd_server_options *opt, const rd_grader *grader)
@@ -49,6 +58,13 @@ struct rd_codegrades *rd_codegrades_new(const rd_server_options *opt, const rd_g
     c->cfg.compile_ms = opt->code_compile_ms;
     c->cfg.run_ms = opt->code_run_ms;
     c->cfg.uid = c->cfg.gid = (uid_t)opt->sandbox_uid;
+    c->max_total = opt->max_code_jobs > 0 ? opt->max_code_jobs : 1;
+    c->max_client = opt->max_code_jobs_per_client > 0 ? opt->max_code_jobs_per_client : 1;
+    c->holders = calloc((size_t)c->max_total, sizeof *c->holders);
+    if (!c->holders) {
+        free(c);
+        return NULL;
+    }
     pthread_mutex_init(&c->mu, NULL);
     rd_error err = {0};
     c->available = rd_sandbox_probe(opt->bwrap, &err) == RD_OK;
@@ -66,6 +82,7 @@ void rd_codegrades_free(struct rd_codegrades *c)
     for (size_t i = 0; i < LOBES_KEPT; i++)
         free(c->lobes[i].svg);
     pthread_mutex_destroy(&c->mu);
+    free(c->holders);
     free(c);
 }
 
@@ -157,16 +174,54 @@ enum MHD_Result rd_route_code_data(rd_req *r, const char *data, size_t size)
 }
 
 /* One code grade on a render thread. */
+/* A slot for client: 0, or the status to answer (503 every slot taken,
+ * 429 the client's own share taken). */
+static unsigned take_slot(struct rd_codegrades *c, const char *client)
+{
+    pthread_mutex_lock(&c->mu);
+    int mine = -1, unused = -1;
+    for (int i = 0; i < c->max_total; i++)
+        if (c->holders[i].n && strcmp(c->holders[i].client, client) == 0)
+            mine = i;
+        else if (!c->holders[i].n && unused < 0)
+            unused = i;
+    unsigned refused = c->active >= c->max_total ? 503 : mine >= 0 && c->holders[mine].n >= c->max_client ? 429 : 0;
+    if (!refused) {
+        if (mine < 0) {
+            mine = unused; /* there is one: fewer clients than slots hold any */
+            snprintf(c->holders[mine].client, sizeof c->holders[mine].client, "%s", client);
+        }
+        c->holders[mine].n++;
+        c->active++;
+    }
+    pthread_mutex_unlock(&c->mu);
+    return refused;
+}
+
+static void give_slot(struct rd_codegrades *c, const char *client)
+{
+    pthread_mutex_lock(&c->mu);
+    for (int i = 0; i < c->max_total; i++)
+        if (c->holders[i].n && strcmp(c->holders[i].client, client) == 0) {
+            c->holders[i].n--;
+            c->active--;
+            break;
+        }
+    pthread_mutex_unlock(&c->mu);
+}
+
 typedef struct {
     rd_server *srv;
     unsigned char *code;
     size_t code_len;
     char filename[80], assignment[80], student[256];
+    char client[64];        /* who holds the slot */
+    const atomic_int *stop; /* the job's: a hang-up or DELETE ends the sandbox */
     rd_codegrade_result res;
-    int counted;         /* holds one of --max-code-jobs until its sandbox has run */
+    int counted;         /* holds a slot until its sandbox has run */
     unsigned status;     /* of the answer: 200, or 422 when it did not compile */
     char *json;          /* the answer */
-    char id[24];         /* the image's grade, once kept */
+    char id[RD_CAP_MAX]; /* the image's grade, once kept */
     unsigned char *diff; /* its heat map for the record */
     size_t diff_len;
 } code_task;
@@ -177,7 +232,7 @@ static void free_task(void *arg)
     if (!t)
         return;
     if (t->counted)
-        atomic_fetch_sub(&t->srv->codegrades->active, 1);
+        give_slot(t->srv->codegrades, t->client);
     free(t->code);
     free(t->json);
     free(t->diff);
@@ -191,9 +246,11 @@ static rd_error_code prepare_code(void *arg, rd_scene *s, int *render, rd_error 
     code_task *t = arg;
     *render = 0;
     rd_codegrade_input in = {t->assignment, t->filename, (const char *)t->code, t->code_len};
-    rd_error_code rc = rd_codegrade_run(&t->srv->codegrades->cfg, &in, &t->res, err);
+    rd_codegrade_config cfg = t->srv->codegrades->cfg;
+    cfg.cancel = t->stop;
+    rd_error_code rc = rd_codegrade_run(&cfg, &in, &t->res, err);
     /* the job itself stays a while for its status: the slot goes now */
-    atomic_fetch_sub(&t->srv->codegrades->active, 1);
+    give_slot(t->srv->codegrades, t->client);
     t->counted = 0;
     return rc;
 }
@@ -282,12 +339,18 @@ static enum MHD_Result submit(rd_req *r, code_form *f)
     code_task *t = calloc(1, sizeof *t);
     if (!t)
         return rd_reply_error(r, 503, "unavailable", NULL, "out of memory");
-    if (atomic_fetch_add(&c->active, 1) >= r->srv->opt.max_code_jobs) {
-        atomic_fetch_sub(&c->active, 1);
+    snprintf(t->client, sizeof t->client, "%s", r->client);
+    unsigned refused = take_slot(c, t->client);
+    if (refused) {
         free(t);
-        return rd_reply_error_hdr(r, 503, "queue_full",
-                                  "as many code grades as --max-code-jobs are running: try again in a few seconds",
-                                  "Retry-After", "5");
+        return refused == 429 ? rd_reply_error_hdr(r, 429, "too_many_requests",
+                                                   "this client already has --max-code-jobs-per-client code grades "
+                                                   "running: try again once one has ended",
+                                                   "Retry-After", "5")
+                              : rd_reply_error_hdr(r, 503, "queue_full",
+                                                   "as many code grades as --max-code-jobs are running: try again "
+                                                   "in a few seconds",
+                                                   "Retry-After", "5");
     }
     t->srv = r->srv;
     t->counted = 1;
@@ -297,7 +360,7 @@ static enum MHD_Result submit(rd_req *r, code_form *f)
     memcpy(t->filename, f->filename, sizeof t->filename);
     memcpy(t->assignment, f->assignment, sizeof t->assignment);
     memcpy(t->student, f->student, sizeof t->student);
-    rd_jq_task task = {prepare_code, finish_code, free_task, t, t->code_len};
+    rd_jq_task task = {prepare_code, finish_code, free_task, t, t->code_len, &t->stop};
     /* internal: freed with the request, so a grade cancelled before it
      * started gives its slot back at once rather than when a kept job
      * would expire */
@@ -346,10 +409,7 @@ enum MHD_Result rd_route_code_resumed(rd_req *r)
         rd_metrics_code_grade(r->srv, RD_VERDICT_ERROR);
         return rd_reply_error(r, a.http, a.code, &info.error, NULL);
     }
-    if (info.hung_up)
-        return MHD_NO;
-    return rd_reply_error_hdr(r, 503, "cancelled", "the grade was cancelled (the server is shutting down)",
-                              "Retry-After", "5");
+    return rd_reply_cancelled(r, &info, "grade");
 }
 
 static enum MHD_Result skeleton(rd_req *r, const char *material)
@@ -371,7 +431,7 @@ static enum MHD_Result lobe(rd_req *r, const char *id)
     char *copy = NULL;
     pthread_mutex_lock(&c->mu);
     for (size_t i = 0; i < LOBES_KEPT && !copy; i++)
-        if (c->lobes[i].svg && strcmp(c->lobes[i].id, id) == 0)
+        if (c->lobes[i].svg && rd_cap_equal(c->lobes[i].id, id))
             copy = strdup(c->lobes[i].svg);
     pthread_mutex_unlock(&c->mu);
     if (!copy)
@@ -382,13 +442,13 @@ static enum MHD_Result lobe(rd_req *r, const char *id)
 /* rest: "/skeleton/{material}" or "/{id}/lobe.svg" */
 enum MHD_Result rd_route_code_get(rd_req *r, const char *rest)
 {
-    char a[80], b[24];
+    char a[80], b[8];
     if (sscanf(rest, "/skeleton/%63[a-z_]%1s", a, b) == 1)
         return skeleton(r, a);
     size_t n = strlen(rest);
-    if (n > 10 && n < 40 && strcmp(rest + n - 9, "/lobe.svg") == 0) {
+    if (n > 10 && n < 10 + RD_CAP_MAX && strcmp(rest + n - 9, "/lobe.svg") == 0) {
         snprintf(a, sizeof a, "%.*s", (int)(n - 10), rest + 1);
-        if (strspn(a, "g0123456789abcdef") == strlen(a))
+        if (rd_cap_valid(a, 'g'))
             return lobe(r, a);
     }
     return rd_reply_error(r, 404, "not_found", NULL,

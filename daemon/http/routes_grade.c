@@ -11,7 +11,6 @@
 #include "error_map.h"
 #include "file_io.h"
 #include "grading.h"
-#include "hash.h"
 #include "http_internal.h"
 #include "json_text.h"
 #include "metrics.h"
@@ -27,7 +26,7 @@ enum { GRADES_KEPT = 256 };
 enum { FORM_FIELDS = 3, DISCARD_MAX = 1 << 20 };
 
 typedef struct {
-    char id[24];
+    char id[RD_CAP_MAX];
     unsigned char *diff, *reference, *image; /* PNGs */
     size_t diff_len, reference_len, image_len;
     double t;
@@ -42,8 +41,6 @@ struct rd_grades {
     rd_grader grader;
     grade_entry kept[GRADES_KEPT];
     size_t next;
-    uint64_t key;
-    uint64_t counter;
     rd_jq *jobs; /* told of every byte the caches hold */
     size_t kept_bytes, cap;
     /* The records (docs/grading.md): set once the store is open, before the
@@ -100,7 +97,6 @@ struct rd_grades *rd_grades_new(rd_jq *jobs, const rd_server_options *opt)
     g->ttl_ms = opt->grade_ttl_ms;
     g->log = opt->log;
     pthread_mutex_init(&g->mu, NULL);
-    g->key = rd_random_key();
     return g;
 }
 
@@ -168,8 +164,11 @@ static unsigned char *encode(const uint8_t *rgb, int w, int h, size_t *len)
 /* Keeps the images of a finished grade for GET /v1/grades/{id}/...; returns
  * its id and a copy of the diff PNG for the record (NULL when out of
  * memory; the caller frees it). */
-static void keep(struct rd_grades *g, const rd_grade_output *o, char id[24], unsigned char **diff, size_t *diff_len)
+static rd_error_code keep(struct rd_grades *g, const rd_grade_output *o, char id[RD_CAP_MAX], unsigned char **diff,
+                          size_t *diff_len, rd_error *err)
 {
+    if (rd_cap_new(id, 'g', err))
+        return err ? err->code : RD_ERR_IO;
     size_t n = (size_t)o->width * (size_t)o->height * 3;
     uint8_t *heat = malloc(n);
     grade_entry e;
@@ -186,8 +185,8 @@ static void keep(struct rd_grades *g, const rd_grade_output *o, char id[24], uns
     if (*diff)
         memcpy(*diff, e.diff, e.diff_len);
     e.t = rd_now_ms();
+    memcpy(e.id, id, sizeof e.id);
     pthread_mutex_lock(&g->mu);
-    snprintf(e.id, sizeof e.id, "g%016llx", (unsigned long long)rd_mix64(g->key ^ ++g->counter));
     grade_entry *slot = &g->kept[g->next++ % GRADES_KEPT];
     drop_kept(g, slot);
     *slot = e;
@@ -195,7 +194,7 @@ static void keep(struct rd_grades *g, const rd_grade_output *o, char id[24], uns
     rd_jq_external_bytes(g->jobs, (long long)entry_bytes(&e));
     fit(g);
     pthread_mutex_unlock(&g->mu);
-    memcpy(id, e.id, sizeof e.id);
+    return RD_OK;
 }
 
 static void free_form(rd_req *r)
@@ -346,7 +345,7 @@ static rd_error_code finish_grade(void *arg, const uint8_t *rgb, int w, int h, r
     }
     if (rd_grade_finish(o))
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory comparing the images");
-    char id[24];
+    char id[RD_CAP_MAX];
     return rd_grades_one(t->srv, o, t->student, NULL, id, &t->json, err);
 }
 
@@ -383,12 +382,14 @@ void rd_grades_record(rd_server *srv, const rd_grade_output *o, const char *id, 
         rd_store_grades_expire(s, (int64_t)g->ttl_ms, NULL, &err);
 }
 
-rd_error_code rd_grades_keep(rd_server *srv, const rd_grade_output *o, const char *student, char id[24], char **verdict,
-                             unsigned char **diff, size_t *diff_len, rd_error *err)
+rd_error_code rd_grades_keep(rd_server *srv, const rd_grade_output *o, const char *student, char id[RD_CAP_MAX],
+                             char **verdict, unsigned char **diff, size_t *diff_len, rd_error *err)
 {
     *diff = NULL;
     *diff_len = 0;
-    keep(srv->grades, o, id, diff, diff_len);
+    *verdict = NULL;
+    if (keep(srv->grades, o, id, diff, diff_len, err))
+        return err ? err->code : RD_ERR_IO;
     *verdict = verdict_json(o, id, student);
     if (*verdict)
         return RD_OK;
@@ -398,7 +399,7 @@ rd_error_code rd_grades_keep(rd_server *srv, const rd_grade_output *o, const cha
 }
 
 rd_error_code rd_grades_one(rd_server *srv, const rd_grade_output *o, const char *student, const char *batch_id,
-                            char id[24], char **verdict, rd_error *err)
+                            char id[RD_CAP_MAX], char **verdict, rd_error *err)
 {
     unsigned char *diff;
     size_t diff_len;
@@ -410,13 +411,15 @@ rd_error_code rd_grades_one(rd_server *srv, const rd_grade_output *o, const char
 }
 
 void rd_grades_error_record(rd_server *srv, const char *assignment, const char *student, const char *batch_id,
-                            const char *message, char id[24])
+                            const char *message, char id[RD_CAP_MAX])
 {
     struct rd_grades *g = srv->grades;
-    pthread_mutex_lock(&g->mu);
-    snprintf(id, 24, "g%016llx", (unsigned long long)rd_mix64(g->key ^ ++g->counter));
-    pthread_mutex_unlock(&g->mu);
+    rd_error made = {0};
     rd_store *s = atomic_load(&g->store);
+    if (rd_cap_new(id, 'g', &made)) {
+        rd_log_msg(g->log, "warning", "a grade of %s was not recorded: %s", student, made.message);
+        return;
+    }
     if (!s)
         return;
     rd_store_grade rec = {.id = id,
@@ -470,7 +473,7 @@ enum MHD_Result rd_route_grade(rd_req *r, const char *rest)
     memcpy(t->assignment, g->assignment, sizeof t->assignment);
     memcpy(t->student, g->student, sizeof t->student);
     g->image = g->scene = NULL;
-    rd_jq_task task = {prepare_grade, finish_grade, free_grade, t, t->image_len + t->scene_len};
+    rd_jq_task task = {prepare_grade, finish_grade, free_grade, t, t->image_len + t->scene_len, NULL};
     rd_jq_submit_options so = {0};
     return rd_req_submit(r, &task, &so);
 }
@@ -493,10 +496,7 @@ enum MHD_Result rd_route_grade_resumed(rd_req *r)
         rd_metrics_grade(r->srv, RD_VERDICT_ERROR);
         return rd_reply_error(r, a.http, a.code, &info.error, NULL);
     }
-    if (info.hung_up)
-        return MHD_NO;
-    return rd_reply_error_hdr(r, 503, "cancelled", "the grade was cancelled (the server is shutting down)",
-                              "Retry-After", "5");
+    return rd_reply_cancelled(r, &info, "grade");
 }
 
 /* GET /v1/grades/{id}: the record's verdict, for whoever has the id. */
@@ -545,11 +545,11 @@ enum MHD_Result rd_route_grade_files(rd_req *r, const char *path)
     const char *rest = path + 1;
     /* rest: "{id}", "{id}/diff.png", "{id}/reference.png" or "{id}/image.png" */
     const char *slash = strchr(rest, '/');
-    if (!slash && strlen(rest) < 24)
+    if (!slash && rd_cap_valid(rest, 'g'))
         return stored_verdict(r, rest);
-    if (!slash || slash - rest >= 24)
+    if (!slash || slash - rest >= RD_CAP_MAX)
         return rd_reply_error(r, 404, "not_found", NULL, "no such grade");
-    char id[24];
+    char id[RD_CAP_MAX];
     memcpy(id, rest, (size_t)(slash - rest));
     id[slash - rest] = 0;
     const char *what = slash + 1;
@@ -559,7 +559,7 @@ enum MHD_Result rd_route_grade_files(rd_req *r, const char *path)
     pthread_mutex_lock(&g->mu);
     for (int i = 0; i < GRADES_KEPT; i++) {
         grade_entry *e = &g->kept[i];
-        if (!e->id[0] || strcmp(e->id, id) != 0)
+        if (!e->id[0] || !rd_cap_equal(e->id, id))
             continue;
         const unsigned char *src = strcmp(what, "diff.png") == 0        ? e->diff
                                    : strcmp(what, "reference.png") == 0 ? e->reference

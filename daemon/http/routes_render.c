@@ -192,7 +192,7 @@ static enum MHD_Result render(rd_req *r, int async)
         return rd_reply_error_hdr(r, 503, "starting", "the server is starting", "Retry-After", "1");
     }
     so.internal = async;
-    rd_jq_task task = {prepare_render, NULL, free_render, t, t->len};
+    rd_jq_task task = {prepare_render, NULL, free_render, t, t->len, NULL};
     r->async = async;
     return rd_req_submit(r, &task, &so);
 }
@@ -231,10 +231,7 @@ static enum MHD_Result reply_ended(rd_req *r, const rd_jq_info *info)
             return rd_reply_error(r, 422, "time_limit", &info->error, NULL);
         return rd_reply_error(r, rd_error_answer_for(c).http, rd_error_answer_for(c).code, &info->error, NULL);
     }
-    if (info->hung_up)
-        return MHD_NO; /* nobody to answer: close, and the log says so */
-    return rd_reply_error_hdr(r, 503, "cancelled", "the render was cancelled (the server is shutting down)",
-                              "Retry-After", "5");
+    return rd_reply_cancelled(r, info, "render");
 }
 
 enum MHD_Result rd_route_render_resumed(rd_req *r)
@@ -321,7 +318,7 @@ static enum MHD_Result submit_partial(rd_req *r, rd_jq_job *job, const char *id)
         t->farm = rd_server_farm(srv);
         snprintf(t->id, sizeof t->id, "%s", id);
     }
-    rd_jq_task task = {prepare_partial, NULL, free_partial, t, 0};
+    rd_jq_task task = {prepare_partial, NULL, free_partial, t, 0, NULL};
     rd_jq_submit_options so = {.watch_fd = rd_req_socket(r),
                                .watch_http11 = r->http11,
                                .done = rd_req_on_done,
@@ -353,9 +350,7 @@ enum MHD_Result rd_route_job_image_resumed(rd_req *r)
         return rd_reply_store_error(r, &info.error);
     if (info.status == RD_JQ_FAILED)
         return rd_reply_error(r, 409, "not_ready", &info.error, NULL);
-    if (info.hung_up)
-        return MHD_NO;
-    return rd_reply_error_hdr(r, 503, "cancelled", "the server is shutting down", "Retry-After", "5");
+    return rd_reply_cancelled(r, &info, "render");
 }
 
 enum MHD_Result rd_route_render_sync(rd_req *r, const char *rest)
@@ -451,8 +446,7 @@ static enum MHD_Result stored_job(rd_req *r, const char *id, const char *rest)
     rd_farm *farm = rd_server_farm(srv);
     if (!farm)
         return rd_reply_error_hdr(r, 503, "starting", "the server is starting", "Retry-After", "1");
-    /* Ids are 16 hex digits (farm.h): anything else was never one. */
-    if (strlen(id) != 16 || strspn(id, "0123456789abcdef") != 16)
+    if (!rd_cap_valid(id, 0))
         return rd_reply_error(r, 404, "not_found", NULL, no_job);
     snprintf(r->job_id, sizeof r->job_id, "%s", id);
     if (strcmp(rest, "/image") == 0)
@@ -470,7 +464,7 @@ static enum MHD_Result stored_job(rd_req *r, const char *id, const char *rest)
 /* rest: "/{id}" or "/{id}/image". */
 enum MHD_Result rd_route_job(rd_req *r, const char *path)
 {
-    char id[24];
+    char id[RD_CAP_MAX];
     const char *slash = strchr(path + 1, '/');
     size_t n = slash ? (size_t)(slash - path - 1) : strlen(path + 1);
     if (n >= sizeof id)

@@ -46,14 +46,15 @@ typedef struct {
     size_t max_batch_bytes;        /* a batch's form (or archive) */
     size_t max_batch_expanded;     /* what an archive decompresses to */
     /* Grading code (docs/grading.md, "Grading code"). */
-    const char *bwrap;      /* bubblewrap */
-    const char *course_dir; /* the course's headers and adapter */
-    const char *code_eval;  /* rayd-eval */
-    size_t max_code_bytes;  /* an uploaded file */
-    int max_code_jobs;      /* code grades at once; more get 503 */
-    double code_compile_ms; /* the compiler's time */
-    double code_run_ms;     /* the calls' time */
-    unsigned sandbox_uid;   /* the sandbox's uid and gid when rayd runs as root */
+    const char *bwrap;            /* bubblewrap */
+    const char *course_dir;       /* the course's headers and adapter */
+    const char *code_eval;        /* rayd-eval */
+    size_t max_code_bytes;        /* an uploaded file */
+    int max_code_jobs;            /* code grades at once; more get 503 */
+    int max_code_jobs_per_client; /* of them, one client's at once; more get 429 */
+    double code_compile_ms;       /* the compiler's time */
+    double code_run_ms;           /* the calls' time */
+    unsigned sandbox_uid;         /* the sandbox's uid and gid when rayd runs as root */
 } rd_server_options;
 
 /* A resolved listening address. */

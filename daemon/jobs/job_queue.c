@@ -12,7 +12,6 @@
 #include <sys/socket.h>
 #include <time.h>
 
-#include "hash.h"
 #include "hdr_write.h"
 #include "rayd/clock.h"
 #include "rayd/job.h"
@@ -44,7 +43,7 @@ struct jq_list {
 struct rd_jq_job {
     rd_jq *q;
     int refs;
-    char id[24];
+    char id[RD_CAP_MAX];
     rd_jq_status status;
     phase ph;
     rd_jq_task task;
@@ -59,6 +58,7 @@ struct rd_jq_job {
     int cancel;        /* asked to stop */
     int timed_out;
     int hung_up;     /* cancelled because its client went away */
+    int requested;   /* cancelled by rd_jq_cancel */
     atomic_int stop; /* cancel as the tracer sees it */
     int watch_fd, watch_http11, probe_sent;
     rd_jq_done_fn done;
@@ -102,7 +102,6 @@ struct rd_jq {
     size_t active_count, running_count, result_bytes, reserved;
     atomic_llong external;
     atomic_int external_jobs;
-    uint64_t counter, key;
     uint64_t n_done, n_failed, n_cancelled, rays;
     rd_hist render, wait;
 };
@@ -803,7 +802,6 @@ rd_jq *rd_jq_start(const rd_jq_options *opt, rd_error *err)
     pthread_cond_init(&q->work_cv, NULL);
     pthread_cond_init(&q->idle_cv, NULL);
     pthread_cond_init(&q->watch_cv, NULL);
-    q->key = rd_random_key();
     q->threads = calloc((size_t)q->opt.workers + 1, sizeof *q->threads);
     if (!q->threads) {
         free(q);
@@ -869,6 +867,8 @@ rd_error_code rd_jq_submit(rd_jq *q, const rd_jq_task *task, const rd_jq_submit_
     }
     j->q = q;
     j->task = *task;
+    if (task->stop)
+        *task->stop = &j->stop;
     rd_scene_init(&j->scene);
     if (so) {
         j->progress = so->progress;
@@ -885,19 +885,21 @@ rd_error_code rd_jq_submit(rd_jq *q, const rd_jq_task *task, const rd_jq_submit_
     }
     j->sync = j->was_sync = j->done != NULL && !j->notify_prepared;
     j->t_submit = rd_now_ms();
+    rd_error_code made = rd_cap_new(j->id, 0, err);
+    j->idnum = rd_cap_bucket(j->id);
     pthread_mutex_lock(&q->mu);
     sweep(q);
     int ext = atomic_load(&q->external_jobs);
-    if (q->stopping || q->active_count + (size_t)(ext > 0 ? ext : 0) >= q->opt.queue_length) {
+    int full = q->stopping || q->active_count + (size_t)(ext > 0 ? ext : 0) >= q->opt.queue_length;
+    if (made || full) {
         if (j->hold)
             unref_locked(j->hold);
         pthread_mutex_unlock(&q->mu);
         job_free(j);
-        return rd_error_set(err, RD_ERR_BUSY, 0, 0, "the render queue is full (%zu jobs, --queue)",
-                            q->opt.queue_length);
+        return made ? made
+                    : rd_error_set(err, RD_ERR_BUSY, 0, 0, "the render queue is full (%zu jobs, --queue)",
+                                   q->opt.queue_length);
     }
-    j->idnum = rd_mix64(q->key ^ ++q->counter);
-    snprintf(j->id, sizeof j->id, "%016llx", (unsigned long long)j->idnum);
     j->refs = j->internal ? 1 : 2; /* the registry's and the caller's */
     j->status = RD_JQ_QUEUED;
     j->ph = PH_NEW;
@@ -948,7 +950,7 @@ rd_error_code rd_jq_submit_scene(rd_jq *q, rd_scene *scene, const rd_jq_submit_o
     }
     *copy = *scene;
     rd_scene_init(scene);
-    rd_jq_task t = {take_scene, NULL, free_scene, copy, rd_scene_bytes(copy)};
+    rd_jq_task t = {take_scene, NULL, free_scene, copy, rd_scene_bytes(copy), NULL};
     return rd_jq_submit(q, &t, so, out, err);
 }
 
@@ -957,10 +959,8 @@ rd_jq_job *rd_jq_find(rd_jq *q, const char *id)
     pthread_mutex_lock(&q->mu);
     sweep(q);
     rd_jq_job *found = NULL;
-    char *end;
-    uint64_t idnum = strtoull(id, &end, 16);
-    for (rd_jq_job *j = *bucket(q, idnum); j && *end == 0; j = j->next_hash)
-        if (strcmp(j->id, id) == 0) {
+    for (rd_jq_job *j = rd_cap_valid(id, 0) ? *bucket(q, rd_cap_bucket(id)) : NULL; j; j = j->next_hash)
+        if (rd_cap_equal(j->id, id)) {
             found = j;
             j->refs++;
             break;
@@ -984,8 +984,10 @@ int rd_jq_cancel(rd_jq *q, rd_jq_job *j)
 {
     pthread_mutex_lock(&q->mu);
     int live = j->active;
-    if (live && !j->cancel)
+    if (live && !j->cancel) {
+        j->requested = 1;
         cancel_locked(q, j);
+    }
     pthread_mutex_unlock(&q->mu);
     return live;
 }
@@ -1033,6 +1035,7 @@ void rd_jq_info_get(rd_jq *q, rd_jq_job *j, rd_jq_info *out)
     out->width = j->width;
     out->height = j->height;
     out->hung_up = j->hung_up;
+    out->requested = j->requested;
     out->prepared = j->ph >= PH_WAITING;
     out->hdr = j->hdr;
     pthread_mutex_unlock(&q->mu);

@@ -25,6 +25,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "capability.h"
 #include "histogram.h"
 #include "png_write.h"
 #include "rayd/error.h"
@@ -64,6 +65,11 @@ typedef struct {
     void (*free)(void *arg); /* releases arg when the job is freed, with the queue locked: it must not call the queue */
     void *arg;
     size_t input_bytes; /* what arg holds until prepared: counted against the budget */
+    /* Optional: at submission the queue stores here the address of the
+     * job's stop flag (non-zero once it is cancelled, by a DELETE, a
+     * hang-up, its time limit or a stop), for work inside prepare that
+     * must end with the job (a sandbox). Valid while arg is. */
+    const atomic_int **stop;
 } rd_jq_task;
 
 /* Called by a render thread when a job ends (done, failed or cancelled),
@@ -118,7 +124,7 @@ int rd_jq_cancel(rd_jq *q, rd_jq_job *j);
 
 /* A consistent copy of what a client may ask about a job. */
 typedef struct {
-    char id[24];
+    char id[RD_CAP_MAX];
     rd_jq_status status;
     double progress;   /* 0..1, tiles done over tiles */
     double elapsed_ms; /* since it started (0 while queued) */
@@ -129,8 +135,9 @@ typedef struct {
     rd_error error;    /* when failed */
     int width, height; /* 0 until prepared */
     rd_stop_reason stopped_by;
-    int hung_up;  /* cancelled because its client went away */
-    int prepared; /* prepared (or failed or ended) */
+    int hung_up;   /* cancelled because its client went away */
+    int requested; /* cancelled by rd_jq_cancel (a DELETE), not by a stop */
+    int prepared;  /* prepared (or failed or ended) */
     int passes;
     rd_curve_point curve[RD_CURVE_MAX];
     int curve_len;

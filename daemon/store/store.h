@@ -356,7 +356,7 @@ rd_error_code rd_store_wait(rd_store *s, int timeout_ms, rd_store_event *ev, rd_
  * to); rd_store_grade_get and rd_store_grades_list fill it with malloc'ed
  * copies, freed with rd_store_grade_free (NULL pointers for NULL values). */
 typedef struct {
-    const char *id;         /* the caller's unguessable id (16 hex digits), as a job id */
+    const char *id;         /* the caller's unguessable id (api/util/capability.h) */
     const char *batch_id;   /* NULL: a grade of its own */
     const char *assignment; /* 1 to RD_STORE_NAME_MAX - 1 bytes of UTF-8 */
     const char *student;    /* 0 to RD_STORE_NAME_MAX - 1 bytes of UTF-8, "" when unknown (NULL is "") */

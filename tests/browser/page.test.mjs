@@ -582,7 +582,7 @@ test("(g) a long render shows its progress, each pass's image and the error curv
     const resp = await posted;
     assert.equal(resp.status(), 202, "the render is a job");
     const id = (await resp.json()).id;
-    assert.match(id, /^[0-9a-f]{16}$/);
+    assert.match(id, /^[0-9a-f]{32}$/);
     assert.match(resp.url(), /[?&]time_budget_ms=/, "asked for passes");
     await page.locator("#render-progress").waitFor({ state: "visible" });
     assert.equal(await text(page, "#render-msg"), "Rendering…");

@@ -329,6 +329,51 @@ def busy(tmp):
               "rayd_code_grades_total counts the pass")
 
 
+def raw_post(port, path, body, headers):
+    """A POST on a socket of its own, left open: the caller hangs up."""
+    sock = socket.create_connection(("127.0.0.1", port), timeout=30)
+    head = "POST %s HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: %d\r\n" % (path, len(body))
+    head += "".join("%s: %s\r\n" % kv for kv in headers.items())
+    sock.sendall(head.encode() + b"\r\n" + body)
+    return sock
+
+
+def per_client(tmp):
+    """One client cannot hold every slot, and a hang-up gives its slot back
+    within a second. Two clients behind a trusted proxy, named by
+    X-Forwarded-For."""
+    flags = ["--max-code-jobs", "2", "--code-run-seconds", "20", "--trust-proxy", "127.0.0.1"]
+    a, b = {"X-Forwarded-For": "10.0.0.1"}, {"X-Forwarded-For": "10.0.0.2"}
+    loop, ok = read(HOSTILE + "/loop.h"), read(STUDENTS + "/phong_ok.h")
+    bad = b"this is not C++"
+
+    def post(text, who, timeout=180):
+        body, ct = form_parts([("assignment", None, b"phong"), ("source", "PhongMaterial.h", text)])
+        st, h, _ = d.request("POST", "/v1/grade/code", body=body, headers=dict(who, **{"Content-Type": ct}),
+                             timeout=timeout)
+        return st, h
+
+    with Daemon(tmp, flags) as d:
+        body, ct = form_parts([("assignment", None, b"phong"), ("source", "PhongMaterial.h", loop)])
+        hog = raw_post(d.port, "/v1/grade/code", body, dict(a, **{"Content-Type": ct}))
+        time.sleep(1.5)  # compiling or looping now
+        st, h = post(ok, a)
+        check(st == 429 and h.get("retry-after"), "a client's second code grade is 429 with Retry-After (%d)" % st)
+        st, _ = post(ok, b)
+        check(st == 200, "another client still gets the other slot (%d)" % st)
+        hog.close()
+        t0 = time.time()
+        st = 429
+        while st == 429 and time.time() - t0 < 30:
+            st, _ = post(bad, a)
+            if st == 429:
+                time.sleep(0.05)
+        freed = time.time() - t0
+        check(st == 422, "after hanging up the client grades again (%d)" % st)
+        check(freed < 1.0, "a hang-up gave the slot back in %.2f s (at most 1 s)" % freed)
+        print("code grade: a hang-up freed its slot in %.0f ms" % (freed * 1e3))
+
+
 def no_sandbox(tmp):
     with Daemon(tmp, ["--bwrap", "/nonexistent/bwrap"]) as d:
         st, h, v = post_code(d, "phong", "PhongMaterial.h", read(STUDENTS + "/phong_ok.h"))
@@ -363,6 +408,7 @@ def main():
             bad_uploads(d)
             hostile(d)
         busy(tmp)
+        per_client(tmp)
         no_sandbox(tmp)
     times.sort()
     print("code grade: CLI %.0f ms (with the reference rendered); HTTP median %.0f ms, max %.0f ms over %d files" %

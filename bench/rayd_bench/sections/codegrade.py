@@ -101,7 +101,8 @@ def two_at_once(ctx, server, count):
 
 def run(ctx):
     count = (1 if ctx.quick else 5) * ctx.runs
-    cmd = measure.rayd_serve_cmd(ctx.rayd, "--threads", "2", "--max-code-jobs", "2")
+    # two clients on one address: each its own slot
+    cmd = measure.rayd_serve_cmd(ctx.rayd, "--threads", "2", "--max-code-jobs", "2", "--max-code-jobs-per-client", "2")
     print("  one at a time, %d grades each ..." % count, flush=True)
     with measure.Server(cmd, ctx.path("codegrade.log")) as s:
         alone = one_at_a_time(ctx, s, count)

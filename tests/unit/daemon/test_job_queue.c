@@ -97,7 +97,7 @@ Test(job_queue, eviction_drops_the_oldest_finished)
     rd_error err;
     rd_jq *q = rd_jq_start(&o, &err);
     cr_assert_not_null(q);
-    char ids[6][24];
+    char ids[6][RD_CAP_MAX];
     for (int i = 0; i < 6; i++) {
         rd_jq_job *j = submit(q, small_scene, NULL, RD_OK);
         wait_status(q, j, RD_JQ_DONE, WAIT_MS);
@@ -162,7 +162,7 @@ Test(job_queue, many_jobs_keep_exactly_the_newest)
     rd_error err;
     rd_jq *q = rd_jq_start(&o, &err);
     cr_assert_not_null(q);
-    static char ids[N][24];
+    static char ids[N][RD_CAP_MAX];
     for (int i = 0; i < N; i++) {
         rd_jq_job *j = submit(q, small_scene, NULL, RD_OK);
         wait_status(q, j, RD_JQ_DONE, WAIT_MS);
@@ -358,9 +358,17 @@ Test(job_queue, cancel_stops_a_runaway_render_inside_a_pixel)
     double ms = wait_status(q, a, RD_JQ_CANCELLED, 5000);
     cr_log_info("cancelled within %.1f ms", ms);
     cr_assert_eq(status_of(q, b), RD_JQ_RUNNING, "cancelling one job stopped the other");
+    rd_jq_info info;
+    rd_jq_info_get(q, a, &info);
+    cr_assert(info.requested, "a cancel on request says so (its client answers 409, not 503)");
+    cr_assert(rd_cap_valid(info.id, 0), "a job's id is a capability: %s", info.id);
+    rd_jq_cancel_all(q);
+    wait_status(q, b, RD_JQ_CANCELLED, 5000);
+    rd_jq_info_get(q, b, &info);
+    cr_assert_not(info.requested, "a stop's cancel is not a request's (its client answers 503)");
     rd_jq_job_unref(a);
     rd_jq_job_unref(b);
-    /* Stopping the queue cancels b and joins both threads. */
+    /* Stopping the queue joins both threads. */
     double t0 = rd_now_ms();
     rd_jq_stop(q);
     cr_assert_lt(rd_now_ms() - t0, 5000, "rd_jq_stop waited for a runaway render");
@@ -415,7 +423,7 @@ Test(job_queue, internal_work_is_neither_listed_nor_counted)
     rd_error err;
     rd_jq *q = rd_jq_start(&o, &err);
     static atomic_int ran;
-    rd_jq_task t = {no_render, NULL, NULL, &ran, 0};
+    rd_jq_task t = {no_render, NULL, NULL, &ran, 0, NULL};
     rd_jq_submit_options so = {.watch_fd = -1, .internal = 1};
     rd_jq_job *j;
     cr_assert_eq(rd_jq_submit(q, &t, &so, &j, &err), RD_OK);
@@ -450,7 +458,7 @@ Test(job_queue, preparing_does_not_wait_for_busy_render_threads)
     rd_jq_job *b = submit(q, runaway_scene, NULL, RD_OK);
     wait_status(q, a, RD_JQ_RUNNING, WAIT_MS);
     wait_status(q, b, RD_JQ_RUNNING, WAIT_MS);
-    rd_jq_task t = {bad_scene, NULL, NULL, NULL, 0};
+    rd_jq_task t = {bad_scene, NULL, NULL, NULL, 0, NULL};
     rd_jq_submit_options so = {.watch_fd = -1};
     rd_jq_job *c;
     cr_assert_eq(rd_jq_submit(q, &t, &so, &c, &err), RD_OK);
