@@ -452,7 +452,8 @@ static rd_error_code submit_slices(grade_batch *b, rd_error *err)
         b->refs++;
         pthread_mutex_unlock(&b->mu);
         rd_jq_task task = {grade_slice, NULL, free_batch_task, t, 0, NULL};
-        rd_jq_submit_options so = {.watch_fd = -1}; /* registered: the queue holds it until it ends */
+        /* registered: the queue holds it until it ends */
+        rd_jq_submit_options so = {.watch_fd = -1, .renders_nothing = 1};
         rd_jq_job *job;
         rd_error_code rc = rd_jq_submit(srv->jobs, &task, &so, &job, err);
         if (rc)

@@ -324,6 +324,7 @@ static enum MHD_Result submit_partial(rd_req *r, rd_jq_job *job, const char *id)
                                .done = rd_req_on_done,
                                .user = r,
                                .internal = 1,
+                               .renders_nothing = 1,
                                .hold = job};
     rd_jq_job *snap;
     rd_error err = {0};

@@ -65,6 +65,7 @@ struct rd_jq_job {
     void *user;
     int notify_prepared;
     int internal;
+    int renders_nothing;
     rd_jq_job *hold;
     double t_submit, t_start, t_end;
     rd_job_counts counts;
@@ -674,6 +675,16 @@ static void render_tile(rd_jq *q, rd_jq_job *j)
 
 static int busy(const rd_jq_job *j) { return j->ph == PH_PREPARING || j->ph == PH_STARTING || j->ph == PH_FINISHING; }
 
+/* A job holds its place from submission: until it is prepared its memory
+ * is unknown, so under a budget no younger job may start ahead of it
+ * (else a younger one whose preparation ended first could take the room
+ * and leave it waiting, behind a runaway, for ever). Preparations that
+ * render nothing hold no place. */
+static int holds_unknown_place(const rd_jq_job *j)
+{
+    return (j->ph == PH_NEW || j->ph == PH_PREPARING) && !j->cancel && !j->renders_nothing;
+}
+
 /* May this prepared job start now? The oldest waiting job that does not fit
  * holds its place: younger ones start only if they fit beside it, so a
  * stream of small jobs cannot starve a large one. When nothing runs, the
@@ -704,9 +715,13 @@ static rd_jq_job *pick(rd_jq *q, int preparer)
 {
     rd_jq_job *tile_job = NULL;
     size_t held_back = 0;
+    int older_unknown = 0; /* an older job holds a place of unknown size */
     for (rd_jq_job *j = q->active_head; j; j = j->next_active) {
-        if (busy(j))
+        int unknown = q->opt.memory_budget && holds_unknown_place(j);
+        if (busy(j)) {
+            older_unknown |= unknown;
             continue;
+        }
         if (preparer) {
             /* Work that renders nothing: a new job's preparation, a cancelled
              * job's end, a grade whose reference was cached. */
@@ -722,8 +737,9 @@ static rd_jq_job *pick(rd_jq *q, int preparer)
         }
         if (j->ph == PH_NEW)
             return j;
-        if (j->ph == PH_WAITING && admit(q, j, &held_back))
+        if (j->ph == PH_WAITING && (!j->render || !older_unknown) && admit(q, j, &held_back))
             return j;
+        older_unknown |= unknown;
         /* Fair share: the next tile goes to the job that has been given
          * the fewest so far, the oldest on a tie. */
         if (j->ph == PH_RUNNING && j->next_tile < j->tiles_total &&
@@ -878,6 +894,7 @@ rd_error_code rd_jq_submit(rd_jq *q, const rd_jq_task *task, const rd_jq_submit_
         j->user = so->user;
         j->notify_prepared = so->notify_prepared;
         j->internal = so->internal;
+        j->renders_nothing = so->renders_nothing;
         j->hold = so->hold;
         j->hdr = so->hdr;
     } else {

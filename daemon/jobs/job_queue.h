@@ -87,6 +87,10 @@ typedef struct {
     int internal;        /* work for a request, not a job of its own: no id to find, not in the metrics */
     rd_jq_job *hold;     /* a reference the job takes over and drops when it is freed; may be NULL */
     int hdr;             /* also keep the linear image as an EXR beside the PNG (a task without finish) */
+    /* The task's prepare does all its work and always sets *render = 0 (a
+     * code grade's sandbox, a batch's slice): it needs no render memory,
+     * so it holds no place in the order of starts while it is prepared. */
+    int renders_nothing;
 } rd_jq_submit_options;
 
 rd_jq *rd_jq_start(const rd_jq_options *opt, rd_error *err);
