@@ -871,9 +871,10 @@ void rd_server_stop(rd_server *s, double drain_ms)
     for (double t0 = rd_now_ms(); atomic_load(&s->waiting) > 0 && rd_now_ms() - t0 < ANSWERS_SENT_MS;)
         usleep(10000);
     atomic_store(&s->stopped, 1);
-    MHD_socket fd = MHD_quiesce_daemon(s->mhd);
-    if (fd != MHD_INVALID_SOCKET)
-        close(fd);
+    /* No MHD_quiesce_daemon first: with epoll and a thread pool it races
+     * the pool's threads for the listening socket and aborts the process
+     * (libmicrohttpd 0.9.75, "Failed to remove listen FD from epoll set").
+     * MHD_stop_daemon closes that socket itself. */
     MHD_stop_daemon(s->mhd);
     /* Job references held by requests are gone; the queue can go. */
     free_server(s);

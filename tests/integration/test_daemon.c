@@ -18,11 +18,16 @@
  * with samples=64 it takes tens of seconds, long enough to observe a job
  * running, read a partial image, cancel it, fill the queue or outlast a
  * timeout. Small work is scenes/phong.cfg at 8x8 pixels. */
+#include <arpa/inet.h>
 #include <criterion/criterion.h>
+#include <netinet/in.h>
+#include <pthread.h>
 #include <signal.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -835,6 +840,72 @@ Test(daemon, sigterm_with_drain_0_answers_503_and_exits)
     char ra[64];
     cr_assert(header(&b.r, "Retry-After", ra, sizeof ra), "503 without Retry-After");
     resp_free(&b.r);
+    free(cfg);
+}
+
+/* Connects and hangs up as fast as it can until *stop: every accept
+ * wakes the daemon's listening threads. */
+typedef struct {
+    int port;
+    atomic_int stop;
+    pthread_t th;
+} knocker;
+
+static void *knock(void *arg)
+{
+    knocker *k = arg;
+    struct sockaddr_in a = {.sin_family = AF_INET, .sin_port = htons((uint16_t)k->port)};
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    while (!atomic_load(&k->stop)) {
+        int fd = socket(AF_INET, SOCK_STREAM, 0);
+        if (fd < 0)
+            break;
+        if (connect(fd, (struct sockaddr *)&a, sizeof a) != 0)
+            sleep_ms(1);
+        close(fd);
+    }
+    return NULL;
+}
+
+/* SIGTERM exits 0 whatever is in flight: 50 times a daemon is started,
+ * given renders and connections, and stopped at once (libmicrohttpd's
+ * quiesce raced its own threads for the listening socket and aborted
+ * the process, now and then, under load). */
+Test(daemon, sigterm_under_load_exits_0_every_time, .timeout = 600)
+{
+    size_t len;
+    char *cfg = scene_text("scenes/phong.cfg", &len);
+    enum { CYCLES = 50, LOAD = 6 };
+    for (int c = 0; c < CYCLES; c++) {
+        server *s = start_server("--drain-ms", "100", "--max-connections", "4", "--http-threads", "8");
+        bg_req b[LOAD];
+        for (int i = 0; i < LOAD; i++)
+            bg_start(&b[i], s->port, "/v1/render?width=64&height=64", cfg, len, 30000);
+        knocker k[2];
+        for (int i = 0; i < 2; i++) {
+            k[i].port = s->port;
+            atomic_init(&k[i].stop, 0);
+            pthread_create(&k[i].th, NULL, knock, &k[i]);
+        }
+        sleep_ms(c % 5 * 5);
+        double secs;
+        int st = stop_server(s, 20, &secs);
+        for (int i = 0; i < 2; i++) {
+            atomic_store(&k[i].stop, 1);
+            pthread_join(k[i].th, NULL);
+        }
+        if (st == -1 || !WIFEXITED(st) || WEXITSTATUS(st) != 0) {
+            char why[160];
+            snprintf(why, sizeof why, "cycle %d of %d: SIGTERM under load gave wait status %d, not exit 0", c + 1,
+                     CYCLES, st);
+            die_with_log(s, why);
+        }
+        for (int i = 0; i < LOAD; i++) {
+            cr_assert(bg_join(&b[i], 30), "cycle %d: a client got no end at all", c + 1);
+            resp_free(&b[i].r);
+        }
+        forget_last_server();
+    }
     free(cfg);
 }
 

@@ -208,10 +208,11 @@ void setup(void)
     curl_global_init(CURL_GLOBAL_DEFAULT);
 }
 
-void teardown(void)
+/* Stops a server still running (SIGTERM, then SIGKILL) and removes its
+ * files. */
+static void clean_server(server *s)
 {
-    for (int i = 0; i < g_nservers; i++) {
-        server *s = &g_servers[i];
+    {
         if (s->pid > 0) {
             int st, reaped = 0;
             kill(s->pid, SIGTERM);
@@ -233,6 +234,18 @@ void teardown(void)
         unlink(s->log_file);
         rmdir(s->dir);
     }
+}
+
+void forget_last_server(void)
+{
+    cr_assert_gt(g_nservers, 0);
+    clean_server(&g_servers[--g_nservers]);
+}
+
+void teardown(void)
+{
+    for (int i = 0; i < g_nservers; i++)
+        clean_server(&g_servers[i]);
     g_nservers = 0;
     curl_global_cleanup();
 }

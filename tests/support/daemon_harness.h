@@ -90,6 +90,10 @@ int stop_server(server *s, double timeout_s, double *secs);
 
 void assert_clean_exit(server *s, double timeout_s);
 
+/* Removes the newest server's files (stopping it first if it still runs)
+ * and gives its slot back: a test may start many servers in turn. */
+void forget_last_server(void);
+
 void setup(void);
 
 void teardown(void);
