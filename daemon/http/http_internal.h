@@ -14,6 +14,8 @@
 #include "rayd/error.h"
 #include "server.h"
 
+enum { RD_LINGER_MAX = 64, RD_LINGER_MS = 2000 };
+
 struct rd_server {
     rd_server_options opt;
     struct MHD_Daemon *mhd;
@@ -36,9 +38,18 @@ struct rd_server {
     pthread_t reaper;
     int reaper_on, reaper_stop;
     atomic_ullong deadline_closed; /* connections closed by a header or body deadline */
-    atomic_ullong raw_refused;     /* requests refused before libmicrohttpd parsed them */
-    struct rd_access *access;      /* request ids, clients, the access log (access.h) */
-    atomic_int ready;              /* the start-up checks passed and it listens */
+    /* Sockets answered before their body was read (an early 413), kept
+     * open and drained until the client stops sending or until a bound:
+     * closing a socket with unread bytes resets the connection, and a
+     * client still sending would then lose the answer. Under conn_mu. */
+    struct {
+        int fd;
+        double until;
+    } lingering[RD_LINGER_MAX];
+    int nlingering;
+    atomic_ullong raw_refused; /* requests refused before libmicrohttpd parsed them */
+    struct rd_access *access;  /* request ids, clients, the access log (access.h) */
+    atomic_int ready;          /* the start-up checks passed and it listens */
 };
 
 /* The farm, once the server is ready: it starts after libmicrohttpd (its
@@ -132,6 +143,10 @@ int rd_req_wait(rd_req *r, rd_jq_job *job);
  * resumed answer when the job has already ended; else MHD_YES with r
  * suspended. so's other fields are the caller's. */
 enum MHD_Result rd_req_submit(rd_req *r, const rd_jq_task *task, rd_jq_submit_options *so);
+
+/* Answered before the body was read: when the connection closes, its
+ * socket is drained for a while first (rd_server.lingering). */
+void rd_req_linger(rd_req *r);
 
 /* The client's socket, for the job to watch for a hang-up; -1 if unknown. */
 int rd_req_socket(rd_req *r);

@@ -2,6 +2,7 @@
 #include <arpa/inet.h>
 #include <cJSON.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <netdb.h>
 #include <netinet/in.h>
 #include <poll.h>
@@ -29,6 +30,7 @@
  * a slot. */
 struct rd_conn {
     int fd;
+    int linger;      /* drain before closing (rd_req_linger) */
     double deadline; /* monotonic ms; 0 = none (the request is being answered) */
     struct rd_conn *prev, *next;
 };
@@ -42,6 +44,45 @@ static void set_deadline(rd_server *s, struct MHD_Connection *conn, double after
     pthread_mutex_lock(&s->conn_mu);
     c->deadline = after_ms > 0 ? rd_now_ms() + after_ms : 0;
     pthread_mutex_unlock(&s->conn_mu);
+}
+
+/* Keeps a copy of the socket, whose other end may still be sending, to be
+ * drained by the reaper; libmicrohttpd's close then ends nothing. Past
+ * RD_LINGER_MAX of them it is closed at once. Under conn_mu. */
+static void start_lingering(rd_server *s, int fd)
+{
+    if (s->nlingering >= RD_LINGER_MAX)
+        return;
+    int copy = fcntl(fd, F_DUPFD_CLOEXEC, 0);
+    if (copy < 0)
+        return;
+    fcntl(copy, F_SETFL, fcntl(copy, F_GETFL) | O_NONBLOCK);
+    shutdown(copy, SHUT_WR); /* the answer is out: the client sees its end */
+    s->lingering[s->nlingering].fd = copy;
+    s->lingering[s->nlingering].until = rd_now_ms() + RD_LINGER_MS;
+    s->nlingering++;
+    pthread_cond_signal(&s->conn_cv);
+}
+
+/* Reads and drops what lingering sockets hold; closes those whose client
+ * has stopped (end of stream, an error) or whose time is up, or all with
+ * everything. Under conn_mu. */
+static void drain_lingering(rd_server *s, int everything)
+{
+    static char sink[65536];
+    double now = rd_now_ms();
+    for (int i = 0; i < s->nlingering;) {
+        ssize_t k = 1;
+        for (int reads = 0; reads < 64 && k > 0; reads++)
+            k = recv(s->lingering[i].fd, sink, sizeof sink, 0);
+        int ended = k == 0 || (k < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR);
+        if (everything || ended || now > s->lingering[i].until) {
+            close(s->lingering[i].fd);
+            s->lingering[i] = s->lingering[--s->nlingering];
+        } else {
+            i++;
+        }
+    }
 }
 
 static void on_connection(void *cls, struct MHD_Connection *conn, void **socket_context,
@@ -72,6 +113,8 @@ static void on_connection(void *cls, struct MHD_Connection *conn, void **socket_
     if (!c)
         return;
     pthread_mutex_lock(&s->conn_mu);
+    if (c->linger)
+        start_lingering(s, c->fd);
     if (c->prev)
         c->prev->next = c->next;
     else
@@ -97,8 +140,10 @@ static void *reaper(void *arg)
                 c->deadline = 0;
                 atomic_fetch_add(&s->deadline_closed, 1);
             }
-        rd_timed_wait(&s->conn_cv, &s->conn_mu, 100);
+        drain_lingering(s, 0);
+        rd_timed_wait(&s->conn_cv, &s->conn_mu, s->nlingering ? 10 : 100);
     }
+    drain_lingering(s, 1);
     pthread_mutex_unlock(&s->conn_mu);
     return NULL;
 }
@@ -372,8 +417,20 @@ enum MHD_Result rd_reply_cancelled(rd_req *r, const rd_jq_info *info, const char
     return rd_reply_error_hdr(r, 503, "cancelled", msg, "Retry-After", "5");
 }
 
+void rd_req_linger(rd_req *r)
+{
+    const union MHD_ConnectionInfo *ci = MHD_get_connection_info(r->conn, MHD_CONNECTION_INFO_SOCKET_CONTEXT);
+    struct rd_conn *c = ci ? ci->socket_context : NULL;
+    if (!c)
+        return;
+    pthread_mutex_lock(&r->srv->conn_mu);
+    c->linger = 1;
+    pthread_mutex_unlock(&r->srv->conn_mu);
+}
+
 enum MHD_Result rd_reply_too_large(rd_req *r, const char *what)
 {
+    rd_req_linger(r);
     char msg[160];
     snprintf(msg, sizeof msg, "%s is over the limit of %zu bytes (--max-body-bytes)", what, r->srv->opt.max_body_bytes);
     return rd_reply_error(r, 413, "too_large", NULL, msg);

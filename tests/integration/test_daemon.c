@@ -20,6 +20,7 @@
  * timeout. Small work is scenes/phong.cfg at 8x8 pixels. */
 #include <arpa/inet.h>
 #include <criterion/criterion.h>
+#include <errno.h>
 #include <netinet/in.h>
 #include <pthread.h>
 #include <signal.h>
@@ -29,6 +30,7 @@
 #include <string.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
+#include <sys/time.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -530,6 +532,51 @@ Test(daemon, chunked_body_over_max_body_bytes_is_413_early)
     server *s = start_server("--max-body-bytes", "4096");
     assert_early_413(s, 1, 0);
     assert_early_413(s, 1, 1);
+    assert_clean_exit(s, 20);
+}
+
+/* A client that keeps sending its body for a while before it reads, as a
+ * slow uploader on a loaded machine does: the early 413 must still reach
+ * it. (Closing a socket with unread bytes makes the kernel send a reset,
+ * which throws away the answer on the client's side: the daemon drains
+ * before it closes.) */
+Test(daemon, early_413_reaches_a_client_still_sending)
+{
+    server *s = start_server("--max-body-bytes", "4096");
+    struct sockaddr_in a = {.sin_family = AF_INET, .sin_port = htons((uint16_t)s->port)};
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    static char chunk[65536];
+    memset(chunk, ' ', sizeof chunk);
+    for (int round = 0; round < 5; round++) {
+        int fd = socket(AF_INET, SOCK_STREAM, 0);
+        cr_assert_geq(fd, 0);
+        cr_assert_eq(connect(fd, (struct sockaddr *)&a, sizeof a), 0, "connect: %s", strerror(errno));
+        static const char head[] = "POST /v1/render HTTP/1.1\r\nHost: x\r\nContent-Type: text/plain\r\n"
+                                   "Content-Length: 67108864\r\n\r\n";
+        cr_assert_eq(send(fd, head, sizeof head - 1, MSG_NOSIGNAL), (ssize_t)(sizeof head - 1));
+        /* Sending, not reading, for 300 ms: the answer and the close come
+         * meanwhile. */
+        struct timeval tv = {0, 20000};
+        setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
+        int send_error = 0;
+        for (double t0 = now_s(); now_s() - t0 < 0.3 && !send_error;)
+            if (send(fd, chunk, sizeof chunk, MSG_NOSIGNAL) < 0 && errno != EAGAIN && errno != EWOULDBLOCK)
+                send_error = errno;
+        /* curl gives up at a failed send without reading what came back
+         * ("Broken pipe", no status): the daemon must keep taking bytes. */
+        cr_assert_eq(send_error, 0, "round %d: sending the body failed: %s", round, strerror(send_error));
+        char got[4096];
+        size_t n = 0;
+        tv.tv_sec = 10;
+        tv.tv_usec = 0;
+        setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+        for (ssize_t k; n < sizeof got - 1 && (k = recv(fd, got + n, sizeof got - 1 - n, 0)) > 0;)
+            n += (size_t)k;
+        got[n] = 0;
+        close(fd);
+        cr_assert(strncmp(got, "HTTP/1.1 413", 12) == 0 && strstr(got, "too_large"),
+                  "round %d: the client read %zu bytes, not the 413: %.80s", round, n, got);
+    }
     assert_clean_exit(s, 20);
 }
 
