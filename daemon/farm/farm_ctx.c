@@ -1,3 +1,4 @@
+#define _GNU_SOURCE /* pthread_rwlockattr_setkind_np */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -184,7 +185,15 @@ farm_ctx *farm_ctx_get(rd_farm *f, rd_store *h, const char *id, rd_error *err)
     c->refs = 1;
     c->pass = -1;
     rd_scene_init(&c->scene);
-    pthread_rwlock_init(&c->rw, NULL);
+    /* Writers first: render threads take the read lock tile after tile,
+     * and under glibc's default a snapshot or a pass's end waited until no
+     * tile was rendering at all (a partial image of a slow job took
+     * minutes). Now a writer waits for the tiles in flight only. */
+    pthread_rwlockattr_t ra;
+    pthread_rwlockattr_init(&ra);
+    pthread_rwlockattr_setkind_np(&ra, PTHREAD_RWLOCK_PREFER_WRITER_NONRECURSIVE_NP);
+    pthread_rwlock_init(&c->rw, &ra);
+    pthread_rwlockattr_destroy(&ra);
     c->next = f->ctxs;
     f->ctxs = c;
     pthread_mutex_unlock(&f->mu);

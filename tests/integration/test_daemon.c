@@ -205,7 +205,11 @@ Test(daemon, async_partial_image_and_cancel)
     size_t len;
     char *cfg = scene_text("scenes/area_light.cfg", &len);
     char id[64] = "", st[32] = "", path[256];
-    submit_job(s->port, SLOW_QUERY, "text/plain", cfg, len, id, sizeof id);
+    /* Sixteen times SLOW_QUERY's samples: its first tiles come within
+     * seconds, and its end minutes later, so it is still running at the
+     * DELETE however long this test stalls after seeing it run (with 256
+     * samples a loaded machine once saw it done before its DELETE). */
+    submit_job(s->port, "?width=320&height=240&samples=4096", "text/plain", cfg, len, id, sizeof id);
 
     /* The final image is not ready while the job is queued or running. */
     resp r;
