@@ -305,7 +305,8 @@ Test(job_queue, job_over_the_budget_fails_naming_the_flag)
     rd_jq_stop(q);
 }
 
-Test(job_queue, second_job_waits_for_memory)
+/* A budget with room for one and a half 512x512 runaway renders. */
+static rd_jq_options options_for_one_and_a_half(void)
 {
     rd_jq_options o = options();
     rd_error err;
@@ -316,8 +317,14 @@ Test(job_queue, second_job_waits_for_memory)
     rd_job_options jo = {RD_JOB_TILE, {0}, 1, 0};
     size_t need = rd_job_estimate_bytes(&s, &jo);
     rd_scene_free(&s);
-    /* Room for one and a half. */
     o.memory_budget = need + need / 2;
+    return o;
+}
+
+Test(job_queue, second_job_waits_for_memory)
+{
+    rd_jq_options o = options_for_one_and_a_half();
+    rd_error err;
     rd_jq *q = rd_jq_start(&o, &err);
     rd_jq_job *a = submit(q, runaway_scene, "512", RD_OK);
     rd_jq_job *b = submit(q, runaway_scene, "512", RD_OK);
@@ -360,16 +367,8 @@ static rd_error_code slow_runaway(void *arg, rd_scene *scene, int *render, rd_er
  * older one, though its preparation ends last, runs; the younger waits. */
 Test(job_queue, an_older_job_in_preparation_keeps_its_place)
 {
-    rd_jq_options o = options();
+    rd_jq_options o = options_for_one_and_a_half();
     rd_error err;
-    rd_scene s;
-    rd_scene_init(&s);
-    cr_assert_eq(rd_scene_parse(runaway_scene, strlen(runaway_scene), RD_FMT_CFG, "<t>", NULL, &s, &err), RD_OK);
-    s.render.width = s.render.height = 512;
-    rd_job_options jo = {RD_JOB_TILE, {0}, 1, 0};
-    size_t need = rd_job_estimate_bytes(&s, &jo);
-    rd_scene_free(&s);
-    o.memory_budget = need + need / 2;
     rd_jq *q = rd_jq_start(&o, &err);
     rd_jq_task slow = {slow_runaway, NULL, NULL, NULL, 0, NULL};
     rd_jq_submit_options so = {.watch_fd = -1};
