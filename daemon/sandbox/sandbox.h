@@ -44,7 +44,7 @@ typedef struct {
     unsigned long long address_space; /* RLIMIT_AS of each process, bytes */
     unsigned long long file_size;     /* RLIMIT_FSIZE */
     unsigned long open_files;         /* RLIMIT_NOFILE */
-    unsigned long processes;          /* RLIMIT_NPROC, counted per sandbox user */
+    unsigned long processes;          /* RLIMIT_NPROC, counted in this sandbox alone */
     unsigned long long tmpfs_bytes;   /* size of /tmp and of /work, each */
     size_t output_max;                /* stdout + stderr bytes kept; more ends the run */
     size_t data_max;                  /* bytes kept from fd 3; more ends the run */
