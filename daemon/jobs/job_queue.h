@@ -81,6 +81,13 @@ typedef struct {
     int internal;        /* work for a request, not a job of its own: no id to find, not in the metrics */
     rd_jq_job *hold;     /* a reference the job takes over and drops when it is freed; may be NULL */
     int hdr;             /* also keep the linear image as an EXR beside the PNG (a task without finish) */
+    /* What the task's prepare itself may hold (a code grade's sandbox: its
+     * memory limit and file systems), 0 for none. Such a job is prepared
+     * only once these bytes fit the budget beside what is used (or when no
+     * other such preparation runs), and they stay reserved while prepare
+     * runs. A job whose input and preparation bytes exceed the whole budget
+     * is refused at submission (RD_ERR_LIMIT). */
+    size_t prepare_bytes;
 } rd_jq_submit_options;
 
 rd_jq *rd_jq_start(const rd_jq_options *opt, rd_error *err);

@@ -25,7 +25,7 @@
  * every one above the last of those places, so that none can overwrite
  * another wherever the caller's open() put it: no descriptor needs to be
  * high, and a daemon under a small RLIMIT_NOFILE still starts sandboxes. */
-enum { FILE_FD = 5, NSTD = 5, MAX_FILES = 64, MAX_ARGS = 512, STATUS_MAX = 4096 };
+enum { FILE_FD = 5, NSTD = 5, NTMPFS = 2, MAX_FILES = 64, MAX_ARGS = 512, STATUS_MAX = 4096 };
 
 rd_sandbox_spec rd_sandbox_spec_default(void)
 {
@@ -143,8 +143,8 @@ static int build_args(const rd_sandbox_spec *s, args *a)
     for (int i = 0; i < 4; i++)
         if (add_root_dir(a, dirs[i], a->root_links[i], sizeof a->root_links[i]))
             return -1;
-    const char *tmpfs[] = {"/tmp", "/work"};
-    for (int i = 0; i < 2; i++)
+    const char *tmpfs[NTMPFS] = {"/tmp", "/work"};
+    for (int i = 0; i < NTMPFS; i++)
         if (add(a, "--size") || add(a, num(a, s->tmpfs_bytes)) || add(a, "--tmpfs") || add(a, tmpfs[i]))
             return -1;
     for (size_t i = 0; i < s->nfiles; i++) {
@@ -153,7 +153,11 @@ static int build_args(const rd_sandbox_spec *s, args *a)
             add(a, s->files[i].dest))
             return -1;
     }
-    if (add(a, "--chdir") || add(a, "/work"))
+    /* bwrap's root and its /dev (with /dev/shm) are tmpfs without a size:
+     * host memory outside every limit. Read-only once set up, only /tmp
+     * and /work, sized, can be written. */
+    if (add(a, "--remount-ro") || add(a, "/dev") || add(a, "--remount-ro") || add(a, "/") || add(a, "--chdir") ||
+        add(a, "/work"))
         return -1;
     /* RLIMIT_NPROC is counted per user namespace and uid, and a namespace's
      * ceiling in its parent is its creator's limit when it is made (Linux
@@ -440,6 +444,19 @@ rd_error_code rd_sandbox_run(const rd_sandbox_spec *s, rd_sandbox_result *out, r
         return RD_ERR_IO;
     }
     return RD_OK;
+}
+
+unsigned long long rd_sandbox_memory_bytes(const rd_sandbox_spec *s)
+{
+    unsigned long long n = s->address_space + NTMPFS * s->tmpfs_bytes;
+    for (size_t i = 0; i < s->nfiles; i++) {
+        struct stat st;
+        if (!s->files[i].host_path)
+            n += s->files[i].len;
+        else if (stat(s->files[i].host_path, &st) == 0)
+            n += (unsigned long long)st.st_size;
+    }
+    return n;
 }
 
 rd_error_code rd_sandbox_probe(const char *bwrap, rd_error *err)

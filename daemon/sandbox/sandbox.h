@@ -1,8 +1,9 @@
 /* Running an untrusted program under bubblewrap (bwrap): its own user, pid,
  * network, IPC, UTS and cgroup namespaces, no network, no environment, a
- * file system of /usr read-only, a fresh /proc and /dev, two small tmpfs
- * (/tmp and the working folder /work) and the files it is given, copied
- * in; resource limits; a wall clock after which the whole tree is killed;
+ * file system of /usr read-only, a fresh /proc and a read-only /dev (no
+ * writable /dev/shm), two small tmpfs (/tmp and the working folder /work)
+ * and the files it is given, copied in, the rest of the root read-only;
+ * resource limits; a wall clock after which the whole tree is killed;
  * its output read through pipes with byte limits. There is no fallback:
  * when bwrap cannot start, rd_sandbox_run fails and nothing runs.
  *
@@ -74,6 +75,13 @@ typedef struct {
 
 /* Defaults for everything but bwrap, files and argv. */
 rd_sandbox_spec rd_sandbox_spec_default(void);
+
+/* The host memory one run may hold at most, as a budget reserves it: the
+ * address space limit, the two tmpfs' sizes and the files copied in (bwrap
+ * writes them to its own root). The limit is per process: several at once
+ * (the compiler's, the evaluator's) may together hold more. Files that
+ * cannot be read count 0. */
+unsigned long long rd_sandbox_memory_bytes(const rd_sandbox_spec *spec);
 
 /* Runs spec->argv in a new sandbox and waits for its end. RD_ERR_IO when
  * the sandbox could not be set up (bwrap missing, user namespaces

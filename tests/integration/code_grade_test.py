@@ -198,7 +198,7 @@ def hostile_expectation(name, st, v):
         return st == 422 and not leaked and c.get("ok") is False, seen
     if st != 200:
         return False, seen
-    if name in ("read_passwd", "read_data", "socket", "alloc_100g"):
+    if name in ("read_passwd", "read_data", "socket", "alloc_100g", "fill_tmpfs"):
         return v.get("pass") is True, seen  # correct Phong unless it got out (or got 100 GB)
     if name == "include_environ":  # /proc/self/environ is the compiler's own, empty, environment
         msgs = c.get("messages", "")
@@ -329,6 +329,43 @@ def busy(tmp):
               "rayd_code_grades_total counts the pass")
 
 
+def shmem_bytes():
+    with open("/proc/meminfo") as f:
+        for line in f:
+            if line.startswith("Shmem:"):
+                return int(line.split()[1]) * 1024
+    return 0
+
+
+BUDGET = 3 << 30  # one code grade's reservation (about 2.6 GiB) fits, two do not
+
+
+def memory(tmp):
+    """Four grades at once of fill_tmpfs.h, which writes all it can to /,
+    /dev/shm, /tmp and /work: tmpfs pages are host memory, and the host's
+    (Shmem, sampled) grows by less than --memory-budget allows."""
+    src = read(HOSTILE + "/fill_tmpfs.h")
+    with Daemon(tmp, ["--memory-budget", str(BUDGET), "--max-code-jobs", "4", "--threads", "3"]) as d:
+        base = peak = shmem_bytes()
+        with concurrent.futures.ThreadPoolExecutor(4) as pool:
+            futs = [pool.submit(post_code, d, "phong", "PhongMaterial.h", src, "fill%d" % i) for i in range(4)]
+            while not all(f.done() for f in futs):
+                peak = max(peak, shmem_bytes())
+                time.sleep(0.05)
+        answers = [f.result() for f in futs]
+    growth = peak - base
+    print("code grade: 4 fill_tmpfs grades at once, host Shmem grew %.0f MiB at most (budget %d MiB)" %
+          (growth / 2**20, BUDGET >> 20))
+    check(growth < BUDGET, "4 grades filling every tmpfs grow the host's Shmem by %.0f MiB, under the %d MiB "
+          "budget" % (growth / 2**20, BUDGET >> 20))
+    check(all(st == 200 and v.get("pass") is True for st, _, v in answers),
+          "each fill_tmpfs grade ends, its writes refused, and passes: %s" % [(st, v.get("pass")) for st, _, v in answers])
+    with Daemon(tmp, ["--memory-budget", str(1 << 30)]) as d:
+        st, _, v = post_code(d, "phong", "PhongMaterial.h", read(STUDENTS + "/phong_ok.h"))
+        check(st == 413 and "--memory-budget" in (v.get("error") or {}).get("message", ""),
+              "a grade that could never fit --memory-budget is 413 (%d, %s)" % (st, v.get("error")))
+
+
 def no_sandbox(tmp):
     with Daemon(tmp, ["--bwrap", "/nonexistent/bwrap"]) as d:
         st, h, v = post_code(d, "phong", "PhongMaterial.h", read(STUDENTS + "/phong_ok.h"))
@@ -363,6 +400,7 @@ def main():
             bad_uploads(d)
             hostile(d)
         busy(tmp)
+        memory(tmp)
         no_sandbox(tmp)
     times.sort()
     print("code grade: CLI %.0f ms (with the reference rendered); HTTP median %.0f ms, max %.0f ms over %d files" %
