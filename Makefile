@@ -7,7 +7,7 @@ CC := gcc
 endif
 BUILD   ?= build
 SAN     ?=
-PKGS    := libpng libcjson zlib libmicrohttpd OpenEXR sqlite3 libpq libarchive
+PKGS    := libpng libcjson zlib libmicrohttpd OpenEXR sqlite3 libpq libarchive libseccomp
 TESTPKG := criterion libcurl
 
 SANFLAGS := -fsanitize=address,undefined

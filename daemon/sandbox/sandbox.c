@@ -17,6 +17,7 @@
 #include <unistd.h>
 
 #include "rayd/clock.h"
+#include "seccomp_filter.h"
 #include "strbuf.h"
 
 /* Everything the child needs is made before fork: after it, in a threaded
@@ -153,6 +154,9 @@ static int build_args(const rd_sandbox_spec *s, args *a)
             add(a, s->files[i].dest))
             return -1;
     }
+    /* the filter's descriptor follows the files' (seccomp_filter.h) */
+    if (add(a, "--seccomp") || add(a, num(a, FILE_FD + s->nfiles)))
+        return -1;
     /* bwrap's root and its /dev (with /dev/shm) are tmpfs without a size:
      * host memory outside every limit. Read-only once set up, only /tmp
      * and /work, sized, can be written. */
@@ -219,7 +223,7 @@ static void limit(int resource, unsigned long long v)
  * from n on is closed. Async-signal-safe; -1 when out of descriptors. */
 static int place_fds(const int *src, int n)
 {
-    int moved[NSTD + MAX_FILES];
+    int moved[NSTD + MAX_FILES + 1];
     for (int i = 0; i < n; i++)
         if ((moved[i] = fcntl(src[i], F_DUPFD, n)) < 0)
             return -1;
@@ -240,7 +244,7 @@ static void child(const rd_sandbox_spec *s, const args *a, const int *src)
     sigset_t none;
     sigemptyset(&none);
     sigprocmask(SIG_SETMASK, &none, NULL);
-    if (place_fds(src, NSTD + (int)s->nfiles))
+    if (place_fds(src, NSTD + (int)s->nfiles + 1))
         _exit(127);
     if (geteuid() == 0) {
         if (setgroups(0, NULL) != 0 || setgid(s->gid) != 0 || setuid(s->uid) != 0)
@@ -378,8 +382,8 @@ rd_error_code rd_sandbox_run(const rd_sandbox_spec *s, rd_sandbox_result *out, r
         free(a);
         return rd_error_set(err, RD_ERR_INVALID, 0, 0, "too many sandbox arguments");
     }
-    /* src: what the child's 0..4 and its files become */
-    int src[NSTD + MAX_FILES], *fds = src + NSTD, pipes[3][2] = {{-1, -1}, {-1, -1}, {-1, -1}};
+    /* src: what the child's 0..4, its files and the filter become */
+    int src[NSTD + MAX_FILES + 1], *fds = src + NSTD, pipes[3][2] = {{-1, -1}, {-1, -1}, {-1, -1}};
     size_t nf = 0;
     rd_error_code rc = RD_OK;
     for (; nf < s->nfiles; nf++) {
@@ -390,6 +394,10 @@ rd_error_code rd_sandbox_run(const rd_sandbox_spec *s, rd_sandbox_result *out, r
             break;
         }
     }
+    int filter = rc ? -1 : rd_seccomp_filter_fd(err);
+    if (filter < 0 && !rc)
+        rc = RD_ERR_IO;
+    fds[nf] = filter;
     int devnull = rc ? -1 : open("/dev/null", O_RDONLY | O_CLOEXEC);
     for (int i = 0; i < 3 && !rc; i++)
         if (pipe2(pipes[i], O_CLOEXEC) != 0)
@@ -407,6 +415,8 @@ rd_error_code rd_sandbox_run(const rd_sandbox_spec *s, rd_sandbox_result *out, r
             rc = rd_error_set(err, RD_ERR_IO, 0, 0, "cannot start the sandbox: %s", strerror(errno));
     }
     close_all(fds, nf);
+    if (filter >= 0)
+        close(filter);
     if (devnull >= 0)
         close(devnull);
     for (int i = 0; i < 3; i++) {

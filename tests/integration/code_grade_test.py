@@ -198,7 +198,7 @@ def hostile_expectation(name, st, v):
         return st == 422 and not leaked and c.get("ok") is False, seen
     if st != 200:
         return False, seen
-    if name in ("read_passwd", "read_data", "socket", "alloc_100g", "fill_tmpfs"):
+    if name in ("read_passwd", "read_data", "socket", "alloc_100g", "fill_tmpfs", "syscall_probe"):
         return v.get("pass") is True, seen  # correct Phong unless it got out (or got 100 GB)
     if name == "include_environ":  # /proc/self/environ is the compiler's own, empty, environment
         msgs = c.get("messages", "")
