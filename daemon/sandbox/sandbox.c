@@ -210,11 +210,21 @@ static int file_fd(const rd_sandbox_file *f)
     return fd;
 }
 
-static void limit(int resource, unsigned long long v)
+/* Sets a limit of the spec (0: the caller's stays), or the caller's hard
+ * limit where that is lower; -1 when refused, and then the sandbox does
+ * not start (a service's system-call filter may refuse setrlimit: the
+ * limits are not optional). */
+static int limit(int resource, unsigned long long v)
 {
-    struct rlimit rl = {(rlim_t)v, (rlim_t)v};
-    if (v)
-        setrlimit(resource, &rl);
+    struct rlimit rl;
+    if (!v)
+        return 0;
+    if (getrlimit(resource, &rl) != 0)
+        return -1;
+    if (rl.rlim_max == RLIM_INFINITY || (rlim_t)v < rl.rlim_max)
+        rl.rlim_max = (rlim_t)v;
+    rl.rlim_cur = rl.rlim_max;
+    return setrlimit(resource, &rl);
 }
 
 /* In the child: src[i] becomes descriptor i, for i < n. Each is first
@@ -250,11 +260,10 @@ static void child(const rd_sandbox_spec *s, const args *a, const int *src)
         if (setgroups(0, NULL) != 0 || setgid(s->gid) != 0 || setuid(s->uid) != 0)
             _exit(127);
     }
-    limit(RLIMIT_CPU, s->cpu_s);
-    limit(RLIMIT_AS, s->address_space);
-    limit(RLIMIT_FSIZE, s->file_size);
-    limit(RLIMIT_NOFILE, s->open_files);
-    limit(RLIMIT_CORE, 0);
+    struct rlimit no_core = {0, 0};
+    if (limit(RLIMIT_CPU, s->cpu_s) || limit(RLIMIT_AS, s->address_space) || limit(RLIMIT_FSIZE, s->file_size) ||
+        limit(RLIMIT_NOFILE, s->open_files) || setrlimit(RLIMIT_CORE, &no_core))
+        _exit(127);
     char *const envp[] = {NULL};
     execve(s->bwrap, (char *const *)a->argv, envp);
     _exit(127);
