@@ -198,7 +198,7 @@ def hostile_expectation(name, st, v):
         return st == 422 and not leaked and c.get("ok") is False, seen
     if st != 200:
         return False, seen
-    if name in ("read_passwd", "read_data", "socket", "alloc_100g", "fill_tmpfs", "syscall_probe"):
+    if name in ("read_passwd", "read_data", "socket", "alloc_100g", "fill_tmpfs", "syscall_probe", "nproc_hog"):
         return v.get("pass") is True, seen  # correct Phong unless it got out (or got 100 GB)
     if name == "include_environ":  # /proc/self/environ is the compiler's own, empty, environment
         msgs = c.get("messages", "")
@@ -366,6 +366,38 @@ def memory(tmp):
               "a grade that could never fit --memory-budget is 413 (%d, %s)" % (st, v.get("error")))
 
 
+def processes(tmp):
+    """Not as root (the unit's DynamicUser; as root the daemon runs as 65534
+    here): one student's processes up to RLIMIT_NPROC do not stop another's
+    grade, and 40 render threads leave code grading on. The limit is each
+    sandbox's own, not the uid's."""
+    home, wrap = os.path.join(tmp, "nonroot"), []
+    os.makedirs(home)
+    if os.geteuid() == 0:
+        os.chmod(tmp, 0o711)  # 65534 reaches its own folder inside
+        os.chown(home, 65534, 65534)
+        wrap = ["setpriv", "--reuid", "65534", "--regid", "65534", "--clear-groups"]
+    hog, ok = read(HOSTILE + "/nproc_hog.h"), read(STUDENTS + "/phong_ok.h")
+    with Daemon(home, ["--max-code-jobs", "2"], env={"HOME": home}, wrap=wrap) as d:
+        with concurrent.futures.ThreadPoolExecutor(1) as pool:
+            held = pool.submit(post_code, d, "phong", "PhongMaterial.h", hog, "hog")
+            time.sleep(1.5)  # compiled, and holding its processes
+            st, _, v = post_code(d, "phong", "PhongMaterial.h", ok)
+            hst, _, hv = held.result()
+        forked = (hv.get("output") or {}).get("text", "")
+        check(st == 200 and v.get("pass") is True, "a correct grade beside one holding every process it may "
+              "passes (%d, %s)" % (st, v.get("error") or v.get("note")))
+        made = int(forked.split()[1]) if forked.startswith("forked ") else -1
+        print("code grade: nproc_hog forked %d processes beside a correct grade (%d: pass %s)" %
+              (made, st, v.get("pass")))
+        check(hst == 200 and 20 <= made < 32, "nproc_hog forked up to its own sandbox's limit of 32 (%d, %r)" %
+              (hst, forked[:80]))
+    with Daemon(home, ["--threads", "40"], env={"HOME": home}, wrap=wrap) as d:
+        st, _, v = post_code(d, "phong", "PhongMaterial.h", ok)
+        check(st == 200 and v.get("pass") is True, "with --threads 40 code grading is on (%d, %s)" %
+              (st, v.get("error")))
+
+
 def no_sandbox(tmp):
     with Daemon(tmp, ["--bwrap", "/nonexistent/bwrap"]) as d:
         st, h, v = post_code(d, "phong", "PhongMaterial.h", read(STUDENTS + "/phong_ok.h"))
@@ -374,6 +406,10 @@ def no_sandbox(tmp):
         st, _, _ = d.request("POST", "/v1/render", body=RENDER_PROBE)
         check(st == 200, "no sandbox: renders all the same (%d)" % st)
         check("sandbox" in d.text(), "no sandbox: the log says so")
+        st, _, b = d.request("GET", "/readyz")
+        why = (json.loads(b).get("unavailable") or {}).get("code_grading", "") if st == 200 else ""
+        check(st == 200 and "bubblewrap" in why, "no sandbox: /readyz is 200 and names code grading as unavailable, "
+              "and why (%d, %s)" % (st, b[:200]))
 
 
 def assignments(tmp):
@@ -401,6 +437,7 @@ def main():
             hostile(d)
         busy(tmp)
         memory(tmp)
+        processes(tmp)
         no_sandbox(tmp)
     times.sort()
     print("code grade: CLI %.0f ms (with the reference rendered); HTTP median %.0f ms, max %.0f ms over %d files" %
