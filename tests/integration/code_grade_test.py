@@ -169,6 +169,23 @@ def compile_error(d):
           "the messages name no sandbox folder: %s" % c.get("messages", "")[:300])
 
 
+def open_fds(pid):
+    return len(os.listdir("/proc/%d/fd" % pid))
+
+
+def descriptors(d):
+    """Grades leave no descriptor open in the daemon: 30 more (code that
+    does not compile, the quickest) and its /proc/PID/fd is as it was,
+    give or take a connection."""
+    before = open_fds(d.proc.pid)
+    for i in range(30):
+        post_code(d, "phong", "PhongMaterial.h", b"not C++ %d\n" % i)
+    after = open_fds(d.proc.pid)
+    print("code grade: daemon descriptors %d before 30 grades, %d after" % (before, after))
+    check(after <= before + 2, "30 code grades leave the daemon's descriptors flat (%d before, %d after)" %
+          (before, after))
+
+
 def listener():
     """Something on 127.0.0.1:8080 for socket.h to reach if it could."""
     s = socket.socket()
@@ -430,6 +447,7 @@ def main():
         with Daemon(tmp, ["--max-code-bytes", "65536", "--code-compile-seconds", "8", "--max-code-jobs", "2",
                           "--assignments", assignments(tmp), "--instructor-tokens", tokens]) as d:
             times = students(d)
+            descriptors(d)
             compile_error(d)
             the_daemons_files(d, tmp)
             records(d)
