@@ -138,7 +138,7 @@ static void restrict_ns(scmp_filter_ctx ctx, unsigned long refused, int err)
     }
     seccomp_rule_add(ctx, SCMP_ACT_ERRNO(ENOSYS), SCMP_SYS(clone3), 0);
     /* setns with nstype 0 may enter any namespace: refused too */
-    seccomp_rule_add(ctx, SCMP_ACT_ERRNO(err), SCMP_SYS(setns), 1, SCMP_A1(SCMP_CMP_EQ, 0));
+    seccomp_rule_add(ctx, SCMP_ACT_ERRNO(err), SCMP_SYS(setns), 1, SCMP_A1(SCMP_CMP_EQ, 0, 0));
 }
 
 /* The calls systemd always allows under an allow list (systemd.exec(5)). */
@@ -146,9 +146,12 @@ static const char *const implicit[] = {"execve",    "exit",          "exit_group
                                        "sigreturn", "clock_gettime", "gettimeofday", "nanosleep", "clock_nanosleep",
                                        "time"};
 
-/* RestrictAddressFamilies=AF_X AF_Y...: socket() of any other family is
- * EAFNOSUPPORT (an allow list only, as the shipped unit has). */
-static void restrict_families(scmp_filter_ctx ctx, char *value)
+/* RestrictAddressFamilies=AF_X AF_Y... (an allow list, as the shipped
+ * unit has): socket() of any other family is refused. Under a system-call
+ * allow list socket() is allowed for those families alone (the others get
+ * the list's error), since an unconditional allow would win over any
+ * refusal; else the others are EAFNOSUPPORT, as systemd answers. */
+static void restrict_families(scmp_filter_ctx ctx, char *value, int allow_list)
 {
     static const struct {
         const char *name;
@@ -167,8 +170,10 @@ static void restrict_families(scmp_filter_ctx ctx, char *value)
         int ok = 0;
         for (int i = 0; i < n; i++)
             ok |= allowed[i] == af;
-        if (!ok)
-            seccomp_rule_add(ctx, SCMP_ACT_ERRNO(EAFNOSUPPORT), SCMP_SYS(socket), 1, SCMP_A0(SCMP_CMP_EQ, af));
+        if (allow_list && ok)
+            seccomp_rule_add(ctx, SCMP_ACT_ALLOW, SCMP_SYS(socket), 1, SCMP_A0(SCMP_CMP_EQ, af, 0));
+        else if (!allow_list && !ok)
+            seccomp_rule_add(ctx, SCMP_ACT_ERRNO(EAFNOSUPPORT), SCMP_SYS(socket), 1, SCMP_A0(SCMP_CMP_EQ, af, 0));
     }
 }
 
@@ -181,7 +186,7 @@ static void install(const calls *c, unsigned long ns, int err)
     if (!ctx)
         die("seccomp_init failed");
     for (int i = 0; i < c->n; i++)
-        if (c->allow[i])
+        if (c->allow[i] && !(families[0] && c->mode == 1 && strcmp(c->names[i], "socket") == 0))
             add_rule(ctx, c->mode == 1 ? SCMP_ACT_ALLOW : SCMP_ACT_ERRNO((uint32_t)err), c->names[i]);
     if (c->mode == 1)
         for (size_t i = 0; i < sizeof implicit / sizeof *implicit; i++)
@@ -189,7 +194,7 @@ static void install(const calls *c, unsigned long ns, int err)
     if (ns)
         restrict_ns(ctx, ns, EPERM);
     if (families[0])
-        restrict_families(ctx, families);
+        restrict_families(ctx, families, c->mode == 1);
     if (protect_hostname) {
         add_rule(ctx, SCMP_ACT_ERRNO(EPERM), "sethostname");
         add_rule(ctx, SCMP_ACT_ERRNO(EPERM), "setdomainname");
