@@ -4,6 +4,7 @@
 #include <errno.h>
 #include <sched.h>
 #include <seccomp.h>
+#include <signal.h>
 #include <string.h>
 #include <sys/mman.h>
 #include <sys/socket.h>
@@ -69,6 +70,33 @@ static int refuse_names(scmp_filter_ctx ctx, const char *const *names, size_t n,
     return 0;
 }
 
+/* A stop signal sent to any process: the student's code runs as the
+ * evaluator's uid, and a stopped evaluator no longer enforces its per-call
+ * and total time limits (the grade would hold its slot until the outer
+ * wall clock). Its default action stops, whatever the target. */
+static int refuse_stops(scmp_filter_ctx ctx)
+{
+    static const int stops[] = {SIGSTOP, SIGTSTP, SIGTTIN, SIGTTOU};
+    static const struct {
+        const char *name;
+        unsigned arg; /* the signal's argument */
+    } senders[] = {{"kill", 1},
+                   {"tkill", 1},
+                   {"tgkill", 2},
+                   {"rt_sigqueueinfo", 1},
+                   {"rt_tgsigqueueinfo", 2},
+                   {"pidfd_send_signal", 1}};
+    for (size_t i = 0; i < sizeof senders / sizeof *senders; i++) {
+        int nr = seccomp_syscall_resolve_name(senders[i].name);
+        for (size_t k = 0; nr != __NR_SCMP_ERROR && k < sizeof stops / sizeof *stops; k++) {
+            struct scmp_arg_cmp sig = {senders[i].arg, SCMP_CMP_EQ, (scmp_datum_t)stops[k], 0};
+            if (seccomp_rule_add_array(ctx, SCMP_ACT_ERRNO(EPERM), nr, 1, &sig) != 0)
+                return -1;
+        }
+    }
+    return 0;
+}
+
 /* clone with any namespace flag, and socket() of a family but AF_UNIX. */
 static int refuse_args(scmp_filter_ctx ctx)
 {
@@ -85,7 +113,8 @@ int rd_seccomp_filter_fd(rd_error *err)
     int fd = -1;
     if (ctx && seccomp_attr_set(ctx, SCMP_FLTATR_ACT_BADARCH, SCMP_ACT_KILL_PROCESS) == 0 &&
         refuse_names(ctx, refused, sizeof refused / sizeof *refused, EPERM) == 0 &&
-        refuse_names(ctx, absent, sizeof absent / sizeof *absent, ENOSYS) == 0 && refuse_args(ctx) == 0)
+        refuse_names(ctx, absent, sizeof absent / sizeof *absent, ENOSYS) == 0 && refuse_args(ctx) == 0 &&
+        refuse_stops(ctx) == 0)
         fd = memfd_create("rayd-seccomp", MFD_CLOEXEC);
     if (fd >= 0 && (seccomp_export_bpf(ctx, fd) != 0 || lseek(fd, 0, SEEK_SET) != 0)) {
         close(fd);

@@ -13,7 +13,10 @@
  *   fsconfig, fsmount, fspick, mount_setattr), chroot; unshare, setns and
  *   clone with a namespace flag; socket() of any family but AF_UNIX
  *   (AF_NETLINK, AF_VSOCK, AF_PACKET, AF_INET...: the sandbox has no
- *   network, and vsock is not isolated by a network namespace).
+ *   network, and vsock is not isolated by a network namespace); a stop
+ *   signal (SIGSTOP, SIGTSTP, SIGTTIN, SIGTTOU) sent by kill, tkill,
+ *   tgkill, rt_(tg)sigqueueinfo or pidfd_send_signal (a stopped evaluator
+ *   enforces no time limit).
  *
  * They fail with EPERM; clone3 and the io_uring calls with ENOSYS, so
  * that glibc falls back to clone (whose flags the filter can read) and a

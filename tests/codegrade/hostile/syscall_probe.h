@@ -1,6 +1,7 @@
 // Hostile PhongMaterial: tries each system call the sandbox's seccomp filter refuses (daemon/sandbox/
-// seccomp_filter.h), and opening the evaluator's /proc/PID/mem. Correct Phong when every one was refused (EPERM or
-// ENOSYS; the mem file any way) and an AF_UNIX socket still opens; (100, 100, 100) otherwise. Prints what it saw.
+// seccomp_filter.h), stopping the evaluator and opening its /proc/PID/mem. Correct Phong when every one was
+// refused (EPERM or ENOSYS; the mem file any way) and an AF_UNIX socket still opens; (100, 100, 100) otherwise.
+// Prints what it saw.
 #ifndef PHONGMATERIAL_H
 #define PHONGMATERIAL_H
 
@@ -11,6 +12,7 @@
 #include <fcntl.h>
 #include <linux/perf_event.h>
 #include <sched.h>
+#include <signal.h>
 #include <sys/ptrace.h>
 #include <sys/socket.h>
 #include <sys/syscall.h>
@@ -65,6 +67,11 @@ class PhongMaterial : public Material
         all &= refused("socket(AF_VSOCK)", socket(40 /* AF_VSOCK */, SOCK_STREAM, 0));
         all &= refused("socket(AF_PACKET)", socket(17 /* AF_PACKET */, SOCK_RAW, 0));
         all &= refused("socket(AF_INET)", socket(AF_INET, SOCK_STREAM, 0));
+        /* stopping the evaluator: if it stops, it is let go at once */
+        long stop = kill(getppid(), SIGSTOP);
+        if (stop == 0)
+            kill(getppid(), SIGCONT);
+        all &= refused("kill(evaluator, SIGSTOP)", stop);
         char mem[64];
         snprintf(mem, sizeof mem, "/proc/%d/mem", (int)getppid());
         int fd = open(mem, O_RDWR);
