@@ -7,6 +7,10 @@
  * its output read through pipes with byte limits. There is no fallback:
  * when bwrap cannot start, rd_sandbox_run fails and nothing runs.
  *
+ * The process limit is set inside, by /usr/bin/prlimit (util-linux) as the
+ * first process in the sandbox, so that it counts this sandbox alone; a
+ * seccomp filter (seccomp_filter.h) refuses what a student has no use for.
+ *
  * When the caller runs as root, the sandbox runs as the kernel uid and gid
  * of the spec (65534, nobody, by default): root is exempt from
  * RLIMIT_NPROC, so a fork bomb would not be stopped otherwise. Files are
