@@ -3,7 +3,8 @@
 # quick when all is present. Usage: deploy/deps.sh [bench]   ("bench" adds
 # what `make bench` compares against).
 #
-# bubblewrap and g++ are the code grader's sandbox and compiler (docs/grading.md).
+# bubblewrap and g++ are the code grader's sandbox and compiler, libseccomp-dev the
+# system-call filter of its sandbox (docs/grading.md).
 # nginx is for tests/integration/deploy_test.sh (deploy/nginx/rayd.conf in
 # front of two daemons); Debian 12's `nginx` package is the server itself
 # (nginx-light there is only nginx plus the echo module).
@@ -21,7 +22,7 @@
 set -eu
 pkgs="gcc clang clang-format libclang-rt-dev make pkg-config libc6-dev libpng-dev zlib1g-dev libcjson-dev
  libmicrohttpd-dev libopenexr-dev libcriterion-dev libcurl4-openssl-dev curl python3 python3-jsonschema chromium help2man
- libsqlite3-dev libpq-dev postgresql sqlite3 nginx libarchive-dev bubblewrap g++"
+ libsqlite3-dev libpq-dev postgresql sqlite3 nginx libarchive-dev bubblewrap libseccomp-dev g++"
 [ "${1:-}" = bench ] && pkgs="$pkgs povray wrk hey git libembree-dev"
 missing=""
 for p in $pkgs; do

@@ -175,6 +175,55 @@ static unsigned char *queries_file(const prepared *p, size_t *len)
     return b;
 }
 
+/* The course's files and the evaluator as the sandbox's files[0..NCOURSE];
+ * paths and dests hold their names. */
+static void course_files_in(const rd_codegrade_config *cfg, rd_sandbox_file *files, char paths[][1024],
+                            char dests[][64])
+{
+    for (size_t i = 0; i < NCOURSE; i++) {
+        snprintf(paths[i], sizeof paths[i], "%s/%s", cfg->course_dir, course_files[i]);
+        snprintf(dests[i], sizeof dests[i], "/rayd/course/%s", course_files[i]);
+        files[i] = (rd_sandbox_file){dests[i], paths[i], NULL, 0, 0};
+    }
+    files[NCOURSE] = (rd_sandbox_file){"/rayd/rayd-eval", cfg->eval, NULL, 0, 1};
+}
+
+/* The sandbox of a grade of nq queries; files: NCOURSE + 3 of them. */
+static rd_sandbox_spec sandbox_spec(const rd_codegrade_config *cfg, const rd_sandbox_file *files, size_t nq)
+{
+    size_t qlen = sizeof(rd_queries_header) + nq * sizeof(rd_code_query);
+    rd_sandbox_spec sp = rd_sandbox_spec_default();
+    sp.bwrap = cfg->bwrap;
+    sp.files = files;
+    sp.nfiles = NCOURSE + 3;
+    sp.wall_ms = cfg->compile_ms + cfg->run_ms + 10000;
+    sp.cpu_s = (unsigned long)((cfg->compile_ms + cfg->run_ms) / 1000) + 5;
+    sp.data_max = nq * sizeof(rd_frame_value) + ((size_t)1 << 20);
+    /* bwrap writes the queries under the sandbox's limits too */
+    if (sp.file_size < qlen + ((size_t)1 << 20))
+        sp.file_size = qlen + ((size_t)1 << 20);
+    sp.uid = cfg->uid;
+    sp.gid = cfg->gid;
+    sp.cancel = cfg->cancel;
+    return sp;
+}
+
+size_t rd_codegrade_memory_bytes(const rd_codegrade_config *cfg, size_t source_len)
+{
+    /* the most queries a grade may have: the image's bound and the
+     * configurations, which are far fewer than the margin */
+    size_t nq = cfg->max_queries + ((size_t)1 << 16);
+    char paths[NCOURSE][1024], dests[NCOURSE][64];
+    rd_sandbox_file files[NCOURSE + 3];
+    course_files_in(cfg, files, paths, dests);
+    size_t qlen = sizeof(rd_queries_header) + nq * sizeof(rd_code_query);
+    files[NCOURSE + 1] = (rd_sandbox_file){"/rayd/queries.bin", NULL, NULL, qlen, 0};
+    files[NCOURSE + 2] = (rd_sandbox_file){"/work/student", NULL, NULL, source_len, 0};
+    rd_sandbox_spec sp = sandbox_spec(cfg, files, nq);
+    /* and on the daemon's side the queries and the values that come back */
+    return (size_t)rd_sandbox_memory_bytes(&sp) + nq * sizeof(rd_code_query) + sp.data_max;
+}
+
 static rd_error_code run_sandbox(const rd_codegrade_config *cfg, const rd_codegrade_input *in, const char *dest,
                                  const prepared *p, rd_sandbox_result *res, rd_error *err)
 {
@@ -184,12 +233,7 @@ static rd_error_code run_sandbox(const rd_codegrade_config *cfg, const rd_codegr
     rd_sandbox_file files[NCOURSE + 3];
     if (!qfile)
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
-    for (size_t i = 0; i < NCOURSE; i++) {
-        snprintf(paths[i], sizeof paths[i], "%s/%s", cfg->course_dir, course_files[i]);
-        snprintf(dests[i], sizeof dests[i], "/rayd/course/%s", course_files[i]);
-        files[i] = (rd_sandbox_file){dests[i], paths[i], NULL, 0, 0};
-    }
-    files[NCOURSE] = (rd_sandbox_file){"/rayd/rayd-eval", cfg->eval, NULL, 0, 1};
+    course_files_in(cfg, files, paths, dests);
     files[NCOURSE + 1] = (rd_sandbox_file){"/rayd/queries.bin", NULL, qfile, qlen, 0};
     files[NCOURSE + 2] = (rd_sandbox_file){dest, NULL, in->source, in->len, 0};
     char kind[8];
@@ -207,20 +251,8 @@ static rd_error_code run_sandbox(const rd_codegrade_config *cfg, const rd_codegr
                           num[1],
                           num[2],
                           NULL};
-    rd_sandbox_spec sp = rd_sandbox_spec_default();
-    sp.bwrap = cfg->bwrap;
-    sp.files = files;
-    sp.nfiles = NCOURSE + 3;
+    rd_sandbox_spec sp = sandbox_spec(cfg, files, p->nq);
     sp.argv = argv;
-    sp.wall_ms = cfg->compile_ms + cfg->run_ms + 10000;
-    sp.cpu_s = (unsigned long)((cfg->compile_ms + cfg->run_ms) / 1000) + 5;
-    sp.data_max = p->nq * sizeof(rd_frame_value) + ((size_t)1 << 20);
-    /* bwrap writes the queries under the sandbox's limits too */
-    if (sp.file_size < qlen + ((size_t)1 << 20))
-        sp.file_size = qlen + ((size_t)1 << 20);
-    sp.uid = cfg->uid;
-    sp.gid = cfg->gid;
-    sp.cancel = cfg->cancel;
     rd_error_code rc = rd_sandbox_run(&sp, res, err);
     free(qfile);
     return rc;

@@ -113,6 +113,13 @@ rd_error_code rd_codegrade_run(const rd_codegrade_config *cfg, const rd_codegrad
 
 void rd_codegrade_result_free(rd_codegrade_result *r);
 
+/* The most memory one grade of a source_len-byte file may hold, which the
+ * daemon reserves from its budget before the grade starts: the sandbox's
+ * (rd_sandbox_memory_bytes: its address space limit, its tmpfs, the files
+ * copied in, with max_queries queries) and the queries and values the
+ * daemon keeps beside it. */
+size_t rd_codegrade_memory_bytes(const rd_codegrade_config *cfg, size_t source_len);
+
 /* The result as a cJSON tree without the image's verdict (the caller adds
  * it as "image"); NULL when out of memory. */
 cJSON *rd_codegrade_json(const rd_codegrade_result *r);

@@ -518,6 +518,8 @@ enum MHD_Result rd_req_submit(rd_req *r, const rd_jq_task *task, rd_jq_submit_op
     rd_error_code rc = rd_jq_submit(r->srv->jobs, task, so, &job, &err);
     if (rc == RD_ERR_BUSY)
         return rd_reply_error_hdr(r, 503, "queue_full", err.message, "Retry-After", "1");
+    if (rc == RD_ERR_LIMIT) /* it could never fit the memory budget */
+        return rd_reply_error(r, 413, "too_large", &err, NULL);
     if (rc)
         return rd_reply_error(r, 503, "unavailable", &err, NULL);
     rd_jq_info info;

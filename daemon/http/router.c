@@ -1,6 +1,7 @@
 /* Every route of the service (docs/http-api.md), in one table: adding a
  * route means a row here and its handlers in a routes_*.c. The server only
  * looks rows up and calls them. */
+#include <cJSON.h>
 #include <string.h>
 
 #include "http_internal.h"
@@ -10,6 +11,20 @@ static enum MHD_Result health(rd_req *r, const char *rest)
     (void)rest;
     static const char ok[] = "{\"status\":\"ok\"}\n";
     return rd_reply(r, 200, "application/json", (void *)ok, sizeof ok - 1, 0);
+}
+
+/* Ready, but a feature is off: 200 still (renders and image grades are
+ * served, and a balancer that took the daemon out would stop them too),
+ * with what is unavailable and why, for the operator to see. */
+static enum MHD_Result ready_without(rd_req *r, const char *feature, const char *why)
+{
+    cJSON *root = cJSON_CreateObject(), *off = NULL;
+    char *text = NULL;
+    if (root && cJSON_AddStringToObject(root, "status", "ready") &&
+        (off = cJSON_AddObjectToObject(root, "unavailable")) && cJSON_AddStringToObject(off, feature, why))
+        text = cJSON_PrintUnformatted(root);
+    cJSON_Delete(root);
+    return text ? rd_reply_json(r, 200, text) : rd_reply_error(r, 503, "unavailable", NULL, "out of memory");
 }
 
 enum MHD_Result rd_route_ready(rd_req *r, const char *rest)
@@ -24,6 +39,9 @@ enum MHD_Result rd_route_ready(rd_req *r, const char *rest)
                     : !atomic_load(&r->srv->ready)               ? starting
                     : rd_farm_ping(rd_server_farm(r->srv), &err) ? no_store
                                                                  : ok;
+    const char *no_sandbox = rd_codegrades_unavailable(r->srv->codegrades);
+    if (t == ok && no_sandbox)
+        return ready_without(r, "code_grading", no_sandbox);
     const char *headers[] = {"Retry-After", "5", NULL};
     return rd_reply_with(r, t == ok ? 200 : 503, "application/json", (void *)t, strlen(t), 0, t == ok ? NULL : headers);
 }

@@ -364,7 +364,9 @@ static enum MHD_Result submit(rd_req *r, code_form *f)
     /* internal: freed with the request, so a grade cancelled before it
      * started gives its slot back at once rather than when a kept job
      * would expire */
-    rd_jq_submit_options so = {.internal = 1, .renders_nothing = 1};
+    /* what the sandbox may hold is reserved before it starts */
+    rd_jq_submit_options so = {
+        .internal = 1, .renders_nothing = 1, .prepare_bytes = rd_codegrade_memory_bytes(&c->cfg, t->code_len)};
     return rd_req_submit(r, &task, &so);
 }
 

@@ -72,8 +72,9 @@ struct rd_jq_job {
     rd_render_stats stats; /* what the core measured so far (rd_job_stats) */
     unsigned char *png;
     size_t png_len;
-    int hdr;            /* keeps exr beside png */
-    unsigned char *exr; /* the linear image, with hdr */
+    int hdr;              /* keeps exr beside png */
+    size_t prepare_bytes; /* reserved while prepare runs (rd_jq_submit_options) */
+    unsigned char *exr;   /* the linear image, with hdr */
     size_t exr_len;
     rd_error error;
     size_t charged;   /* bytes of the budget it holds */
@@ -101,6 +102,7 @@ struct rd_jq {
     rd_jq_job **by_id; /* registered jobs by idnum, chained */
     size_t nby_id;     /* a power of two */
     size_t active_count, running_count, result_bytes, reserved;
+    size_t preparing_bytes; /* the prepare_bytes of the preparations running */
     atomic_llong external;
     atomic_int external_jobs;
     uint64_t n_done, n_failed, n_cancelled, rays;
@@ -470,6 +472,9 @@ static rd_job_options core_options(const rd_jq_job *j)
 static void prepare_job(rd_jq *q, rd_jq_job *j)
 {
     j->ph = PH_PREPARING;
+    size_t own = j->prepare_bytes;
+    charge(q, j, j->charged + own);
+    q->preparing_bytes += own;
     pthread_mutex_unlock(&q->mu);
     rd_error err = {0};
     int render = 1;
@@ -486,6 +491,11 @@ static void prepare_job(rd_jq *q, rd_jq_job *j)
     }
     size_t held = rc ? 0 : rd_scene_bytes(&j->scene);
     pthread_mutex_lock(&q->mu);
+    q->preparing_bytes -= own;
+    if (own) {
+        charge(q, j, j->charged - own);
+        pthread_cond_broadcast(&q->work_cv); /* a waiting preparation may fit now */
+    }
     j->render = render;
     j->width = j->scene.render.width;
     j->height = j->scene.render.height;
@@ -708,6 +718,18 @@ static int admit(rd_jq *q, const rd_jq_job *j, size_t *held_back)
     return 0;
 }
 
+/* May this new job be prepared now? Only once what its preparation may
+ * hold fits beside what is used; the first such preparation starts anyway
+ * (results and caches make room as they age), so one always runs. Younger
+ * jobs may pass one that waits. Under q->mu. */
+static int prepare_fits(rd_jq *q, const rd_jq_job *j)
+{
+    size_t own = j->prepare_bytes;
+    if (!own || !q->opt.memory_budget || q->preparing_bytes == 0)
+        return 1;
+    return used_bytes(q) + own <= q->opt.memory_budget;
+}
+
 /* What a free worker does next: a cancelled job to end, a new job to
  * prepare, a prepared one to start, or the next tile by fair share.
  * Under q->mu. */
@@ -725,7 +747,7 @@ static rd_jq_job *pick(rd_jq *q, int preparer)
         if (preparer) {
             /* Work that renders nothing: a new job's preparation, a cancelled
              * job's end, a grade whose reference was cached. */
-            if ((j->ph == PH_NEW && !j->cancel) || (j->cancel && j->inflight == 0) ||
+            if ((j->ph == PH_NEW && !j->cancel && prepare_fits(q, j)) || (j->cancel && j->inflight == 0) ||
                 (j->ph == PH_WAITING && !j->render && !j->cancel))
                 return j;
             continue;
@@ -735,7 +757,7 @@ static rd_jq_job *pick(rd_jq *q, int preparer)
                 return j;
             continue;
         }
-        if (j->ph == PH_NEW)
+        if (j->ph == PH_NEW && prepare_fits(q, j))
             return j;
         if (j->ph == PH_WAITING && (!j->render || !older_unknown) && admit(q, j, &held_back))
             return j;
@@ -875,6 +897,14 @@ rd_error_code rd_jq_submit(rd_jq *q, const rd_jq_task *task, const rd_jq_submit_
                            rd_error *err)
 {
     *out = NULL;
+    size_t prep = so ? so->prepare_bytes : 0, need = task->input_bytes + prep;
+    if (prep && q->opt.memory_budget && need > q->opt.memory_budget) {
+        if (task->free)
+            task->free(task->arg);
+        return rd_error_set(err, RD_ERR_LIMIT, 0, 0,
+                            "the job needs about %zu MiB, over the limit of %zu MiB (--memory-budget)", need >> 20,
+                            q->opt.memory_budget >> 20);
+    }
     rd_jq_job *j = calloc(1, sizeof *j);
     if (!j) {
         if (task->free)
@@ -897,6 +927,7 @@ rd_error_code rd_jq_submit(rd_jq *q, const rd_jq_task *task, const rd_jq_submit_
         j->renders_nothing = so->renders_nothing;
         j->hold = so->hold;
         j->hdr = so->hdr;
+        j->prepare_bytes = so->prepare_bytes;
     } else {
         j->watch_fd = -1;
     }

@@ -91,6 +91,13 @@ typedef struct {
      * code grade's sandbox, a batch's slice): it needs no render memory,
      * so it holds no place in the order of starts while it is prepared. */
     int renders_nothing;
+    /* What the task's prepare itself may hold (a code grade's sandbox: its
+     * memory limit and file systems), 0 for none. Such a job is prepared
+     * only once these bytes fit the budget beside what is used (or when no
+     * other such preparation runs), and they stay reserved while prepare
+     * runs. A job whose input and preparation bytes exceed the whole budget
+     * is refused at submission (RD_ERR_LIMIT). */
+    size_t prepare_bytes;
 } rd_jq_submit_options;
 
 rd_jq *rd_jq_start(const rd_jq_options *opt, rd_error *err);

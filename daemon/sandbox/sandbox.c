@@ -17,13 +17,16 @@
 #include <unistd.h>
 
 #include "rayd/clock.h"
+#include "seccomp_filter.h"
 #include "strbuf.h"
 
 /* Everything the child needs is made before fork: after it, in a threaded
- * daemon, only async-signal-safe calls are allowed. Inherited descriptors
- * are moved at or above HIGH_FD first, so that putting them in place
- * (0..4, then the files from FILE_FD on) can never overwrite one. */
-enum { HIGH_FD = 200, FILE_FD = 5, MAX_FILES = 64, MAX_ARGS = 512, STATUS_MAX = 4096 };
+ * daemon, only async-signal-safe calls are allowed. The child puts its
+ * descriptors in place (0..4, then the files from FILE_FD on) after moving
+ * every one above the last of those places, so that none can overwrite
+ * another wherever the caller's open() put it: no descriptor needs to be
+ * high, and a daemon under a small RLIMIT_NOFILE still starts sandboxes. */
+enum { FILE_FD = 5, NSTD = 5, NTMPFS = 2, MAX_FILES = 64, MAX_ARGS = 512, STATUS_MAX = 4096 };
 
 rd_sandbox_spec rd_sandbox_spec_default(void)
 {
@@ -58,6 +61,8 @@ typedef struct {
     int argc;
     char numbers[MAX_FILES + 4][24]; /* the fd and size arguments */
     int nnum;
+    char root_links[4][256]; /* the targets of /lib, /lib64, /bin, /sbin */
+    char nproc[40];          /* prlimit's --nproc=N */
 } args;
 
 static int add(args *a, const char *s)
@@ -91,8 +96,6 @@ static int add_root_dir(args *a, const char *path, char *buf, size_t cap)
     }
     return S_ISDIR(st.st_mode) ? add(a, "--ro-bind") || add(a, path) || add(a, path) : 0;
 }
-
-static char root_links[4][256];
 
 static int build_args(const rd_sandbox_spec *s, args *a)
 {
@@ -139,10 +142,10 @@ static int build_args(const rd_sandbox_spec *s, args *a)
             return -1;
     static const char *const dirs[] = {"/lib", "/lib64", "/bin", "/sbin"};
     for (int i = 0; i < 4; i++)
-        if (add_root_dir(a, dirs[i], root_links[i], sizeof root_links[i]))
+        if (add_root_dir(a, dirs[i], a->root_links[i], sizeof a->root_links[i]))
             return -1;
-    const char *tmpfs[] = {"/tmp", "/work"};
-    for (int i = 0; i < 2; i++)
+    const char *tmpfs[NTMPFS] = {"/tmp", "/work"};
+    for (int i = 0; i < NTMPFS; i++)
         if (add(a, "--size") || add(a, num(a, s->tmpfs_bytes)) || add(a, "--tmpfs") || add(a, tmpfs[i]))
             return -1;
     for (size_t i = 0; i < s->nfiles; i++) {
@@ -151,7 +154,23 @@ static int build_args(const rd_sandbox_spec *s, args *a)
             add(a, s->files[i].dest))
             return -1;
     }
-    if (add(a, "--chdir") || add(a, "/work"))
+    /* the filter's descriptor follows the files' (seccomp_filter.h) */
+    if (add(a, "--seccomp") || add(a, num(a, FILE_FD + s->nfiles)))
+        return -1;
+    /* bwrap's root and its /dev (with /dev/shm) are tmpfs without a size:
+     * host memory outside every limit. Read-only once set up, only /tmp
+     * and /work, sized, can be written. */
+    if (add(a, "--remount-ro") || add(a, "/dev") || add(a, "--remount-ro") || add(a, "/") || add(a, "--chdir") ||
+        add(a, "/work"))
+        return -1;
+    /* RLIMIT_NPROC is counted per user namespace and uid, and a namespace's
+     * ceiling in its parent is its creator's limit when it is made (Linux
+     * 5.14, ucounts): bwrap makes the namespace under the caller's own
+     * limit, and the first process inside sets the sandbox's before it
+     * runs the program. So the count is this sandbox's alone, not one
+     * shared with the daemon's threads and every other sandbox of the uid. */
+    snprintf(a->nproc, sizeof a->nproc, "--nproc=%lu", s->processes);
+    if (s->processes && (add(a, "/usr/bin/prlimit") || add(a, a->nproc) || add(a, "--")))
         return -1;
     for (const char *const *p = s->argv; *p; p++)
         if (add(a, *p))
@@ -159,8 +178,8 @@ static int build_args(const rd_sandbox_spec *s, args *a)
     return 0;
 }
 
-/* A descriptor of the file's bytes: the host file opened here, or a
- * memfd holding the data. At HIGH_FD or above, close-on-exec. */
+/* A descriptor of the file's bytes, close-on-exec: the host file opened
+ * here, or a memfd holding the data. */
 static int file_fd(const rd_sandbox_file *f)
 {
     int fd;
@@ -188,66 +207,63 @@ static int file_fd(const rd_sandbox_file *f)
             }
         }
     }
-    if (fd < 0)
-        return -1;
-    int high = fcntl(fd, F_DUPFD_CLOEXEC, HIGH_FD);
-    close(fd);
-    return high;
+    return fd;
 }
 
-static int high_pipe(int p[2])
+/* Sets a limit of the spec (0: the caller's stays), or the caller's hard
+ * limit where that is lower; -1 when refused, and then the sandbox does
+ * not start (a service's system-call filter may refuse setrlimit: the
+ * limits are not optional). */
+static int limit(int resource, unsigned long long v)
 {
-    int raw[2];
-    if (pipe2(raw, O_CLOEXEC) != 0)
+    struct rlimit rl;
+    if (!v)
+        return 0;
+    if (getrlimit(resource, &rl) != 0)
         return -1;
-    p[0] = fcntl(raw[0], F_DUPFD_CLOEXEC, HIGH_FD);
-    p[1] = fcntl(raw[1], F_DUPFD_CLOEXEC, HIGH_FD);
-    close(raw[0]);
-    close(raw[1]);
-    if (p[0] < 0 || p[1] < 0) {
-        if (p[0] >= 0)
-            close(p[0]);
-        if (p[1] >= 0)
-            close(p[1]);
-        return -1;
-    }
+    if (rl.rlim_max == RLIM_INFINITY || (rlim_t)v < rl.rlim_max)
+        rl.rlim_max = (rlim_t)v;
+    rl.rlim_cur = rl.rlim_max;
+    return setrlimit(resource, &rl);
+}
+
+/* In the child: src[i] becomes descriptor i, for i < n. Each is first
+ * copied at or above n (F_DUPFD takes the lowest free one there), so that
+ * no dup2 below n overwrites a source not yet in place; then everything
+ * from n on is closed. Async-signal-safe; -1 when out of descriptors. */
+static int place_fds(const int *src, int n)
+{
+    int moved[NSTD + MAX_FILES + 1];
+    for (int i = 0; i < n; i++)
+        if ((moved[i] = fcntl(src[i], F_DUPFD, n)) < 0)
+            return -1;
+    for (int i = 0; i < n; i++)
+        if (dup2(moved[i], i) < 0)
+            return -1;
+    close_range((unsigned)n, ~0U, 0);
     return 0;
 }
 
-static void limit(int resource, unsigned long long v)
-{
-    struct rlimit rl = {(rlim_t)v, (rlim_t)v};
-    if (v)
-        setrlimit(resource, &rl);
-}
-
-/* The child between fork and exec: descriptors into place, the caller's
- * uid dropped if it is root, the limits, bwrap. */
-static void child(const rd_sandbox_spec *s, const args *a, const int *fds, int out_w, int data_w, int status_w,
-                  int devnull)
+/* The child between fork and exec: descriptors into place (src: what
+ * becomes 0, 1, 2, 3, 4 and then the files), the caller's uid dropped if it
+ * is root, the limits, bwrap. */
+static void child(const rd_sandbox_spec *s, const args *a, const int *src)
 {
     setpgid(0, 0);
     prctl(PR_SET_PDEATHSIG, SIGKILL);
     sigset_t none;
     sigemptyset(&none);
     sigprocmask(SIG_SETMASK, &none, NULL);
-    if (dup2(devnull, 0) < 0 || dup2(out_w, 1) < 0 || dup2(out_w, 2) < 0 || dup2(data_w, 3) < 0 ||
-        dup2(status_w, 4) < 0)
+    if (place_fds(src, NSTD + (int)s->nfiles + 1))
         _exit(127);
-    for (size_t i = 0; i < s->nfiles; i++)
-        if (dup2(fds[i], FILE_FD + (int)i) < 0)
-            _exit(127);
-    close_range(FILE_FD + (unsigned)s->nfiles, ~0U, 0);
     if (geteuid() == 0) {
         if (setgroups(0, NULL) != 0 || setgid(s->gid) != 0 || setuid(s->uid) != 0)
             _exit(127);
     }
-    limit(RLIMIT_CPU, s->cpu_s);
-    limit(RLIMIT_AS, s->address_space);
-    limit(RLIMIT_FSIZE, s->file_size);
-    limit(RLIMIT_NOFILE, s->open_files);
-    limit(RLIMIT_NPROC, s->processes);
-    limit(RLIMIT_CORE, 0);
+    struct rlimit no_core = {0, 0};
+    if (limit(RLIMIT_CPU, s->cpu_s) || limit(RLIMIT_AS, s->address_space) || limit(RLIMIT_FSIZE, s->file_size) ||
+        limit(RLIMIT_NOFILE, s->open_files) || setrlimit(RLIMIT_CORE, &no_core))
+        _exit(127);
     char *const envp[] = {NULL};
     execve(s->bwrap, (char *const *)a->argv, envp);
     _exit(127);
@@ -375,7 +391,8 @@ rd_error_code rd_sandbox_run(const rd_sandbox_spec *s, rd_sandbox_result *out, r
         free(a);
         return rd_error_set(err, RD_ERR_INVALID, 0, 0, "too many sandbox arguments");
     }
-    int fds[MAX_FILES], pipes[3][2] = {{-1, -1}, {-1, -1}, {-1, -1}};
+    /* src: what the child's 0..4, its files and the filter become */
+    int src[NSTD + MAX_FILES + 1], *fds = src + NSTD, pipes[3][2] = {{-1, -1}, {-1, -1}, {-1, -1}};
     size_t nf = 0;
     rd_error_code rc = RD_OK;
     for (; nf < s->nfiles; nf++) {
@@ -386,21 +403,29 @@ rd_error_code rd_sandbox_run(const rd_sandbox_spec *s, rd_sandbox_result *out, r
             break;
         }
     }
-    int devnull = rc ? -1 : fcntl(open("/dev/null", O_RDONLY | O_CLOEXEC), F_DUPFD_CLOEXEC, HIGH_FD);
+    int filter = rc ? -1 : rd_seccomp_filter_fd(err);
+    if (filter < 0 && !rc)
+        rc = RD_ERR_IO;
+    fds[nf] = filter;
+    int devnull = rc ? -1 : open("/dev/null", O_RDONLY | O_CLOEXEC);
     for (int i = 0; i < 3 && !rc; i++)
-        if (high_pipe(pipes[i]))
+        if (pipe2(pipes[i], O_CLOEXEC) != 0)
             rc = rd_error_set(err, RD_ERR_IO, 0, 0, "cannot make a pipe: %s", strerror(errno));
     if (!rc && devnull < 0)
         rc = rd_error_set(err, RD_ERR_IO, 0, 0, "cannot open /dev/null");
     pid_t pid = -1;
     if (!rc) {
+        int std[NSTD] = {devnull, pipes[0][1], pipes[0][1], pipes[1][1], pipes[2][1]};
+        memcpy(src, std, sizeof std);
         pid = fork();
         if (pid == 0)
-            child(s, a, fds, pipes[0][1], pipes[1][1], pipes[2][1], devnull);
+            child(s, a, src);
         if (pid < 0)
             rc = rd_error_set(err, RD_ERR_IO, 0, 0, "cannot start the sandbox: %s", strerror(errno));
     }
     close_all(fds, nf);
+    if (filter >= 0)
+        close(filter);
     if (devnull >= 0)
         close(devnull);
     for (int i = 0; i < 3; i++) {
@@ -438,6 +463,19 @@ rd_error_code rd_sandbox_run(const rd_sandbox_spec *s, rd_sandbox_result *out, r
         return RD_ERR_IO;
     }
     return RD_OK;
+}
+
+unsigned long long rd_sandbox_memory_bytes(const rd_sandbox_spec *s)
+{
+    unsigned long long n = s->address_space + NTMPFS * s->tmpfs_bytes;
+    for (size_t i = 0; i < s->nfiles; i++) {
+        struct stat st;
+        if (!s->files[i].host_path)
+            n += s->files[i].len;
+        else if (stat(s->files[i].host_path, &st) == 0)
+            n += (unsigned long long)st.st_size;
+    }
+    return n;
 }
 
 rd_error_code rd_sandbox_probe(const char *bwrap, rd_error *err)

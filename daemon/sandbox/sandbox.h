@@ -1,10 +1,15 @@
 /* Running an untrusted program under bubblewrap (bwrap): its own user, pid,
  * network, IPC, UTS and cgroup namespaces, no network, no environment, a
- * file system of /usr read-only, a fresh /proc and /dev, two small tmpfs
- * (/tmp and the working folder /work) and the files it is given, copied
- * in; resource limits; a wall clock after which the whole tree is killed;
+ * file system of /usr read-only, a fresh /proc and a read-only /dev (no
+ * writable /dev/shm), two small tmpfs (/tmp and the working folder /work)
+ * and the files it is given, copied in, the rest of the root read-only;
+ * resource limits; a wall clock after which the whole tree is killed;
  * its output read through pipes with byte limits. There is no fallback:
  * when bwrap cannot start, rd_sandbox_run fails and nothing runs.
+ *
+ * The process limit is set inside, by /usr/bin/prlimit (util-linux) as the
+ * first process in the sandbox, so that it counts this sandbox alone; a
+ * seccomp filter (seccomp_filter.h) refuses what a student has no use for.
  *
  * When the caller runs as root, the sandbox runs as the kernel uid and gid
  * of the spec (65534, nobody, by default): root is exempt from
@@ -44,7 +49,7 @@ typedef struct {
     unsigned long long address_space; /* RLIMIT_AS of each process, bytes */
     unsigned long long file_size;     /* RLIMIT_FSIZE */
     unsigned long open_files;         /* RLIMIT_NOFILE */
-    unsigned long processes;          /* RLIMIT_NPROC, counted per sandbox user */
+    unsigned long processes;          /* RLIMIT_NPROC, counted in this sandbox alone */
     unsigned long long tmpfs_bytes;   /* size of /tmp and of /work, each */
     size_t output_max;                /* stdout + stderr bytes kept; more ends the run */
     size_t data_max;                  /* bytes kept from fd 3; more ends the run */
@@ -74,6 +79,13 @@ typedef struct {
 
 /* Defaults for everything but bwrap, files and argv. */
 rd_sandbox_spec rd_sandbox_spec_default(void);
+
+/* The host memory one run may hold at most, as a budget reserves it: the
+ * address space limit, the two tmpfs' sizes and the files copied in (bwrap
+ * writes them to its own root). The limit is per process: several at once
+ * (the compiler's, the evaluator's) may together hold more. Files that
+ * cannot be read count 0. */
+unsigned long long rd_sandbox_memory_bytes(const rd_sandbox_spec *spec);
 
 /* Runs spec->argv in a new sandbox and waits for its end. RD_ERR_IO when
  * the sandbox could not be set up (bwrap missing, user namespaces

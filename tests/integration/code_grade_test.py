@@ -169,6 +169,23 @@ def compile_error(d):
           "the messages name no sandbox folder: %s" % c.get("messages", "")[:300])
 
 
+def open_fds(pid):
+    return len(os.listdir("/proc/%d/fd" % pid))
+
+
+def descriptors(d):
+    """Grades leave no descriptor open in the daemon: 30 more (code that
+    does not compile, the quickest) and its /proc/PID/fd is as it was,
+    give or take a connection."""
+    before = open_fds(d.proc.pid)
+    for i in range(30):
+        post_code(d, "phong", "PhongMaterial.h", b"not C++ %d\n" % i)
+    after = open_fds(d.proc.pid)
+    print("code grade: daemon descriptors %d before 30 grades, %d after" % (before, after))
+    check(after <= before + 2, "30 code grades leave the daemon's descriptors flat (%d before, %d after)" %
+          (before, after))
+
+
 def listener():
     """Something on 127.0.0.1:8080 for socket.h to reach if it could."""
     s = socket.socket()
@@ -198,7 +215,7 @@ def hostile_expectation(name, st, v):
         return st == 422 and not leaked and c.get("ok") is False, seen
     if st != 200:
         return False, seen
-    if name in ("read_passwd", "read_data", "socket", "alloc_100g"):
+    if name in ("read_passwd", "read_data", "socket", "alloc_100g", "fill_tmpfs", "syscall_probe", "nproc_hog"):
         return v.get("pass") is True, seen  # correct Phong unless it got out (or got 100 GB)
     if name == "include_environ":  # /proc/self/environ is the compiler's own, empty, environment
         msgs = c.get("messages", "")
@@ -374,6 +391,77 @@ def per_client(tmp):
         print("code grade: a hang-up freed its slot in %.0f ms" % (freed * 1e3))
 
 
+def shmem_bytes():
+    with open("/proc/meminfo") as f:
+        for line in f:
+            if line.startswith("Shmem:"):
+                return int(line.split()[1]) * 1024
+    return 0
+
+
+BUDGET = 3 << 30  # one code grade's reservation (about 2.6 GiB) fits, two do not
+
+
+def memory(tmp):
+    """Four grades at once of fill_tmpfs.h, which writes all it can to /,
+    /dev/shm, /tmp and /work: tmpfs pages are host memory, and the host's
+    (Shmem, sampled) grows by less than --memory-budget allows."""
+    src = read(HOSTILE + "/fill_tmpfs.h")
+    with Daemon(tmp, ["--memory-budget", str(BUDGET), "--max-code-jobs", "4", "--max-code-jobs-per-client", "4",
+                          "--threads", "3"]) as d:
+        base = peak = shmem_bytes()
+        with concurrent.futures.ThreadPoolExecutor(4) as pool:
+            futs = [pool.submit(post_code, d, "phong", "PhongMaterial.h", src, "fill%d" % i) for i in range(4)]
+            while not all(f.done() for f in futs):
+                peak = max(peak, shmem_bytes())
+                time.sleep(0.05)
+        answers = [f.result() for f in futs]
+    growth = peak - base
+    print("code grade: 4 fill_tmpfs grades at once, host Shmem grew %.0f MiB at most (budget %d MiB)" %
+          (growth / 2**20, BUDGET >> 20))
+    check(growth < BUDGET, "4 grades filling every tmpfs grow the host's Shmem by %.0f MiB, under the %d MiB "
+          "budget" % (growth / 2**20, BUDGET >> 20))
+    check(all(st == 200 and v.get("pass") is True for st, _, v in answers),
+          "each fill_tmpfs grade ends, its writes refused, and passes: %s" % [(st, v.get("pass")) for st, _, v in answers])
+    with Daemon(tmp, ["--memory-budget", str(1 << 30)]) as d:
+        st, _, v = post_code(d, "phong", "PhongMaterial.h", read(STUDENTS + "/phong_ok.h"))
+        check(st == 413 and "--memory-budget" in (v.get("error") or {}).get("message", ""),
+              "a grade that could never fit --memory-budget is 413 (%d, %s)" % (st, v.get("error")))
+
+
+def processes(tmp):
+    """Not as root (the unit's DynamicUser; as root the daemon runs as 65534
+    here): one student's processes up to RLIMIT_NPROC do not stop another's
+    grade, and 40 render threads leave code grading on. The limit is each
+    sandbox's own, not the uid's."""
+    home, wrap = os.path.join(tmp, "nonroot"), []
+    os.makedirs(home)
+    if os.geteuid() == 0:
+        os.chmod(tmp, 0o711)  # 65534 reaches its own folder inside
+        os.chown(home, 65534, 65534)
+        wrap = ["setpriv", "--reuid", "65534", "--regid", "65534", "--clear-groups"]
+    hog, ok = read(HOSTILE + "/nproc_hog.h"), read(STUDENTS + "/phong_ok.h")
+    with Daemon(home, ["--max-code-jobs", "2", "--max-code-jobs-per-client", "2"], env={"HOME": home},
+                wrap=wrap) as d:
+        with concurrent.futures.ThreadPoolExecutor(1) as pool:
+            held = pool.submit(post_code, d, "phong", "PhongMaterial.h", hog, "hog")
+            time.sleep(1.5)  # compiled, and holding its processes
+            st, _, v = post_code(d, "phong", "PhongMaterial.h", ok)
+            hst, _, hv = held.result()
+        forked = (hv.get("output") or {}).get("text", "")
+        check(st == 200 and v.get("pass") is True, "a correct grade beside one holding every process it may "
+              "passes (%d, %s)" % (st, v.get("error") or v.get("note")))
+        made = int(forked.split()[1]) if forked.startswith("forked ") else -1
+        print("code grade: nproc_hog forked %d processes beside a correct grade (%d: pass %s)" %
+              (made, st, v.get("pass")))
+        check(hst == 200 and 20 <= made < 32, "nproc_hog forked up to its own sandbox's limit of 32 (%d, %r)" %
+              (hst, forked[:80]))
+    with Daemon(home, ["--threads", "40"], env={"HOME": home}, wrap=wrap) as d:
+        st, _, v = post_code(d, "phong", "PhongMaterial.h", ok)
+        check(st == 200 and v.get("pass") is True, "with --threads 40 code grading is on (%d, %s)" %
+              (st, v.get("error")))
+
+
 def no_sandbox(tmp):
     with Daemon(tmp, ["--bwrap", "/nonexistent/bwrap"]) as d:
         st, h, v = post_code(d, "phong", "PhongMaterial.h", read(STUDENTS + "/phong_ok.h"))
@@ -382,6 +470,10 @@ def no_sandbox(tmp):
         st, _, _ = d.request("POST", "/v1/render", body=RENDER_PROBE)
         check(st == 200, "no sandbox: renders all the same (%d)" % st)
         check("sandbox" in d.text(), "no sandbox: the log says so")
+        st, _, b = d.request("GET", "/readyz")
+        why = (json.loads(b).get("unavailable") or {}).get("code_grading", "") if st == 200 else ""
+        check(st == 200 and "bubblewrap" in why, "no sandbox: /readyz is 200 and names code grading as unavailable, "
+              "and why (%d, %s)" % (st, b[:200]))
 
 
 def assignments(tmp):
@@ -402,6 +494,7 @@ def main():
         with Daemon(tmp, ["--max-code-bytes", "65536", "--code-compile-seconds", "8", "--max-code-jobs", "2",
                           "--assignments", assignments(tmp), "--instructor-tokens", tokens]) as d:
             times = students(d)
+            descriptors(d)
             compile_error(d)
             the_daemons_files(d, tmp)
             records(d)
@@ -409,6 +502,8 @@ def main():
             hostile(d)
         busy(tmp)
         per_client(tmp)
+        memory(tmp)
+        processes(tmp)
         no_sandbox(tmp)
     times.sort()
     print("code grade: CLI %.0f ms (with the reference rendered); HTTP median %.0f ms, max %.0f ms over %d files" %

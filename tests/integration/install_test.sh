@@ -77,6 +77,17 @@ if command -v systemd-analyze >/dev/null 2>&1; then
     systemd-analyze verify --man=no "$prefix/lib/systemd/system/rayd@.service" >"$T/verify" 2>&1 && ok ||
         bad "systemd-analyze verify rejects the unit: $(cat "$T/verify")"
 fi
+# Code grading under the unit's own RestrictNamespaces=, SystemCallFilter=,
+# RestrictAddressFamilies= and ProtectHostname= (build/unit-filter installs
+# their seccomp equivalent, its @groups expanded by systemd-analyze): the
+# sandbox starts and a correct file passes. With the old unit
+# (RestrictNamespaces=yes, ~@privileged) this was exit 3.
+make --no-print-directory -s -C "$root" build/unit-filter >"$T/uf.log" 2>&1 || bad "build/unit-filter: $(cat "$T/uf.log")"
+"$root/build/unit-filter" "$prefix/lib/systemd/system/rayd@.service" "$rayd" grade --assignment phong \
+    --code "$root/tests/codegrade/students/phong_ok.h" >"$T/unit_grade.json" 2>"$T/unit_grade.err"
+rc=$?
+[ "$rc" -eq 0 ] && grep -Eq "\"pass\":[[:space:]]*true" "$T/unit_grade.json" && ok ||
+    bad "rayd grade --code under the unit's restrictions (exit $rc): $(cat "$T/unit_grade.err")"
 
 # A staged install: every file under DESTDIR/PREFIX, nothing else; the
 # binary looks in PREFIX, and says so when it is not there yet.

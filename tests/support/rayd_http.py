@@ -35,17 +35,18 @@ class Checks:
 
 class Daemon:
     """`rayd serve --listen LISTEN` (127.0.0.1:0 by default) with extra
-    flags and environment; its log in tmp. Raises RuntimeError when it does
+    flags and environment (wrap: a command that runs it, such as setpriv);
+    its log in tmp. Raises RuntimeError when it does
     not start. Also a context manager that stops it."""
 
-    def __init__(self, tmp, flags=(), env=None, listen="127.0.0.1:0", host="127.0.0.1"):
+    def __init__(self, tmp, flags=(), env=None, listen="127.0.0.1:0", host="127.0.0.1", wrap=()):
         port_file = os.path.join(tmp, "port")
         if os.path.exists(port_file):
             os.unlink(port_file)
         self.host = host
         self.log_path = os.path.join(tmp, "daemon.log")
         self.log = open(self.log_path, "wb")
-        cmd = [RAYD, "serve", "--port-file", port_file] + (["--listen", listen] if listen else []) + list(flags)
+        cmd = list(wrap) + [RAYD, "serve", "--port-file", port_file] + (["--listen", listen] if listen else []) + list(flags)
         # Each daemon its own job store unless the test names one.
         base = dict(os.environ, RAYD_DATA_DIR=os.path.join(tmp, "var"))
         self.proc = subprocess.Popen(cmd, stdout=self.log, stderr=self.log, stdin=subprocess.DEVNULL,

@@ -517,3 +517,64 @@ Test(job_queue, preparing_does_not_wait_for_busy_render_threads)
     rd_jq_job_unref(c);
     rd_jq_stop(q);
 }
+
+/* A preparation that holds memory (a code grade's sandbox): it counts how
+ * many run at once and stays until released. */
+typedef struct {
+    atomic_int running, most, release;
+} held_prep;
+
+static rd_error_code hold_memory(void *arg, rd_scene *s, int *render, rd_error *err)
+{
+    (void)s, (void)err;
+    held_prep *h = arg;
+    int now = atomic_fetch_add(&h->running, 1) + 1;
+    for (int m = atomic_load(&h->most); now > m && !atomic_compare_exchange_weak(&h->most, &m, now);)
+        ;
+    while (!atomic_load(&h->release)) {
+        struct timespec ts = {0, 1000000};
+        nanosleep(&ts, NULL);
+    }
+    atomic_fetch_sub(&h->running, 1);
+    *render = 0;
+    return RD_OK;
+}
+
+/* Preparations reserving 60% of the budget each run one at a time (and a
+ * free thread does not start the second), one over the budget is refused
+ * at submission, and the reservation is given back. */
+Test(job_queue, preparations_wait_for_their_memory)
+{
+    rd_jq_options o = options();
+    o.workers = 3;
+    o.memory_budget = 100u << 20;
+    rd_error err;
+    rd_jq *q = rd_jq_start(&o, &err);
+    static held_prep h;
+    rd_jq_task t = {hold_memory, NULL, NULL, &h, 0, NULL};
+    rd_jq_submit_options so = {.watch_fd = -1, .internal = 1, .prepare_bytes = 60u << 20};
+    rd_jq_job *a, *b, *c;
+    cr_assert_eq(rd_jq_submit(q, &t, &so, &a, &err), RD_OK);
+    cr_assert_eq(rd_jq_submit(q, &t, &so, &b, &err), RD_OK);
+    so.prepare_bytes = 101u << 20;
+    cr_assert_eq(rd_jq_submit(q, &t, &so, &c, &err), RD_ERR_LIMIT);
+    cr_assert_not_null(strstr(err.message, "--memory-budget"), "%s", err.message);
+    double t0 = rd_now_ms();
+    while (atomic_load(&h.running) == 0 && rd_now_ms() - t0 < WAIT_MS) {
+        struct timespec ts = {0, 1000000};
+        nanosleep(&ts, NULL);
+    }
+    struct timespec settle = {0, 200000000}; /* time for a wrong second start */
+    nanosleep(&settle, NULL);
+    cr_assert_eq(atomic_load(&h.most), 1, "%d preparations of 60%% of the budget ran at once", atomic_load(&h.most));
+    atomic_store(&h.release, 1);
+    wait_status(q, a, RD_JQ_DONE, WAIT_MS);
+    wait_status(q, b, RD_JQ_DONE, WAIT_MS);
+    cr_assert_eq(atomic_load(&h.most), 1);
+    rd_jq_metrics m;
+    rd_jq_metrics_get(q, &m);
+    cr_assert_eq(m.memory_reserved, 0, "%zu bytes still reserved", (size_t)m.memory_reserved);
+    rd_jq_job_unref(a);
+    rd_jq_job_unref(b);
+    rd_jq_stop(q);
+}

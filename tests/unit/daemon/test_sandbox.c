@@ -1,9 +1,11 @@
 /* daemon/sandbox: what a program run in it can see and do, and how each
  * of its ends is reported. Needs bubblewrap (deploy/deps.sh installs it). */
 #include <criterion/criterion.h>
+#include <dirent.h>
 #include <signal.h>
 #include <stdatomic.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include "sandbox.h"
@@ -136,4 +138,45 @@ Test(sandbox, no_bubblewrap_is_an_error_and_nothing_runs)
     cr_assert_eq(rd_sandbox_probe("/nonexistent/bwrap", &err), RD_ERR_IO);
     cr_assert_not_null(strstr(err.message, "bubblewrap"), "%s", err.message);
     cr_assert_eq(rd_sandbox_probe("/usr/bin/bwrap", &err), RD_OK, "%s", err.message);
+}
+
+/* Entries of /proc/self/fd, the directory's own one included. */
+static int open_fds(void)
+{
+    DIR *d = opendir("/proc/self/fd");
+    cr_assert_not_null(d);
+    int n = 0;
+    while (readdir(d))
+        n++;
+    closedir(d);
+    return n;
+}
+
+Test(sandbox, runs_leave_no_descriptor_open, .timeout = 120)
+{
+    const char *const argv[] = {"/usr/bin/true", NULL};
+    rd_sandbox_result r = run(argv);
+    rd_sandbox_result_free(&r);
+    int before = open_fds();
+    for (int i = 0; i < 1000; i++) {
+        r = run(argv);
+        assert_exit(&r, 0);
+        rd_sandbox_result_free(&r);
+    }
+    cr_assert_eq(open_fds(), before, "1000 runs: %d descriptors open, %d before", open_fds(), before);
+}
+
+/* A caller under a small descriptor limit (a daemon given LimitNOFILE=64)
+ * still starts a sandbox with files: nothing needs a high descriptor. */
+Test(sandbox, starts_under_a_small_descriptor_limit)
+{
+    struct rlimit rl = {32, 32};
+    cr_assert_eq(setrlimit(RLIMIT_NOFILE, &rl), 0);
+    static const char text[] = "in\n";
+    rd_sandbox_file f = {"/work/in.txt", NULL, text, sizeof text - 1, 0};
+    const char *const argv[] = {"/usr/bin/cat", "/work/in.txt", NULL};
+    rd_sandbox_result r = run_files(argv, &f, 1, 10000);
+    assert_exit(&r, 0);
+    cr_assert_str_eq(r.output, text);
+    rd_sandbox_result_free(&r);
 }
