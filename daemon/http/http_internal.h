@@ -251,11 +251,14 @@ void rd_grades_record(rd_server *srv, const rd_grade_output *o, const char *id, 
 void rd_grades_error_record(rd_server *srv, const char *assignment, const char *student, const char *batch_id,
                             const char *message, char id[24]);
 
-/* A batch's images: the grades take them over. */
+/* A batch's images: the grades take them over. student is UTF-8; error
+ * (a static text, or NULL) says why the image is not graded but becomes
+ * an error row (a name that was not UTF-8). */
 typedef struct {
     char student[256];
     unsigned char *png;
     size_t len;
+    const char *error;
 } rd_grade_batch_image;
 
 /* Records the batch, then grades it on the render threads; its id in id.

@@ -18,6 +18,7 @@
 #include "http_internal.h"
 #include "rayd/clock.h"
 #include "rayd/memory.h"
+#include "utf8.h"
 
 typedef rd_grade_batch_image batch_image;
 
@@ -60,8 +61,17 @@ static void free_form(rd_req *r)
     r->state = NULL;
 }
 
-/* The student of a file: its name without folders and extension. */
-static void student_of(const char *filename, char *out, size_t size)
+/* Why the image of a name that was not UTF-8 is an error row: its student
+ * is the name shown with rd_utf8_readable. */
+static const char NAME_NOT_UTF8[] = "the file name is not UTF-8 (the bytes that are not are shown as %HH): rename "
+                                    "the file, or zip it with a tool that writes UTF-8 names, and grade it again";
+static const char STUDENT_NOT_UTF8[] =
+    "the 'student' field is not UTF-8 (the bytes that are not are shown as %HH): send it as UTF-8";
+
+/* The student of a file: its name without folders and extension, as
+ * readable UTF-8 cut at a character boundary (rd_utf8_readable). 1 when
+ * the name was UTF-8. */
+static int student_of(const char *filename, char *out, size_t size)
 {
     const char *base = filename ? filename : "";
     for (const char *p = base; *p; p++)
@@ -71,13 +81,10 @@ static void student_of(const char *filename, char *out, size_t size)
     const char *dot = strrchr(base, '.');
     if (dot && dot != base)
         n = (size_t)(dot - base);
-    if (n >= size)
-        n = size - 1;
-    memcpy(out, base, n);
-    out[n] = 0;
+    return rd_utf8_readable(base, n, out, size);
 }
 
-static int add_image(batch_form *f, const rd_server_options *o, const char *student)
+static int add_image(batch_form *f, const rd_server_options *o, const char *student, const char *error)
 {
     if (f->n >= o->max_batch_images) {
         f->form.too_big = "--max-batch-images";
@@ -88,7 +95,22 @@ static int add_image(batch_form *f, const rd_server_options *o, const char *stud
     batch_image *im = &f->images[f->n++];
     memset(im, 0, sizeof *im);
     snprintf(im->student, sizeof im->student, "%s", student);
+    im->error = error;
     return 1;
+}
+
+/* A new image part's student: the `student` field before it, else its
+ * file name; an error when either is not UTF-8. */
+static int add_part_image(batch_form *f, const rd_server_options *o, const char *filename)
+{
+    char student[STUDENT_MAX];
+    const char *error = NULL;
+    if (f->student[0] && !rd_utf8_readable(f->student, strlen(f->student), student, sizeof student))
+        error = STUDENT_NOT_UTF8;
+    else if (!f->student[0] && !student_of(filename, student, sizeof student))
+        error = NAME_NOT_UTF8;
+    f->student[0] = 0;
+    return add_image(f, o, student, error);
 }
 
 /* A file part's bytes; a new part starts at offset 0. */
@@ -96,16 +118,8 @@ static enum MHD_Result file_part(rd_req *r, batch_form *f, int archive, const ch
                                  uint64_t off, size_t size)
 {
     const rd_server_options *o = &r->srv->opt;
-    if (off == 0 && !archive) {
-        char student[STUDENT_MAX];
-        if (f->student[0])
-            snprintf(student, sizeof student, "%s", f->student);
-        else
-            student_of(filename, student, sizeof student);
-        f->student[0] = 0;
-        if (!add_image(f, o, student))
-            return MHD_NO;
-    }
+    if (off == 0 && !archive && !add_part_image(f, o, filename))
+        return MHD_NO;
     if (off == 0 && archive && ++f->archives > 1) {
         f->form.bad = "give one 'archive' part";
         return MHD_NO;
@@ -199,12 +213,13 @@ typedef struct {
     const rd_server_options *o;
 } expand_ctx;
 
-static rd_error_code take_file(void *user, const char *name, const unsigned char *data, size_t len, rd_error *err)
+static rd_error_code take_file(void *user, const char *name, int utf8, const unsigned char *data, size_t len,
+                               rd_error *err)
 {
     expand_ctx *x = user;
     char student[STUDENT_MAX];
     student_of(name, student, sizeof student);
-    if (!add_image(x->f, x->o, student))
+    if (!add_image(x->f, x->o, student, utf8 ? NULL : NAME_NOT_UTF8))
         return x->f->form.too_big ? rd_error_set(err, RD_ERR_LIMIT, 0, 0, "more than %zu images (--max-batch-images)",
                                                  x->o->max_batch_images)
                                   : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
@@ -388,6 +403,13 @@ static void free_batch_task(void *arg)
 static void grade_image(grade_batch *b, size_t i)
 {
     rd_grade_batch_image *im = &b->images[i];
+    if (im->error) {
+        char id[24];
+        rd_grades_error_record(b->srv, b->assignment, im->student, b->id, im->error, id);
+        free(im->png);
+        im->png = NULL;
+        return;
+    }
     const rd_grader *g = rd_grades_grader(b->srv->grades);
     rd_grade_input in = {.assignment = b->assignment, .png = im->png, .png_len = im->len};
     rd_grade_output o;

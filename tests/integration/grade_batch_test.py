@@ -155,6 +155,84 @@ def archive_batches(d, images):
         verdicts_right(done.get("results", []), images, "a %s archive" % kind)
 
 
+NAMES = ["m\u00fcller", "bob", "Jos\u00e9", "\u674e\u96f7", "zo\u00eb"]
+
+
+def utf8_names(d, images):
+    """Names that are not ASCII, as zip tools flag them (bit 11, Python's
+    zipfile): every student graded under the UTF-8 name."""
+    right = images["alice"][0]
+    z = io.BytesIO()
+    with zipfile.ZipFile(z, "w") as zf:
+        for n in NAMES:
+            zf.writestr(n + ".png", right)
+    flags = [i.flag_bits & 0x800 for i in zipfile.ZipFile(io.BytesIO(z.getvalue())).infolist()]
+    check(flags.count(0x800) == 4, "the zip's names are not flagged UTF-8: %r" % flags)
+    st, _, b = post_batch(d, [("assignment", None, b"phong"), ("archive", "class.zip", z.getvalue())])
+    o = json.loads(b) if st == 202 else {}
+    check(st == 202 and o.get("total") == 5, "the zip of %s: %d %r" % (NAMES, st, b[:300]))
+    done = wait_batch(d, o.get("id", "x"))
+    rows = {r["student"]: r for r in done.get("results", [])}
+    check(done.get("status") == "done" and sorted(rows) == sorted(NAMES) and all(r["pass"] for r in rows.values()),
+          "the zip of %s: %r" % (NAMES, {k: done.get(k) for k in ("status", "total", "done", "results")}))
+
+
+def hostile_archives(d):
+    """tests/hostile's archives: the names of a zip flagged UTF-8 are every
+    row (not PNGs: error rows, under those names), a tar's Latin-1 name is
+    an error row saying it is not UTF-8."""
+    for path, want in (("batch_utf8_names.zip", {n: "not a PNG" for n in NAMES}),
+                       ("batch_latin1_names.tar", {"m%FCller": "is not UTF-8", "bob": "not a PNG"})):
+        with open(os.path.join("tests", "hostile", path), "rb") as f:
+            data = f.read()
+        st, _, b = post_batch(d, [("assignment", None, b"phong"), ("archive", path, data)])
+        check(st == 202, "tests/hostile/%s: %d %r" % (path, st, b[:200]))
+        rows = ends(d, json.loads(b).get("id", "x") if st == 202 else "x", path)
+        check(sorted(rows) == sorted(want) and all(w in (rows[n].get("error") or "") for n, w in want.items()),
+              "tests/hostile/%s: rows %r" % (path, {n: r.get("error") for n, r in rows.items()}))
+
+
+def ends(d, bid, what):
+    """The batch ends, every student with a row: its rows by student."""
+    done = wait_batch(d, bid, 30)
+    rows = {r["student"]: r for r in done.get("results", [])}
+    check(done.get("status") == "done" and done.get("done") == done.get("total") == len(rows),
+          "%s: %r" % (what, {k: done.get(k) for k in ("status", "total", "done")}))
+    return rows
+
+
+def names_not_utf8(d, images):
+    """Names that are not UTF-8 are error rows that say so, shown with
+    their bad bytes as %HH; a name cut at the 255-byte bound is cut at a
+    character; the batch always ends."""
+    right = images["alice"][0]
+    not_utf8 = "is not UTF-8"
+    long_name = "\u00e9" * 150 + "x"
+    st, _, b = post_batch(d, [("assignment", None, b"phong"), ("image", b"m\xfcller.png", right),
+                              ("image", long_name.encode() + b".png", right), ("student", None, b"\xff\xfe"),
+                              ("image", "a.png", right), ("image", "bob.png", right)])
+    check(st == 202, "form names not UTF-8: %d %r" % (st, b[:200]))
+    rows = ends(d, json.loads(b).get("id", "x") if st == 202 else "x", "form names not UTF-8")
+    check(not_utf8 in (rows.get("m%FCller") or {}).get("error", ""), "the Latin-1 file name's row: %r" % rows.keys())
+    check(not_utf8 in (rows.get("%FF%FE") or {}).get("error", ""), "the student field's row: %r" % rows.keys())
+    check((rows.get("\u00e9" * 127) or {}).get("pass") is True, "the long name, cut at a character: %r" %
+          [k[:8] for k in rows])
+    check((rows.get("bob") or {}).get("pass") is True, "bob beside them: %r" % rows.get("bob"))
+    t = io.BytesIO()
+    with tarfile.open(fileobj=t, mode="w", format=tarfile.USTAR_FORMAT, encoding="latin-1") as tf:
+        for n in ("m\u00fcller.png", "bob.png"):
+            info = tarfile.TarInfo(n)
+            info.size = len(right)
+            tf.addfile(info, io.BytesIO(right))
+    st, _, b = post_batch(d, [("assignment", None, b"phong"), ("archive", "class.tar", t.getvalue())])
+    check(st == 202 and json.loads(b).get("total") == 2, "a tar with a Latin-1 name: %d %r" % (st, b[:200]))
+    rows = ends(d, json.loads(b).get("id", "x") if st == 202 else "x", "a tar with a Latin-1 name")
+    check(not_utf8 in (rows.get("m%FCller") or {}).get("error", ""), "the tar's Latin-1 name: %r" % rows)
+    body, ct = form_parts([("assignment", None, b"phong"), ("student", None, b"\xff\xfe"), ("image", "a.png", right)])
+    st, _, v = d.request("POST", "/v1/grade", body=body, headers={"Content-Type": ct})
+    check(st == 400 and b"not UTF-8" in v, "a single grade whose student is not UTF-8: %d %r" % (st, v[:200]))
+
+
 def limits(d, images):
     bomb = io.BytesIO()
     with zipfile.ZipFile(bomb, "w", zipfile.ZIP_DEFLATED) as zf:
@@ -237,6 +315,9 @@ def main():
             archive_batches(d, images)
             limits(d, images)
             records(d, by, images)
+            utf8_names(d, images)
+            names_not_utf8(d, images)
+            hostile_archives(d)
         after_restart(tmp, bid, by, flags)
         hundred(tmp, ["--instructor-tokens", tokens, "--data-dir", os.path.join(tmp, "data100")],
                 images["alice"][0])
