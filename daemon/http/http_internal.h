@@ -261,8 +261,15 @@ typedef struct {
     const char *error;
 } rd_grade_batch_image;
 
-/* Records the batch, then grades it on the render threads; its id in id.
- * Takes images (the array and each png) over whatever happens. */
+/* At the start, once the store is open: ends every batch this daemon (its
+ * id) left running when it was killed, keeping its rows and adding an
+ * error row, saying the daemon restarted, for each student without one.
+ * Failures are logged. */
+void rd_grades_batches_end_restarted(rd_server *srv);
+
+/* Records the batch (with this daemon's id and its students), then grades
+ * it on the render threads; its id in id. Takes images (the array and each
+ * png) over whatever happens. */
 rd_error_code rd_grades_batch_start(rd_server *srv, const char *assignment, rd_grade_batch_image *images, size_t n,
                                     char id[RD_STORE_ID_MAX], rd_error *err);
 /* form 0: the batch's status with its rows (JSON), 1: the rows (a JSON

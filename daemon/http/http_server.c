@@ -790,6 +790,7 @@ static rd_error_code start_farm(rd_server *s, rd_error *err)
         return rd_error_set(err, why.code ? why.code : RD_ERR_IO, 0, 0, "the job store (%s) cannot be used: %s",
                             o->store && *o->store ? "--store" : "--data-dir", why.message);
     rd_grades_set_store(s->grades, records);
+    rd_grades_batches_end_restarted(s);
     return RD_OK;
 }
 

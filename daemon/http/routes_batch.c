@@ -517,6 +517,34 @@ static void new_id(char id[RD_STORE_ID_MAX])
     snprintf(id, RD_STORE_ID_MAX, "%016llx", (unsigned long long)rd_random_key());
 }
 
+/* The students' ids, each followed by '\n' (malloc'ed; NULL when out of
+ * memory): what a restarted daemon needs to name the ones it did not
+ * grade. A batch's ids never hold a control character (student_of). */
+static char *students_text(const rd_grade_batch_image *images, size_t n)
+{
+    rd_strbuf t = {0};
+    for (size_t i = 0; i < n; i++)
+        rd_strbuf_printf(&t, "%s\n", images[i].student);
+    return rd_strbuf_take(&t, NULL);
+}
+
+/* The batch's row: its daemon and students with it, or, when the students
+ * are more than the store takes as one text, without them (a restart then
+ * numbers the rows it could not grade). */
+static rd_error_code create_batch(rd_server *srv, rd_store *s, const char *id, const char *assignment,
+                                  const rd_grade_batch_image *images, size_t n, rd_error *err)
+{
+    char *students = students_text(images, n);
+    if (!students)
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    const char *daemon = rd_server_daemon_id(srv);
+    rd_error_code rc = rd_store_batch_create(s, id, assignment, (int)n, daemon, students, err);
+    if (rc == RD_ERR_LIMIT)
+        rc = rd_store_batch_create(s, id, assignment, (int)n, daemon, NULL, err);
+    free(students);
+    return rc;
+}
+
 rd_error_code rd_grades_batch_start(rd_server *srv, const char *assignment, rd_grade_batch_image *images, size_t n,
                                     char id[RD_STORE_ID_MAX], rd_error *err)
 {
@@ -528,7 +556,7 @@ rd_error_code rd_grades_batch_start(rd_server *srv, const char *assignment, rd_g
                                 : RD_OK;
     if (!rc) {
         new_id(b->id);
-        rc = rd_store_batch_create(s, b->id, assignment, (int)n, err);
+        rc = create_batch(srv, s, b->id, assignment, images, n, err);
     }
     if (rc) {
         free_images(images, n);
@@ -554,6 +582,69 @@ rd_error_code rd_grades_batch_start(rd_server *srv, const char *assignment, rd_g
     }
     rd_jq_job_unref(job);
     return RD_OK;
+}
+
+/* ---- batches a killed daemon left running ---- */
+
+static const char RESTARTED[] = "not graded: the daemon restarted while grading the batch; grade this image again";
+
+/* 1 when g (n grades) holds a row of student. */
+static int has_row(const rd_store_grade *g, size_t n, const char *student)
+{
+    for (size_t i = 0; i < n; i++)
+        if (g[i].student && strcmp(g[i].student, student) == 0)
+            return 1;
+    return 0;
+}
+
+/* Ends one batch: an error row for each student without a row, named from
+ * the batch's students, or numbered when it has none (an older batch, or
+ * one whose students the store could not take). Each row counts, so the
+ * last one makes it done. */
+static void end_batch(rd_server *srv, rd_store *s, const rd_store_batch *b)
+{
+    rd_store_grade_filter f = {.batch_id = b->id, .max = (size_t)b->total};
+    rd_store_grade *g = NULL;
+    size_t n = 0;
+    char *students = NULL;
+    rd_error err = {0};
+    if (rd_store_grades_list(s, &f, &g, &n, &err) || rd_store_batch_students(s, b->id, &students, &err)) {
+        rd_log_msg(srv->opt.log, "warning", "batch %s could not be ended: %s", b->id, err.message);
+        rd_store_grades_free(g, n);
+        return;
+    }
+    char id[24];
+    int left = b->total - b->done;
+    for (char *p = students, *nl; left > 0 && (nl = strchr(p, '\n')); p = nl + 1) {
+        *nl = 0;
+        if (!has_row(g, n, p) && left-- > 0)
+            rd_grades_error_record(srv, b->assignment, p, b->id, RESTARTED, id);
+    }
+    for (int k = b->total - left + 1; k <= b->total; k++) {
+        char unnamed[48];
+        snprintf(unnamed, sizeof unnamed, "(not graded %d of %d)", k, b->total);
+        rd_grades_error_record(srv, b->assignment, unnamed, b->id, RESTARTED, id);
+    }
+    free(students);
+    rd_store_grades_free(g, n);
+    rd_log_msg(srv->opt.log, "info", "batch %s ended after a restart: %d of %d images had been graded", b->id, b->done,
+               b->total);
+}
+
+void rd_grades_batches_end_restarted(rd_server *srv)
+{
+    rd_store *s = rd_grades_store(srv->grades);
+    rd_store_batch *list = NULL;
+    size_t n = 0;
+    rd_error err = {0};
+    if (!s || rd_store_batches_running(s, rd_server_daemon_id(srv), SIZE_MAX, &list, &n, &err)) {
+        if (s)
+            rd_log_msg(srv->opt.log, "warning", "the batches left running could not be read: %s", err.message);
+        return;
+    }
+    for (size_t i = 0; i < n; i++)
+        end_batch(srv, s, &list[i]);
+    free(list);
 }
 
 /* ---- the records as rows ---- */

@@ -721,14 +721,38 @@ rd_error_code rd_store_grades_expire(rd_store *s, int64_t ttl_ms, size_t *delete
     return c;
 }
 
-rd_error_code rd_store_batch_create(rd_store *s, const char *id, const char *assignment, int total, rd_error *err)
+rd_error_code rd_store_batch_create(rd_store *s, const char *id, const char *assignment, int total, const char *daemon,
+                                    const char *students, rd_error *err)
 {
     USE_ERR(err);
     CHECKED(check_id("a batch id", id, err));
     CHECKED(check_name("the assignment", assignment, 0, err));
+    if (daemon && *daemon)
+        CHECKED(check_id("a daemon id", daemon, err));
+    CHECKED(check_text(s, "the students", students, err));
     if (total < 1)
         return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: a batch of %d grades", total);
-    LOCKED(s, s->ops->batch_create(s, id, assignment, total, err));
+    LOCKED(s, s->ops->batch_create(s, id, assignment, total, daemon ? daemon : "", students ? students : "", err));
+}
+
+rd_error_code rd_store_batches_running(rd_store *s, const char *daemon, size_t max, rd_store_batch **out, size_t *n,
+                                       rd_error *err)
+{
+    USE_ERR(err);
+    CHECKED(check_id("a daemon id", daemon, err));
+    if (!max) {
+        *out = NULL;
+        *n = 0;
+        return RD_OK;
+    }
+    LOCKED(s, s->ops->batches_running(s, daemon, max, out, n, err));
+}
+
+rd_error_code rd_store_batch_students(rd_store *s, const char *id, char **students, rd_error *err)
+{
+    USE_ERR(err);
+    CHECKED(check_id("a batch id", id, err));
+    LOCKED(s, s->ops->batch_students(s, id, students, err));
 }
 
 rd_error_code rd_store_batch_get(rd_store *s, const char *id, rd_store_batch *out, rd_error *err)

@@ -429,9 +429,14 @@ typedef enum { RD_STORE_BATCH_RUNNING, RD_STORE_BATCH_DONE, RD_STORE_BATCH_CANCE
 const char *rd_store_batch_status_name(rd_store_batch_status st);
 
 /* Commits a new batch of total (>= 1) grades of assignment, running, with
- * none done, created now (the store's clock). RD_ERR_INVALID when the id
- * exists. */
-rd_error_code rd_store_batch_create(rd_store *s, const char *id, const char *assignment, int total, rd_error *err);
+ * none done, created now (the store's clock). daemon is the daemon that
+ * grades it (its id, as job ids; NULL or "": none), students its
+ * students' ids, each followed by '\n' (UTF-8, at most
+ * limits.text_bytes, RD_ERR_LIMIT past it; NULL: ""), so that the daemon,
+ * restarted, can end it (rd_store_batches_running). RD_ERR_INVALID when
+ * the id exists. */
+rd_error_code rd_store_batch_create(rd_store *s, const char *id, const char *assignment, int total, const char *daemon,
+                                    const char *students, rd_error *err);
 
 typedef struct {
     char id[RD_STORE_ID_MAX];
@@ -443,6 +448,16 @@ typedef struct {
 
 /* RD_ERR_NOT_FOUND when there is no batch of that id. */
 rd_error_code rd_store_batch_get(rd_store *s, const char *id, rd_store_batch *out, rd_error *err);
+
+/* The batches still running that daemon (not NULL or "") created, oldest
+ * first, at most max: at its start, the ones it was grading when it was
+ * killed. *out is a malloc'ed array (NULL when *n is 0). */
+rd_error_code rd_store_batches_running(rd_store *s, const char *daemon, size_t max, rd_store_batch **out, size_t *n,
+                                       rd_error *err);
+
+/* A batch's students as rd_store_batch_create was given them ("" when
+ * none), malloc'ed. RD_ERR_NOT_FOUND when there is no batch of that id. */
+rd_error_code rd_store_batch_students(rd_store *s, const char *id, char **students, rd_error *err);
 
 /* Running to cancelled: it takes no more grades, and keeps those it has.
  * *changed (may be NULL) is 0 when it had ended already, which is not an

@@ -52,8 +52,14 @@ typedef struct {
     rd_error_code (*grades_list)(rd_store *s, const rd_store_grade_filter *f, rd_store_grade **out, size_t *n,
                                  rd_error *err);
     rd_error_code (*grades_expire)(rd_store *s, int64_t ttl_ms, size_t *deleted, rd_error *err);
-    rd_error_code (*batch_create)(rd_store *s, const char *id, const char *assignment, int total, rd_error *err);
+    /* daemon and students never NULL. */
+    rd_error_code (*batch_create)(rd_store *s, const char *id, const char *assignment, int total, const char *daemon,
+                                  const char *students, rd_error *err);
     rd_error_code (*batch_get)(rd_store *s, const char *id, rd_store_batch *out, rd_error *err);
+    /* max > 0. */
+    rd_error_code (*batches_running)(rd_store *s, const char *daemon, size_t max, rd_store_batch **out, size_t *n,
+                                     rd_error *err);
+    rd_error_code (*batch_students)(rd_store *s, const char *id, char **students, rd_error *err);
     /* *changed 0 (and RD_OK) when it had ended. */
     rd_error_code (*batch_cancel)(rd_store *s, const char *id, int *changed, rd_error *err);
 } rd_store_ops;

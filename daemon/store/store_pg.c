@@ -1271,7 +1271,8 @@ static rd_error_code pg_grades_expire(rd_store *s, int64_t ttl_ms, size_t *delet
     return pg_end(p, c, err);
 }
 
-static rd_error_code pg_batch_create(rd_store *s, const char *id, const char *assignment, int total, rd_error *err)
+static rd_error_code pg_batch_create(rd_store *s, const char *id, const char *assignment, int total, const char *daemon,
+                                     const char *students, rd_error *err)
 {
     pg_store *p = pg(s);
     int found = 0;
@@ -1284,36 +1285,97 @@ static rd_error_code pg_batch_create(rd_store *s, const char *id, const char *as
         pg_params pp = id_params(id);
         pp_text(&pp, assignment);
         pp_int(&pp, total);
+        pp_text(&pp, daemon);
+        pp_text(&pp, students);
         c = pg_cmd(p,
-                   "INSERT INTO batches (id, assignment, total, done, status, created_ms) "
-                   "VALUES ($1, $2, $3::int, 0, 'running', " NOW ")",
+                   "INSERT INTO batches (id, assignment, total, done, status, created_ms, daemon, students) "
+                   "VALUES ($1, $2, $3::int, 0, 'running', " NOW ", $4, $5)",
                    &pp, NULL, err);
     }
     return pg_end(p, c, err);
+}
+
+#define BATCH_COLUMNS "id, assignment, total, done, status, created_ms"
+
+/* The batch of row i of a result of BATCH_COLUMNS. */
+static rd_store_batch pg_batch_of(const PGresult *r, int i)
+{
+    rd_store_batch b;
+    memset(&b, 0, sizeof b);
+    snprintf(b.id, sizeof b.id, "%s", pg_text(r, i, 0));
+    snprintf(b.assignment, sizeof b.assignment, "%s", pg_text(r, i, 1));
+    b.total = (int)pg_int(r, i, 2);
+    b.done = (int)pg_int(r, i, 3);
+    b.status = (rd_store_batch_status)rd_store_batch_status_parse(pg_text(r, i, 4));
+    b.created_ms = pg_int(r, i, 5);
+    return b;
 }
 
 /* Inside a transaction or not (pg_run, not pg_ready). */
 static rd_error_code pg_batch_row(pg_store *p, const char *id, rd_store_batch *out, rd_error *err)
 {
     pg_params pp = id_params(id);
-    PGresult *r =
-        pg_run(p, "SELECT id, assignment, total, done, status, created_ms FROM batches WHERE id = $1", &pp, 0, err);
+    PGresult *r = pg_run(p, "SELECT " BATCH_COLUMNS " FROM batches WHERE id = $1", &pp, 0, err);
     if (!r)
         return err ? err->code : RD_ERR_IO;
     if (PQntuples(r) == 0) {
         PQclear(r);
         return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no batch %s", id);
     }
-    rd_store_batch b;
-    memset(&b, 0, sizeof b);
-    snprintf(b.id, sizeof b.id, "%s", pg_text(r, 0, 0));
-    snprintf(b.assignment, sizeof b.assignment, "%s", pg_text(r, 0, 1));
-    b.total = (int)pg_int(r, 0, 2);
-    b.done = (int)pg_int(r, 0, 3);
-    b.status = (rd_store_batch_status)rd_store_batch_status_parse(pg_text(r, 0, 4));
-    b.created_ms = pg_int(r, 0, 5);
+    *out = pg_batch_of(r, 0);
     PQclear(r);
-    *out = b;
+    return RD_OK;
+}
+
+static rd_error_code pg_batches_running(rd_store *s, const char *daemon, size_t max, rd_store_batch **out, size_t *n,
+                                        rd_error *err)
+{
+    pg_store *p = pg(s);
+    pg_params pp = id_params(daemon);
+    pp_int(&pp, (int64_t)(max > INT64_MAX ? INT64_MAX : max));
+    rd_error_code c = pg_ready(p, err);
+    if (c)
+        return c;
+    PGresult *r = pg_run(p,
+                         "SELECT " BATCH_COLUMNS " FROM batches WHERE daemon = $1 AND status = 'running' "
+                         "ORDER BY created_ms, id LIMIT $2",
+                         &pp, 0, err);
+    if (!r)
+        return err ? err->code : RD_ERR_IO;
+    size_t k = (size_t)PQntuples(r);
+    rd_store_batch *list = k ? malloc(k * sizeof *list) : NULL;
+    if (k && !list) {
+        PQclear(r);
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no memory for a batch list");
+    }
+    for (size_t i = 0; i < k; i++)
+        list[i] = pg_batch_of(r, (int)i);
+    PQclear(r);
+    *out = list;
+    *n = k;
+    return RD_OK;
+}
+
+static rd_error_code pg_batch_students(rd_store *s, const char *id, char **students, rd_error *err)
+{
+    pg_store *p = pg(s);
+    pg_params pp = id_params(id);
+    rd_error_code c = pg_ready(p, err);
+    if (c)
+        return c;
+    PGresult *r = pg_run(p, "SELECT students FROM batches WHERE id = $1", &pp, 0, err);
+    if (!r)
+        return err ? err->code : RD_ERR_IO;
+    if (PQntuples(r) == 0) {
+        PQclear(r);
+        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no batch %s", id);
+    }
+    const char *t = pg_text(r, 0, 0);
+    char *copy = rd_store_dup(t, strlen(t));
+    PQclear(r);
+    if (!copy)
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: out of memory reading a batch's students");
+    *students = copy;
     return RD_OK;
 }
 
@@ -1376,6 +1438,8 @@ static const rd_store_ops pg_ops = {
     .grades_expire = pg_grades_expire,
     .batch_create = pg_batch_create,
     .batch_get = pg_batch_get,
+    .batches_running = pg_batches_running,
+    .batch_students = pg_batch_students,
     .batch_cancel = pg_batch_cancel,
 };
 

@@ -1024,7 +1024,8 @@ static rd_error_code sq_grades_expire(rd_store *s, int64_t ttl_ms, size_t *delet
     return sq_end(q, c, err);
 }
 
-static rd_error_code sq_batch_create(rd_store *s, const char *id, const char *assignment, int total, rd_error *err)
+static rd_error_code sq_batch_create(rd_store *s, const char *id, const char *assignment, int total, const char *daemon,
+                                     const char *students, rd_error *err)
 {
     sq_store *q = sq(s);
     int found = 0;
@@ -1036,36 +1037,91 @@ static rd_error_code sq_batch_create(rd_store *s, const char *id, const char *as
         c = rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: batch %s exists already", id);
     if (!c)
         c = sq_run(q, NULL, err,
-                   "INSERT INTO batches (id, assignment, total, done, status, created_ms) "
-                   "VALUES (?, ?, ?, 0, 'running', ?)",
-                   "ttiI", id, assignment, total, rd_wall_ms());
+                   "INSERT INTO batches (id, assignment, total, done, status, created_ms, daemon, students) "
+                   "VALUES (?, ?, ?, 0, 'running', ?, ?, ?)",
+                   "ttiItt", id, assignment, total, rd_wall_ms(), daemon, students);
     return sq_end(q, c, err);
+}
+
+#define BATCH_COLUMNS "id, assignment, total, done, status, created_ms"
+
+/* The batch of a row of BATCH_COLUMNS. */
+static rd_store_batch sq_batch_of(sqlite3_stmt *st)
+{
+    rd_store_batch b;
+    memset(&b, 0, sizeof b);
+    snprintf(b.id, sizeof b.id, "%s", col_text(st, 0));
+    snprintf(b.assignment, sizeof b.assignment, "%s", col_text(st, 1));
+    b.total = sqlite3_column_int(st, 2);
+    b.done = sqlite3_column_int(st, 3);
+    b.status = (rd_store_batch_status)rd_store_batch_status_parse(col_text(st, 4));
+    b.created_ms = sqlite3_column_int64(st, 5);
+    return b;
 }
 
 static rd_error_code sq_batch_get(rd_store *s, const char *id, rd_store_batch *out, rd_error *err)
 {
     sq_store *q = sq(s);
     sqlite3_stmt *st;
-    rd_error_code c = sq_prep(
-        q, &st, err, "SELECT id, assignment, total, done, status, created_ms FROM batches WHERE id = ?", "t", id);
+    rd_error_code c = sq_prep(q, &st, err, "SELECT " BATCH_COLUMNS " FROM batches WHERE id = ?", "t", id);
     if (c)
         return c;
     int r = sq_step(q, st, err);
-    if (r == 1) {
-        rd_store_batch b;
-        memset(&b, 0, sizeof b);
-        snprintf(b.id, sizeof b.id, "%s", col_text(st, 0));
-        snprintf(b.assignment, sizeof b.assignment, "%s", col_text(st, 1));
-        b.total = sqlite3_column_int(st, 2);
-        b.done = sqlite3_column_int(st, 3);
-        b.status = (rd_store_batch_status)rd_store_batch_status_parse(col_text(st, 4));
-        b.created_ms = sqlite3_column_int64(st, 5);
-        *out = b;
-    }
+    if (r == 1)
+        *out = sq_batch_of(st);
     sqlite3_finalize(st);
     if (r == 0)
         return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no batch %s", id);
     return r < 0 ? (rd_error_code)-r : RD_OK;
+}
+
+static rd_error_code sq_batches_running(rd_store *s, const char *daemon, size_t max, rd_store_batch **out, size_t *n,
+                                        rd_error *err)
+{
+    sq_store *q = sq(s);
+    sqlite3_stmt *st;
+    rd_error_code c = sq_prep(q, &st, err,
+                              "SELECT " BATCH_COLUMNS " FROM batches WHERE daemon = ? AND status = 'running' "
+                              "ORDER BY created_ms, id LIMIT ?",
+                              "tI", daemon, (int64_t)(max > INT64_MAX ? INT64_MAX : max));
+    rd_store_batch *list = NULL;
+    size_t k = 0, cap = 0;
+    int r = 0;
+    while (!c && (r = sq_step(q, st, err)) == 1) {
+        if ((c = room_for(k, &cap, (void **)&list, sizeof *list, "a batch list", err)))
+            break;
+        list[k++] = sq_batch_of(st);
+    }
+    if (!c && r < 0)
+        c = (rd_error_code)-r;
+    sqlite3_finalize(st);
+    if (c) {
+        free(list);
+        return c;
+    }
+    *out = list;
+    *n = k;
+    return RD_OK;
+}
+
+static rd_error_code sq_batch_students(rd_store *s, const char *id, char **students, rd_error *err)
+{
+    sq_store *q = sq(s);
+    sqlite3_stmt *st;
+    rd_error_code c = sq_prep(q, &st, err, "SELECT students FROM batches WHERE id = ?", "t", id);
+    if (c)
+        return c;
+    int r = sq_step(q, st, err);
+    char *t = NULL;
+    if (r == 1 && !(t = rd_store_dup(col_text(st, 0), strlen(col_text(st, 0)))))
+        r = -(int)rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: out of memory reading a batch's students");
+    sqlite3_finalize(st);
+    if (r == 0)
+        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no batch %s", id);
+    if (r < 0)
+        return (rd_error_code)-r;
+    *students = t;
+    return RD_OK;
 }
 
 static rd_error_code sq_batch_cancel(rd_store *s, const char *id, int *changed, rd_error *err)
@@ -1119,6 +1175,8 @@ static const rd_store_ops sq_ops = {
     .grades_expire = sq_grades_expire,
     .batch_create = sq_batch_create,
     .batch_get = sq_batch_get,
+    .batches_running = sq_batches_running,
+    .batch_students = sq_batch_students,
     .batch_cancel = sq_batch_cancel,
 };
 

@@ -300,6 +300,46 @@ def hundred(tmp, flags, right):
         print("grade batch: 100 320x240 images graded in %.2f s (POST to done, reference included)" % secs)
 
 
+def killed_mid_batch(tmp, tokens, right):
+    """kill -9 while a batch of 400 grades, then a restart under the same
+    --daemon-id on the same store: the batch ends, done == total, the rows
+    graded before the kill kept and every other student an error row saying
+    the daemon restarted."""
+    data = os.path.join(tmp, "data-k9")
+    flags = ["--instructor-tokens", tokens, "--data-dir", data, "--threads", "2", "--max-batch-images", "500",
+             "--max-batch-bytes", "100000000", "--daemon-id", "batch-k9"]
+    names = ["s%03d" % i for i in range(400)]
+    with Daemon(tmp, flags) as d:
+        st, _, b = post_batch(d, [("assignment", None, b"phong")] + [("image", n + ".png", right) for n in names])
+        check(st == 202, "a batch of 400: %d %r" % (st, b[:200]))
+        bid = json.loads(b).get("id", "x") if st == 202 else "x"
+        before = {}
+        for _ in range(600):
+            st, _, b = d.request("GET", "/v1/grade/batch/" + bid, headers=AUTH)
+            before = json.loads(b) if st == 200 else {}
+            if before.get("done", 0) >= 20 or before.get("status") != "running":
+                break
+            time.sleep(0.01)
+        d.proc.kill()
+        d.proc.wait()
+    check(before.get("status") == "running" and 0 < before.get("done", 0) < 400,
+          "the batch was not mid-way when killed: %r" % {k: before.get(k) for k in ("status", "done")})
+    with Daemon(tmp, flags) as d:
+        done = wait_batch(d, bid, 30)
+        rows = done.get("results", [])
+        graded = [r for r in rows if not r.get("error")]
+        restarted = [r for r in rows if "restarted" in (r.get("error") or "")]
+        check(done.get("status") == "done" and done.get("done") == done.get("total") == 400 and len(rows) == 400,
+              "after kill -9 and a restart: %r" % {k: done.get(k) for k in ("status", "total", "done")})
+        check(sorted(r["student"] for r in rows) == names and len(graded) + len(restarted) == 400 and
+              len(graded) >= before.get("done", 0),
+              "after kill -9: %d graded (%d before the kill), %d rows saying the daemon restarted" %
+              (len(graded), before.get("done", 0), len(restarted)))
+        print("grade batch: killed -9 at %d/400; after the restart %s %d/%d, %d graded rows kept, %d error rows" %
+              (before.get("done", 0), done.get("status"), done.get("done", 0), done.get("total", 0), len(graded),
+               len(restarted)))
+
+
 def main():
     tmp = tempfile.mkdtemp(prefix="rayd-batch-")
     try:
@@ -321,6 +361,7 @@ def main():
         after_restart(tmp, bid, by, flags)
         hundred(tmp, ["--instructor-tokens", tokens, "--data-dir", os.path.join(tmp, "data100")],
                 images["alice"][0])
+        killed_mid_batch(tmp, tokens, images["alice"][0])
     finally:
         if not check.failed:
             shutil.rmtree(tmp, ignore_errors=True)
