@@ -173,6 +173,8 @@ enum MHD_Result rd_route_grades_list(rd_req *r);
 enum MHD_Result rd_route_batch_begin(rd_req *r);
 enum MHD_Result rd_route_batch_data(rd_req *r, const char *data, size_t size);
 enum MHD_Result rd_route_batch_post(rd_req *r, const char *rest);
+/* An archive's expansion (a job of the render queue) has ended. */
+enum MHD_Result rd_route_batch_resumed(rd_req *r);
 enum MHD_Result rd_route_batch_get(rd_req *r, const char *rest);
 
 /* A form's file part: appends size bytes to *buf (kept NUL-terminated);

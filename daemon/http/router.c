@@ -43,7 +43,7 @@ static const rd_route routes[] = {
      rd_route_code_resumed},
     {"/v1/grade/code", RD_ROUTE_BELOW, "GET", NULL, NULL, NULL, 0, rd_route_code_get, NULL},
     {"/v1/grade/batch", RD_ROUTE_EXACT, "POST", NULL, rd_route_batch_begin, rd_route_batch_data, 0, rd_route_batch_post,
-     NULL},
+     rd_route_batch_resumed},
     {"/v1/grade/batch", RD_ROUTE_BELOW, "GET", NULL, NULL, NULL, 0, rd_route_batch_get, NULL},
     {"/v1/grades", RD_ROUTE_EXACT_OR_BELOW, "GET", NULL, NULL, NULL, 0, rd_route_grade_files, NULL},
     {"/v1/scenes", RD_ROUTE_EXACT_OR_BELOW, "GET", NULL, NULL, NULL, 0, rd_route_scenes, NULL},

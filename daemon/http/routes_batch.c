@@ -284,23 +284,11 @@ static enum MHD_Result form_errors(rd_req *r, batch_form *f)
     return MHD_YES;
 }
 
-enum MHD_Result rd_route_batch_post(rd_req *r, const char *rest)
+/* The form's images, an archive's expanded or not, become a batch. */
+static enum MHD_Result start_batch(rd_req *r, batch_form *f)
 {
-    (void)rest;
     rd_server *srv = r->srv;
-    batch_form *f = r->state;
-    if (!f)
-        return rd_reply_error(r, 400, "parse_error", NULL, "no form");
-    if (f->form.too_big || f->form.bad || !f->assignment[0] || (f->archives && f->n))
-        return form_errors(r, f);
-    if (atomic_load(&srv->draining))
-        return rd_reply_draining(r);
     rd_error err = {0};
-    rd_error_code rc = expand(f, &srv->opt, &err);
-    if (rc == RD_ERR_LIMIT)
-        return rd_reply_error(r, 413, "too_large", &err, NULL);
-    if (rc)
-        return rd_reply_error(r, 400, "parse_error", &err, NULL);
     if (f->n == 0)
         return rd_reply_error(r, 400, "parse_error", NULL, "the batch has no image");
     const char *dup = duplicate_student(f);
@@ -318,7 +306,7 @@ enum MHD_Result rd_route_batch_post(rd_req *r, const char *rest)
     f->images = NULL;
     f->n = f->cap = 0;
     char id[RD_STORE_ID_MAX];
-    rc = rd_grades_batch_start(srv, f->assignment, images, n, id, &err);
+    rd_error_code rc = rd_grades_batch_start(srv, f->assignment, images, n, id, &err);
     if (rc)
         return rd_reply_store_error(r, &err);
     char *text = NULL;
@@ -328,6 +316,103 @@ enum MHD_Result rd_route_batch_post(rd_req *r, const char *rest)
     snprintf(loc, sizeof loc, "/v1/grade/batch/%s", id);
     const char *headers[] = {MHD_HTTP_HEADER_LOCATION, loc, NULL};
     return rd_reply_with(r, 202, "application/json", text, strlen(text), 1, headers);
+}
+
+/* An archive is expanded by a job of the render queue, never on the HTTP
+ * thread: its preparation may hold --max-batch-expanded (and one image of
+ * --max-body-bytes being read), reserved in --memory-budget while it runs,
+ * so that concurrent archives are expanded only as the budget allows. The
+ * job owns the archive and the images it makes (its own batch_form, of
+ * which only those are used), so that a client hanging up frees nothing
+ * under it. */
+typedef struct {
+    rd_server *srv;
+    batch_form f;
+} expand_task;
+
+static rd_error_code expand_archive(void *arg, rd_scene *s, int *render, rd_error *err)
+{
+    (void)s;
+    expand_task *t = arg;
+    *render = 0;
+    rd_error_code rc = expand(&t->f, &t->srv->opt, err);
+    if (rc) {
+        free_images(t->f.images, t->f.n);
+        t->f.images = NULL;
+        t->f.n = t->f.cap = 0;
+    }
+    return rc;
+}
+
+static void free_expand_task(void *arg)
+{
+    expand_task *t = arg;
+    free_images(t->f.images, t->f.n);
+    free(t->f.archive);
+    free(t);
+}
+
+static enum MHD_Result submit_expansion(rd_req *r, batch_form *f)
+{
+    const rd_server_options *o = &r->srv->opt;
+    rd_jq_submit_options so = {.prepare_bytes = o->max_batch_expanded + o->max_body_bytes};
+    size_t budget = o->jobs.memory_budget;
+    if (budget && so.prepare_bytes > budget) {
+        char msg[200];
+        snprintf(msg, sizeof msg,
+                 "an archive may expand to %zu MiB (--max-batch-expanded and --max-body-bytes), over the limit of "
+                 "%zu MiB (--memory-budget)",
+                 so.prepare_bytes >> 20, budget >> 20);
+        return rd_reply_error(r, 413, "too_large", NULL, msg);
+    }
+    expand_task *t = calloc(1, sizeof *t);
+    if (!t)
+        return rd_reply_error(r, 503, "unavailable", NULL, "out of memory");
+    t->srv = r->srv;
+    t->f.archive = f->archive;
+    t->f.archive_len = f->archive_len;
+    f->archive = NULL;
+    rd_jq_task task = {expand_archive, NULL, free_expand_task, t, t->f.archive_len};
+    return rd_req_submit(r, &task, &so);
+}
+
+enum MHD_Result rd_route_batch_post(rd_req *r, const char *rest)
+{
+    (void)rest;
+    batch_form *f = r->state;
+    if (!f)
+        return rd_reply_error(r, 400, "parse_error", NULL, "no form");
+    if (f->form.too_big || f->form.bad || !f->assignment[0] || (f->archives && f->n))
+        return form_errors(r, f);
+    if (atomic_load(&r->srv->draining))
+        return rd_reply_draining(r);
+    return f->archive ? submit_expansion(r, f) : start_batch(r, f);
+}
+
+enum MHD_Result rd_route_batch_resumed(rd_req *r)
+{
+    rd_jq_info info;
+    rd_jq_info_get(r->srv->jobs, r->job, &info);
+    batch_form *f = r->state;
+    expand_task *t = rd_jq_task_arg(r->job);
+    if (info.status == RD_JQ_DONE) {
+        f->images = t->f.images;
+        f->n = t->f.n;
+        f->cap = t->f.cap;
+        t->f.images = NULL;
+        t->f.n = t->f.cap = 0;
+        return start_batch(r, f);
+    }
+    if (info.status == RD_JQ_FAILED && info.error.code == RD_ERR_LIMIT)
+        return rd_reply_error(r, 413, "too_large", &info.error, NULL);
+    if (info.status == RD_JQ_FAILED && info.error.code != RD_ERR_NOMEM)
+        return rd_reply_error(r, 400, "parse_error", &info.error, NULL);
+    if (info.status == RD_JQ_FAILED)
+        return rd_reply_error(r, 503, "unavailable", &info.error, NULL);
+    if (info.hung_up)
+        return MHD_NO;
+    return rd_reply_error_hdr(
+        r, 503, "cancelled", "the archive's expansion was cancelled (the server is shutting down)", "Retry-After", "5");
 }
 
 /* GET /v1/grade/batch/{id}, .../results.csv, .../results.json */
@@ -400,14 +485,30 @@ static void free_batch_task(void *arg)
     free(t);
 }
 
+/* The images' bytes count in --memory-budget from the batch's start until
+ * each is graded (rd_grades_batch_start). */
+static long long images_bytes(const rd_grade_batch_image *images, size_t n)
+{
+    long long sum = 0;
+    for (size_t i = 0; i < n; i++)
+        sum += (long long)images[i].len;
+    return sum;
+}
+
+static void drop_png(grade_batch *b, rd_grade_batch_image *im)
+{
+    free(im->png);
+    im->png = NULL;
+    rd_jq_external_bytes(b->srv->jobs, -(long long)im->len);
+}
+
 static void grade_image(grade_batch *b, size_t i)
 {
     rd_grade_batch_image *im = &b->images[i];
     if (im->error) {
         char id[24];
         rd_grades_error_record(b->srv, b->assignment, im->student, b->id, im->error, id);
-        free(im->png);
-        im->png = NULL;
+        drop_png(b, im);
         return;
     }
     const rd_grader *g = rd_grades_grader(b->srv->grades);
@@ -433,8 +534,7 @@ static void grade_image(grade_batch *b, size_t i)
     if (!b->failed.code)
         rd_grade_output_free(&o);
     rd_scene_free(&s);
-    free(im->png);
-    im->png = NULL;
+    drop_png(b, im);
 }
 
 static rd_error_code grade_slice(void *arg, rd_scene *s, int *render, rd_error *err)
@@ -575,8 +675,11 @@ rd_error_code rd_grades_batch_start(rd_server *srv, const char *assignment, rd_g
     rd_jq_task task = {prepare_reference, finish_reference, free_batch_task, t, 0};
     rd_jq_submit_options so = {.watch_fd = -1}; /* registered: the queue holds it until it ends */
     rd_jq_job *job;
+    long long held = images_bytes(images, n);
+    rd_jq_external_bytes(srv->jobs, held);
     rc = rd_jq_submit(srv->jobs, &task, &so, &job, err);
     if (rc) {
+        rd_jq_external_bytes(srv->jobs, -held);
         rd_store_batch_cancel(s, id, NULL, NULL);
         return rc;
     }

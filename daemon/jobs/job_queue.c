@@ -75,8 +75,9 @@ struct rd_jq_job {
     unsigned char *exr; /* the linear image, with hdr */
     size_t exr_len;
     rd_error error;
-    size_t charged;   /* bytes of the budget it holds */
-    size_t footprint; /* what it will hold once admitted */
+    size_t charged;       /* bytes of the budget it holds */
+    size_t prepare_bytes; /* what preparing may take besides (rd_jq_submit_options) */
+    size_t footprint;     /* what it will hold once admitted */
     int active, registered;
     int sync; /* a waiting client takes the PNG: limits do not evict it */
     int was_sync;
@@ -470,6 +471,7 @@ static rd_job_options core_options(const rd_jq_job *j)
 static void prepare_job(rd_jq *q, rd_jq_job *j)
 {
     j->ph = PH_PREPARING;
+    charge(q, j, j->charged + j->prepare_bytes);
     pthread_mutex_unlock(&q->mu);
     rd_error err = {0};
     int render = 1;
@@ -486,6 +488,9 @@ static void prepare_job(rd_jq *q, rd_jq_job *j)
     }
     size_t held = rc ? 0 : rd_scene_bytes(&j->scene);
     pthread_mutex_lock(&q->mu);
+    /* What preparing held is given back below: a new job waiting for it may go. */
+    if (j->prepare_bytes)
+        pthread_cond_broadcast(&q->work_cv);
     j->render = render;
     j->width = j->scene.render.width;
     j->height = j->scene.render.height;
@@ -698,6 +703,22 @@ static int admit(rd_jq *q, const rd_jq_job *j, size_t *held_back)
     return 0;
 }
 
+/* May this new job be prepared now? Only when what its preparation may
+ * take (prepare_bytes) fits the budget beside what is held; when nothing
+ * runs or prepares, it goes anyway (results and caches make room as they
+ * age). Under q->mu. */
+static int may_prepare(rd_jq *q, const rd_jq_job *j)
+{
+    if (!j->prepare_bytes || !q->opt.memory_budget || used_bytes(q) + j->prepare_bytes <= q->opt.memory_budget)
+        return 1;
+    if (q->running_count)
+        return 0;
+    for (const rd_jq_job *o = q->active_head; o; o = o->next_active)
+        if (o->ph == PH_PREPARING)
+            return 0;
+    return 1;
+}
+
 /* What a free worker does next: a cancelled job to end, a new job to
  * prepare, a prepared one to start, or the next tile by fair share.
  * Under q->mu. */
@@ -711,7 +732,7 @@ static rd_jq_job *pick(rd_jq *q, int preparer)
         if (preparer) {
             /* Work that renders nothing: a new job's preparation, a cancelled
              * job's end, a grade whose reference was cached. */
-            if ((j->ph == PH_NEW && !j->cancel) || (j->cancel && j->inflight == 0) ||
+            if ((j->ph == PH_NEW && !j->cancel && may_prepare(q, j)) || (j->cancel && j->inflight == 0) ||
                 (j->ph == PH_WAITING && !j->render && !j->cancel))
                 return j;
             continue;
@@ -721,7 +742,7 @@ static rd_jq_job *pick(rd_jq *q, int preparer)
                 return j;
             continue;
         }
-        if (j->ph == PH_NEW)
+        if (j->ph == PH_NEW && may_prepare(q, j))
             return j;
         if (j->ph == PH_WAITING && admit(q, j, &held_back))
             return j;
@@ -867,6 +888,16 @@ rd_error_code rd_jq_submit(rd_jq *q, const rd_jq_task *task, const rd_jq_submit_
             task->free(task->arg);
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
     }
+    size_t prepare_bytes = so ? so->prepare_bytes : 0;
+    if (q->opt.memory_budget && prepare_bytes > q->opt.memory_budget) {
+        if (task->free)
+            task->free(task->arg);
+        free(j);
+        return rd_error_set(err, RD_ERR_LIMIT, 0, 0,
+                            "preparing it may take %zu MiB, over the limit of %zu MiB (--memory-budget)",
+                            prepare_bytes >> 20, q->opt.memory_budget >> 20);
+    }
+    j->prepare_bytes = prepare_bytes;
     j->q = q;
     j->task = *task;
     rd_scene_init(&j->scene);

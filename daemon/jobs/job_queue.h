@@ -81,6 +81,12 @@ typedef struct {
     int internal;        /* work for a request, not a job of its own: no id to find, not in the metrics */
     rd_jq_job *hold;     /* a reference the job takes over and drops when it is freed; may be NULL */
     int hdr;             /* also keep the linear image as an EXR beside the PNG (a task without finish) */
+    /* What the task's prepare may take on top of input_bytes, at most (an
+     * archive's expansion): the job is prepared only once that fits the
+     * budget beside what is held (or when nothing else runs or prepares),
+     * and holds it while it prepares. Over the whole budget: rd_jq_submit
+     * answers RD_ERR_LIMIT. 0: none. */
+    size_t prepare_bytes;
 } rd_jq_submit_options;
 
 rd_jq *rd_jq_start(const rd_jq_options *opt, rd_error *err);

@@ -13,6 +13,7 @@ import shutil
 import sys
 import tarfile
 import tempfile
+import threading
 import time
 import zipfile
 
@@ -340,6 +341,59 @@ def killed_mid_batch(tmp, tokens, right):
                len(restarted)))
 
 
+def vm_mib(pid, key):
+    with open("/proc/%d/status" % pid) as f:
+        for line in f:
+            if line.startswith(key):
+                return int(line.split()[1]) // 1024
+    return 0
+
+
+def bombs_within_budget(tmp, tokens):
+    """Four concurrent archives that each expand past --max-batch-expanded
+    (256 MiB): they are expanded by the render queue only as
+    --memory-budget (640 MiB) allows, so the daemon's peak resident set
+    stays within the budget, and /healthz answers at once meanwhile."""
+    budget = 640
+    flags = ["--instructor-tokens", tokens, "--data-dir", os.path.join(tmp, "data-bombs"), "--threads", "2",
+             "--memory-budget", str(budget << 20), "--max-batch-expanded", str(256 << 20)]
+    bomb = io.BytesIO()
+    with zipfile.ZipFile(bomb, "w", zipfile.ZIP_DEFLATED) as zf:
+        for i in range(40):
+            zf.writestr("s%02d.png" % i, b"\0" * (15 << 20))
+    body, ct = form_parts([("assignment", None, b"phong"), ("archive", "bomb.zip", bomb.getvalue())])
+    with Daemon(tmp, flags) as d:
+        answers, worst, peak, stop = [], [0.0], [0], [False]
+
+        def one():
+            st, _, b = d.request("POST", "/v1/grade/batch", body=body, headers=dict(AUTH, **{"Content-Type": ct}))
+            answers.append((st, b"--max-batch-expanded" in b))
+
+        def watch():
+            while not stop[0]:
+                peak[0] = max(peak[0], vm_mib(d.pid, "VmRSS"))
+                t = time.time()
+                d.request("GET", "/healthz", timeout=30)
+                worst[0] = max(worst[0], time.time() - t)
+                time.sleep(0.02)
+
+        w = threading.Thread(target=watch)
+        w.start()
+        posts = [threading.Thread(target=one) for _ in range(4)]
+        for t in posts:
+            t.start()
+        for t in posts:
+            t.join()
+        stop[0] = True
+        w.join()
+        hwm = vm_mib(d.pid, "VmHWM")
+        check(answers == [(413, True)] * 4, "four bombs: %r" % answers)
+        check(hwm < budget, "four bombs: VmHWM %d MiB, over the budget of %d MiB" % (hwm, budget))
+        check(worst[0] < 0.5, "four bombs: /healthz took %.2f s" % worst[0])
+        print("grade batch: 4 concurrent bombs, budget %d MiB: VmHWM %d MiB (sampled RSS %d MiB), slowest /healthz "
+              "%.3f s" % (budget, hwm, peak[0], worst[0]))
+
+
 def main():
     tmp = tempfile.mkdtemp(prefix="rayd-batch-")
     try:
@@ -362,6 +416,7 @@ def main():
         hundred(tmp, ["--instructor-tokens", tokens, "--data-dir", os.path.join(tmp, "data100")],
                 images["alice"][0])
         killed_mid_batch(tmp, tokens, images["alice"][0])
+        bombs_within_budget(tmp, tokens)
     finally:
         if not check.failed:
             shutil.rmtree(tmp, ignore_errors=True)
