@@ -294,8 +294,10 @@ enum MHD_Result rd_reply_too_large(rd_req *r, const char *what);
 enum MHD_Result rd_reply_draining(rd_req *r);
 
 /* The answer to a store's error (store.h): 503 with Retry-After when it
- * is unreachable or the queue is full, 404 for no such job, else the
- * error's own 4xx (a 5xx only as 503). */
+ * is unreachable or the queue is full, 507 store_full when it has no
+ * space, 503 store_damaged when its data is damaged (both saying so, with
+ * the store's message), 404 for no such job, else the error's own 4xx (a
+ * 5xx only as 503). */
 enum MHD_Result rd_reply_store_error(rd_req *r, const rd_error *err);
 
 struct rd_grades *rd_grades_new(rd_jq *jobs, const rd_server_options *opt);

@@ -378,6 +378,16 @@ enum MHD_Result rd_reply_store_error(rd_req *r, const rd_error *err)
         return rd_reply_error_hdr(r, 503, "store_unavailable", "the job store is unreachable; try again shortly",
                                   "Retry-After", "5");
     case RD_ERR_BUSY: return rd_reply_error_hdr(r, 503, "queue_full", err->message, "Retry-After", "1");
+    case RD_ERR_NOSPACE:
+    case RD_ERR_DAMAGED: {
+        char msg[640];
+        snprintf(msg, sizeof msg, "%s (%s)",
+                 err->code == RD_ERR_NOSPACE ? "the job store has no space left to write: free some"
+                                             : "the job store is damaged: an operator must repair or restore it",
+                 err->message);
+        rd_error_answer a = rd_error_answer_for(err->code);
+        return rd_reply_error_hdr(r, a.http, a.code, msg, "Retry-After", "30");
+    }
     case RD_ERR_NOT_FOUND:
         return rd_reply_error(r, 404, "not_found", NULL,
                               "no job with that id (finished jobs expire, see --result-ttl)");

@@ -19,11 +19,16 @@ enum MHD_Result rd_route_ready(rd_req *r, const char *rest)
     static const char starting[] = "{\"status\":\"not_ready\",\"reasons\":[\"starting\"]}\n";
     static const char draining[] = "{\"status\":\"not_ready\",\"reasons\":[\"draining\"]}\n";
     static const char no_store[] = "{\"status\":\"not_ready\",\"reasons\":[\"store_unreachable\"]}\n";
+    static const char full[] = "{\"status\":\"not_ready\",\"reasons\":[\"store_full\"]}\n";
+    static const char damaged[] = "{\"status\":\"not_ready\",\"reasons\":[\"store_damaged\"]}\n";
     rd_error err = {0};
-    const char *t = atomic_load(&r->srv->draining)               ? draining
-                    : !atomic_load(&r->srv->ready)               ? starting
-                    : rd_farm_ping(rd_server_farm(r->srv), &err) ? no_store
-                                                                 : ok;
+    rd_error_code rc = RD_OK;
+    const char *t = atomic_load(&r->srv->draining)                       ? draining
+                    : !atomic_load(&r->srv->ready)                       ? starting
+                    : !(rc = rd_farm_ping(rd_server_farm(r->srv), &err)) ? ok
+                    : rc == RD_ERR_NOSPACE                               ? full
+                    : rc == RD_ERR_DAMAGED                               ? damaged
+                                                                         : no_store;
     const char *headers[] = {"Retry-After", "5", NULL};
     return rd_reply_with(r, t == ok ? 200 : 503, "application/json", (void *)t, strlen(t), 0, t == ok ? NULL : headers);
 }

@@ -415,6 +415,8 @@ enum MHD_Result rd_route_batch_resumed(rd_req *r)
         r, 503, "cancelled", "the archive's expansion was cancelled (the server is shutting down)", "Retry-After", "5");
 }
 
+static const char NO_BATCH[] = "no batch with that id (batches expire with their grades, see --grade-ttl)";
+
 /* GET /v1/grade/batch/{id}, .../results.csv, .../results.json */
 enum MHD_Result rd_route_batch_get(rd_req *r, const char *path)
 {
@@ -425,7 +427,7 @@ enum MHD_Result rd_route_batch_get(rd_req *r, const char *path)
     const char *p = path + 1, *slash = strchr(p, '/');
     size_t n = slash ? (size_t)(slash - p) : strlen(p);
     if (n == 0 || n >= sizeof id)
-        return rd_reply_error(r, 404, "not_found", NULL, "no such batch");
+        return rd_reply_error(r, 404, "not_found", NULL, NO_BATCH);
     memcpy(id, p, n);
     id[n] = 0;
     const char *what = slash ? slash + 1 : "";
@@ -434,7 +436,10 @@ enum MHD_Result rd_route_batch_get(rd_req *r, const char *path)
         return rd_reply_error(r, 404, "not_found", NULL, "no such route");
     rd_error err = {0};
     char *text = NULL;
-    if (rd_grades_batch_json(r->srv, id, form, &text, &err))
+    rd_error_code rc = rd_grades_batch_json(r->srv, id, form, &text, &err);
+    if (rc == RD_ERR_NOT_FOUND)
+        return rd_reply_error(r, 404, "not_found", NULL, NO_BATCH);
+    if (rc)
         return rd_reply_store_error(r, &err);
     if (form == 2)
         return rd_reply(r, 200, "text/csv; charset=utf-8", text, strlen(text), 1);

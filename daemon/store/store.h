@@ -22,6 +22,15 @@
  *                      cancelled): it takes no more grades.
  *   RD_ERR_TIMEOUT     a tile's lease ran out and another daemon claimed it.
  *   RD_ERR_UNSUPPORTED the store's schema is newer than this binary.
+ *   RD_ERR_NOSPACE     no space left to write (a full disk; SQLite's
+ *                      SQLITE_FULL, PostgreSQL's disk_full 53100): answer
+ *                      507. Nothing was changed; the same call may work
+ *                      once space is freed.
+ *   RD_ERR_DAMAGED     the data is damaged (SQLite's SQLITE_CORRUPT and
+ *                      SQLITE_NOTADB, a failed quick_check at open;
+ *                      PostgreSQL's data_corrupted XX001 and
+ *                      index_corrupted XX002): answer 503, an operator
+ *                      must repair or restore it.
  *   RD_ERR_NOMEM       out of memory.
  * Each call is one transaction: on an error nothing was changed. Output
  * parameters are written only on RD_OK.
@@ -101,8 +110,12 @@ void rd_store_close(rd_store *s);
 /* "sqlite" or "postgresql". */
 const char *rd_store_engine_name(const rd_store *s);
 
-/* The readiness probe: RD_OK when a statement round-trips now (reconnecting
- * first if the connection was lost), RD_ERR_IO otherwise. */
+/* The readiness probe: RD_OK when the store can be written now: a small
+ * write (committed, then deleted) round-trips, reconnecting first if the
+ * connection was lost. RD_ERR_IO when it is unreachable, RD_ERR_DAMAGED
+ * when its data is damaged, RD_ERR_NOSPACE when the probe, or any write of
+ * this handle in the last 30 s (RD_STORE_NOSPACE_MS; none committed since),
+ * found no space. */
 rd_error_code rd_store_ping(rd_store *s, rd_error *err);
 
 /* The order and names of rd_jq_status. */

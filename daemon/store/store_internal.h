@@ -69,7 +69,20 @@ struct rd_store {
     const rd_store_ops *ops;
     pthread_mutex_t lock;
     rd_store_options opt;
+    /* When a write last failed for want of space (RD_ERR_NOSPACE), 0 since
+     * a commit went through: the readiness probe says so for a while,
+     * since a probe's small write may fit where a real one does not.
+     * Under lock. */
+    int64_t nospace_ms;
 };
+
+/* How long rd_store_ping answers RD_ERR_NOSPACE after a write failed for
+ * want of space, unless a commit goes through meanwhile. */
+#define RD_STORE_NOSPACE_MS 30000
+
+/* The engines tell of each failed call's code and each commit. */
+void rd_store_saw(rd_store *s, rd_error_code c);
+void rd_store_committed(rd_store *s);
 
 /* Engines: a handle with base filled but for ops and lock, or NULL. */
 rd_store *rd_store_sqlite_open(const char *folder, const rd_store_options *opt, rd_error *err);

@@ -104,7 +104,8 @@ static int result_ok(const PGresult *r)
 }
 
 /* A failed statement's code: connection and server trouble is RD_ERR_IO
- * (503), a bad value RD_ERR_INVALID, a lost conflict RD_ERR_BUSY. */
+ * (503), a bad value RD_ERR_INVALID, a lost conflict RD_ERR_BUSY, a full
+ * disk RD_ERR_NOSPACE, a corrupt page or index RD_ERR_DAMAGED. */
 static rd_error_code pg_code(const char *state)
 {
     if (!state)
@@ -115,6 +116,10 @@ static rd_error_code pg_code(const char *state)
         return RD_ERR_BUSY;
     if (strcmp(state, "54000") == 0)
         return RD_ERR_LIMIT;
+    if (strcmp(state, "53100") == 0)
+        return RD_ERR_NOSPACE;
+    if (strcmp(state, "XX001") == 0 || strcmp(state, "XX002") == 0)
+        return RD_ERR_DAMAGED;
     return RD_ERR_IO;
 }
 
@@ -123,7 +128,11 @@ static rd_error_code pg_failed(pg_store *p, PGresult *r, rd_error *err)
     char line[400];
     const char *msg = PQresultErrorField(r, PG_DIAG_MESSAGE_PRIMARY);
     rd_error_code c = pg_code(PQresultErrorField(r, PG_DIAG_SQLSTATE));
-    rd_error_set(err, c, 0, 0, "store: PostgreSQL: %s",
+    rd_store_saw(&p->base, c);
+    rd_error_set(err, c, 0, 0, "store: PostgreSQL: %s%s",
+                 c == RD_ERR_DAMAGED   ? "the database is damaged: "
+                 : c == RD_ERR_NOSPACE ? "no space left: "
+                                       : "",
                  one_line(line, sizeof line, msg ? msg : PQresultErrorMessage(r)));
     PQclear(r);
     if (PQstatus(p->conn) != CONNECTION_OK)
@@ -301,8 +310,12 @@ static rd_error_code pg_end(pg_store *p, rd_error_code c, rd_error *err)
 {
     if (!p->conn)
         return c;
-    if (c == RD_OK)
-        return pg_cmd(p, "COMMIT", NULL, NULL, err);
+    if (c == RD_OK) {
+        c = pg_cmd(p, "COMMIT", NULL, NULL, err);
+        if (!c)
+            rd_store_committed(&p->base);
+        return c;
+    }
     rd_error ignored;
     if (PQtransactionStatus(p->conn) != PQTRANS_IDLE)
         pg_cmd(p, "ROLLBACK", NULL, NULL, &ignored);
@@ -379,11 +392,22 @@ static rd_error_code pg_not_runnable(pg_store *p, const char *id, rd_error *err)
     return rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "store: job %s is %s", id, rd_store_status_name(st));
 }
 
+/* A round trip, then a committed write (deleted in the same transaction):
+ * a store that cannot be written is not ready. */
 static rd_error_code pg_ping(rd_store *s, rd_error *err)
 {
     pg_store *p = pg(s);
     rd_error_code c = pg_ready(p, err);
-    return c ? c : pg_cmd(p, "SELECT 1", NULL, NULL, err);
+    if (!c)
+        c = pg_cmd(p, "SELECT 1", NULL, NULL, err);
+    if (c)
+        return c;
+    c = pg_begin(p, err);
+    if (!c)
+        c = pg_cmd(p, "INSERT INTO write_probe (pad) VALUES (decode(repeat('00', 65536), 'hex'))", NULL, NULL, err);
+    if (!c)
+        c = pg_cmd(p, "DELETE FROM write_probe", NULL, NULL, err);
+    return pg_end(p, c, err);
 }
 
 static rd_error_code pg_insert_tiles(pg_store *p, const char *id, int tiles, rd_error *err)
