@@ -40,6 +40,13 @@ typedef struct {
     size_t archive_len;
     int archives; /* archive parts seen */
     size_t bytes; /* of every file part */
+    /* libmicrohttpd may start a part with an empty call at offset 0 and
+     * then give its first bytes at offset 0 again (a part that begins at
+     * the end of a buffer): the file name of the part such a call started,
+     * which the next call at offset 0 goes on; empty_start 0 when the last
+     * call was another. */
+    int empty_start;
+    char empty_name[STUDENT_MAX];
 } batch_form;
 
 static void free_images(batch_image *im, size_t n)
@@ -118,9 +125,14 @@ static enum MHD_Result file_part(rd_req *r, batch_form *f, int archive, const ch
                                  uint64_t off, size_t size)
 {
     const rd_server_options *o = &r->srv->opt;
-    if (off == 0 && !archive && !add_part_image(f, o, filename))
+    const char *name = filename ? filename : "";
+    int again = off == 0 && size > 0 && f->empty_start && strncmp(f->empty_name, name, sizeof f->empty_name) == 0;
+    f->empty_start = off == 0 && size == 0;
+    if (f->empty_start)
+        snprintf(f->empty_name, sizeof f->empty_name, "%s", name);
+    if (off == 0 && !archive && !again && !add_part_image(f, o, filename))
         return MHD_NO;
-    if (off == 0 && archive && ++f->archives > 1) {
+    if (off == 0 && archive && !again && ++f->archives > 1) {
         f->form.bad = "give one 'archive' part";
         return MHD_NO;
     }
@@ -154,6 +166,7 @@ static enum MHD_Result on_field(void *cls, enum MHD_ValueKind kind, const char *
         return MHD_YES;
     if (strcmp(key, "image") == 0 || strcmp(key, "archive") == 0)
         return file_part(r, f, key[0] == 'a', filename, data, off, size);
+    f->empty_start = 0;
     char *dst = strcmp(key, "assignment") == 0 ? f->assignment : strcmp(key, "student") == 0 ? f->student : NULL;
     size_t cap = dst == f->assignment ? sizeof f->assignment : sizeof f->student;
     if (dst && !rd_form_text(dst, cap, data, size)) {

@@ -301,6 +301,22 @@ def hundred(tmp, flags, right):
         print("grade batch: 100 320x240 images graded in %.2f s (POST to done, reference included)" % secs)
 
 
+def large_form(tmp, tokens):
+    """450 image parts of 24,745 bytes: libmicrohttpd starts the part of
+    s338 with an empty call at offset 0 and gives its bytes at offset 0
+    again; it is one image all the same, not two of one student."""
+    flags = ["--instructor-tokens", tokens, "--data-dir", os.path.join(tmp, "data-large"), "--max-batch-images",
+             "500", "--max-batch-bytes", "100000000"]
+    with Daemon(tmp, flags) as d:
+        parts = [("assignment", None, b"phong")] + [("image", "s%03d.png" % i, b"x" * 24745) for i in range(450)]
+        st, _, b = post_batch(d, parts)
+        check(st == 202 and json.loads(b).get("total") == 450, "450 image parts: %d %r" % (st, b[:200]))
+        if st == 202:
+            rows = ends(d, json.loads(b)["id"], "450 image parts")
+            check(len(rows) == 450 and all("not a PNG" in (r.get("error") or "") for r in rows.values()),
+                  "450 image parts: %d rows" % len(rows))
+
+
 def killed_mid_batch(tmp, tokens, right):
     """kill -9 while a batch of 400 grades, then a restart under the same
     --daemon-id on the same store: the batch ends, done == total, the rows
@@ -415,6 +431,7 @@ def main():
         after_restart(tmp, bid, by, flags)
         hundred(tmp, ["--instructor-tokens", tokens, "--data-dir", os.path.join(tmp, "data100")],
                 images["alice"][0])
+        large_form(tmp, tokens)
         killed_mid_batch(tmp, tokens, images["alice"][0])
         bombs_within_budget(tmp, tokens)
     finally:
