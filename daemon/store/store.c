@@ -348,7 +348,11 @@ void rd_store_committed(rd_store *s) { s->nospace_ms = 0; }
  * no space outweighs it. Under s->lock. */
 static rd_error_code ping_locked(rd_store *s, rd_error *err)
 {
+    int64_t seen = s->nospace_ms;
     rd_error_code c = s->ops->ping(s, err);
+    /* The probe's own commit is no real write's. */
+    if (!c)
+        s->nospace_ms = seen;
     long long ago = rd_wall_ms() - s->nospace_ms;
     if (!c && s->nospace_ms && ago < RD_STORE_NOSPACE_MS)
         return rd_error_set(err, RD_ERR_NOSPACE, 0, 0, "store: no space left: a write failed %.1f s ago",
