@@ -2,7 +2,7 @@
 """The job store's faults answered for what they are (docs/operations.md,
 "The job store's faults"), on the SQLite store:
 
-- A full disk: the daemon's --data-dir on a 4 MiB tmpfs, filled. POST
+- A full disk: the daemon's --data-dir on a 16 MiB tmpfs, filled. POST
   /v1/jobs answers 507 `store_full` with a message saying so, /readyz 503
   with the reason `store_full`; once the filler is deleted, jobs are taken
   again and /readyz is 200. The tmpfs is mounted in a mount namespace of
@@ -59,7 +59,7 @@ def run_full_disk(tmp):
     root = [] if os.geteuid() == 0 else ["--map-root-user"]
     port_file = os.path.join(tmp, "port")
     log = open(os.path.join(tmp, "full.log"), "wb")
-    script = "mount -t tmpfs -o size=4m tmpfs \"$0\" && exec \"$@\""
+    script = "mount -t tmpfs -o size=16m tmpfs \"$0\" && exec \"$@\""
     cmd = (["unshare", "--mount", "--propagation", "private"] + root +
            ["sh", "-c", script, mnt, os.path.abspath(RAYD), "serve", "--listen", "127.0.0.1:0", "--port-file",
             port_file, "--data-dir", os.path.join(mnt, "data"), "--threads", "1"])
