@@ -100,7 +100,6 @@ int rd_utf8_readable(const char *str, size_t len, char *out, size_t size)
 {
     const unsigned char *s = (const unsigned char *)str;
     size_t o = 0;
-    int valid = 1;
     for (size_t i = 0; i < len;) {
         size_t n = char_len(s + i, len - i);
         char esc[4];
@@ -108,7 +107,7 @@ int rd_utf8_readable(const char *str, size_t len, char *out, size_t size)
         size_t k = n;
         if (n == 0) {
             snprintf(esc, sizeof esc, "%%%02X", s[i]);
-            put = esc, k = 3, valid = 0;
+            put = esc, k = 3;
         } else if (s[i] < 0x20 || s[i] == 0x7f) {
             put = "_", k = 1;
         }
@@ -119,5 +118,5 @@ int rd_utf8_readable(const char *str, size_t len, char *out, size_t size)
         i += n ? n : 1;
     }
     out[o] = 0;
-    return valid;
+    return rd_utf8_invalid_at(str, len) == len;
 }

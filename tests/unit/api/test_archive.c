@@ -1085,3 +1085,31 @@ Test(archive, out_of_memory_at_every_allocation)
         free(m.p);
     }
 }
+
+/* The names' rendering (api/util/utf8.h), as a batch shows a name that is
+ * not UTF-8: each bad byte %HH, control characters '_', cut at a
+ * character within the room. */
+Test(archive, names_rendered_readable)
+{
+    static const struct {
+        const char *in;
+        size_t size;
+        const char *out;
+        int utf8;
+    } cases[] = {
+        {"m\xfcller", 64, "m%FCller", 0},
+        {"m\xc3\xbcller", 64, "m\xc3\xbcller", 1},
+        {"a\tb\x7f", 64, "a_b_", 1},
+        {"\xe6\x9d\x8e\xe9\x9b\xb7", 5, "\xe6\x9d\x8e", 1},
+        {"ab\xff", 5, "ab", 0},
+        {"\xc3\x28", 64, "%C3(", 0},
+        {"", 1, "", 1},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        char out[64];
+        int utf8 = rd_utf8_readable(cases[i].in, strlen(cases[i].in), out, cases[i].size);
+        cr_assert_str_eq(out, cases[i].out, "case %zu", i);
+        cr_assert_eq(utf8, cases[i].utf8, "case %zu", i);
+        cr_assert_lt(strlen(out), cases[i].size);
+    }
+}
