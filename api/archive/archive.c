@@ -3,7 +3,9 @@
 #include <archive.h>
 #include <archive_entry.h>
 #include <errno.h>
+#include <locale.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -36,22 +38,14 @@ static int hides(const char *p, size_t n)
     return !(n == 1 || (n == 2 && p[1] == '.'));
 }
 
-/* The bytes of the character starting at s[0] (at most len), or 0 when
- * those bytes are not one valid UTF-8 character. */
-static size_t utf8_char(const unsigned char *s, size_t len)
-{
-    size_t n = s[0] < 0x80 ? 1 : (s[0] & 0xe0) == 0xc0 ? 2 : (s[0] & 0xf0) == 0xe0 ? 3 : (s[0] & 0xf8) == 0xf0 ? 4 : 0;
-    if (n == 0 || n > len || rd_utf8_invalid_at((const char *)s, n) != n)
-        return 0;
-    return n;
-}
-
 /* Reduces path to the name the callback gets (archive.h): out holds it,
- * NUL-terminated. Returns 1 for a name, 0 for an entry to skip (hidden, or
- * a name that reduces to nothing). */
-static int reduce_name(const char *path, char out[RD_ARCHIVE_NAME_MAX + 1])
+ * NUL-terminated, and *utf8 says whether its bytes were UTF-8. Returns 1
+ * for a name, 0 for an entry to skip (hidden, or a name that reduces to
+ * nothing). */
+static int reduce_name(const char *path, char out[RD_ARCHIVE_NAME_MAX + 1], int *utf8)
 {
     out[0] = '\0';
+    *utf8 = 1;
     if (!path)
         return 0;
     const char *base = NULL;
@@ -70,24 +64,7 @@ static int reduce_name(const char *path, char out[RD_ARCHIVE_NAME_MAX + 1])
     }
     if (!base || (base_len == 1 && base[0] == '.') || (base_len == 2 && base[0] == '.' && base[1] == '.'))
         return 0;
-    const unsigned char *s = (const unsigned char *)base;
-    size_t o = 0;
-    for (size_t i = 0; i < base_len;) {
-        size_t n = utf8_char(s + i, base_len - i);
-        if (n == 0 || s[i] < 0x20 || s[i] == 0x7f) {
-            if (o + 1 > RD_ARCHIVE_NAME_MAX)
-                break;
-            out[o++] = '_';
-            i++;
-            continue;
-        }
-        if (o + n > RD_ARCHIVE_NAME_MAX)
-            break;
-        memcpy(out + o, s + i, n);
-        o += n;
-        i += n;
-    }
-    out[o] = '\0';
+    *utf8 = rd_utf8_readable(base, base_len, out, RD_ARCHIVE_NAME_MAX + 1);
     return 1;
 }
 
@@ -216,7 +193,14 @@ static rd_error_code read_entries(reader *r, rd_archive_file_fn each, void *user
         const char *path = archive_entry_pathname_utf8(e);
         if (!path)
             path = archive_entry_pathname(e);
-        int named = reduce_name(path, name);
+        int utf8 = 1;
+        int named = reduce_name(path, name, &utf8);
+        /* A name libarchive could not convert at all (flagged UTF-8 and
+         * not): delivered all the same, under a name that says so. */
+        if (!path && st == ARCHIVE_WARN) {
+            snprintf(name, sizeof name, "(unreadable name %zu)", files + 1);
+            named = 1, utf8 = 0;
+        }
         /* Everything else (folders too: a tar may give one data) is read
          * all the same, to count its bytes. */
         int deliver =
@@ -238,21 +222,16 @@ static rd_error_code read_entries(reader *r, rd_archive_file_fn each, void *user
         if (!deliver)
             continue;
         files++;
-        rc = each(user, name, len ? r->buf : no_bytes, len, err);
+        rc = each(user, name, utf8, len ? r->buf : no_bytes, len, err);
         if (rc != RD_OK)
             return rc;
     }
 }
 
-rd_error_code rd_archive_each(const void *data, size_t len, const rd_archive_limits *lim, rd_archive_file_fn each,
-                              void *user, rd_error *err)
+/* rd_archive_each once the arguments are checked, in the UTF-8 locale. */
+static rd_error_code read_archive(const void *data, size_t len, const rd_archive_limits *lim, rd_archive_file_fn each,
+                                  void *user, rd_error *err)
 {
-    if (!lim || !each)
-        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "rd_archive_each: no %s", lim ? "callback" : "limits");
-    if (!data && len > 0)
-        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "rd_archive_each: NULL data of %zu bytes", len);
-    if (len == 0)
-        return rd_error_set(err, RD_ERR_UNSUPPORTED, 0, 0, "not a zip or tar archive (.zip, .tar, .tar.gz): empty");
     reader r = {.a = archive_read_new(), .lim = lim};
     if (!r.a)
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory reading the archive");
@@ -274,5 +253,29 @@ rd_error_code rd_archive_each(const void *data, size_t len, const rd_archive_lim
     }
     archive_read_free(r.a);
     free(r.buf);
+    return rc;
+}
+
+rd_error_code rd_archive_each(const void *data, size_t len, const rd_archive_limits *lim, rd_archive_file_fn each,
+                              void *user, rd_error *err)
+{
+    if (!lim || !each)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "rd_archive_each: no %s", lim ? "callback" : "limits");
+    if (!data && len > 0)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "rd_archive_each: NULL data of %zu bytes", len);
+    if (len == 0)
+        return rd_error_set(err, RD_ERR_UNSUPPORTED, 0, 0, "not a zip or tar archive (.zip, .tar, .tar.gz): empty");
+    /* libarchive converts names to the thread's LC_CTYPE charset, fixed when
+     * the reader is made: in the C locale a zip name flagged UTF-8 that is
+     * not ASCII has no name at all. This thread reads in C.UTF-8, and the
+     * process's locale is left alone. */
+    locale_t c_utf8 = newlocale(LC_CTYPE_MASK, "C.UTF-8", (locale_t)0);
+    if (!c_utf8)
+        return rd_error_set(err, errno == ENOMEM ? RD_ERR_NOMEM : RD_ERR_UNSUPPORTED, 0, 0,
+                            "cannot read archive names as UTF-8: no C.UTF-8 locale here");
+    locale_t was = uselocale(c_utf8);
+    rd_error_code rc = read_archive(data, len, lim, each, user, err);
+    uselocale(was);
+    freelocale(c_utf8);
     return rc;
 }

@@ -24,14 +24,16 @@ typedef struct {
 } rd_archive_limits;
 
 /* The callback: one regular file of the archive. name is its reduced base
- * name (below), at most RD_ARCHIVE_NAME_MAX bytes, NUL-terminated; data
+ * name (below), at most RD_ARCHIVE_NAME_MAX bytes, NUL-terminated, always
+ * UTF-8; utf8 is 0 when the name stored in the archive was not (its bytes
+ * are shown as %HH, below), so that the caller can say so; data
  * holds its len decompressed bytes (never NULL, even when len is 0). Both
  * belong to rd_archive_each and are valid during the call only: copy what
  * is kept. err is the one given to rd_archive_each. Returning anything but
  * RD_OK stops the reading, and rd_archive_each returns that code as is
  * (the callback fills err as it sees fit). */
-typedef rd_error_code (*rd_archive_file_fn)(void *user, const char *name, const unsigned char *data, size_t len,
-                                            rd_error *err);
+typedef rd_error_code (*rd_archive_file_fn)(void *user, const char *name, int utf8, const unsigned char *data,
+                                            size_t len, rd_error *err);
 
 /* Calls each(user, name, data, len, err) for every regular file of the len
  * bytes at data (which stay the caller's and are only read), in archive
@@ -46,9 +48,17 @@ typedef rd_error_code (*rd_archive_file_fn)(void *user, const char *name, const 
  *
  * Names: an entry's path is untrusted. It is reduced to its last component
  * ('/' and '\' both separate components, so "../", absolute paths and
- * C:\ go with the folders), bytes that are not UTF-8 and control
- * characters (below 0x20, 0x7f) each become '_', and the result is cut
- * to RD_ARCHIVE_NAME_MAX bytes at a character boundary. A NUL inside a
+ * C:\ go with the folders), control characters (below 0x20, 0x7f) each
+ * become '_', each byte that is not UTF-8 becomes the three characters
+ * %HH (its value in hex, as in a URL: m%FCller.png for a Latin-1 ü; the
+ * callback's utf8 is then 0), and the result is
+ * cut to RD_ARCHIVE_NAME_MAX bytes at a character boundary. Zip names
+ * flagged UTF-8 (bit 11, as Python, 7-Zip, Windows and macOS write them)
+ * and pax tar names are read as UTF-8 whatever the process's locale;
+ * unflagged zip names and plain tar names are taken as the bytes they are
+ * (a Latin-1 name is not UTF-8). A name flagged UTF-8 that is not cannot
+ * be read at all: the file is delivered as "(unreadable name N)", N its
+ * 1-based place among the delivered files, with utf8 0. A NUL inside a
  * stored name ends it (libarchive's names are C strings). A file whose
  * name reduces to nothing ("", ".", "..") is skipped. Names are not made
  * unique: two folders may both hold a.png, and each gets its call.
@@ -88,7 +98,10 @@ typedef rd_error_code (*rd_archive_file_fn)(void *user, const char *name, const 
  *   the callback's own code, returned as is.
  * err (may be NULL) is filled for every code but the callback's. Nothing is
  * left allocated whatever the outcome. Thread-safe: it keeps no state
- * between calls. */
+ * between calls. The calling thread's locale is C.UTF-8 (uselocale) while
+ * it reads, the callback's calls included, and is given back before it
+ * returns; the process's locale (setlocale) is never changed. No C.UTF-8
+ * locale on the machine is RD_ERR_UNSUPPORTED. */
 rd_error_code rd_archive_each(const void *data, size_t len, const rd_archive_limits *lim, rd_archive_file_fn each,
                               void *user, rd_error *err);
 

@@ -94,27 +94,31 @@ rd_error_code rd_grade_row_error(rd_grade_row *row, const char *student, const c
 
 int rd_grade_row_is_error(const rd_grade_row *row) { return row->error[0] != 0; }
 
-/* One cell: quoted when it holds a comma, a quote, CR or LF; a text cell
- * that a spreadsheet would take for a formula gets a ' in front. */
+/* 1 when a spreadsheet would run text starting at s as a formula. */
+static int formula_at(const char *s) { return s[0] && strchr("=+-@\t\r", s[0]) != NULL; }
+
+/* One cell: quoted when it holds a separator (',' or the ';' of many
+ * locales' spreadsheets), a quote, CR or LF. In a text cell, a ' goes in
+ * front of the cell, and after each ',' or ';', where what follows would
+ * start a formula: a reader that splits at either separator, honouring the
+ * quotes or not, never sees a cell that runs. */
 static void cell(rd_strbuf *b, const char *s, int text)
 {
-    int guard = text && s[0] && strchr("=+-@\t\r", s[0]);
-    int quote = strpbrk(s, ",\"\r\n") != NULL;
-    if (!quote) {
-        rd_strbuf_printf(b, "%s%s", guard ? "'" : "", s);
-        return;
-    }
-    rd_strbuf_printf(b, "\"%s", guard ? "'" : "");
+    int quote = strpbrk(s, ",;\"\r\n") != NULL;
+    rd_strbuf_printf(b, "%s%s", quote ? "\"" : "", text && formula_at(s) ? "'" : "");
     for (const char *p = s; *p;) {
-        size_t n = strcspn(p, "\"");
+        size_t n = strcspn(p, "\",;");
         rd_strbuf_printf(b, "%.*s", (int)n, p);
         p += n;
-        if (*p == '"') {
-            rd_strbuf_printf(b, "\"\"");
-            p++;
-        }
+        if (!*p)
+            break;
+        rd_strbuf_printf(b, "%s", *p == '"' ? "\"\"" : *p == ',' ? "," : ";");
+        if (text && *p != '"' && formula_at(p + 1))
+            rd_strbuf_printf(b, "'");
+        p++;
     }
-    rd_strbuf_printf(b, "\"");
+    if (quote)
+        rd_strbuf_printf(b, "\"");
 }
 
 static void number_cell(rd_strbuf *b, double v)

@@ -14,11 +14,14 @@
  * then one line per row, every line ending in CRLF and holding all nine
  * cells. pass is true or false; graded_at is RFC 3339 in UTC with
  * milliseconds (2024-05-01T09:30:00.123Z); error is empty for a graded row,
- * and the four metrics are empty for an error row. A cell holding a comma,
- * a double quote, CR or LF is quoted, its quotes doubled. A text cell
- * (student, assignment, error) that begins with = + - @, a tab or CR gets
- * a ' in front, so that a spreadsheet shows it instead of running it as a
- * formula; the JSON keeps the text as it is.
+ * and the four metrics are empty for an error row. A cell holding a comma
+ * or a semicolon (the separator of many locales' spreadsheets), a double
+ * quote, CR or LF is quoted, its quotes doubled. A text cell (student,
+ * assignment, error) that begins with = + - @, a tab or CR gets a ' in
+ * front, and so does every such character that follows a ',' or ';' inside
+ * it ("semi;=1+1" is written "semi;'=1+1"), so that a spreadsheet, splitting
+ * at either separator, shows it instead of running it as a formula; the
+ * JSON keeps the text as it is.
  *
  * Numbers read back to the same double: the CSV and the JSON both write
  * the shortest %.Ng, N up to 17, that does (rd_number_text; whole numbers

@@ -1,6 +1,7 @@
 #include "utf8.h"
 
 #include <stdint.h>
+#include <stdio.h>
 #include <string.h>
 
 size_t rd_utf8_invalid_at(const char *str, size_t len)
@@ -83,4 +84,39 @@ void rd_utf8_position(const char *text, size_t len, size_t off, int *line, int *
             n++, ls = text + i + 1;
     *line = n;
     *column = rd_utf8_column(ls, text + off);
+}
+
+/* The bytes of the character starting at s[0] (at most len), or 0 when
+ * those bytes are not one valid UTF-8 character. */
+static size_t char_len(const unsigned char *s, size_t len)
+{
+    size_t n = s[0] < 0x80 ? 1 : (s[0] & 0xe0) == 0xc0 ? 2 : (s[0] & 0xf0) == 0xe0 ? 3 : (s[0] & 0xf8) == 0xf0 ? 4 : 0;
+    if (n == 0 || n > len || rd_utf8_invalid_at((const char *)s, n) != n)
+        return s[0] == 0 ? 1 : 0;
+    return n;
+}
+
+int rd_utf8_readable(const char *str, size_t len, char *out, size_t size)
+{
+    const unsigned char *s = (const unsigned char *)str;
+    size_t o = 0;
+    for (size_t i = 0; i < len;) {
+        size_t n = char_len(s + i, len - i);
+        char esc[4];
+        const char *from = (const char *)s + i, *put = from;
+        size_t k = n;
+        if (n == 0) {
+            snprintf(esc, sizeof esc, "%%%02X", s[i]);
+            put = esc, k = 3;
+        } else if (s[i] < 0x20 || s[i] == 0x7f) {
+            put = "_", k = 1;
+        }
+        if (o + k > size - 1)
+            break;
+        memcpy(out + o, put, k);
+        o += k;
+        i += n ? n : 1;
+    }
+    out[o] = 0;
+    return rd_utf8_invalid_at(str, len) == len;
 }

@@ -13,6 +13,17 @@ size_t rd_utf8_invalid_at(const char *s, size_t len);
  * characters and no split character: for cutting text in messages. */
 size_t rd_utf8_prefix(const char *s, size_t len, size_t max_chars);
 
+/* Writes the len bytes at s into out (size >= 1) as readable UTF-8 text,
+ * NUL-terminated: each byte that is not part of a valid UTF-8 character
+ * becomes the three characters %HH (its value in hex, as in a URL: a
+ * Latin-1 m\xfcller is m%FCller), each control character (below 0x20,
+ * 0x7f; NUL included) '_'; the text is cut at a character boundary to
+ * size - 1 bytes. Returns 1 when all len bytes are UTF-8 (a NUL counts
+ * as not), 0 when some byte is not, written or cut off. For names from
+ * outside (file names, form fields) that must be shown and stored as
+ * text, and say when they were not. */
+int rd_utf8_readable(const char *s, size_t len, char *out, size_t size);
+
 /* 1-based character column of offset pos in the line starting at line_start. */
 int rd_utf8_column(const char *line_start, const char *pos);
 

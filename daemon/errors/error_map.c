@@ -12,6 +12,9 @@ static const rd_error_answer answers[RD_ERROR_COUNT] = {
     [RD_ERR_BUSY] = {503, "queue_full", RD_EXIT_SCENE},
     [RD_ERR_NOT_FOUND] = {404, "not_found", RD_EXIT_USAGE},
     [RD_ERR_UNSUPPORTED] = {415, "unsupported_media_type", RD_EXIT_SCENE},
+    /* Only the job store meets these in the daemon. */
+    [RD_ERR_NOSPACE] = {507, "store_full", RD_EXIT_IO},
+    [RD_ERR_DAMAGED] = {503, "store_damaged", RD_EXIT_IO},
 };
 
 rd_error_answer rd_error_answer_for(rd_error_code c)

@@ -15,12 +15,20 @@
  * it (events can be lost while a connection is down). */
 enum { RETRY_MS = 500, IDLE_MS = 2000 };
 
+/* The store's trouble, which a later call may not have: unreachable, full,
+ * or damaged (a page another call may not read). What was rendered waits
+ * for it rather than being thrown away. */
+static int trouble(rd_error_code rc) { return rc == RD_ERR_IO || rc == RD_ERR_NOSPACE || rc == RD_ERR_DAMAGED; }
+
 void farm_store_result(rd_farm *f, rd_error_code rc)
 {
-    if (rc == RD_ERR_IO) {
+    if (trouble(rc)) {
         atomic_fetch_add(&f->store_errors, 1);
         if (atomic_exchange(&f->store_up, 0))
-            rd_log_msg(f->opt.log, "warning", "the job store is unreachable; retrying");
+            rd_log_msg(f->opt.log, "warning", "%s; retrying",
+                       rc == RD_ERR_NOSPACE   ? "the job store has no space left to write"
+                       : rc == RD_ERR_DAMAGED ? "the job store is damaged (a corrupt page)"
+                                              : "the job store is unreachable");
     } else if (!atomic_exchange(&f->store_up, 1)) {
         rd_log_msg(f->opt.log, "info", "the job store is reachable again");
     }
@@ -40,14 +48,14 @@ static int stopping(rd_farm *f)
     return s;
 }
 
-/* Runs call until the store answers (anything but RD_ERR_IO, or
+/* Runs call until the store answers (anything but its trouble, or
  * RD_ERR_BUSY: other writers held it past its timeout) or the farm stops:
  * what was rendered is not thrown away for an outage or a busy store. */
 #define RETRY_IO(f, rc, call)                                                                                          \
     do {                                                                                                               \
         (rc) = (call);                                                                                                 \
         farm_store_result((f), (rc));                                                                                  \
-        if (((rc) != RD_ERR_IO && (rc) != RD_ERR_BUSY) || stopping(f))                                                 \
+        if ((!trouble(rc) && (rc) != RD_ERR_BUSY) || stopping(f))                                                      \
             break;                                                                                                     \
         sleep_ms(RETRY_MS);                                                                                            \
     } while (1)
@@ -149,7 +157,7 @@ static void end_pass(rd_farm *f, rd_store *h, farm_ctx *c, int pass)
     if (!rc)
         RETRY_IO(f, rc, farm_ctx_gather(h, c, pass + 1, &complete, &err));
     if (rc || !complete) {
-        if (rc && rc != RD_ERR_CANCELLED && rc != RD_ERR_IO && rc != RD_ERR_NOT_FOUND)
+        if (rc && rc != RD_ERR_CANCELLED && !trouble(rc) && rc != RD_ERR_NOT_FOUND)
             fail_job(f, h, c->id, &err);
         pthread_rwlock_unlock(&c->rw);
         return;
@@ -237,12 +245,12 @@ static void do_claim(rd_farm *f, rd_store *h, const rd_store_tile *t)
     for (;;) {
         c = farm_ctx_get(f, h, t->job_id, &err);
         farm_store_result(f, c ? RD_OK : err.code);
-        if (c || err.code != RD_ERR_IO || stopping(f))
+        if (c || !trouble(err.code) || stopping(f))
             break;
         sleep_ms(RETRY_MS);
     }
     if (!c) {
-        if (err.code != RD_ERR_IO && err.code != RD_ERR_NOT_FOUND)
+        if (!trouble(err.code) && err.code != RD_ERR_NOT_FOUND)
             fail_job(f, h, t->job_id, &err);
         return;
     }
@@ -261,7 +269,7 @@ static void do_claim(rd_farm *f, rd_store *h, const rd_store_tile *t)
         RETRY_IO(f, rc, rd_store_release(h, f->daemon_id, NULL, &err));
     } else if (rc == RD_ERR_NOT_FOUND) {
         farm_ctx_ended(f, c->id); /* deleted meanwhile */
-    } else if (rc && rc != RD_ERR_IO) {
+    } else if (rc && !trouble(rc)) {
         fail_job(f, h, c->id, &err);
     } else if (blob) {
         rd_store_tile_outcome out = RD_STORE_TILE_MORE;

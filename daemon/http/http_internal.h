@@ -194,6 +194,8 @@ enum MHD_Result rd_route_grades_list(rd_req *r);
 enum MHD_Result rd_route_batch_begin(rd_req *r);
 enum MHD_Result rd_route_batch_data(rd_req *r, const char *data, size_t size);
 enum MHD_Result rd_route_batch_post(rd_req *r, const char *rest);
+/* An archive's expansion (a job of the render queue) has ended. */
+enum MHD_Result rd_route_batch_resumed(rd_req *r);
 enum MHD_Result rd_route_batch_get(rd_req *r, const char *rest);
 
 /* A form's file part: appends size bytes to *buf (kept NUL-terminated);
@@ -272,15 +274,25 @@ void rd_grades_record(rd_server *srv, const rd_grade_output *o, const char *id, 
 void rd_grades_error_record(rd_server *srv, const char *assignment, const char *student, const char *batch_id,
                             const char *message, char id[RD_CAP_MAX]);
 
-/* A batch's images: the grades take them over. */
+/* A batch's images: the grades take them over. student is UTF-8; error
+ * (a static text, or NULL) says why the image is not graded but becomes
+ * an error row (a name that was not UTF-8). */
 typedef struct {
     char student[256];
     unsigned char *png;
     size_t len;
+    const char *error;
 } rd_grade_batch_image;
 
-/* Records the batch, then grades it on the render threads; its id in id.
- * Takes images (the array and each png) over whatever happens. */
+/* At the start, once the store is open: ends every batch this daemon (its
+ * id) left running when it was killed, keeping its rows and adding an
+ * error row, saying the daemon restarted, for each student without one.
+ * Failures are logged. */
+void rd_grades_batches_end_restarted(rd_server *srv);
+
+/* Records the batch (with this daemon's id and its students), then grades
+ * it on the render threads; its id in id. Takes images (the array and each
+ * png) over whatever happens. */
 rd_error_code rd_grades_batch_start(rd_server *srv, const char *assignment, rd_grade_batch_image *images, size_t n,
                                     char id[RD_STORE_ID_MAX], rd_error *err);
 /* form 0: the batch's status with its rows (JSON), 1: the rows (a JSON
@@ -303,8 +315,10 @@ enum MHD_Result rd_reply_too_large(rd_req *r, const char *what);
 enum MHD_Result rd_reply_draining(rd_req *r);
 
 /* The answer to a store's error (store.h): 503 with Retry-After when it
- * is unreachable or the queue is full, 404 for no such job, else the
- * error's own 4xx (a 5xx only as 503). */
+ * is unreachable or the queue is full, 507 store_full when it has no
+ * space, 503 store_damaged when its data is damaged (both saying so, with
+ * the store's message), 404 for no such job, else the error's own 4xx (a
+ * 5xx only as 503). */
 enum MHD_Result rd_reply_store_error(rd_req *r, const rd_error *err);
 
 struct rd_grades *rd_grades_new(rd_jq *jobs, const rd_server_options *opt);

@@ -448,6 +448,16 @@ enum MHD_Result rd_reply_store_error(rd_req *r, const rd_error *err)
         return rd_reply_error_hdr(r, 503, "store_unavailable", "the job store is unreachable; try again shortly",
                                   "Retry-After", "5");
     case RD_ERR_BUSY: return rd_reply_error_hdr(r, 503, "queue_full", err->message, "Retry-After", "1");
+    case RD_ERR_NOSPACE:
+    case RD_ERR_DAMAGED: {
+        char msg[640];
+        snprintf(msg, sizeof msg, "%s (%s)",
+                 err->code == RD_ERR_NOSPACE ? "the job store has no space left to write: free some"
+                                             : "the job store is damaged: an operator must repair or restore it",
+                 err->message);
+        rd_error_answer a = rd_error_answer_for(err->code);
+        return rd_reply_error_hdr(r, a.http, a.code, msg, "Retry-After", "30");
+    }
     case RD_ERR_NOT_FOUND:
         return rd_reply_error(r, 404, "not_found", NULL,
                               "no job with that id (finished jobs expire, see --result-ttl)");
@@ -863,6 +873,7 @@ static rd_error_code start_farm(rd_server *s, rd_error *err)
         return rd_error_set(err, why.code ? why.code : RD_ERR_IO, 0, 0, "the job store (%s) cannot be used: %s",
                             o->store && *o->store ? "--store" : "--data-dir", why.message);
     rd_grades_set_store(s->grades, records);
+    rd_grades_batches_end_restarted(s);
     return RD_OK;
 }
 

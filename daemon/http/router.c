@@ -34,11 +34,16 @@ enum MHD_Result rd_route_ready(rd_req *r, const char *rest)
     static const char starting[] = "{\"status\":\"not_ready\",\"reasons\":[\"starting\"]}\n";
     static const char draining[] = "{\"status\":\"not_ready\",\"reasons\":[\"draining\"]}\n";
     static const char no_store[] = "{\"status\":\"not_ready\",\"reasons\":[\"store_unreachable\"]}\n";
+    static const char full[] = "{\"status\":\"not_ready\",\"reasons\":[\"store_full\"]}\n";
+    static const char damaged[] = "{\"status\":\"not_ready\",\"reasons\":[\"store_damaged\"]}\n";
     rd_error err = {0};
-    const char *t = atomic_load(&r->srv->draining)               ? draining
-                    : !atomic_load(&r->srv->ready)               ? starting
-                    : rd_farm_ping(rd_server_farm(r->srv), &err) ? no_store
-                                                                 : ok;
+    rd_error_code rc = RD_OK;
+    const char *t = atomic_load(&r->srv->draining)                       ? draining
+                    : !atomic_load(&r->srv->ready)                       ? starting
+                    : !(rc = rd_farm_ping(rd_server_farm(r->srv), &err)) ? ok
+                    : rc == RD_ERR_NOSPACE                               ? full
+                    : rc == RD_ERR_DAMAGED                               ? damaged
+                                                                         : no_store;
     const char *no_sandbox = rd_codegrades_unavailable(r->srv->codegrades);
     if (t == ok && no_sandbox)
         return ready_without(r, "code_grading", no_sandbox);
@@ -61,7 +66,7 @@ static const rd_route routes[] = {
      rd_route_code_resumed},
     {"/v1/grade/code", RD_ROUTE_BELOW, "GET", NULL, NULL, NULL, 0, rd_route_code_get, NULL},
     {"/v1/grade/batch", RD_ROUTE_EXACT, "POST", NULL, rd_route_batch_begin, rd_route_batch_data, 0, rd_route_batch_post,
-     NULL},
+     rd_route_batch_resumed},
     {"/v1/grade/batch", RD_ROUTE_BELOW, "GET", NULL, NULL, NULL, 0, rd_route_batch_get, NULL},
     {"/v1/grades", RD_ROUTE_EXACT_OR_BELOW, "GET", NULL, NULL, NULL, 0, rd_route_grade_files, NULL},
     {"/v1/scenes", RD_ROUTE_EXACT_OR_BELOW, "GET", NULL, NULL, NULL, 0, rd_route_scenes, NULL},

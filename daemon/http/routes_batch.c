@@ -17,6 +17,7 @@
 #include "http_internal.h"
 #include "rayd/clock.h"
 #include "rayd/memory.h"
+#include "utf8.h"
 
 typedef rd_grade_batch_image batch_image;
 
@@ -38,6 +39,13 @@ typedef struct {
     size_t archive_len;
     int archives; /* archive parts seen */
     size_t bytes; /* of every file part */
+    /* libmicrohttpd may start a part with an empty call at offset 0 and
+     * then give its first bytes at offset 0 again (a part that begins at
+     * the end of a buffer): the file name of the part such a call started,
+     * which the next call at offset 0 goes on; empty_start 0 when the last
+     * call was another. */
+    int empty_start;
+    char empty_name[STUDENT_MAX];
 } batch_form;
 
 static void free_images(batch_image *im, size_t n)
@@ -59,8 +67,17 @@ static void free_form(rd_req *r)
     r->state = NULL;
 }
 
-/* The student of a file: its name without folders and extension. */
-static void student_of(const char *filename, char *out, size_t size)
+/* Why the image of a name that was not UTF-8 is an error row: its student
+ * is the name shown with rd_utf8_readable. */
+static const char NAME_NOT_UTF8[] = "the file name is not UTF-8 (the bytes that are not are shown as %HH): rename "
+                                    "the file, or zip it with a tool that writes UTF-8 names, and grade it again";
+static const char STUDENT_NOT_UTF8[] =
+    "the 'student' field is not UTF-8 (the bytes that are not are shown as %HH): send it as UTF-8";
+
+/* The student of a file: its name without folders and extension, as
+ * readable UTF-8 cut at a character boundary (rd_utf8_readable). 1 when
+ * the name was UTF-8. */
+static int student_of(const char *filename, char *out, size_t size)
 {
     const char *base = filename ? filename : "";
     for (const char *p = base; *p; p++)
@@ -70,13 +87,10 @@ static void student_of(const char *filename, char *out, size_t size)
     const char *dot = strrchr(base, '.');
     if (dot && dot != base)
         n = (size_t)(dot - base);
-    if (n >= size)
-        n = size - 1;
-    memcpy(out, base, n);
-    out[n] = 0;
+    return rd_utf8_readable(base, n, out, size);
 }
 
-static int add_image(batch_form *f, const rd_server_options *o, const char *student)
+static int add_image(batch_form *f, const rd_server_options *o, const char *student, const char *error)
 {
     if (f->n >= o->max_batch_images) {
         f->form.too_big = "--max-batch-images";
@@ -87,7 +101,22 @@ static int add_image(batch_form *f, const rd_server_options *o, const char *stud
     batch_image *im = &f->images[f->n++];
     memset(im, 0, sizeof *im);
     snprintf(im->student, sizeof im->student, "%s", student);
+    im->error = error;
     return 1;
+}
+
+/* A new image part's student: the `student` field before it, else its
+ * file name; an error when either is not UTF-8. */
+static int add_part_image(batch_form *f, const rd_server_options *o, const char *filename)
+{
+    char student[STUDENT_MAX];
+    const char *error = NULL;
+    if (f->student[0] && !rd_utf8_readable(f->student, strlen(f->student), student, sizeof student))
+        error = STUDENT_NOT_UTF8;
+    else if (!f->student[0] && !student_of(filename, student, sizeof student))
+        error = NAME_NOT_UTF8;
+    f->student[0] = 0;
+    return add_image(f, o, student, error);
 }
 
 /* A file part's bytes; a new part starts at offset 0. */
@@ -95,17 +124,14 @@ static enum MHD_Result file_part(rd_req *r, batch_form *f, int archive, const ch
                                  uint64_t off, size_t size)
 {
     const rd_server_options *o = &r->srv->opt;
-    if (off == 0 && !archive) {
-        char student[STUDENT_MAX];
-        if (f->student[0])
-            snprintf(student, sizeof student, "%s", f->student);
-        else
-            student_of(filename, student, sizeof student);
-        f->student[0] = 0;
-        if (!add_image(f, o, student))
-            return MHD_NO;
-    }
-    if (off == 0 && archive && ++f->archives > 1) {
+    const char *name = filename ? filename : "";
+    int again = off == 0 && size > 0 && f->empty_start && strncmp(f->empty_name, name, sizeof f->empty_name) == 0;
+    f->empty_start = off == 0 && size == 0;
+    if (f->empty_start)
+        snprintf(f->empty_name, sizeof f->empty_name, "%s", name);
+    if (off == 0 && !archive && !again && !add_part_image(f, o, filename))
+        return MHD_NO;
+    if (off == 0 && archive && !again && ++f->archives > 1) {
         f->form.bad = "give one 'archive' part";
         return MHD_NO;
     }
@@ -139,6 +165,7 @@ static enum MHD_Result on_field(void *cls, enum MHD_ValueKind kind, const char *
         return MHD_YES;
     if (strcmp(key, "image") == 0 || strcmp(key, "archive") == 0)
         return file_part(r, f, key[0] == 'a', filename, data, off, size);
+    f->empty_start = 0;
     char *dst = strcmp(key, "assignment") == 0 ? f->assignment : strcmp(key, "student") == 0 ? f->student : NULL;
     size_t cap = dst == f->assignment ? sizeof f->assignment : sizeof f->student;
     if (dst && !rd_form_text(dst, cap, data, size)) {
@@ -198,12 +225,13 @@ typedef struct {
     const rd_server_options *o;
 } expand_ctx;
 
-static rd_error_code take_file(void *user, const char *name, const unsigned char *data, size_t len, rd_error *err)
+static rd_error_code take_file(void *user, const char *name, int utf8, const unsigned char *data, size_t len,
+                               rd_error *err)
 {
     expand_ctx *x = user;
     char student[STUDENT_MAX];
     student_of(name, student, sizeof student);
-    if (!add_image(x->f, x->o, student))
+    if (!add_image(x->f, x->o, student, utf8 ? NULL : NAME_NOT_UTF8))
         return x->f->form.too_big ? rd_error_set(err, RD_ERR_LIMIT, 0, 0, "more than %zu images (--max-batch-images)",
                                                  x->o->max_batch_images)
                                   : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
@@ -268,23 +296,11 @@ static enum MHD_Result form_errors(rd_req *r, batch_form *f)
     return MHD_YES;
 }
 
-enum MHD_Result rd_route_batch_post(rd_req *r, const char *rest)
+/* The form's images, an archive's expanded or not, become a batch. */
+static enum MHD_Result start_batch(rd_req *r, batch_form *f)
 {
-    (void)rest;
     rd_server *srv = r->srv;
-    batch_form *f = r->state;
-    if (!f)
-        return rd_reply_error(r, 400, "parse_error", NULL, "no form");
-    if (f->form.too_big || f->form.bad || !f->assignment[0] || (f->archives && f->n))
-        return form_errors(r, f);
-    if (atomic_load(&srv->draining))
-        return rd_reply_draining(r);
     rd_error err = {0};
-    rd_error_code rc = expand(f, &srv->opt, &err);
-    if (rc == RD_ERR_LIMIT)
-        return rd_reply_error(r, 413, "too_large", &err, NULL);
-    if (rc)
-        return rd_reply_error(r, 400, "parse_error", &err, NULL);
     if (f->n == 0)
         return rd_reply_error(r, 400, "parse_error", NULL, "the batch has no image");
     const char *dup = duplicate_student(f);
@@ -302,7 +318,7 @@ enum MHD_Result rd_route_batch_post(rd_req *r, const char *rest)
     f->images = NULL;
     f->n = f->cap = 0;
     char id[RD_STORE_ID_MAX];
-    rc = rd_grades_batch_start(srv, f->assignment, images, n, id, &err);
+    rd_error_code rc = rd_grades_batch_start(srv, f->assignment, images, n, id, &err);
     if (rc)
         return rd_reply_store_error(r, &err);
     char *text = NULL;
@@ -314,6 +330,105 @@ enum MHD_Result rd_route_batch_post(rd_req *r, const char *rest)
     return rd_reply_with(r, 202, "application/json", text, strlen(text), 1, headers);
 }
 
+/* An archive is expanded by a job of the render queue, never on the HTTP
+ * thread: its preparation may hold --max-batch-expanded (and one image of
+ * --max-body-bytes being read), reserved in --memory-budget while it runs,
+ * so that concurrent archives are expanded only as the budget allows. The
+ * job owns the archive and the images it makes (its own batch_form, of
+ * which only those are used), so that a client hanging up frees nothing
+ * under it. */
+typedef struct {
+    rd_server *srv;
+    batch_form f;
+} expand_task;
+
+static rd_error_code expand_archive(void *arg, rd_scene *s, int *render, rd_error *err)
+{
+    (void)s;
+    expand_task *t = arg;
+    *render = 0;
+    rd_error_code rc = expand(&t->f, &t->srv->opt, err);
+    if (rc) {
+        free_images(t->f.images, t->f.n);
+        t->f.images = NULL;
+        t->f.n = t->f.cap = 0;
+    }
+    return rc;
+}
+
+static void free_expand_task(void *arg)
+{
+    expand_task *t = arg;
+    free_images(t->f.images, t->f.n);
+    free(t->f.archive);
+    free(t);
+}
+
+static enum MHD_Result submit_expansion(rd_req *r, batch_form *f)
+{
+    const rd_server_options *o = &r->srv->opt;
+    rd_jq_submit_options so = {.renders_nothing = 1, .prepare_bytes = o->max_batch_expanded + o->max_body_bytes};
+    size_t budget = o->jobs.memory_budget;
+    if (budget && so.prepare_bytes > budget) {
+        char msg[200];
+        snprintf(msg, sizeof msg,
+                 "an archive may expand to %zu MiB (--max-batch-expanded and --max-body-bytes), over the limit of "
+                 "%zu MiB (--memory-budget)",
+                 so.prepare_bytes >> 20, budget >> 20);
+        return rd_reply_error(r, 413, "too_large", NULL, msg);
+    }
+    expand_task *t = calloc(1, sizeof *t);
+    if (!t)
+        return rd_reply_error(r, 503, "unavailable", NULL, "out of memory");
+    t->srv = r->srv;
+    t->f.archive = f->archive;
+    t->f.archive_len = f->archive_len;
+    f->archive = NULL;
+    rd_jq_task task = {expand_archive, NULL, free_expand_task, t, t->f.archive_len, NULL};
+    return rd_req_submit(r, &task, &so);
+}
+
+enum MHD_Result rd_route_batch_post(rd_req *r, const char *rest)
+{
+    (void)rest;
+    batch_form *f = r->state;
+    if (!f)
+        return rd_reply_error(r, 400, "parse_error", NULL, "no form");
+    if (f->form.too_big || f->form.bad || !f->assignment[0] || (f->archives && f->n))
+        return form_errors(r, f);
+    if (atomic_load(&r->srv->draining))
+        return rd_reply_draining(r);
+    return f->archive ? submit_expansion(r, f) : start_batch(r, f);
+}
+
+enum MHD_Result rd_route_batch_resumed(rd_req *r)
+{
+    rd_jq_info info;
+    rd_jq_info_get(r->srv->jobs, r->job, &info);
+    batch_form *f = r->state;
+    expand_task *t = rd_jq_task_arg(r->job);
+    if (info.status == RD_JQ_DONE) {
+        f->images = t->f.images;
+        f->n = t->f.n;
+        f->cap = t->f.cap;
+        t->f.images = NULL;
+        t->f.n = t->f.cap = 0;
+        return start_batch(r, f);
+    }
+    if (info.status == RD_JQ_FAILED && info.error.code == RD_ERR_LIMIT)
+        return rd_reply_error(r, 413, "too_large", &info.error, NULL);
+    if (info.status == RD_JQ_FAILED && info.error.code != RD_ERR_NOMEM)
+        return rd_reply_error(r, 400, "parse_error", &info.error, NULL);
+    if (info.status == RD_JQ_FAILED)
+        return rd_reply_error(r, 503, "unavailable", &info.error, NULL);
+    if (info.hung_up)
+        return MHD_NO;
+    return rd_reply_error_hdr(
+        r, 503, "cancelled", "the archive's expansion was cancelled (the server is shutting down)", "Retry-After", "5");
+}
+
+static const char NO_BATCH[] = "no batch with that id (batches expire with their grades, see --grade-ttl)";
+
 /* GET /v1/grade/batch/{id}, .../results.csv, .../results.json */
 enum MHD_Result rd_route_batch_get(rd_req *r, const char *path)
 {
@@ -324,7 +439,7 @@ enum MHD_Result rd_route_batch_get(rd_req *r, const char *path)
     const char *p = path + 1, *slash = strchr(p, '/');
     size_t n = slash ? (size_t)(slash - p) : strlen(p);
     if (n == 0 || n >= sizeof id)
-        return rd_reply_error(r, 404, "not_found", NULL, "no such batch");
+        return rd_reply_error(r, 404, "not_found", NULL, NO_BATCH);
     memcpy(id, p, n);
     id[n] = 0;
     const char *what = slash ? slash + 1 : "";
@@ -333,7 +448,10 @@ enum MHD_Result rd_route_batch_get(rd_req *r, const char *path)
         return rd_reply_error(r, 404, "not_found", NULL, "no such route");
     rd_error err = {0};
     char *text = NULL;
-    if (rd_grades_batch_json(r->srv, id, form, &text, &err))
+    rd_error_code rc = rd_grades_batch_json(r->srv, id, form, &text, &err);
+    if (rc == RD_ERR_NOT_FOUND)
+        return rd_reply_error(r, 404, "not_found", NULL, NO_BATCH);
+    if (rc)
         return rd_reply_store_error(r, &err);
     if (form == 2)
         return rd_reply(r, 200, "text/csv; charset=utf-8", text, strlen(text), 1);
@@ -384,9 +502,32 @@ static void free_batch_task(void *arg)
     free(t);
 }
 
+/* The images' bytes count in --memory-budget from the batch's start until
+ * each is graded (rd_grades_batch_start). */
+static long long images_bytes(const rd_grade_batch_image *images, size_t n)
+{
+    long long sum = 0;
+    for (size_t i = 0; i < n; i++)
+        sum += (long long)images[i].len;
+    return sum;
+}
+
+static void drop_png(grade_batch *b, rd_grade_batch_image *im)
+{
+    free(im->png);
+    im->png = NULL;
+    rd_jq_external_bytes(b->srv->jobs, -(long long)im->len);
+}
+
 static void grade_image(grade_batch *b, size_t i)
 {
     rd_grade_batch_image *im = &b->images[i];
+    if (im->error) {
+        char id[RD_CAP_MAX];
+        rd_grades_error_record(b->srv, b->assignment, im->student, b->id, im->error, id);
+        drop_png(b, im);
+        return;
+    }
     const rd_grader *g = rd_grades_grader(b->srv->grades);
     rd_grade_input in = {.assignment = b->assignment, .png = im->png, .png_len = im->len};
     rd_grade_output o;
@@ -410,8 +551,7 @@ static void grade_image(grade_batch *b, size_t i)
     if (!b->failed.code)
         rd_grade_output_free(&o);
     rd_scene_free(&s);
-    free(im->png);
-    im->png = NULL;
+    drop_png(b, im);
 }
 
 static rd_error_code grade_slice(void *arg, rd_scene *s, int *render, rd_error *err)
@@ -490,6 +630,34 @@ static rd_error_code finish_reference(void *arg, const uint8_t *rgb, int w, int 
     return RD_OK;
 }
 
+/* The students' ids, each followed by '\n' (malloc'ed; NULL when out of
+ * memory): what a restarted daemon needs to name the ones it did not
+ * grade. A batch's ids never hold a control character (student_of). */
+static char *students_text(const rd_grade_batch_image *images, size_t n)
+{
+    rd_strbuf t = {0};
+    for (size_t i = 0; i < n; i++)
+        rd_strbuf_printf(&t, "%s\n", images[i].student);
+    return rd_strbuf_take(&t, NULL);
+}
+
+/* The batch's row: its daemon and students with it, or, when the students
+ * are more than the store takes as one text, without them (a restart then
+ * numbers the rows it could not grade). */
+static rd_error_code create_batch(rd_server *srv, rd_store *s, const char *id, const char *assignment,
+                                  const rd_grade_batch_image *images, size_t n, rd_error *err)
+{
+    char *students = students_text(images, n);
+    if (!students)
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    const char *daemon = rd_server_daemon_id(srv);
+    rd_error_code rc = rd_store_batch_create(s, id, assignment, (int)n, daemon, students, err);
+    if (rc == RD_ERR_LIMIT)
+        rc = rd_store_batch_create(s, id, assignment, (int)n, daemon, NULL, err);
+    free(students);
+    return rc;
+}
+
 rd_error_code rd_grades_batch_start(rd_server *srv, const char *assignment, rd_grade_batch_image *images, size_t n,
                                     char id[RD_STORE_ID_MAX], rd_error *err)
 {
@@ -501,9 +669,8 @@ rd_error_code rd_grades_batch_start(rd_server *srv, const char *assignment, rd_g
                                 : RD_OK;
     if (!rc)
         rc = rd_cap_new(b->id, 0, err);
-    if (!rc) {
-        rc = rd_store_batch_create(s, b->id, assignment, (int)n, err);
-    }
+    if (!rc)
+        rc = create_batch(srv, s, b->id, assignment, images, n, err);
     if (rc) {
         free_images(images, n);
         free(b);
@@ -521,13 +688,79 @@ rd_error_code rd_grades_batch_start(rd_server *srv, const char *assignment, rd_g
     rd_jq_task task = {prepare_reference, finish_reference, free_batch_task, t, 0, NULL};
     rd_jq_submit_options so = {.watch_fd = -1}; /* registered: the queue holds it until it ends */
     rd_jq_job *job;
+    long long held = images_bytes(images, n);
+    rd_jq_external_bytes(srv->jobs, held);
     rc = rd_jq_submit(srv->jobs, &task, &so, &job, err);
     if (rc) {
+        rd_jq_external_bytes(srv->jobs, -held);
         rd_store_batch_cancel(s, id, NULL, NULL);
         return rc;
     }
     rd_jq_job_unref(job);
     return RD_OK;
+}
+
+/* ---- batches a killed daemon left running ---- */
+
+static const char RESTARTED[] = "not graded: the daemon restarted while grading the batch; grade this image again";
+
+/* 1 when g (n grades) holds a row of student. */
+static int has_row(const rd_store_grade *g, size_t n, const char *student)
+{
+    for (size_t i = 0; i < n; i++)
+        if (g[i].student && strcmp(g[i].student, student) == 0)
+            return 1;
+    return 0;
+}
+
+/* Ends one batch: an error row for each student without a row, named from
+ * the batch's students, or numbered when it has none (an older batch, or
+ * one whose students the store could not take). Each row counts, so the
+ * last one makes it done. */
+static void end_batch(rd_server *srv, rd_store *s, const rd_store_batch *b)
+{
+    rd_store_grade_filter f = {.batch_id = b->id, .max = (size_t)b->total};
+    rd_store_grade *g = NULL;
+    size_t n = 0;
+    char *students = NULL;
+    rd_error err = {0};
+    if (rd_store_grades_list(s, &f, &g, &n, &err) || rd_store_batch_students(s, b->id, &students, &err)) {
+        rd_log_msg(srv->opt.log, "warning", "batch %s could not be ended: %s", b->id, err.message);
+        rd_store_grades_free(g, n);
+        return;
+    }
+    char id[RD_CAP_MAX];
+    int left = b->total - b->done;
+    for (char *p = students, *nl; left > 0 && (nl = strchr(p, '\n')); p = nl + 1) {
+        *nl = 0;
+        if (!has_row(g, n, p) && left-- > 0)
+            rd_grades_error_record(srv, b->assignment, p, b->id, RESTARTED, id);
+    }
+    for (int k = b->total - left + 1; k <= b->total; k++) {
+        char unnamed[48];
+        snprintf(unnamed, sizeof unnamed, "(not graded %d of %d)", k, b->total);
+        rd_grades_error_record(srv, b->assignment, unnamed, b->id, RESTARTED, id);
+    }
+    free(students);
+    rd_store_grades_free(g, n);
+    rd_log_msg(srv->opt.log, "info", "batch %s ended after a restart: %d of %d images had been graded", b->id, b->done,
+               b->total);
+}
+
+void rd_grades_batches_end_restarted(rd_server *srv)
+{
+    rd_store *s = rd_grades_store(srv->grades);
+    rd_store_batch *list = NULL;
+    size_t n = 0;
+    rd_error err = {0};
+    if (!s || rd_store_batches_running(s, rd_server_daemon_id(srv), SIZE_MAX, &list, &n, &err)) {
+        if (s)
+            rd_log_msg(srv->opt.log, "warning", "the batches left running could not be read: %s", err.message);
+        return;
+    }
+    for (size_t i = 0; i < n; i++)
+        end_batch(srv, s, &list[i]);
+    free(list);
 }
 
 /* ---- the records as rows ---- */

@@ -17,6 +17,7 @@
 #include "png_write.h"
 #include "rayd/clock.h"
 #include "scene_load.h"
+#include "utf8.h"
 
 enum { GRADES_KEPT = 256 };
 
@@ -349,10 +350,40 @@ static rd_error_code finish_grade(void *arg, const uint8_t *rgb, int w, int h, r
     return rd_grades_one(t->srv, o, t->student, NULL, id, &t->json, err);
 }
 
+/* Stores rec; a record the store refuses (a text it will not take) becomes
+ * an error row saying why, with its texts made valid, so that a batch
+ * still counts every student. What still fails (the store unreachable, the
+ * batch ended) is logged. */
+static void put_record(struct rd_grades *g, rd_store *s, const rd_store_grade *rec, const unsigned char *diff,
+                       size_t diff_len)
+{
+    rd_error err = {0};
+    rd_error_code rc = rd_store_grade_put(s, rec, diff, diff_len, &err);
+    if (rc == RD_ERR_INVALID || rc == RD_ERR_LIMIT) {
+        char student[RD_STORE_NAME_MAX], why[600];
+        rd_utf8_readable(rec->student, strlen(rec->student), student, sizeof student);
+        snprintf(
+            why, sizeof why, "%s%s",
+            rec->error ? "not graded; its message was refused: " : "graded, but its record was refused: ", err.message);
+        char message[600];
+        rd_utf8_readable(why, strlen(why), message, sizeof message);
+        rd_store_grade row = {.id = rec->id,
+                              .batch_id = rec->batch_id,
+                              .assignment = rec->assignment,
+                              .student = student,
+                              .graded_ms = rec->graded_ms,
+                              .error = message};
+        rc = rd_store_grade_put(s, &row, NULL, 0, &err);
+    }
+    if (rc)
+        rd_log_msg(g->log, "warning", "grade %s was not recorded: %s", rec->id, err.message);
+}
+
 /* A grade's record: kept until --grade-ttl, expired here about once a
- * minute. A store that cannot take it is logged; the grade is answered
- * anyway (its images stay in memory). Grades of a given scene rather than
- * an assignment are not records: they belong to no course. */
+ * minute. A store that cannot take it is logged, a record it refuses is
+ * an error row (put_record); the grade is answered anyway (its images
+ * stay in memory). Grades of a given scene rather than an assignment are
+ * not records: they belong to no course. */
 void rd_grades_record(rd_server *srv, const rd_grade_output *o, const char *id, const char *student,
                       const char *batch_id, int pass, const char *verdict, const unsigned char *diff, size_t diff_len)
 {
@@ -374,9 +405,8 @@ void rd_grades_record(rd_server *srv, const rd_grade_output *o, const char *id, 
                           .verdict = verdict,
                           .reference_key = key,
                           .graded_ms = rd_wall_ms()};
+    put_record(g, s, &rec, diff, diff_len);
     rd_error err = {0};
-    if (rd_store_grade_put(s, &rec, diff, diff_len, &err))
-        rd_log_msg(g->log, "warning", "grade %s was not recorded: %s", id, err.message);
     long long now = rd_wall_ms(), last = atomic_load(&g->last_expire_ms);
     if (now - last > 60000 && atomic_compare_exchange_strong(&g->last_expire_ms, &last, now))
         rd_store_grades_expire(s, (int64_t)g->ttl_ms, NULL, &err);
@@ -425,12 +455,10 @@ void rd_grades_error_record(rd_server *srv, const char *assignment, const char *
     rd_store_grade rec = {.id = id,
                           .batch_id = batch_id,
                           .assignment = assignment,
-                          .student = student,
+                          .student = student ? student : "",
                           .graded_ms = rd_wall_ms(),
                           .error = message && *message ? message : "not graded"};
-    rd_error err = {0};
-    if (rd_store_grade_put(s, &rec, NULL, 0, &err))
-        rd_log_msg(g->log, "warning", "grade %s was not recorded: %s", id, err.message);
+    put_record(g, s, &rec, NULL, 0);
 }
 
 static void free_grade(void *arg)
@@ -462,6 +490,9 @@ enum MHD_Result rd_route_grade(rd_req *r, const char *rest)
         return rd_reply_error(r, 400, "parse_error", NULL, "the form has no 'image' file");
     if (!g->assignment[0] == !g->scene)
         return rd_reply_error(r, 400, "parse_error", NULL, "give exactly one of 'assignment' or 'scene'");
+    /* Its record could not hold it: refused before it is graded. */
+    if (rd_utf8_invalid_at(g->student, strlen(g->student)) != strlen(g->student))
+        return rd_reply_error(r, 400, "parse_error", NULL, "the 'student' field is not UTF-8 text");
     grade_task *t = calloc(1, sizeof *t);
     if (!t)
         return rd_reply_error(r, 503, "unavailable", NULL, "out of memory");

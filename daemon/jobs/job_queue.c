@@ -719,15 +719,21 @@ static int admit(rd_jq *q, const rd_jq_job *j, size_t *held_back)
 }
 
 /* May this new job be prepared now? Only once what its preparation may
- * hold fits beside what is used; the first such preparation starts anyway
- * (results and caches make room as they age), so one always runs. Younger
- * jobs may pass one that waits. Under q->mu. */
+ * hold (a sandbox, an archive's expansion) fits beside what is used; when
+ * nothing runs or prepares it goes anyway (results and caches make room
+ * as they age), so one always runs. Younger jobs may pass one that waits.
+ * Under q->mu. */
 static int prepare_fits(rd_jq *q, const rd_jq_job *j)
 {
     size_t own = j->prepare_bytes;
-    if (!own || !q->opt.memory_budget || q->preparing_bytes == 0)
+    if (!own || !q->opt.memory_budget || used_bytes(q) + own <= q->opt.memory_budget)
         return 1;
-    return used_bytes(q) + own <= q->opt.memory_budget;
+    if (q->running_count || q->preparing_bytes)
+        return 0;
+    for (const rd_jq_job *o = q->active_head; o; o = o->next_active)
+        if (o->ph == PH_PREPARING)
+            return 0;
+    return 1;
 }
 
 /* What a free worker does next: a cancelled job to end, a new job to

@@ -336,7 +336,35 @@ static rd_error_code check_lease(int lease_ms, rd_error *err)
             return c_;                                                                                                 \
     } while (0)
 
-rd_error_code rd_store_ping(rd_store *s, rd_error *err) { LOCKED(s, s->ops->ping(s, err)); }
+void rd_store_saw(rd_store *s, rd_error_code c)
+{
+    if (c == RD_ERR_NOSPACE)
+        s->nospace_ms = rd_wall_ms();
+}
+
+void rd_store_committed(rd_store *s) { s->nospace_ms = 0; }
+
+/* The engine's ping writes a little (a probe); a recent write that found
+ * no space outweighs it. Under s->lock. */
+static rd_error_code ping_locked(rd_store *s, rd_error *err)
+{
+    int64_t seen = s->nospace_ms;
+    rd_error_code c = s->ops->ping(s, err);
+    /* The probe's own commit is no real write's. */
+    if (!c)
+        s->nospace_ms = seen;
+    long long ago = rd_wall_ms() - s->nospace_ms;
+    if (!c && s->nospace_ms && ago < RD_STORE_NOSPACE_MS)
+        return rd_error_set(err, RD_ERR_NOSPACE, 0, 0, "store: no space left: a write failed %.1f s ago",
+                            (double)ago / 1e3);
+    return c;
+}
+
+rd_error_code rd_store_ping(rd_store *s, rd_error *err)
+{
+    USE_ERR(err);
+    LOCKED(s, ping_locked(s, err));
+}
 
 rd_error_code rd_store_job_create(rd_store *s, const rd_store_job_spec *spec, rd_error *err)
 {
@@ -721,14 +749,38 @@ rd_error_code rd_store_grades_expire(rd_store *s, int64_t ttl_ms, size_t *delete
     return c;
 }
 
-rd_error_code rd_store_batch_create(rd_store *s, const char *id, const char *assignment, int total, rd_error *err)
+rd_error_code rd_store_batch_create(rd_store *s, const char *id, const char *assignment, int total, const char *daemon,
+                                    const char *students, rd_error *err)
 {
     USE_ERR(err);
     CHECKED(check_id("a batch id", id, err));
     CHECKED(check_name("the assignment", assignment, 0, err));
+    if (daemon && *daemon)
+        CHECKED(check_id("a daemon id", daemon, err));
+    CHECKED(check_text(s, "the students", students, err));
     if (total < 1)
         return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: a batch of %d grades", total);
-    LOCKED(s, s->ops->batch_create(s, id, assignment, total, err));
+    LOCKED(s, s->ops->batch_create(s, id, assignment, total, daemon ? daemon : "", students ? students : "", err));
+}
+
+rd_error_code rd_store_batches_running(rd_store *s, const char *daemon, size_t max, rd_store_batch **out, size_t *n,
+                                       rd_error *err)
+{
+    USE_ERR(err);
+    CHECKED(check_id("a daemon id", daemon, err));
+    if (!max) {
+        *out = NULL;
+        *n = 0;
+        return RD_OK;
+    }
+    LOCKED(s, s->ops->batches_running(s, daemon, max, out, n, err));
+}
+
+rd_error_code rd_store_batch_students(rd_store *s, const char *id, char **students, rd_error *err)
+{
+    USE_ERR(err);
+    CHECKED(check_id("a batch id", id, err));
+    LOCKED(s, s->ops->batch_students(s, id, students, err));
 }
 
 rd_error_code rd_store_batch_get(rd_store *s, const char *id, rd_store_batch *out, rd_error *err)

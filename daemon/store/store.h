@@ -22,6 +22,15 @@
  *                      cancelled): it takes no more grades.
  *   RD_ERR_TIMEOUT     a tile's lease ran out and another daemon claimed it.
  *   RD_ERR_UNSUPPORTED the store's schema is newer than this binary.
+ *   RD_ERR_NOSPACE     no space left to write (a full disk; SQLite's
+ *                      SQLITE_FULL, PostgreSQL's disk_full 53100): answer
+ *                      507. Nothing was changed; the same call may work
+ *                      once space is freed.
+ *   RD_ERR_DAMAGED     the data is damaged (SQLite's SQLITE_CORRUPT and
+ *                      SQLITE_NOTADB, a failed quick_check at open;
+ *                      PostgreSQL's data_corrupted XX001 and
+ *                      index_corrupted XX002): answer 503, an operator
+ *                      must repair or restore it.
  *   RD_ERR_NOMEM       out of memory.
  * Each call is one transaction: on an error nothing was changed. Output
  * parameters are written only on RD_OK.
@@ -101,8 +110,12 @@ void rd_store_close(rd_store *s);
 /* "sqlite" or "postgresql". */
 const char *rd_store_engine_name(const rd_store *s);
 
-/* The readiness probe: RD_OK when a statement round-trips now (reconnecting
- * first if the connection was lost), RD_ERR_IO otherwise. */
+/* The readiness probe: RD_OK when the store can be written now: a small
+ * write (committed, then deleted) round-trips, reconnecting first if the
+ * connection was lost. RD_ERR_IO when it is unreachable, RD_ERR_DAMAGED
+ * when its data is damaged, RD_ERR_NOSPACE when the probe, or any write of
+ * this handle in the last 30 s (RD_STORE_NOSPACE_MS; none committed since),
+ * found no space. */
 rd_error_code rd_store_ping(rd_store *s, rd_error *err);
 
 /* The order and names of rd_jq_status. */
@@ -429,9 +442,14 @@ typedef enum { RD_STORE_BATCH_RUNNING, RD_STORE_BATCH_DONE, RD_STORE_BATCH_CANCE
 const char *rd_store_batch_status_name(rd_store_batch_status st);
 
 /* Commits a new batch of total (>= 1) grades of assignment, running, with
- * none done, created now (the store's clock). RD_ERR_INVALID when the id
- * exists. */
-rd_error_code rd_store_batch_create(rd_store *s, const char *id, const char *assignment, int total, rd_error *err);
+ * none done, created now (the store's clock). daemon is the daemon that
+ * grades it (its id, as job ids; NULL or "": none), students its
+ * students' ids, each followed by '\n' (UTF-8, at most
+ * limits.text_bytes, RD_ERR_LIMIT past it; NULL: ""), so that the daemon,
+ * restarted, can end it (rd_store_batches_running). RD_ERR_INVALID when
+ * the id exists. */
+rd_error_code rd_store_batch_create(rd_store *s, const char *id, const char *assignment, int total, const char *daemon,
+                                    const char *students, rd_error *err);
 
 typedef struct {
     char id[RD_STORE_ID_MAX];
@@ -443,6 +461,16 @@ typedef struct {
 
 /* RD_ERR_NOT_FOUND when there is no batch of that id. */
 rd_error_code rd_store_batch_get(rd_store *s, const char *id, rd_store_batch *out, rd_error *err);
+
+/* The batches still running that daemon (not NULL or "") created, oldest
+ * first, at most max: at its start, the ones it was grading when it was
+ * killed. *out is a malloc'ed array (NULL when *n is 0). */
+rd_error_code rd_store_batches_running(rd_store *s, const char *daemon, size_t max, rd_store_batch **out, size_t *n,
+                                       rd_error *err);
+
+/* A batch's students as rd_store_batch_create was given them ("" when
+ * none), malloc'ed. RD_ERR_NOT_FOUND when there is no batch of that id. */
+rd_error_code rd_store_batch_students(rd_store *s, const char *id, char **students, rd_error *err);
 
 /* Running to cancelled: it takes no more grades, and keeps those it has.
  * *changed (may be NULL) is 0 when it had ended already, which is not an

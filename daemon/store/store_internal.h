@@ -52,8 +52,14 @@ typedef struct {
     rd_error_code (*grades_list)(rd_store *s, const rd_store_grade_filter *f, rd_store_grade **out, size_t *n,
                                  rd_error *err);
     rd_error_code (*grades_expire)(rd_store *s, int64_t ttl_ms, size_t *deleted, rd_error *err);
-    rd_error_code (*batch_create)(rd_store *s, const char *id, const char *assignment, int total, rd_error *err);
+    /* daemon and students never NULL. */
+    rd_error_code (*batch_create)(rd_store *s, const char *id, const char *assignment, int total, const char *daemon,
+                                  const char *students, rd_error *err);
     rd_error_code (*batch_get)(rd_store *s, const char *id, rd_store_batch *out, rd_error *err);
+    /* max > 0. */
+    rd_error_code (*batches_running)(rd_store *s, const char *daemon, size_t max, rd_store_batch **out, size_t *n,
+                                     rd_error *err);
+    rd_error_code (*batch_students)(rd_store *s, const char *id, char **students, rd_error *err);
     /* *changed 0 (and RD_OK) when it had ended. */
     rd_error_code (*batch_cancel)(rd_store *s, const char *id, int *changed, rd_error *err);
 } rd_store_ops;
@@ -63,7 +69,20 @@ struct rd_store {
     const rd_store_ops *ops;
     pthread_mutex_t lock;
     rd_store_options opt;
+    /* When a write last failed for want of space (RD_ERR_NOSPACE), 0 since
+     * a commit went through: the readiness probe says so for a while,
+     * since a probe's small write may fit where a real one does not.
+     * Under lock. */
+    int64_t nospace_ms;
 };
+
+/* How long rd_store_ping answers RD_ERR_NOSPACE after a write failed for
+ * want of space, unless a commit goes through meanwhile. */
+#define RD_STORE_NOSPACE_MS 30000
+
+/* The engines tell of each failed call's code and each commit. */
+void rd_store_saw(rd_store *s, rd_error_code c);
+void rd_store_committed(rd_store *s);
 
 /* Engines: a handle with base filled but for ops and lock, or NULL. */
 rd_store *rd_store_sqlite_open(const char *folder, const rd_store_options *opt, rd_error *err);

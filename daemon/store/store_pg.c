@@ -104,7 +104,8 @@ static int result_ok(const PGresult *r)
 }
 
 /* A failed statement's code: connection and server trouble is RD_ERR_IO
- * (503), a bad value RD_ERR_INVALID, a lost conflict RD_ERR_BUSY. */
+ * (503), a bad value RD_ERR_INVALID, a lost conflict RD_ERR_BUSY, a full
+ * disk RD_ERR_NOSPACE, a corrupt page or index RD_ERR_DAMAGED. */
 static rd_error_code pg_code(const char *state)
 {
     if (!state)
@@ -115,6 +116,10 @@ static rd_error_code pg_code(const char *state)
         return RD_ERR_BUSY;
     if (strcmp(state, "54000") == 0)
         return RD_ERR_LIMIT;
+    if (strcmp(state, "53100") == 0)
+        return RD_ERR_NOSPACE;
+    if (strcmp(state, "XX001") == 0 || strcmp(state, "XX002") == 0)
+        return RD_ERR_DAMAGED;
     return RD_ERR_IO;
 }
 
@@ -123,7 +128,11 @@ static rd_error_code pg_failed(pg_store *p, PGresult *r, rd_error *err)
     char line[400];
     const char *msg = PQresultErrorField(r, PG_DIAG_MESSAGE_PRIMARY);
     rd_error_code c = pg_code(PQresultErrorField(r, PG_DIAG_SQLSTATE));
-    rd_error_set(err, c, 0, 0, "store: PostgreSQL: %s",
+    rd_store_saw(&p->base, c);
+    rd_error_set(err, c, 0, 0, "store: PostgreSQL: %s%s",
+                 c == RD_ERR_DAMAGED   ? "the database is damaged: "
+                 : c == RD_ERR_NOSPACE ? "no space left: "
+                                       : "",
                  one_line(line, sizeof line, msg ? msg : PQresultErrorMessage(r)));
     PQclear(r);
     if (PQstatus(p->conn) != CONNECTION_OK)
@@ -301,8 +310,12 @@ static rd_error_code pg_end(pg_store *p, rd_error_code c, rd_error *err)
 {
     if (!p->conn)
         return c;
-    if (c == RD_OK)
-        return pg_cmd(p, "COMMIT", NULL, NULL, err);
+    if (c == RD_OK) {
+        c = pg_cmd(p, "COMMIT", NULL, NULL, err);
+        if (!c)
+            rd_store_committed(&p->base);
+        return c;
+    }
     rd_error ignored;
     if (PQtransactionStatus(p->conn) != PQTRANS_IDLE)
         pg_cmd(p, "ROLLBACK", NULL, NULL, &ignored);
@@ -379,11 +392,22 @@ static rd_error_code pg_not_runnable(pg_store *p, const char *id, rd_error *err)
     return rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "store: job %s is %s", id, rd_store_status_name(st));
 }
 
+/* A round trip, then a committed write (deleted in the same transaction):
+ * a store that cannot be written is not ready. */
 static rd_error_code pg_ping(rd_store *s, rd_error *err)
 {
     pg_store *p = pg(s);
     rd_error_code c = pg_ready(p, err);
-    return c ? c : pg_cmd(p, "SELECT 1", NULL, NULL, err);
+    if (!c)
+        c = pg_cmd(p, "SELECT 1", NULL, NULL, err);
+    if (c)
+        return c;
+    c = pg_begin(p, err);
+    if (!c)
+        c = pg_cmd(p, "INSERT INTO write_probe (pad) VALUES (decode(repeat('00', 65536), 'hex'))", NULL, NULL, err);
+    if (!c)
+        c = pg_cmd(p, "DELETE FROM write_probe", NULL, NULL, err);
+    return pg_end(p, c, err);
 }
 
 static rd_error_code pg_insert_tiles(pg_store *p, const char *id, int tiles, rd_error *err)
@@ -1271,7 +1295,8 @@ static rd_error_code pg_grades_expire(rd_store *s, int64_t ttl_ms, size_t *delet
     return pg_end(p, c, err);
 }
 
-static rd_error_code pg_batch_create(rd_store *s, const char *id, const char *assignment, int total, rd_error *err)
+static rd_error_code pg_batch_create(rd_store *s, const char *id, const char *assignment, int total, const char *daemon,
+                                     const char *students, rd_error *err)
 {
     pg_store *p = pg(s);
     int found = 0;
@@ -1284,36 +1309,97 @@ static rd_error_code pg_batch_create(rd_store *s, const char *id, const char *as
         pg_params pp = id_params(id);
         pp_text(&pp, assignment);
         pp_int(&pp, total);
+        pp_text(&pp, daemon);
+        pp_text(&pp, students);
         c = pg_cmd(p,
-                   "INSERT INTO batches (id, assignment, total, done, status, created_ms) "
-                   "VALUES ($1, $2, $3::int, 0, 'running', " NOW ")",
+                   "INSERT INTO batches (id, assignment, total, done, status, created_ms, daemon, students) "
+                   "VALUES ($1, $2, $3::int, 0, 'running', " NOW ", $4, $5)",
                    &pp, NULL, err);
     }
     return pg_end(p, c, err);
+}
+
+#define BATCH_COLUMNS "id, assignment, total, done, status, created_ms"
+
+/* The batch of row i of a result of BATCH_COLUMNS. */
+static rd_store_batch pg_batch_of(const PGresult *r, int i)
+{
+    rd_store_batch b;
+    memset(&b, 0, sizeof b);
+    snprintf(b.id, sizeof b.id, "%s", pg_text(r, i, 0));
+    snprintf(b.assignment, sizeof b.assignment, "%s", pg_text(r, i, 1));
+    b.total = (int)pg_int(r, i, 2);
+    b.done = (int)pg_int(r, i, 3);
+    b.status = (rd_store_batch_status)rd_store_batch_status_parse(pg_text(r, i, 4));
+    b.created_ms = pg_int(r, i, 5);
+    return b;
 }
 
 /* Inside a transaction or not (pg_run, not pg_ready). */
 static rd_error_code pg_batch_row(pg_store *p, const char *id, rd_store_batch *out, rd_error *err)
 {
     pg_params pp = id_params(id);
-    PGresult *r =
-        pg_run(p, "SELECT id, assignment, total, done, status, created_ms FROM batches WHERE id = $1", &pp, 0, err);
+    PGresult *r = pg_run(p, "SELECT " BATCH_COLUMNS " FROM batches WHERE id = $1", &pp, 0, err);
     if (!r)
         return err ? err->code : RD_ERR_IO;
     if (PQntuples(r) == 0) {
         PQclear(r);
         return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no batch %s", id);
     }
-    rd_store_batch b;
-    memset(&b, 0, sizeof b);
-    snprintf(b.id, sizeof b.id, "%s", pg_text(r, 0, 0));
-    snprintf(b.assignment, sizeof b.assignment, "%s", pg_text(r, 0, 1));
-    b.total = (int)pg_int(r, 0, 2);
-    b.done = (int)pg_int(r, 0, 3);
-    b.status = (rd_store_batch_status)rd_store_batch_status_parse(pg_text(r, 0, 4));
-    b.created_ms = pg_int(r, 0, 5);
+    *out = pg_batch_of(r, 0);
     PQclear(r);
-    *out = b;
+    return RD_OK;
+}
+
+static rd_error_code pg_batches_running(rd_store *s, const char *daemon, size_t max, rd_store_batch **out, size_t *n,
+                                        rd_error *err)
+{
+    pg_store *p = pg(s);
+    pg_params pp = id_params(daemon);
+    pp_int(&pp, (int64_t)(max > INT64_MAX ? INT64_MAX : max));
+    rd_error_code c = pg_ready(p, err);
+    if (c)
+        return c;
+    PGresult *r = pg_run(p,
+                         "SELECT " BATCH_COLUMNS " FROM batches WHERE daemon = $1 AND status = 'running' "
+                         "ORDER BY created_ms, id LIMIT $2",
+                         &pp, 0, err);
+    if (!r)
+        return err ? err->code : RD_ERR_IO;
+    size_t k = (size_t)PQntuples(r);
+    rd_store_batch *list = k ? malloc(k * sizeof *list) : NULL;
+    if (k && !list) {
+        PQclear(r);
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no memory for a batch list");
+    }
+    for (size_t i = 0; i < k; i++)
+        list[i] = pg_batch_of(r, (int)i);
+    PQclear(r);
+    *out = list;
+    *n = k;
+    return RD_OK;
+}
+
+static rd_error_code pg_batch_students(rd_store *s, const char *id, char **students, rd_error *err)
+{
+    pg_store *p = pg(s);
+    pg_params pp = id_params(id);
+    rd_error_code c = pg_ready(p, err);
+    if (c)
+        return c;
+    PGresult *r = pg_run(p, "SELECT students FROM batches WHERE id = $1", &pp, 0, err);
+    if (!r)
+        return err ? err->code : RD_ERR_IO;
+    if (PQntuples(r) == 0) {
+        PQclear(r);
+        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no batch %s", id);
+    }
+    const char *t = pg_text(r, 0, 0);
+    char *copy = rd_store_dup(t, strlen(t));
+    PQclear(r);
+    if (!copy)
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: out of memory reading a batch's students");
+    *students = copy;
     return RD_OK;
 }
 
@@ -1376,6 +1462,8 @@ static const rd_store_ops pg_ops = {
     .grades_expire = pg_grades_expire,
     .batch_create = pg_batch_create,
     .batch_get = pg_batch_get,
+    .batches_running = pg_batches_running,
+    .batch_students = pg_batch_students,
     .batch_cancel = pg_batch_cancel,
 };
 

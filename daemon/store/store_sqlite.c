@@ -37,9 +37,17 @@ static rd_error_code sq_fail(sq_store *q, int rc, const char *what, rd_error *er
     case SQLITE_RANGE: c = RD_ERR_INVALID; break;
     case SQLITE_TOOBIG: c = RD_ERR_LIMIT; break;
     case SQLITE_NOMEM: c = RD_ERR_NOMEM; break;
+    case SQLITE_FULL: c = RD_ERR_NOSPACE; break;
+    case SQLITE_CORRUPT:
+    case SQLITE_NOTADB: c = RD_ERR_DAMAGED; break;
     default: c = RD_ERR_IO;
     }
-    return rd_error_set(err, c, 0, 0, "store: %s: %s", what, q->db ? sqlite3_errmsg(q->db) : sqlite3_errstr(rc));
+    rd_store_saw(&q->base, c);
+    return rd_error_set(err, c, 0, 0, "store: %s: %s%s", what,
+                        c == RD_ERR_DAMAGED   ? "the database is damaged: "
+                        : c == RD_ERR_NOSPACE ? "no space left: "
+                                              : "",
+                        q->db ? sqlite3_errmsg(q->db) : sqlite3_errstr(rc));
 }
 
 /* Binds by fmt, one letter a value: t text (const char *, NULL binds
@@ -138,8 +146,10 @@ static rd_error_code sq_end(sq_store *q, rd_error_code c, rd_error *err)
 {
     if (c == RD_OK) {
         int rc = sqlite3_exec(q->db, "COMMIT", NULL, NULL, NULL);
-        if (rc == SQLITE_OK)
+        if (rc == SQLITE_OK) {
+            rd_store_committed(&q->base);
             return RD_OK;
+        }
         c = sq_fail(q, rc, "committing", err);
     }
     if (!sqlite3_get_autocommit(q->db))
@@ -180,10 +190,20 @@ static rd_error_code sq_not_runnable(sq_store *q, const char *id, rd_error *err)
     return rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "store: job %s is %s", id, rd_store_status_name(st));
 }
 
+/* A read, then a committed write of a few pages (deleted in the same
+ * transaction): a store that cannot be written is not ready. */
 static rd_error_code sq_ping(rd_store *s, rd_error *err)
 {
+    sq_store *q = sq(s);
     int changes;
-    return sq_run(sq(s), &changes, err, "SELECT count(*) FROM schema_version", "");
+    rd_error_code c = sq_run(q, &changes, err, "SELECT count(*) FROM schema_version", "");
+    if (!c)
+        c = sq_begin(q, err);
+    if (!c)
+        c = sq_run(q, NULL, err, "INSERT INTO write_probe (pad) VALUES (zeroblob(65536))", "");
+    if (!c)
+        c = sq_run(q, NULL, err, "DELETE FROM write_probe", "");
+    return sq_end(q, c, err);
 }
 
 static rd_error_code sq_insert_tiles(sq_store *q, const char *id, int tiles, rd_error *err)
@@ -1024,7 +1044,8 @@ static rd_error_code sq_grades_expire(rd_store *s, int64_t ttl_ms, size_t *delet
     return sq_end(q, c, err);
 }
 
-static rd_error_code sq_batch_create(rd_store *s, const char *id, const char *assignment, int total, rd_error *err)
+static rd_error_code sq_batch_create(rd_store *s, const char *id, const char *assignment, int total, const char *daemon,
+                                     const char *students, rd_error *err)
 {
     sq_store *q = sq(s);
     int found = 0;
@@ -1036,36 +1057,91 @@ static rd_error_code sq_batch_create(rd_store *s, const char *id, const char *as
         c = rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: batch %s exists already", id);
     if (!c)
         c = sq_run(q, NULL, err,
-                   "INSERT INTO batches (id, assignment, total, done, status, created_ms) "
-                   "VALUES (?, ?, ?, 0, 'running', ?)",
-                   "ttiI", id, assignment, total, rd_wall_ms());
+                   "INSERT INTO batches (id, assignment, total, done, status, created_ms, daemon, students) "
+                   "VALUES (?, ?, ?, 0, 'running', ?, ?, ?)",
+                   "ttiItt", id, assignment, total, rd_wall_ms(), daemon, students);
     return sq_end(q, c, err);
+}
+
+#define BATCH_COLUMNS "id, assignment, total, done, status, created_ms"
+
+/* The batch of a row of BATCH_COLUMNS. */
+static rd_store_batch sq_batch_of(sqlite3_stmt *st)
+{
+    rd_store_batch b;
+    memset(&b, 0, sizeof b);
+    snprintf(b.id, sizeof b.id, "%s", col_text(st, 0));
+    snprintf(b.assignment, sizeof b.assignment, "%s", col_text(st, 1));
+    b.total = sqlite3_column_int(st, 2);
+    b.done = sqlite3_column_int(st, 3);
+    b.status = (rd_store_batch_status)rd_store_batch_status_parse(col_text(st, 4));
+    b.created_ms = sqlite3_column_int64(st, 5);
+    return b;
 }
 
 static rd_error_code sq_batch_get(rd_store *s, const char *id, rd_store_batch *out, rd_error *err)
 {
     sq_store *q = sq(s);
     sqlite3_stmt *st;
-    rd_error_code c = sq_prep(
-        q, &st, err, "SELECT id, assignment, total, done, status, created_ms FROM batches WHERE id = ?", "t", id);
+    rd_error_code c = sq_prep(q, &st, err, "SELECT " BATCH_COLUMNS " FROM batches WHERE id = ?", "t", id);
     if (c)
         return c;
     int r = sq_step(q, st, err);
-    if (r == 1) {
-        rd_store_batch b;
-        memset(&b, 0, sizeof b);
-        snprintf(b.id, sizeof b.id, "%s", col_text(st, 0));
-        snprintf(b.assignment, sizeof b.assignment, "%s", col_text(st, 1));
-        b.total = sqlite3_column_int(st, 2);
-        b.done = sqlite3_column_int(st, 3);
-        b.status = (rd_store_batch_status)rd_store_batch_status_parse(col_text(st, 4));
-        b.created_ms = sqlite3_column_int64(st, 5);
-        *out = b;
-    }
+    if (r == 1)
+        *out = sq_batch_of(st);
     sqlite3_finalize(st);
     if (r == 0)
         return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no batch %s", id);
     return r < 0 ? (rd_error_code)-r : RD_OK;
+}
+
+static rd_error_code sq_batches_running(rd_store *s, const char *daemon, size_t max, rd_store_batch **out, size_t *n,
+                                        rd_error *err)
+{
+    sq_store *q = sq(s);
+    sqlite3_stmt *st;
+    rd_error_code c = sq_prep(q, &st, err,
+                              "SELECT " BATCH_COLUMNS " FROM batches WHERE daemon = ? AND status = 'running' "
+                              "ORDER BY created_ms, id LIMIT ?",
+                              "tI", daemon, (int64_t)(max > INT64_MAX ? INT64_MAX : max));
+    rd_store_batch *list = NULL;
+    size_t k = 0, cap = 0;
+    int r = 0;
+    while (!c && (r = sq_step(q, st, err)) == 1) {
+        if ((c = room_for(k, &cap, (void **)&list, sizeof *list, "a batch list", err)))
+            break;
+        list[k++] = sq_batch_of(st);
+    }
+    if (!c && r < 0)
+        c = (rd_error_code)-r;
+    sqlite3_finalize(st);
+    if (c) {
+        free(list);
+        return c;
+    }
+    *out = list;
+    *n = k;
+    return RD_OK;
+}
+
+static rd_error_code sq_batch_students(rd_store *s, const char *id, char **students, rd_error *err)
+{
+    sq_store *q = sq(s);
+    sqlite3_stmt *st;
+    rd_error_code c = sq_prep(q, &st, err, "SELECT students FROM batches WHERE id = ?", "t", id);
+    if (c)
+        return c;
+    int r = sq_step(q, st, err);
+    char *t = NULL;
+    if (r == 1 && !(t = rd_store_dup(col_text(st, 0), strlen(col_text(st, 0)))))
+        r = -(int)rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: out of memory reading a batch's students");
+    sqlite3_finalize(st);
+    if (r == 0)
+        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no batch %s", id);
+    if (r < 0)
+        return (rd_error_code)-r;
+    *students = t;
+    return RD_OK;
 }
 
 static rd_error_code sq_batch_cancel(rd_store *s, const char *id, int *changed, rd_error *err)
@@ -1119,6 +1195,8 @@ static const rd_store_ops sq_ops = {
     .grades_expire = sq_grades_expire,
     .batch_create = sq_batch_create,
     .batch_get = sq_batch_get,
+    .batches_running = sq_batches_running,
+    .batch_students = sq_batch_students,
     .batch_cancel = sq_batch_cancel,
 };
 
@@ -1217,12 +1295,53 @@ static rd_error_code sq_pragmas(sq_store *q, int sync_full, rd_error *err)
     return rc == SQLITE_OK ? RD_OK : sq_fail(q, rc, "setting up", err);
 }
 
+/* A bounded PRAGMA quick_check: a damaged page is found at the start,
+ * not by the request that reads it. The check stops after QUICK_CHECK_MS
+ * (a large store is checked as far as that goes), never holding the start
+ * up longer. */
+enum { QUICK_CHECK_MS = 5000 };
+
+static int past_deadline(void *deadline) { return rd_wall_ms() > *(long long *)deadline; }
+
+static rd_error_code sq_quick_check(sq_store *q, rd_error *err)
+{
+    long long deadline = rd_wall_ms() + QUICK_CHECK_MS;
+    sqlite3_progress_handler(q->db, 10000, past_deadline, &deadline);
+    sqlite3_stmt *st;
+    rd_error_code c = sq_prep(q, &st, err, "PRAGMA quick_check(1)", "");
+    int r = c ? 0 : sqlite3_step(st);
+    if (r == SQLITE_ROW && strcmp(col_text(st, 0), "ok") != 0)
+        c = rd_error_set(err, RD_ERR_DAMAGED, 0, 0, "store: %s is damaged (PRAGMA quick_check: %.300s)",
+                         sqlite3_db_filename(q->db, "main"), col_text(st, 0));
+    else if (r != SQLITE_ROW && r != SQLITE_DONE && r != SQLITE_INTERRUPT && !c)
+        c = sq_fail(q, r, "checking the database (PRAGMA quick_check)", err);
+    sqlite3_finalize(st);
+    sqlite3_progress_handler(q->db, 0, NULL, NULL);
+    return c;
+}
+
+/* A zero-length rayd.sqlite3 would open as an empty store: the jobs and
+ * grades it held are gone, and starting over must be an operator's
+ * choice. */
+static rd_error_code refuse_empty_file(const char *path, rd_error *err)
+{
+    struct stat sb;
+    if (stat(path, &sb) == 0 && S_ISREG(sb.st_mode) && sb.st_size == 0)
+        return rd_error_set(err, RD_ERR_DAMAGED, 0, 0,
+                            "store: %s is empty (0 bytes), not a store: its data is lost; move it away to start an "
+                            "empty store",
+                            path);
+    return RD_OK;
+}
+
 rd_store *rd_store_sqlite_open(const char *folder, const rd_store_options *opt, rd_error *err)
 {
     char path[4200];
     if (make_folder(folder, err))
         return NULL;
     snprintf(path, sizeof path, "%s/rayd.sqlite3", folder);
+    if (refuse_empty_file(path, err))
+        return NULL;
     sq_store *q = calloc(1, sizeof *q);
     if (!q) {
         rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no memory");
@@ -1236,6 +1355,8 @@ rd_store *rd_store_sqlite_open(const char *folder, const rd_store_options *opt, 
         sqlite3_busy_timeout(q->db, opt->timeout_ms);
     if (!c)
         c = sq_pragmas(q, opt->sync_full, err);
+    if (!c)
+        c = sq_quick_check(q, err);
     if (!c)
         c = sq_migrate(q, err);
     if (!c)

@@ -69,8 +69,9 @@ typedef struct {
     int stopped;
 } seen;
 
-static rd_error_code each(void *user, const char *name, const unsigned char *data, size_t len, rd_error *err)
+static rd_error_code each(void *user, const char *name, int utf8, const unsigned char *data, size_t len, rd_error *err)
 {
+    (void)utf8; /* the name is UTF-8 either way */
     seen *s = user;
     if (!name || !data)
         rd_fuzz_fail("file %zu: name %p, data %p", s->files, (const void *)name, (const void *)data);

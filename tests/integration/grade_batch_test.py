@@ -13,6 +13,7 @@ import shutil
 import sys
 import tarfile
 import tempfile
+import threading
 import time
 import zipfile
 
@@ -155,6 +156,84 @@ def archive_batches(d, images):
         verdicts_right(done.get("results", []), images, "a %s archive" % kind)
 
 
+NAMES = ["m\u00fcller", "bob", "Jos\u00e9", "\u674e\u96f7", "zo\u00eb"]
+
+
+def utf8_names(d, images):
+    """Names that are not ASCII, as zip tools flag them (bit 11, Python's
+    zipfile): every student graded under the UTF-8 name."""
+    right = images["alice"][0]
+    z = io.BytesIO()
+    with zipfile.ZipFile(z, "w") as zf:
+        for n in NAMES:
+            zf.writestr(n + ".png", right)
+    flags = [i.flag_bits & 0x800 for i in zipfile.ZipFile(io.BytesIO(z.getvalue())).infolist()]
+    check(flags.count(0x800) == 4, "the zip's names are not flagged UTF-8: %r" % flags)
+    st, _, b = post_batch(d, [("assignment", None, b"phong"), ("archive", "class.zip", z.getvalue())])
+    o = json.loads(b) if st == 202 else {}
+    check(st == 202 and o.get("total") == 5, "the zip of %s: %d %r" % (NAMES, st, b[:300]))
+    done = wait_batch(d, o.get("id", "x"))
+    rows = {r["student"]: r for r in done.get("results", [])}
+    check(done.get("status") == "done" and sorted(rows) == sorted(NAMES) and all(r["pass"] for r in rows.values()),
+          "the zip of %s: %r" % (NAMES, {k: done.get(k) for k in ("status", "total", "done", "results")}))
+
+
+def hostile_archives(d):
+    """tests/hostile's archives: the names of a zip flagged UTF-8 are every
+    row (not PNGs: error rows, under those names), a tar's Latin-1 name is
+    an error row saying it is not UTF-8."""
+    for path, want in (("batch_utf8_names.zip", {n: "not a PNG" for n in NAMES}),
+                       ("batch_latin1_names.tar", {"m%FCller": "is not UTF-8", "bob": "not a PNG"})):
+        with open(os.path.join("tests", "hostile", path), "rb") as f:
+            data = f.read()
+        st, _, b = post_batch(d, [("assignment", None, b"phong"), ("archive", path, data)])
+        check(st == 202, "tests/hostile/%s: %d %r" % (path, st, b[:200]))
+        rows = ends(d, json.loads(b).get("id", "x") if st == 202 else "x", path)
+        check(sorted(rows) == sorted(want) and all(w in (rows[n].get("error") or "") for n, w in want.items()),
+              "tests/hostile/%s: rows %r" % (path, {n: r.get("error") for n, r in rows.items()}))
+
+
+def ends(d, bid, what):
+    """The batch ends, every student with a row: its rows by student."""
+    done = wait_batch(d, bid, 30)
+    rows = {r["student"]: r for r in done.get("results", [])}
+    check(done.get("status") == "done" and done.get("done") == done.get("total") == len(rows),
+          "%s: %r" % (what, {k: done.get(k) for k in ("status", "total", "done")}))
+    return rows
+
+
+def names_not_utf8(d, images):
+    """Names that are not UTF-8 are error rows that say so, shown with
+    their bad bytes as %HH; a name cut at the 255-byte bound is cut at a
+    character; the batch always ends."""
+    right = images["alice"][0]
+    not_utf8 = "is not UTF-8"
+    long_name = "\u00e9" * 150 + "x"
+    st, _, b = post_batch(d, [("assignment", None, b"phong"), ("image", b"m\xfcller.png", right),
+                              ("image", long_name.encode() + b".png", right), ("student", None, b"\xff\xfe"),
+                              ("image", "a.png", right), ("image", "bob.png", right)])
+    check(st == 202, "form names not UTF-8: %d %r" % (st, b[:200]))
+    rows = ends(d, json.loads(b).get("id", "x") if st == 202 else "x", "form names not UTF-8")
+    check(not_utf8 in (rows.get("m%FCller") or {}).get("error", ""), "the Latin-1 file name's row: %r" % rows.keys())
+    check(not_utf8 in (rows.get("%FF%FE") or {}).get("error", ""), "the student field's row: %r" % rows.keys())
+    check((rows.get("\u00e9" * 127) or {}).get("pass") is True, "the long name, cut at a character: %r" %
+          [k[:8] for k in rows])
+    check((rows.get("bob") or {}).get("pass") is True, "bob beside them: %r" % rows.get("bob"))
+    t = io.BytesIO()
+    with tarfile.open(fileobj=t, mode="w", format=tarfile.USTAR_FORMAT, encoding="latin-1") as tf:
+        for n in ("m\u00fcller.png", "bob.png"):
+            info = tarfile.TarInfo(n)
+            info.size = len(right)
+            tf.addfile(info, io.BytesIO(right))
+    st, _, b = post_batch(d, [("assignment", None, b"phong"), ("archive", "class.tar", t.getvalue())])
+    check(st == 202 and json.loads(b).get("total") == 2, "a tar with a Latin-1 name: %d %r" % (st, b[:200]))
+    rows = ends(d, json.loads(b).get("id", "x") if st == 202 else "x", "a tar with a Latin-1 name")
+    check(not_utf8 in (rows.get("m%FCller") or {}).get("error", ""), "the tar's Latin-1 name: %r" % rows)
+    body, ct = form_parts([("assignment", None, b"phong"), ("student", None, b"\xff\xfe"), ("image", "a.png", right)])
+    st, _, v = d.request("POST", "/v1/grade", body=body, headers={"Content-Type": ct})
+    check(st == 400 and b"not UTF-8" in v, "a single grade whose student is not UTF-8: %d %r" % (st, v[:200]))
+
+
 def limits(d, images):
     bomb = io.BytesIO()
     with zipfile.ZipFile(bomb, "w", zipfile.ZIP_DEFLATED) as zf:
@@ -222,6 +301,118 @@ def hundred(tmp, flags, right):
         print("grade batch: 100 320x240 images graded in %.2f s (POST to done, reference included)" % secs)
 
 
+def large_form(tmp, tokens):
+    """450 image parts of 24,745 bytes: libmicrohttpd starts the part of
+    s338 with an empty call at offset 0 and gives its bytes at offset 0
+    again; it is one image all the same, not two of one student."""
+    flags = ["--instructor-tokens", tokens, "--data-dir", os.path.join(tmp, "data-large"), "--max-batch-images",
+             "500", "--max-batch-bytes", "100000000"]
+    with Daemon(tmp, flags) as d:
+        parts = [("assignment", None, b"phong")] + [("image", "s%03d.png" % i, b"x" * 24745) for i in range(450)]
+        st, _, b = post_batch(d, parts)
+        check(st == 202 and json.loads(b).get("total") == 450, "450 image parts: %d %r" % (st, b[:200]))
+        if st == 202:
+            rows = ends(d, json.loads(b)["id"], "450 image parts")
+            check(len(rows) == 450 and all("not a PNG" in (r.get("error") or "") for r in rows.values()),
+                  "450 image parts: %d rows" % len(rows))
+
+
+def killed_mid_batch(tmp, tokens, right):
+    """kill -9 while a batch of 400 grades, then a restart under the same
+    --daemon-id on the same store: the batch ends, done == total, the rows
+    graded before the kill kept and every other student an error row saying
+    the daemon restarted."""
+    data = os.path.join(tmp, "data-k9")
+    flags = ["--instructor-tokens", tokens, "--data-dir", data, "--threads", "2", "--max-batch-images", "500",
+             "--max-batch-bytes", "100000000", "--daemon-id", "batch-k9"]
+    names = ["s%03d" % i for i in range(400)]
+    with Daemon(tmp, flags) as d:
+        st, _, b = post_batch(d, [("assignment", None, b"phong")] + [("image", n + ".png", right) for n in names])
+        check(st == 202, "a batch of 400: %d %r" % (st, b[:200]))
+        bid = json.loads(b).get("id", "x") if st == 202 else "x"
+        before = {}
+        for _ in range(600):
+            st, _, b = d.request("GET", "/v1/grade/batch/" + bid, headers=AUTH)
+            before = json.loads(b) if st == 200 else {}
+            if before.get("done", 0) >= 20 or before.get("status") != "running":
+                break
+            time.sleep(0.01)
+        d.proc.kill()
+        d.proc.wait()
+    check(before.get("status") == "running" and 0 < before.get("done", 0) < 400,
+          "the batch was not mid-way when killed: %r" % {k: before.get(k) for k in ("status", "done")})
+    with Daemon(tmp, flags) as d:
+        done = wait_batch(d, bid, 30)
+        rows = done.get("results", [])
+        graded = [r for r in rows if not r.get("error")]
+        restarted = [r for r in rows if "restarted" in (r.get("error") or "")]
+        check(done.get("status") == "done" and done.get("done") == done.get("total") == 400 and len(rows) == 400,
+              "after kill -9 and a restart: %r" % {k: done.get(k) for k in ("status", "total", "done")})
+        check(sorted(r["student"] for r in rows) == names and len(graded) + len(restarted) == 400 and
+              len(graded) >= before.get("done", 0),
+              "after kill -9: %d graded (%d before the kill), %d rows saying the daemon restarted" %
+              (len(graded), before.get("done", 0), len(restarted)))
+        print("grade batch: killed -9 at %d/400; after the restart %s %d/%d, %d graded rows kept, %d error rows" %
+              (before.get("done", 0), done.get("status"), done.get("done", 0), done.get("total", 0), len(graded),
+               len(restarted)))
+
+
+def vm_mib(pid, key):
+    with open("/proc/%d/status" % pid) as f:
+        for line in f:
+            if line.startswith(key):
+                return int(line.split()[1]) // 1024
+    return 0
+
+
+def bombs_within_budget(tmp, tokens):
+    """Four concurrent archives that each expand past --max-batch-expanded
+    (256 MiB): they are expanded by the render queue only as
+    --memory-budget (640 MiB) allows, so the daemon's peak resident set
+    stays within the budget, and /healthz answers at once meanwhile."""
+    budget = 640
+    flags = ["--instructor-tokens", tokens, "--data-dir", os.path.join(tmp, "data-bombs"), "--threads", "2",
+             "--memory-budget", str(budget << 20), "--max-batch-expanded", str(256 << 20)]
+    bomb = io.BytesIO()
+    with zipfile.ZipFile(bomb, "w", zipfile.ZIP_DEFLATED) as zf:
+        for i in range(40):
+            zf.writestr("s%02d.png" % i, b"\0" * (15 << 20))
+    body, ct = form_parts([("assignment", None, b"phong"), ("archive", "bomb.zip", bomb.getvalue())])
+    # Under AddressSanitizer, freed blocks wait in its quarantine (256 MiB
+    # by default): memory the daemon gave back, which is not what is measured.
+    asan = ":".join(o for o in (os.environ.get("ASAN_OPTIONS"), "quarantine_size_mb=0") if o)
+    with Daemon(tmp, flags, env={"ASAN_OPTIONS": asan}) as d:
+        answers, worst, peak, stop = [], [0.0], [0], [False]
+
+        def one():
+            st, _, b = d.request("POST", "/v1/grade/batch", body=body, headers=dict(AUTH, **{"Content-Type": ct}))
+            answers.append((st, b"--max-batch-expanded" in b))
+
+        def watch():
+            while not stop[0]:
+                peak[0] = max(peak[0], vm_mib(d.pid, "VmRSS"))
+                t = time.time()
+                d.request("GET", "/healthz", timeout=30)
+                worst[0] = max(worst[0], time.time() - t)
+                time.sleep(0.02)
+
+        w = threading.Thread(target=watch)
+        w.start()
+        posts = [threading.Thread(target=one) for _ in range(4)]
+        for t in posts:
+            t.start()
+        for t in posts:
+            t.join()
+        stop[0] = True
+        w.join()
+        hwm = vm_mib(d.pid, "VmHWM")
+        check(answers == [(413, True)] * 4, "four bombs: %r" % answers)
+        check(hwm < budget, "four bombs: VmHWM %d MiB, over the budget of %d MiB" % (hwm, budget))
+        check(worst[0] < 0.5, "four bombs: /healthz took %.2f s" % worst[0])
+        print("grade batch: 4 concurrent bombs, budget %d MiB: VmHWM %d MiB (sampled RSS %d MiB), slowest /healthz "
+              "%.3f s" % (budget, hwm, peak[0], worst[0]))
+
+
 def main():
     tmp = tempfile.mkdtemp(prefix="rayd-batch-")
     try:
@@ -237,9 +428,15 @@ def main():
             archive_batches(d, images)
             limits(d, images)
             records(d, by, images)
+            utf8_names(d, images)
+            names_not_utf8(d, images)
+            hostile_archives(d)
         after_restart(tmp, bid, by, flags)
         hundred(tmp, ["--instructor-tokens", tokens, "--data-dir", os.path.join(tmp, "data100")],
                 images["alice"][0])
+        large_form(tmp, tokens)
+        killed_mid_batch(tmp, tokens, images["alice"][0])
+        bombs_within_budget(tmp, tokens)
     finally:
         if not check.failed:
             shutil.rmtree(tmp, ignore_errors=True)

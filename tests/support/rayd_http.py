@@ -148,13 +148,16 @@ def form(fields):
 
 def form_parts(parts):
     """A multipart/form-data body and its Content-Type for a list of
-    (name, filename or None, bytes): names may repeat, in order."""
+    (name, filename or None, bytes): names may repeat, in order. A filename
+    given as bytes goes in as those bytes (a name that is not UTF-8)."""
     boundary = uuid.uuid4().hex
     body = b""
     for name, filename, value in parts:
-        fn = '; filename="%s"' % filename if filename is not None else ""
-        body += ('--%s\r\nContent-Disposition: form-data; name="%s"%s\r\n\r\n' %
-                 (boundary, name, fn)).encode() + value + b"\r\n"
+        if isinstance(filename, str):
+            filename = filename.encode()
+        fn = b'; filename="' + filename + b'"' if filename is not None else b""
+        body += ('--%s\r\nContent-Disposition: form-data; name="%s"' % (boundary, name)).encode() + fn + \
+            b"\r\n\r\n" + value + b"\r\n"
     return body + ("--%s--\r\n" % boundary).encode(), "multipart/form-data; boundary=" + boundary
 
 

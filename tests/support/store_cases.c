@@ -1391,8 +1391,8 @@ static void check_list(rd_store *s, const rd_store_grade_filter *f, const char *
 void case_grades_list(const store_env *e)
 {
     rd_store *s = store_env_open(e);
-    OK(rd_store_batch_create(s, "b1", "phong", 3, &e_));
-    OK(rd_store_batch_create(s, "b2", "phong", 3, &e_));
+    OK(rd_store_batch_create(s, "b1", "phong", 3, NULL, NULL, &e_));
+    OK(rd_store_batch_create(s, "b2", "phong", 3, NULL, NULL, &e_));
     struct {
         const char *id, *assignment, *student, *batch;
         int64_t ms;
@@ -1484,13 +1484,13 @@ void case_batch_progress(const store_env *e)
 {
     rd_store *s = store_env_open(e);
     int64_t before = rd_wall_ms();
-    OK(rd_store_batch_create(s, "class-1", "phong", 3, &e_));
+    OK(rd_store_batch_create(s, "class-1", "phong", 3, NULL, NULL, &e_));
     rd_store_batch b = batch_got(s, "class-1");
     cr_assert_str_eq(b.assignment, "phong");
     cr_assert(b.created_ms >= before - 5000 && b.created_ms <= before + 5000, "created %lld, now %lld",
               (long long)b.created_ms, (long long)before);
     check_batch(s, "class-1", 0, 3, RD_STORE_BATCH_RUNNING);
-    FAILS(RD_ERR_INVALID, rd_store_batch_create(s, "class-1", "phong", 5, &e_));
+    FAILS(RD_ERR_INVALID, rd_store_batch_create(s, "class-1", "phong", 5, NULL, NULL, &e_));
     check_batch(s, "class-1", 0, 3, RD_STORE_BATCH_RUNNING);
     put_batch_grade(s, "s1", "class-1", 0);
     check_batch(s, "class-1", 1, 3, RD_STORE_BATCH_RUNNING);
@@ -1524,7 +1524,7 @@ void case_batch_progress(const store_env *e)
     cr_assert_eq(changed, 0);
     check_batch(s, "class-1", 3, 3, RD_STORE_BATCH_DONE);
     /* Cancelled: it keeps what it has and takes no more. */
-    OK(rd_store_batch_create(s, "class-2", "phong", 5, &e_));
+    OK(rd_store_batch_create(s, "class-2", "phong", 5, NULL, NULL, &e_));
     put_batch_grade(s, "t1", "class-2", 0);
     OK(rd_store_batch_cancel(s, "class-2", &changed, &e_));
     cr_assert_eq(changed, 1);
@@ -1546,12 +1546,12 @@ void case_batch_progress(const store_env *e)
     FAILS(RD_ERR_NOT_FOUND, rd_store_batch_get(s, "class-0", &b, &e_));
     FAILS(RD_ERR_NOT_FOUND, rd_store_batch_cancel(s, "class-0", NULL, &e_));
     FAILS(RD_ERR_INVALID, rd_store_batch_get(s, "bad id", &b, &e_));
-    FAILS(RD_ERR_INVALID, rd_store_batch_create(s, "class-3", "phong", 0, &e_));
-    FAILS(RD_ERR_INVALID, rd_store_batch_create(s, "class-3", "", 2, &e_));
-    FAILS(RD_ERR_INVALID, rd_store_batch_create(s, "class 3", "phong", 2, &e_));
+    FAILS(RD_ERR_INVALID, rd_store_batch_create(s, "class-3", "phong", 0, NULL, NULL, &e_));
+    FAILS(RD_ERR_INVALID, rd_store_batch_create(s, "class-3", "", 2, NULL, NULL, &e_));
+    FAILS(RD_ERR_INVALID, rd_store_batch_create(s, "class 3", "phong", 2, NULL, NULL, &e_));
     FAILS(RD_ERR_NOT_FOUND, rd_store_batch_get(s, "class-3", &b, &e_));
     /* A batch of one is done by its one grade. */
-    OK(rd_store_batch_create(s, "solo", "phong", 1, &e_));
+    OK(rd_store_batch_create(s, "solo", "phong", 1, NULL, NULL, &e_));
     put_batch_grade(s, "v1", "solo", 0);
     check_batch(s, "solo", 1, 1, RD_STORE_BATCH_DONE);
     rd_store_close(s);
@@ -1579,12 +1579,43 @@ static void *grade_race_main(void *arg)
 /* threads handles put a grade each at once to a batch with slots left
  * (slots <= threads): the first slots are counted, the others refused,
  * and the batch is done with exactly its total. */
+void case_batches_running(const store_env *e)
+{
+    rd_store *s = store_env_open(e);
+    OK(rd_store_batch_create(s, "mine-1", "phong", 2, "host:8080", "m\xc3\xbcller\nbob\n", &e_));
+    OK(rd_store_batch_create(s, "mine-2", "phong", 1, "host:8080", NULL, &e_));
+    OK(rd_store_batch_create(s, "theirs", "phong", 1, "other:8080", "eve\n", &e_));
+    OK(rd_store_batch_create(s, "nobody", "phong", 1, NULL, NULL, &e_));
+    FAILS(RD_ERR_INVALID, rd_store_batch_create(s, "bad-1", "phong", 1, "a b", NULL, &e_));
+    FAILS(RD_ERR_INVALID, rd_store_batch_create(s, "bad-2", "phong", 1, NULL, "\xff\n", &e_));
+    put_batch_grade(s, "done-1", "mine-2", 0);
+    rd_store_batch *list = NULL;
+    size_t n = 0;
+    OK(rd_store_batches_running(s, "host:8080", 10, &list, &n, &e_));
+    cr_assert_eq(n, 1, "%zu running batches of host:8080, not the one still running", n);
+    cr_assert_str_eq(list[0].id, "mine-1");
+    cr_assert(list[0].total == 2 && list[0].done == 0 && list[0].status == RD_STORE_BATCH_RUNNING);
+    free(list);
+    OK(rd_store_batches_running(s, "nobody:1", 10, &list, &n, &e_));
+    cr_assert_eq(n, 0);
+    FAILS(RD_ERR_INVALID, rd_store_batches_running(s, "", 10, &list, &n, &e_));
+    char *students = NULL;
+    OK(rd_store_batch_students(s, "mine-1", &students, &e_));
+    cr_assert_str_eq(students, "m\xc3\xbcller\nbob\n");
+    free(students);
+    OK(rd_store_batch_students(s, "nobody", &students, &e_));
+    cr_assert_str_eq(students, "");
+    free(students);
+    FAILS(RD_ERR_NOT_FOUND, rd_store_batch_students(s, "no-such", &students, &e_));
+    rd_store_close(s);
+}
+
 static void batch_race_round(rd_store *s, rd_store **h, int threads, int slots, int round)
 {
     char batch[32];
     snprintf(batch, sizeof batch, "race-%d-%d", threads, round);
     int total = slots + 2;
-    OK(rd_store_batch_create(s, batch, "phong", total, &e_));
+    OK(rd_store_batch_create(s, batch, "phong", total, NULL, NULL, &e_));
     for (int i = 0; i < 2; i++) {
         char id[48];
         snprintf(id, sizeof id, "%s-pre%d", batch, i);
@@ -1644,9 +1675,9 @@ void case_grades_expire(const store_env *e)
     int64_t t0 = rd_wall_ms();
     static unsigned char png[100];
     fill(png, sizeof png, 3);
-    OK(rd_store_batch_create(s, "bold", "phong", 2, &e_));
-    OK(rd_store_batch_create(s, "bkeep", "phong", 2, &e_));
-    OK(rd_store_batch_create(s, "bempty", "phong", 3, &e_));
+    OK(rd_store_batch_create(s, "bold", "phong", 2, NULL, NULL, &e_));
+    OK(rd_store_batch_create(s, "bkeep", "phong", 2, NULL, NULL, &e_));
+    OK(rd_store_batch_create(s, "bempty", "phong", 3, NULL, NULL, &e_));
     rd_store_grade old1 = grade_of("old1", "phong", "a", t0 - 10 * DAY_MS);
     OK(rd_store_grade_put(s, &old1, png, sizeof png, &e_));
     rd_store_grade old2 = grade_of("old2", "phong", "b", t0 - 10 * DAY_MS);
@@ -1711,7 +1742,7 @@ void case_grade_limits(const store_env *e)
     const char *name_at_limit = name + sizeof name - 1 - 255, *name_over = name_at_limit - 1;
     static unsigned char png[2001];
     fill(png, sizeof png, 5);
-    OK(rd_store_batch_create(s, "lb", "phong", 50, &e_));
+    OK(rd_store_batch_create(s, "lb", "phong", 50, NULL, NULL, &e_));
     struct {
         const char *why;
         rd_error_code code;
@@ -1767,9 +1798,9 @@ void case_grade_limits(const store_env *e)
     check_stored(s, &b);
     check_batch(s, "lb", 1, 50, RD_STORE_BATCH_RUNNING);
     check_list(s, NULL, "y1,y2");
-    FAILS(RD_ERR_LIMIT, rd_store_batch_create(s, "lb2", name_over, 2, &e_));
-    FAILS(RD_ERR_INVALID, rd_store_batch_create(s, "lb2", "\xff", 2, &e_));
-    OK(rd_store_batch_create(s, "lb2", name_at_limit, 2, &e_));
+    FAILS(RD_ERR_LIMIT, rd_store_batch_create(s, "lb2", name_over, 2, NULL, NULL, &e_));
+    FAILS(RD_ERR_INVALID, rd_store_batch_create(s, "lb2", "\xff", 2, NULL, NULL, &e_));
+    OK(rd_store_batch_create(s, "lb2", name_at_limit, 2, NULL, NULL, &e_));
     rd_store_batch bb = batch_got(s, "lb2");
     cr_assert_str_eq(bb.assignment, name_at_limit);
     rd_store_close(s);
@@ -1800,7 +1831,7 @@ void case_upgrade_from_version_3(const store_env *e, void (*exec)(const char *sq
     rd_store_job_info_free(&in);
     check_image(s, "old", RD_STORE_PNG, (const unsigned char *)"PNGDATA", 7);
     check_list(s, NULL, "");
-    OK(rd_store_batch_create(s, "first", "phong", 1, &e_));
+    OK(rd_store_batch_create(s, "first", "phong", 1, NULL, NULL, &e_));
     rd_store_grade g = grade_of("a1b2c3d4e5f60718", "phong", "ann", 1700000000000LL);
     g.batch_id = "first";
     OK(rd_store_grade_put(s, &g, (const unsigned char *)"DIFF", 4, &e_));

@@ -80,6 +80,9 @@ void case_grades_list(const store_env *e);
 /* A batch counts its grades to done exactly once, refuses what is not its
  * (ended, another assignment, a refused grade), and cancels. */
 void case_batch_progress(const store_env *e);
+/* A batch's daemon and students: the running batches of a daemon, a
+ * batch's students as given. */
+void case_batches_running(const store_env *e);
 /* Handles racing puts of a batch's last grades: exactly its total is
  * counted, and it is done (two handles for two grades, four for two). */
 void case_batch_race(const store_env *e, int rounds);

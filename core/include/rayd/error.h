@@ -19,7 +19,9 @@
     X(RD_ERR_TIMEOUT, "timeout", "a render ran past its time limit")                                                   \
     X(RD_ERR_BUSY, "busy", "no room now (queue full): try again later")                                                \
     X(RD_ERR_NOT_FOUND, "not_found", "nothing of that name: assignment, scene, job")                                   \
-    X(RD_ERR_UNSUPPORTED, "unsupported", "a kind of input it does not read (not a PNG)")
+    X(RD_ERR_UNSUPPORTED, "unsupported", "a kind of input it does not read (not a PNG)")                               \
+    X(RD_ERR_NOSPACE, "nospace", "no space left to write: a full disk, a store at its size limit")                     \
+    X(RD_ERR_DAMAGED, "damaged", "stored data is damaged: a corrupt page, not a database")
 
 typedef enum {
 #define RD_ERROR_ENUM(code, name, meaning) code,

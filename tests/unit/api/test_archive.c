@@ -9,6 +9,7 @@
 #include <archive.h>
 #include <archive_entry.h>
 #include <criterion/criterion.h>
+#include <locale.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -19,6 +20,7 @@
 #include "archive.h"
 #include "support/fault_alloc.h"
 #include "support/rng.h"
+#include "utf8.h"
 
 TestSuite(archive, .timeout = 60);
 
@@ -55,7 +57,8 @@ static la_ssize_t mem_write(struct archive *a, void *user, const void *buf, size
     return (la_ssize_t)n;
 }
 
-static void w_open(writer *w, format f)
+/* options: libarchive's writer options ("zip:hdrcharset=UTF-8"), or NULL. */
+static void w_open_with(writer *w, format f, const char *options)
 {
     memset(w, 0, sizeof *w);
     w->f = f;
@@ -65,6 +68,8 @@ static void w_open(writer *w, format f)
     cr_assert_eq(st, ARCHIVE_OK, "%s", archive_error_string(w->a));
     if (f == TGZ)
         cr_assert_eq(archive_write_add_filter_gzip(w->a), ARCHIVE_OK, "%s", archive_error_string(w->a));
+    if (options)
+        cr_assert_eq(archive_write_set_options(w->a, options), ARCHIVE_OK, "%s", archive_error_string(w->a));
     /* As zip and gzip tools write them; a tar keeps tar's 10240-byte
      * blocks. */
     if (f != TAR)
@@ -72,6 +77,8 @@ static void w_open(writer *w, format f)
     cr_assert_eq(archive_write_open(w->a, &w->out, NULL, mem_write, NULL), ARCHIVE_OK, "%s",
                  archive_error_string(w->a));
 }
+
+static void w_open(writer *w, format f) { w_open_with(w, f, NULL); }
 
 /* One entry of any type; a regular file gets len bytes of data, or len
  * zero bytes when data is NULL (written a block at a time: never len
@@ -128,6 +135,7 @@ static membuf w_close(writer *w)
 typedef struct {
     int calls;
     char names[KEEP][RD_ARCHIVE_NAME_MAX + 1];
+    int utf8[KEEP];            /* the callback's flag: the stored name was UTF-8 */
     unsigned char *data[KEEP]; /* copies, when keep */
     size_t len[KEEP];
     uint64_t hash[KEEP]; /* FNV-1a of each file, kept without allocating */
@@ -145,14 +153,17 @@ static uint64_t fnv(const unsigned char *p, size_t n)
     return h;
 }
 
-static rd_error_code collect(void *user, const char *name, const unsigned char *data, size_t len, rd_error *err)
+static rd_error_code collect(void *user, const char *name, int utf8, const unsigned char *data, size_t len,
+                             rd_error *err)
 {
     got *g = user;
     cr_assert_not_null(name);
     cr_assert_not_null(data, "data is never NULL, even for %zu bytes", len);
     cr_assert_leq(strlen(name), RD_ARCHIVE_NAME_MAX);
+    cr_assert_eq(rd_utf8_invalid_at(name, strlen(name)), strlen(name), "the name '%s' is not UTF-8", name);
     if (g->calls < KEEP) {
         snprintf(g->names[g->calls], sizeof g->names[0], "%s", name);
+        g->utf8[g->calls] = utf8;
         g->len[g->calls] = len;
         g->hash[g->calls] = fnv(data, len);
         if (g->keep) {
@@ -318,9 +329,9 @@ Test(archive, hostile_names_reduced_to_bounded_base_names)
         {"a/../b.png", "b.png"},
         {"./c.png", "c.png"},
         {"ctl\x01\x1f\x7f.png", "ctl___.png"},
-        {"\xff\xfe.png", "__.png"},
+        {"\xff\xfe.png", "%FF%FE.png"},
         {"caf\xc3\xa9.png", "caf\xc3\xa9.png"},
-        {"\xc3.png", "_.png"},
+        {"\xc3.png", "%C3.png"},
         {"x/..", NULL},
         {"..", NULL},
         {long_ascii, want_ascii},
@@ -356,6 +367,101 @@ Test(archive, hostile_names_reduced_to_bounded_base_names)
         got_free(&g);
         free(m.p);
     }
+}
+
+/* How many of the zip's local headers have general-purpose bit 11, "the
+ * name is UTF-8", set: how Python's zipfile, 7-Zip, Windows and macOS
+ * write a name that is not ASCII (an ASCII name is not flagged). */
+static int zip_names_flagged_utf8(const membuf *m)
+{
+    int flagged = 0;
+    for (size_t i = 0; i + 30 <= m->len; i++)
+        flagged += memcmp(m->p + i, "PK\3\4", 4) == 0 && (m->p[i + 7] & 0x08) != 0;
+    return flagged;
+}
+
+/* A class's names as a zip tool writes them, flagged UTF-8, read in a
+ * process whose locale is C (rayd never calls setlocale): every file is
+ * delivered under its UTF-8 name, flagged UTF-8, and the process's locale
+ * is still C afterwards. The writer needs a UTF-8 locale (its own thread's)
+ * to flag the names. */
+Test(archive, zip_names_flagged_utf8_read_in_the_c_locale)
+{
+    static const char *const names[] = {"m\xc3\xbcller.png", "Jos\xc3\xa9.png", "\xe6\x9d\x8e\xe9\x9b\xb7.png",
+                                        "zo\xc3\xab.png", "bob.png"};
+    enum { N = sizeof names / sizeof names[0] };
+    locale_t c_utf8 = newlocale(LC_CTYPE_MASK, "C.UTF-8", (locale_t)0);
+    cr_assert_not_null(c_utf8);
+    locale_t was = uselocale(c_utf8);
+    writer w;
+    w_open_with(&w, ZIP, "zip:hdrcharset=UTF-8");
+    for (int i = 0; i < N; i++)
+        w_file(&w, names[i], names[i], strlen(names[i]));
+    membuf m = w_close(&w);
+    uselocale(was);
+    freelocale(c_utf8);
+    int flagged = zip_names_flagged_utf8(&m);
+    cr_assert_eq(flagged, N - 1, "%d of the test zip's %d names that are not ASCII are flagged UTF-8", flagged, N - 1);
+    cr_assert_str_eq(setlocale(LC_CTYPE, NULL), "C");
+    got g = {.keep = 1};
+    rd_error err;
+    cr_assert_eq(run(&m, &wide, &g, &err), RD_OK, "%s", err.message);
+    cr_assert_eq(g.calls, N, "%d of %d files delivered", g.calls, N);
+    for (int i = 0; i < N; i++) {
+        cr_assert_str_eq(g.names[i], names[i]);
+        cr_assert(g.utf8[i], "'%s' not called UTF-8", g.names[i]);
+        cr_assert(g.len[i] == strlen(names[i]) && memcmp(g.data[i], names[i], g.len[i]) == 0, "'%s': wrong bytes",
+                  names[i]);
+    }
+    cr_assert_str_eq(setlocale(LC_CTYPE, NULL), "C", "the process's locale changed");
+    got_free(&g);
+    free(m.p);
+}
+
+/* A Latin-1 name (an unflagged zip, a plain tar) is delivered, flagged not
+ * UTF-8, its bad byte as %HH; a name flagged UTF-8 that is not, which
+ * libarchive cannot give at all, is delivered too, as "(unreadable name N)". */
+Test(archive, names_that_are_not_utf8_are_delivered_and_said)
+{
+    for (int f = 0; f < FORMATS; f++) {
+        writer w;
+        w_open(&w, (format)f);
+        w_file(&w, "m\xfcller.png", "1", 1);
+        w_file(&w, "bob.png", "2", 1);
+        membuf m = w_close(&w);
+        got g = {.keep = 1};
+        rd_error err;
+        cr_assert_eq(run(&m, &wide, &g, &err), RD_OK, "%s: %s", format_names[f], err.message);
+        cr_assert_eq(g.calls, 2, "%s: %d calls", format_names[f], g.calls);
+        cr_assert_str_eq(g.names[0], "m%FCller.png", "%s", format_names[f]);
+        cr_assert_not(g.utf8[0], "%s: a Latin-1 name called UTF-8", format_names[f]);
+        cr_assert_str_eq(g.names[1], "bob.png");
+        cr_assert(g.utf8[1]);
+        got_free(&g);
+        free(m.p);
+    }
+    /* Flagged UTF-8, and not: the name's bytes patched after writing. */
+    locale_t c_utf8 = newlocale(LC_CTYPE_MASK, "C.UTF-8", (locale_t)0);
+    locale_t was = uselocale(c_utf8);
+    writer w;
+    w_open_with(&w, ZIP, "zip:hdrcharset=UTF-8");
+    w_file(&w, "m\xc3\xbcller.png", "1", 1);
+    membuf m = w_close(&w);
+    uselocale(was);
+    freelocale(c_utf8);
+    int patched = 0;
+    for (size_t i = 0; i + 2 <= m.len; i++)
+        if (m.p[i] == 0xc3 && m.p[i + 1] == 0xbc)
+            m.p[i + 1] = 0xfc, patched++;
+    cr_assert_eq(patched, 2, "the name is in the local and the central header");
+    got g = {.keep = 1};
+    rd_error err;
+    cr_assert_eq(run(&m, &wide, &g, &err), RD_OK, "%s", err.message);
+    cr_assert_eq(g.calls, 1, "the file was dropped");
+    cr_assert_str_eq(g.names[0], "(unreadable name 1)");
+    cr_assert_not(g.utf8[0]);
+    got_free(&g);
+    free(m.p);
 }
 
 /* A zip whose stored name holds a NUL (the writer's API cannot write one,
@@ -977,5 +1083,33 @@ Test(archive, out_of_memory_at_every_allocation)
     done:
         cr_assert_gt(points, 0, "%s: the reader allocates", format_names[f]);
         free(m.p);
+    }
+}
+
+/* The names' rendering (api/util/utf8.h), as a batch shows a name that is
+ * not UTF-8: each bad byte %HH, control characters '_', cut at a
+ * character within the room. */
+Test(archive, names_rendered_readable)
+{
+    static const struct {
+        const char *in;
+        size_t size;
+        const char *out;
+        int utf8;
+    } cases[] = {
+        {"m\xfcller", 64, "m%FCller", 0},
+        {"m\xc3\xbcller", 64, "m\xc3\xbcller", 1},
+        {"a\tb\x7f", 64, "a_b_", 1},
+        {"\xe6\x9d\x8e\xe9\x9b\xb7", 5, "\xe6\x9d\x8e", 1},
+        {"ab\xff", 5, "ab", 0},
+        {"\xc3\x28", 64, "%C3(", 0},
+        {"", 1, "", 1},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        char out[64];
+        int utf8 = rd_utf8_readable(cases[i].in, strlen(cases[i].in), out, cases[i].size);
+        cr_assert_str_eq(out, cases[i].out, "case %zu", i);
+        cr_assert_eq(utf8, cases[i].utf8, "case %zu", i);
+        cr_assert_lt(strlen(out), cases[i].size);
     }
 }

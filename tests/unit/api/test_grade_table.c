@@ -152,7 +152,8 @@ Test(grade_table, an_error_row_has_no_metrics_and_says_why)
     cr_assert(rd_grade_row_is_error(&row));
     cr_assert_not(row.pass);
     char *t = csv_of(&row);
-    cr_assert_str_eq(t, "dave,phong,false,,,,," AT_TEXT ",the image is 96x72; the assignment renders 320x240\r\n");
+    /* Quoted: it holds a ';'. */
+    cr_assert_str_eq(t, "dave,phong,false,,,,," AT_TEXT ",\"the image is 96x72; the assignment renders 320x240\"\r\n");
     free(t);
     /* No message still makes an error row. */
     cr_assert_eq(rd_grade_row_error(&row, "dave", "phong", "", AT_MS, &err), RD_OK);
@@ -234,6 +235,44 @@ Test(grade_table, formulas_are_not_left_to_run)
     char *t = csv_of(&row);
     cr_assert(strstr(t, "," AT_TEXT ",'-rf: cannot open\r\n"), "%s", t);
     free(t);
+}
+
+static int formula_start(const char *s) { return s[0] && strchr("=+-@\t", s[0]) != NULL; }
+
+/* A cell holding ';' is quoted, so that a spreadsheet splitting at ';'
+ * (many European locales' CSV) keeps it one cell; and whatever follows a
+ * ',' or ';' inside a text cell does not start a formula, for a reader
+ * that splits at either without honouring quotes. */
+Test(grade_table, semicolons_are_quoted_and_what_follows_a_separator_is_guarded)
+{
+    static const struct {
+        const char *id, *read_back;
+    } cases[] = {
+        {"semi;=1+1", "semi;'=1+1"},       {"a,=HYPERLINK(\"x\")", "a,'=HYPERLINK(\"x\")"},
+        {"x;+1;-2;@A1", "x;'+1;'-2;'@A1"}, {"=1;=2", "'=1;'=2"},
+        {"semi;colon", "semi;colon"},
+    };
+    rd_grade_result r = known_result();
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        rd_grade_row row;
+        cr_assert_eq(rd_grade_row_from_result(&row, cases[i].id, "phong", &r, AT_MS, NULL), RD_OK);
+        char *t = csv_of(&row);
+        cr_assert_eq(t[0], '"', "'%s' is not quoted: %s", cases[i].id, t);
+        char *f[12];
+        int n = read_record(t, f, 12);
+        cr_assert_eq(n, 9, "'%s': %d fields in %s", cases[i].id, n, t);
+        cr_assert_str_eq(f[0], cases[i].read_back, "'%s' written %s", cases[i].id, t);
+        free_fields(f, n);
+        /* Split at both separators, quotes ignored. */
+        for (const char *p = t;;) {
+            cr_assert(!formula_start(*p == '"' ? p + 1 : p), "'%s': a piece starts a formula: %s", cases[i].id, p);
+            size_t k = strcspn(p, ",;");
+            if (!p[k])
+                break;
+            p += k + 1;
+        }
+        free(t);
+    }
 }
 
 Test(grade_table, json_row_has_the_csv_keys)

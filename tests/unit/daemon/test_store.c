@@ -80,6 +80,7 @@ Test(store, grade_diff_image_round_trip_and_absence) { case_grade_images(&g_env)
 Test(store, grades_list_filters_and_order) { case_grades_list(&g_env); }
 
 Test(store, batch_counts_to_done_once) { case_batch_progress(&g_env); }
+Test(store, batches_running_of_a_daemon_and_their_students) { case_batches_running(&g_env); }
 
 Test(store, batch_last_grades_race_counts_exactly_total) { case_batch_race(&g_env, 5); }
 

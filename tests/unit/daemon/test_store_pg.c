@@ -86,6 +86,7 @@ Test(store_pg, grade_diff_image_round_trip_and_absence) { case_grade_images(&g_e
 Test(store_pg, grades_list_filters_and_order) { case_grades_list(&g_env); }
 
 Test(store_pg, batch_counts_to_done_once) { case_batch_progress(&g_env); }
+Test(store_pg, batches_running_of_a_daemon_and_their_students) { case_batches_running(&g_env); }
 
 Test(store_pg, batch_last_grades_race_counts_exactly_total) { case_batch_race(&g_env, 5); }
 
@@ -261,4 +262,44 @@ Test(store_pg, events_kept_are_bounded_and_newest)
     cr_assert_str_eq(last.job_id, "n99", "the newest is kept");
     rd_store_close(a);
     rd_store_close(b);
+}
+
+/* A job whose insert fails with the server's SQLSTATE (raised by a trigger,
+ * as the server raises them on a full disk or a corrupt page). */
+static rd_error_code create_fails_with(rd_store *s, const char *sqlstate, const char *id, rd_error *err)
+{
+    char sql[400];
+    snprintf(sql, sizeof sql,
+             "CREATE OR REPLACE FUNCTION rayd_fault() RETURNS trigger LANGUAGE plpgsql AS $$ BEGIN "
+             "RAISE EXCEPTION 'injected fault' USING ERRCODE = '%s'; END $$",
+             sqlstate);
+    raw_exec(sql);
+    raw_exec("CREATE TRIGGER rayd_fault BEFORE INSERT ON jobs FOR EACH ROW EXECUTE FUNCTION rayd_fault()");
+    rd_store_job_spec spec = {.id = id, .scene = "x", .scene_len = 1, .format = "cfg", .submitted_ms = 1};
+    rd_error_code c = rd_store_job_create(s, &spec, err);
+    raw_exec("DROP TRIGGER rayd_fault ON jobs");
+    return c;
+}
+
+/* disk_full (53100) is RD_ERR_NOSPACE, and the readiness probe says so
+ * until a write commits; data_corrupted (XX001) and index_corrupted
+ * (XX002) are RD_ERR_DAMAGED, saying so. */
+Test(store_pg, a_full_disk_and_a_damaged_page_are_said)
+{
+    rd_error err = {0};
+    rd_store *s = rd_store_open(g_pg.conninfo, NULL, &err);
+    cr_assert(s, "%s", err.message);
+    cr_assert_eq(create_fails_with(s, "53100", "full", &err), RD_ERR_NOSPACE, "%s", err.message);
+    cr_assert(strstr(err.message, "no space left"), "%s", err.message);
+    cr_assert_eq(rd_store_ping(s, &err), RD_ERR_NOSPACE, "the probe forgot the full disk: %s", err.message);
+    rd_store_job_spec spec = {.id = "after", .scene = "x", .scene_len = 1, .format = "cfg", .submitted_ms = 2};
+    cr_assert_eq(rd_store_job_create(s, &spec, &err), RD_OK, "%s", err.message);
+    cr_assert_eq(rd_store_ping(s, &err), RD_OK, "a commit went through: %s", err.message);
+    const char *damaged[] = {"XX001", "XX002"};
+    for (int i = 0; i < 2; i++) {
+        cr_assert_eq(create_fails_with(s, damaged[i], "damaged", &err), RD_ERR_DAMAGED, "%s: %s", damaged[i],
+                     err.message);
+        cr_assert(strstr(err.message, "damaged"), "%s", err.message);
+    }
+    rd_store_close(s);
 }
