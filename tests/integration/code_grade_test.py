@@ -23,6 +23,7 @@ from rayd_http import RAYD, Checks, Daemon, form_parts, metric_value  # noqa: E4
 check = Checks("code grade")
 STUDENTS = "tests/codegrade/students"
 HOSTILE = "tests/codegrade/hostile"
+SLOW = "tests/codegrade/slow"
 CLASS = {"diffuse": "DiffuseMaterial", "phong": "PhongMaterial", "blinn_phong": "BlinnPhongMaterial",
          "cook_torrance": "CookTorranceMaterial"}
 # A fixture's mistake and the cause the grader must name first.
@@ -361,7 +362,7 @@ def per_client(tmp):
     X-Forwarded-For."""
     flags = ["--max-code-jobs", "2", "--code-run-seconds", "20", "--trust-proxy", "127.0.0.1"]
     a, b = {"X-Forwarded-For": "10.0.0.1"}, {"X-Forwarded-For": "10.0.0.2"}
-    loop, ok = read(HOSTILE + "/loop.h"), read(STUDENTS + "/phong_ok.h")
+    slow, ok = read(SLOW + "/slow_calls.h"), read(STUDENTS + "/phong_ok.h")
     bad = b"this is not C++"
 
     def post(text, who, timeout=180):
@@ -371,9 +372,9 @@ def per_client(tmp):
         return st, h
 
     with Daemon(tmp, flags) as d:
-        body, ct = form_parts([("assignment", None, b"phong"), ("source", "PhongMaterial.h", loop)])
+        body, ct = form_parts([("assignment", None, b"phong"), ("source", "PhongMaterial.h", slow)])
         hog = raw_post(d.port, "/v1/grade/code", body, dict(a, **{"Content-Type": ct}))
-        time.sleep(1.5)  # compiling or looping now
+        time.sleep(1.5)  # compiling or calling now, for 20 s
         st, h = post(ok, a)
         check(st == 429 and h.get("retry-after"), "a client's second code grade is 429 with Retry-After (%d)" % st)
         st, _ = post(ok, b)
