@@ -191,8 +191,8 @@ mkdir "$unit_dir"
 unit=$unit_dir/rayd@.service
 sed "s|@BINDIR@|$(dirname "$RAYD")|g" deploy/systemd/rayd@.service.in >"$unit"
 for want in 'EnvironmentFile=-/etc/rayd/rayd.env' 'StateDirectory=rayd/%i' 'DynamicUser=yes' 'ProtectSystem=strict' \
-    'ProtectHome=yes' 'PrivateTmp=yes' 'NoNewPrivileges=yes' 'RestrictAddressFamilies=AF_INET AF_INET6 AF_UNIX' \
-    'SystemCallFilter=@system-service' 'CapabilityBoundingSet=' 'Restart=on-failure' 'LockPersonality=yes' \
+    'ProtectHome=yes' 'PrivateTmp=yes' 'NoNewPrivileges=yes' 'RestrictAddressFamilies=AF_INET AF_INET6 AF_UNIX AF_NETLINK' \
+    'SystemCallFilter=@system-service @mount sethostname seccomp' 'CapabilityBoundingSet=' 'Restart=on-failure' 'LockPersonality=yes' \
     'RestrictRealtime=yes' 'ProtectKernelTunables=yes' 'ProtectKernelModules=yes' 'ProtectControlGroups=yes'; do
     grep -qxF "$want" "$unit" && ok || bad "the unit lacks $want"
 done
