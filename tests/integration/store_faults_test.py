@@ -129,15 +129,17 @@ def damaged_store(tmp):
     db = sqlite3.connect(path)
     db.execute("PRAGMA wal_checkpoint(TRUNCATE)")
     page = db.execute("PRAGMA page_size").fetchone()[0]
-    pages = db.execute("PRAGMA page_count").fetchone()[0]
+    # The last three pages that hold rows or index entries (dbstat counts
+    # page 1 as the first), not the schema's: a store that opens, and that
+    # only a reader of those rows would find damaged. Not simply the file's
+    # last pages: those may be free (deleted rows), which no check reads.
+    used = [r[0] for r in db.execute("SELECT pageno FROM dbstat WHERE name != 'sqlite_schema' "
+                                     "AND pagetype IN ('leaf', 'internal') ORDER BY pageno DESC LIMIT 3")]
     db.close()
-    check(pages > 4, "the store has only %d pages" % pages)
-    # The last pages (the finished jobs' PNGs, the newest rows), not the
-    # schema on the first: a store that opens, and that only a reader of
-    # those rows would find damaged.
+    check(len(used) == 3, "the store has only %d pages in use" % len(used))
     with open(path, "r+b") as f:
-        for p in range(pages - 3, pages):
-            f.seek(p * page)
+        for p in used:
+            f.seek((p - 1) * page)
             f.write(bytes((i * 37 + p) & 0xff for i in range(page)))
     rc, err = start_fails(tmp, data, "a damaged page")
     check(rc == 3 and "damaged" in err, "a damaged store starts with exit %s: %s" % (rc, err[-400:]))
