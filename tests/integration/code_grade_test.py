@@ -233,6 +233,27 @@ def hostile_expectation(name, st, v):
     return ok, seen
 
 
+def descendants(pid):
+    """The processes below pid: a sandbox's are below its daemon (bwrap is
+    the daemon's child, and what escapes a parent inside is reparented to
+    bwrap's init). Not every process of uid 65534: another daemon's
+    sandboxes on the same machine run as that uid too."""
+    parent = {}
+    for name in os.listdir("/proc"):
+        try:
+            with open("/proc/%s/stat" % name) as f:
+                parent[int(name)] = int(f.read().rsplit(")", 1)[1].split()[1])
+        except (ValueError, OSError, IndexError):
+            pass
+    found, todo = [], [pid]
+    while todo:
+        p = todo.pop()
+        kids = [c for c, pp in parent.items() if pp == p]
+        found += kids
+        todo += kids
+    return found
+
+
 def hostile(d):
     lst = listener()
     probes = []
@@ -251,13 +272,12 @@ def hostile(d):
         lst.close()
     check(probes and all(s == 200 for s in probes), "renders went on during the hostile grades (%d probes, %s)" %
           (len(probes), sorted(set(probes))))
-    if os.geteuid() == 0:  # the sandbox runs as 65534 only under root
-        for _ in range(50):  # killed trees take a moment to be reaped
-            left = subprocess.run(["pgrep", "-u", "65534"], capture_output=True).stdout.split()
-            if not left:
-                break
-            time.sleep(0.1)
-        check(not left, "no sandbox process is left (%s)" % left)
+    for _ in range(50):  # killed trees take a moment to be reaped
+        left = descendants(d.pid)
+        if not left:
+            break
+        time.sleep(0.1)
+    check(not left, "no sandbox process is left (%s)" % left)
 
 
 def the_daemons_files(d, tmp):
