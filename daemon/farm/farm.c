@@ -60,13 +60,7 @@ static int stopping(rd_farm *f)
         sleep_ms(RETRY_MS);                                                                                            \
     } while (1)
 
-static void wake(rd_farm *f)
-{
-    pthread_mutex_lock(&f->mu);
-    f->wake_seq++;
-    pthread_cond_broadcast(&f->work_cv);
-    pthread_mutex_unlock(&f->mu);
-}
+static void wake(rd_farm *f) { rd_jq_wake(f->opt.jobs); }
 
 static void fail_job(rd_farm *f, rd_store *h, const char *id, const rd_error *why)
 {
@@ -108,8 +102,11 @@ static void finish(rd_farm *f, rd_store *h, farm_ctx *c, int64_t now)
     } else {
         rd_store_result r = {png, png_len, exr, exr_len, stats};
         RETRY_IO(f, rc, rd_store_job_finish(h, c->id, &r, &err));
-        if (rc == RD_OK)
+        if (rc == RD_OK) {
             atomic_fetch_add(&f->done, 1);
+            rd_jq_observe_source_job(f->opt.jobs, (double)(c->started_ms - c->submitted_ms) / 1e3,
+                                     (double)(now - c->started_ms) / 1e3);
+        }
         farm_ctx_ended(f, c->id);
     }
     free(png);
@@ -308,10 +305,9 @@ static void do_stuck(rd_farm *f, rd_store *h, const char *id, int pass)
 }
 
 /* What this daemon may claim next: a tile of a job it holds (its memory
- * is counted already), else of the oldest job that fits beside what it
- * holds (--memory-budget; when nothing runs here the oldest starts
- * anyway, as in the queue). */
-static rd_error_code claim_next(rd_farm *f, rd_store *h, rd_store_tile *t, int *n, rd_error *err)
+ * is counted already), else of the oldest job that fits in the room the
+ * queue's admission rule leaves (rd_jq_source). */
+static rd_error_code claim_next(rd_farm *f, rd_store *h, size_t room, rd_store_tile *t, int *n, rd_error *err)
 {
     char held[CTX_HELD_MAX][RD_STORE_ID_MAX];
     int nheld = farm_ctx_held(f, held);
@@ -322,63 +318,47 @@ static rd_error_code claim_next(rd_farm *f, rd_store *h, rd_store_tile *t, int *
         if (rc || *n)
             return rc;
     }
-    rd_store_claim_filter fit = {NULL, 0};
-    if (f->opt.memory_budget && f->opt.jobs) {
-        rd_jq_metrics m;
-        rd_jq_metrics_get(f->opt.jobs, &m);
-        size_t used = m.memory_reserved + m.result_bytes + m.external_bytes;
-        if (nheld > 0 || m.running > 0) {
-            if (used >= f->opt.memory_budget)
-                return RD_OK;
-            fit.max_memory_bytes = (int64_t)(f->opt.memory_budget - used);
-        }
-    }
+    if (room == 0)
+        return RD_OK;
+    rd_store_claim_filter fit = {NULL, room == SIZE_MAX || room > INT64_MAX ? 0 : (int64_t)room};
     return rd_store_claim_where(h, f->daemon_id, 1, f->opt.lease_ms, &fit, t, n, err);
 }
 
-void *farm_worker_main(void *arg)
+int farm_run(void *arg, int worker, size_t room)
 {
-    rd_farm *f = ((void **)arg)[0];
-    rd_store *h = ((void **)arg)[1];
-    free(arg);
-    for (;;) {
-        char id[RD_STORE_ID_MAX];
-        int pass = 0;
-        pthread_mutex_lock(&f->mu);
-        if (f->stopping) {
-            pthread_mutex_unlock(&f->mu);
-            break;
-        }
-        uint64_t seq = f->wake_seq;
-        int stuck = take_stuck(f, id, &pass);
-        pthread_mutex_unlock(&f->mu);
-        if (stuck) {
-            do_stuck(f, h, id, pass);
-            continue;
-        }
-        rd_store_tile t;
-        int n = 0;
-        rd_error err = {0};
-        rd_error_code rc = claim_next(f, h, &t, &n, &err);
-        farm_store_result(f, rc);
-        if (!rc && n == 1) {
-            do_claim(f, h, &t);
-            continue;
-        }
-        pthread_mutex_lock(&f->mu);
-        struct timespec ts;
-        clock_gettime(CLOCK_REALTIME, &ts);
-        long wait = rc ? RETRY_MS : IDLE_MS;
-        ts.tv_sec += wait / 1000;
-        ts.tv_nsec += (wait % 1000) * 1000000L;
-        if (ts.tv_nsec >= 1000000000L) {
-            ts.tv_sec++;
-            ts.tv_nsec -= 1000000000L;
-        }
-        while (!f->stopping && f->wake_seq == seq)
-            if (pthread_cond_timedwait(&f->work_cv, &f->mu, &ts))
-                break;
-        pthread_mutex_unlock(&f->mu);
+    rd_farm *f = arg;
+    if (worker < 0 || worker >= f->nworkers)
+        return IDLE_MS;
+    rd_store *h = f->worker_store[worker];
+    char id[RD_STORE_ID_MAX];
+    int pass = 0;
+    pthread_mutex_lock(&f->mu);
+    int stop = f->stopping, stuck = !stop && take_stuck(f, id, &pass);
+    pthread_mutex_unlock(&f->mu);
+    if (stop)
+        return IDLE_MS;
+    if (stuck) {
+        do_stuck(f, h, id, pass);
+        return 0;
     }
-    return NULL;
+    rd_store_tile t;
+    int n = 0;
+    rd_error err = {0};
+    rd_error_code rc = claim_next(f, h, room, &t, &n, &err);
+    farm_store_result(f, rc);
+    if (!rc && n == 1) {
+        do_claim(f, h, &t);
+        return 0;
+    }
+    return rc ? RETRY_MS : IDLE_MS;
+}
+
+void farm_halt(void *arg)
+{
+    rd_farm *f = arg;
+    pthread_mutex_lock(&f->mu);
+    f->stopping = 1;
+    for (farm_ctx *c = f->ctxs; c; c = c->next)
+        atomic_store(&c->stop, 1);
+    pthread_mutex_unlock(&f->mu);
 }

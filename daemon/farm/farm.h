@@ -33,6 +33,7 @@
 #include "rayd/error.h"
 #include "rayd/scene.h"
 #include "scene_limits.h"
+#include "scene_load.h"
 #include "store.h"
 
 typedef struct rd_farm rd_farm;
@@ -41,7 +42,7 @@ typedef struct {
     const char *store_spec; /* a folder (SQLite) or a PostgreSQL URL/conninfo: rd_store_open */
     rd_store_options store;
     const char *daemon_id; /* names this daemon's leases; [A-Za-z0-9._:-] */
-    int workers;           /* render threads claiming tiles */
+    int workers;           /* the queue's render threads (one store handle each) */
     int lease_ms;
     int tile; /* edge in pixels of a stored job's tiles */
     double job_timeout_ms;
@@ -52,18 +53,22 @@ typedef struct {
     const char *scenes_dir; /* where a scene's meshes and textures resolve */
     rd_png_options png;
     rd_log *log;
-    rd_jq *jobs; /* the in-memory queue whose budget the farm's renders count against; may be NULL */
+    /* The queue whose render threads render the stored tiles too (the
+     * farm is its source, rd_jq_source), under its fair share and budget. */
+    rd_jq *jobs;
 } rd_farm_options;
 
-/* Opens the store (its migrations applied) and starts the threads. NULL
- * with err set when the store cannot be opened (RD_ERR_IO) or is newer
- * than this binary (RD_ERR_UNSUPPORTED). */
+/* Opens the store (its migrations applied), starts the watcher and makes
+ * the farm the queue's source: from then on the queue's render threads
+ * claim and render stored tiles. NULL with err set when the store cannot
+ * be opened (RD_ERR_IO) or is newer than this binary (RD_ERR_UNSUPPORTED). */
 rd_farm *rd_farm_start(const rd_farm_options *opt, rd_error *err);
 
-/* Stops the render threads (the tiles they were rendering stop within
- * milliseconds and are rendered again by whoever claims them next) and
- * gives this daemon's leases back. The other calls still work, on the
- * store, until rd_farm_free. */
+/* Call after rd_jq_stop (whose threads render the farm's tiles, and which
+ * stops those tiles within milliseconds: whoever claims them next renders
+ * them again) and before rd_jq_free: stops the watcher, gives this
+ * daemon's leases back and returns what it held to the queue's budget.
+ * The other calls still work, on the store, until rd_farm_free. */
 void rd_farm_stop(rd_farm *f);
 
 /* Stops it if need be, closes the store and frees everything (NULL:
@@ -73,15 +78,17 @@ void rd_farm_free(rd_farm *f);
 /* "sqlite" or "postgresql". */
 const char *rd_farm_engine(const rd_farm *f);
 
-/* Commits a job: the scene text as uploaded (len bytes, format "cfg" or
- * "json"), the parameters it was read with, and s, the scene as read (for
- * its size and memory), which the farm only reads. Writes its id (32 hex
- * digits) into id. RD_ERR_BUSY when --queue jobs are queued or running,
- * RD_ERR_LIMIT when it could never fit the memory budget, RD_ERR_IO when
- * the store is unreachable. Call it on a render thread: it waits for the
- * commit. */
-rd_error_code rd_farm_submit(rd_farm *f, const char *scene, size_t len, const char *format, const rd_job_params *p,
-                             const rd_scene *s, char id[RD_STORE_ID_MAX], rd_error *err);
+/* Reads the scene as uploaded (len bytes in the format given, sniffed
+ * when RD_FMT_AUTO) with the parameters given, and commits it as a job:
+ * its id (32 hex digits) into id, and the job as committed, the JSON of
+ * its 202, into *json (malloc'ed). The scene read here is the one this
+ * daemon renders from (other daemons read the stored text the same way).
+ * The scene's own error (a 4xx), RD_ERR_BUSY when --queue jobs are queued
+ * or running, RD_ERR_LIMIT when it could never fit the memory budget,
+ * RD_ERR_IO when the store is unreachable. Call it on a render thread: it
+ * parses, loads assets and waits for the commit. */
+rd_error_code rd_farm_submit(rd_farm *f, const char *text, size_t len, rd_scene_format fmt, const rd_job_params *p,
+                             char id[RD_STORE_ID_MAX], char **json, rd_error *err);
 
 /* A stored job's status as the JSON of GET /v1/jobs/{id} (malloc'ed
  * text), its status in *status. RD_ERR_NOT_FOUND, RD_ERR_IO. */
@@ -117,8 +124,14 @@ typedef struct {
     int store_up;          /* the last call reached the store */
     int active;            /* stored jobs whose tiles render here now */
     size_t memory;         /* what the jobs held here count against the budget */
+    /* The store's queue, shared by every daemon on it (store_known 0: it
+     * did not answer): jobs queued, and running anywhere. */
+    int store_known;
+    size_t store_queued, store_running;
 } rd_farm_metrics;
 
+/* m zeroed by the caller. Asks the store for its queue: call it where a
+ * store round trip may wait (the /metrics route). */
 void rd_farm_metrics_get(rd_farm *f, rd_farm_metrics *m);
 
 #endif

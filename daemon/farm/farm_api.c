@@ -47,11 +47,31 @@ static rd_error_code check_room(rd_farm *f, size_t need, rd_error *err)
     return rc;
 }
 
-rd_error_code rd_farm_submit(rd_farm *f, const char *scene, size_t len, const char *format, const rd_job_params *p,
-                             const rd_scene *s, char id[RD_STORE_ID_MAX], rd_error *err)
+/* The job as committed, for the submitter's answer: what a GET of it
+ * would read back at once. */
+static char *committed_json(const rd_store_job_spec *spec)
+{
+    rd_store_job_info info = {.status = RD_STORE_QUEUED,
+                              .hdr = spec->hdr,
+                              .width = spec->width,
+                              .height = spec->height,
+                              .memory_bytes = spec->memory_bytes,
+                              .submitted_ms = spec->submitted_ms,
+                              .tiles_total = spec->tiles,
+                              .passes = spec->passes,
+                              .gated = spec->gated,
+                              .open_pass = 1,
+                              .schedule = (char *)spec->schedule};
+    snprintf(info.id, sizeof info.id, "%s", spec->id);
+    snprintf(info.format, sizeof info.format, "%s", spec->format);
+    return farm_job_json(&info);
+}
+
+/* Commits the job read as s; its id into id, the answer into *json. */
+static rd_error_code commit(rd_farm *f, const char *text, size_t len, const char *format, const rd_job_params *p,
+                            const rd_scene *s, char id[RD_STORE_ID_MAX], char **json, rd_error *err)
 {
     rd_job_options jo = {f->opt.tile, p->progress, 1, 0};
-    jo.progress.max_samples = s->render.samples < 1 ? 1 : s->render.samples;
     size_t need = rd_job_estimate_bytes(s, &jo);
     rd_error_code rc = check_room(f, need, err);
     if (rc)
@@ -66,7 +86,7 @@ rd_error_code rd_farm_submit(rd_farm *f, const char *scene, size_t len, const ch
     if (!sched)
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
     rd_store_job_spec spec = {.id = fresh,
-                              .scene = scene,
+                              .scene = text,
                               .scene_len = len,
                               .format = format,
                               .query = p->query,
@@ -81,11 +101,32 @@ rd_error_code rd_farm_submit(rd_farm *f, const char *scene, size_t len, const ch
                               .schedule = sched};
     rc = rd_store_job_create(f->submit, &spec, err);
     farm_store_result(f, rc);
+    if (!rc && !(*json = committed_json(&spec)))
+        rc = rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory"); /* committed: it renders unanswered */
     free(sched);
     if (!rc) {
         memcpy(id, fresh, RD_STORE_ID_MAX);
         atomic_fetch_add(&f->submitted, 1);
     }
+    return rc;
+}
+
+rd_error_code rd_farm_submit(rd_farm *f, const char *text, size_t len, rd_scene_format fmt, const rd_job_params *params,
+                             char id[RD_STORE_ID_MAX], char **json, rd_error *err)
+{
+    *json = NULL;
+    if (fmt == RD_FMT_AUTO)
+        fmt = rd_scene_sniff(text, len);
+    const char *format = fmt == RD_FMT_JSON ? "json" : "cfg";
+    rd_job_params p = *params;
+    rd_scene s;
+    rd_scene_init(&s);
+    rd_error_code rc = farm_read_scene(f, text, len, format, &p, &s, err);
+    if (!rc)
+        rc = commit(f, text, len, format, &p, &s, id, json, err);
+    if (!rc)
+        farm_ctx_adopt(f, id, &s, &p);
+    rd_scene_free(&s);
     return rc;
 }
 
@@ -175,8 +216,25 @@ rd_error_code rd_farm_partial_png(rd_farm *f, const char *id, unsigned char **pn
     return rc;
 }
 
+/* The store's queue, every daemon's: bounded by --queue, which refuses
+ * submissions past it, so a list of that many counts it. */
+static void store_queue(rd_farm *f, rd_farm_metrics *m)
+{
+    rd_store_job_brief *b = NULL;
+    size_t n = 0;
+    rd_error err = {0};
+    unsigned active = RD_STORE_MASK(RD_STORE_QUEUED) | RD_STORE_MASK(RD_STORE_RUNNING);
+    rd_error_code rc = rd_store_jobs_list(f->api, active, f->opt.queue_length + 1, &b, &n, &err);
+    farm_store_result(f, rc);
+    m->store_known = rc == RD_OK;
+    for (size_t i = 0; !rc && i < n; i++)
+        *(b[i].status == RD_STORE_QUEUED ? &m->store_queued : &m->store_running) += 1;
+    free(b);
+}
+
 void rd_farm_metrics_get(rd_farm *f, rd_farm_metrics *m)
 {
+    store_queue(f, m);
     m->tiles = atomic_load(&f->tiles);
     m->tiles_lost = atomic_load(&f->tiles_lost);
     m->passes = atomic_load(&f->passes);

@@ -65,44 +65,60 @@ static void ctx_free(rd_farm *f, farm_ctx *c)
     free(c);
 }
 
-/* Reads the job back as its submitter did: the same text, parameters and
- * limits give the same scene. */
-static rd_error_code build(rd_farm *f, rd_store *h, farm_ctx *c, rd_error *err)
+rd_error_code farm_read_scene(rd_farm *f, const char *text, size_t len, const char *format, rd_job_params *p,
+                              rd_scene *s, rd_error *err)
+{
+    rd_scene_source src = {.text = text,
+                           .len = len,
+                           .source = "<upload>",
+                           .format = strcmp(format, "json") == 0 ? RD_FMT_JSON : RD_FMT_CFG,
+                           .assets_dir = f->opt.scenes_dir};
+    rd_error_code rc = rd_scene_open(&src, &p->ov, &f->opt.limits, s, NULL, err);
+    /* The cap of the schedule (and of progress) is the scene's samples. */
+    if (!rc)
+        p->progress.max_samples = s->render.samples < 1 ? 1 : s->render.samples;
+    return rc;
+}
+
+/* The scene of a job this daemon did not submit (or whose submitter's
+ * parse it no longer holds), read back from the store. */
+static rd_error_code read_back(rd_farm *f, rd_store *h, farm_ctx *c, rd_error *err)
 {
     rd_store_job_input in;
     rd_error_code rc = rd_store_job_input_get(h, c->id, &in, err);
     if (rc)
         return rc;
+    rc = rd_job_params_parse(&c->params, in.query, err);
+    if (!rc)
+        rc = farm_read_scene(f, in.scene, in.scene_len, in.format, &c->params, &c->scene, err);
+    rd_store_job_input_free(&in);
+    if (!rc)
+        c->have_scene = 1;
+    return rc;
+}
+
+/* The core for the job, from the scene its submitter read here or one
+ * read back as its submitter did: the same text, parameters and limits
+ * give the same scene (farm_read_scene). */
+static rd_error_code build(rd_farm *f, rd_store *h, farm_ctx *c, rd_error *err)
+{
     rd_store_job_info info;
-    rc = rd_store_job_get(h, c->id, &info, err);
-    if (rc) {
-        rd_store_job_input_free(&in);
+    rd_error_code rc = rd_store_job_get(h, c->id, &info, err);
+    if (rc)
         return rc;
-    }
+    c->submitted_ms = info.submitted_ms;
     c->started_ms = info.started_ms ? info.started_ms : rd_wall_ms();
     c->opened_ms = c->started_ms;
     rd_store_job_info_free(&info);
-    rc = rd_job_params_parse(&c->params, in.query, err);
-    if (!rc) {
-        rd_scene_source src = {.text = in.scene,
-                               .len = in.scene_len,
-                               .source = "<upload>",
-                               .format = strcmp(in.format, "json") == 0 ? RD_FMT_JSON : RD_FMT_CFG,
-                               .assets_dir = f->opt.scenes_dir};
-        rc = rd_scene_open(&src, &c->params.ov, &f->opt.limits, &c->scene, NULL, err);
-    }
-    rd_store_job_input_free(&in);
-    if (rc)
+    if (!c->have_scene && (rc = read_back(f, h, c, err)))
         return rc;
-    /* The cap of the schedule (and of progress) is the scene's samples. */
-    c->params.progress.max_samples = c->scene.render.samples < 1 ? 1 : c->scene.render.samples;
     rd_job_options jo = {f->opt.tile, c->params.progress, 1, 0};
     size_t need = rd_job_estimate_bytes(&c->scene, &jo);
     pthread_mutex_lock(&f->mu); /* the metrics read it */
+    long long more = (long long)need - (long long)c->charged;
     c->charged = need;
     pthread_mutex_unlock(&f->mu);
-    if (f->opt.jobs)
-        rd_jq_external_bytes(f->opt.jobs, (long long)need);
+    rd_jq_external_bytes(f->opt.jobs, more);
     rc = rd_job_create(&c->scene, &jo, &c->core, err);
     if (rc)
         return rc;
@@ -141,12 +157,14 @@ int farm_ctx_held(rd_farm *f, char ids[][RD_STORE_ID_MAX])
     return n;
 }
 
+/* Drops the unused contexts past the first `keep`: what they held is in
+ * the store. Under farm.mu. */
 static void drop_unused(rd_farm *f, int keep)
 {
     int n = 0;
     for (farm_ctx **pp = &f->ctxs; *pp;) {
         farm_ctx *c = *pp;
-        if (++n > keep && c->refs == 0 && c->built) {
+        if (++n > keep && c->refs == 0 && !c->building) {
             *pp = c->next;
             ctx_free(f, c);
         } else {
@@ -155,32 +173,13 @@ static void drop_unused(rd_farm *f, int keep)
     }
 }
 
-farm_ctx *farm_ctx_get(rd_farm *f, rd_store *h, const char *id, rd_error *err)
+/* A new context, first in the list, with one reference. Under farm.mu. */
+static farm_ctx *ctx_new(rd_farm *f, const char *id)
 {
-    pthread_mutex_lock(&f->mu);
-    farm_ctx *c = f->ctxs;
-    while (c && strcmp(c->id, id) != 0)
-        c = c->next;
-    if (c) {
-        c->refs++;
-        while (!c->built)
-            pthread_cond_wait(&f->ctx_cv, &f->mu);
-        pthread_mutex_unlock(&f->mu);
-        if (c->build_rc) {
-            if (err)
-                *err = c->build_err;
-            farm_ctx_put(f, c);
-            return NULL;
-        }
-        return c;
-    }
     drop_unused(f, CTX_KEPT - 1);
-    c = calloc(1, sizeof *c);
-    if (!c) {
-        pthread_mutex_unlock(&f->mu);
-        rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    farm_ctx *c = calloc(1, sizeof *c);
+    if (!c)
         return NULL;
-    }
     snprintf(c->id, sizeof c->id, "%s", id);
     c->refs = 1;
     c->pass = -1;
@@ -196,24 +195,72 @@ farm_ctx *farm_ctx_get(rd_farm *f, rd_store *h, const char *id, rd_error *err)
     pthread_rwlockattr_destroy(&ra);
     c->next = f->ctxs;
     f->ctxs = c;
+    return c;
+}
+
+/* Builds c on this thread, the one that found it unbuilt. Under farm.mu
+ * (released and taken again). */
+static void build_here(rd_farm *f, rd_store *h, farm_ctx *c)
+{
+    c->building = 1;
     pthread_mutex_unlock(&f->mu);
     rd_error_code rc = build(f, h, c, &c->build_err);
     pthread_mutex_lock(&f->mu);
+    c->building = 0;
     c->build_rc = rc;
     c->built = 1;
-    if (!rc && !atomic_load(&c->stop) && f->opt.jobs) {
+    if (!rc && !atomic_load(&c->stop)) {
         rd_jq_external_jobs(f->opt.jobs, 1);
         c->counted = 1;
     }
     pthread_cond_broadcast(&f->ctx_cv);
+}
+
+farm_ctx *farm_ctx_get(rd_farm *f, rd_store *h, const char *id, rd_error *err)
+{
+    pthread_mutex_lock(&f->mu);
+    farm_ctx *c = f->ctxs;
+    while (c && strcmp(c->id, id) != 0)
+        c = c->next;
+    if (c)
+        c->refs++;
+    else if (!(c = ctx_new(f, id))) {
+        pthread_mutex_unlock(&f->mu);
+        rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+        return NULL;
+    }
+    if (!c->built && !c->building)
+        build_here(f, h, c);
+    while (!c->built)
+        pthread_cond_wait(&f->ctx_cv, &f->mu);
     pthread_mutex_unlock(&f->mu);
-    if (rc) {
+    if (c->build_rc) {
         if (err)
             *err = c->build_err;
         farm_ctx_put(f, c);
         return NULL;
     }
     return c;
+}
+
+void farm_ctx_adopt(rd_farm *f, const char *id, rd_scene *scene, const rd_job_params *p)
+{
+    size_t bytes = rd_scene_bytes(scene);
+    pthread_mutex_lock(&f->mu);
+    farm_ctx *c = ctx_new(f, id);
+    if (c) {
+        c->scene = *scene;
+        rd_scene_init(scene);
+        c->params = *p;
+        c->have_scene = 1;
+        c->charged = bytes;
+        c->refs = 0;
+    }
+    pthread_mutex_unlock(&f->mu);
+    if (c)
+        rd_jq_external_bytes(f->opt.jobs, (long long)bytes);
+    else
+        rd_scene_free(scene);
 }
 
 /* A context that failed to build, or whose job ended, goes once unused:

@@ -17,15 +17,17 @@
  * to another pass take the write lock. */
 typedef struct farm_ctx {
     char id[RD_STORE_ID_MAX];
-    int refs;  /* under farm.mu */
-    int built; /* under farm.mu: core ready (or failed) */
+    int refs;       /* under farm.mu */
+    int built;      /* under farm.mu: core ready (or failed) */
+    int building;   /* under farm.mu: a thread is building it */
+    int have_scene; /* scene and params are read (by the submitter here, or a build) */
     rd_error_code build_rc;
     rd_error build_err;
     rd_scene scene;
     rd_job_params params;
     rd_job *core;
     int tiles;
-    int64_t started_ms;
+    int64_t submitted_ms, started_ms;
     int64_t opened_ms;          /* when the pass the core is in was opened */
     int pass;                   /* the pass the core is in; -1 before the first */
     int *tile_pass;             /* passes each tile's pixels here hold */
@@ -41,17 +43,18 @@ struct rd_farm {
     rd_farm_options opt;
     char daemon_id[RD_STORE_ID_MAX];
     char *store_spec;
-    rd_store *api;    /* HTTP threads' reads, cancels and pings */
-    rd_store *submit; /* submissions and partial images (render threads) */
-    rd_store *watch;  /* the watcher: events, lease renewals, sweeps */
-    rd_store **worker_store;
-    pthread_t *workers, watcher;
+    rd_store *api;           /* HTTP threads' reads, cancels and pings */
+    rd_store *submit;        /* submissions and partial images (render threads) */
+    rd_store *watch;         /* the watcher: events, lease renewals, sweeps */
+    rd_store **worker_store; /* one per render thread of the queue, used by that thread alone */
+    pthread_t watcher;
     int nworkers, watcher_on;
-    int nworkers_joined; /* rd_farm_stop has run */
+    int stopped; /* rd_farm_stop has run */
+    /* mu guards stopping, ctxs (the list, each refs, built, counted and
+     * charged), stuck and nstuck; ctx_cv waits for a context's build. */
     pthread_mutex_t mu;
-    pthread_cond_t work_cv, ctx_cv;
+    pthread_cond_t ctx_cv;
     int stopping;
-    uint64_t wake_seq; /* bumped by every event: a worker that found nothing waits for the next */
     farm_ctx *ctxs;
     /* Passes seen completed but not opened, for a worker to end. */
     struct {
@@ -63,8 +66,11 @@ struct rd_farm {
     atomic_int store_up;
 };
 
-/* A render thread (farm.c); arg is a malloc'ed {rd_farm *, rd_store *} it frees. */
-void *farm_worker_main(void *arg);
+/* The farm as the queue's source (rd_jq_source, farm.c): one stored
+ * tile, or a stuck pass's end, on the queue's render thread `worker`. */
+int farm_run(void *arg, int worker, size_t room);
+/* Tiles in progress stop within milliseconds; nothing more is claimed. */
+void farm_halt(void *arg);
 
 /* farm_ctx.c: the cache of jobs held here. */
 
@@ -73,6 +79,17 @@ void *farm_worker_main(void *arg);
  * cannot be built (its error is the job's, or RD_ERR_IO). */
 farm_ctx *farm_ctx_get(rd_farm *f, rd_store *h, const char *id, rd_error *err);
 void farm_ctx_put(rd_farm *f, farm_ctx *c);
+
+/* The scene its submitter read here, for the job's first build on this
+ * daemon (which then reads nothing back): takes over *scene (left empty).
+ * Counted against the budget while held; dropped like any unused context. */
+void farm_ctx_adopt(rd_farm *f, const char *id, rd_scene *scene, const rd_job_params *p);
+
+/* Reads a stored job's scene: the one reader of the submitter and every
+ * renderer, so that the same text and parameters give the same scene
+ * everywhere. Sets p's progress cap from the scene. */
+rd_error_code farm_read_scene(rd_farm *f, const char *text, size_t len, const char *format, rd_job_params *p,
+                              rd_scene *s, rd_error *err);
 
 /* The jobs held here whose tiles still render, oldest first, into ids;
  * returns how many (at most CTX_HELD_MAX). */

@@ -10,13 +10,7 @@
 #include "farm_internal.h"
 #include "rayd/clock.h"
 
-static void wake_all(rd_farm *f)
-{
-    pthread_mutex_lock(&f->mu);
-    f->wake_seq++;
-    pthread_cond_broadcast(&f->work_cv);
-    pthread_mutex_unlock(&f->mu);
-}
+static void wake_all(rd_farm *f) { rd_jq_wake(f->opt.jobs); }
 
 /* The jobs held here that have ended in the store (cancelled through
  * another daemon, failed elsewhere): their tiles stop now. */
@@ -76,13 +70,14 @@ static void find_stuck(rd_farm *f, pending *prev, int *nprev)
             snprintf(now[nnow].id, RD_STORE_ID_MAX, "%s", info.id);
             now[nnow++].pass = pass;
             pthread_mutex_lock(&f->mu);
-            if (seen_before(prev, *nprev, info.id, pass) && f->nstuck < 16) {
+            int add = seen_before(prev, *nprev, info.id, pass) && f->nstuck < 16;
+            if (add) {
                 snprintf(f->stuck[f->nstuck].id, RD_STORE_ID_MAX, "%s", info.id);
                 f->stuck[f->nstuck++].pass = pass;
-                f->wake_seq++;
-                pthread_cond_broadcast(&f->work_cv);
             }
             pthread_mutex_unlock(&f->mu);
+            if (add)
+                wake_all(f);
         }
         rd_store_job_info_free(&info);
     }
@@ -145,19 +140,30 @@ static void close_all(rd_farm *f)
     for (int i = 0; i < f->nworkers; i++)
         rd_store_close(f->worker_store[i]);
     free(f->worker_store);
-    free(f->workers);
     rd_store_close(f->api);
     rd_store_close(f->submit);
     rd_store_close(f->watch);
     farm_ctx_free_all(f);
     pthread_mutex_destroy(&f->mu);
-    pthread_cond_destroy(&f->work_cv);
     pthread_cond_destroy(&f->ctx_cv);
     free(f->store_spec);
     free(f);
 }
 
 static rd_store *open_one(rd_farm *f, rd_error *err) { return rd_store_open(f->store_spec, &f->opt.store, err); }
+
+/* The store's handles: one for each render thread, and the farm's own. */
+static rd_error_code open_handles(rd_farm *f, rd_error *err)
+{
+    /* The first open applies the migrations; the others find them done. */
+    if (!(f->api = open_one(f, err)) || !(f->submit = open_one(f, err)) || !(f->watch = open_one(f, err)))
+        return err->code;
+    for (; f->nworkers < f->opt.workers; f->nworkers++)
+        if (!(f->worker_store[f->nworkers] = open_one(f, err)))
+            return err->code;
+    /* A daemon restarted under its id takes up its tiles at once. */
+    return rd_store_release(f->api, f->daemon_id, NULL, err);
+}
 
 rd_farm *rd_farm_start(const rd_farm_options *opt, rd_error *err)
 {
@@ -173,83 +179,41 @@ rd_farm *rd_farm_start(const rd_farm_options *opt, rd_error *err)
     snprintf(f->daemon_id, sizeof f->daemon_id, "%s", opt->daemon_id);
     f->store_spec = strdup(opt->store_spec);
     pthread_mutex_init(&f->mu, NULL);
-    pthread_cond_init(&f->work_cv, NULL);
     pthread_cond_init(&f->ctx_cv, NULL);
     atomic_store(&f->store_up, 1);
-    f->nworkers = 0;
     f->worker_store = calloc((size_t)f->opt.workers, sizeof *f->worker_store);
-    f->workers = calloc((size_t)f->opt.workers, sizeof *f->workers);
-    if (!f->store_spec || !f->worker_store || !f->workers) {
+    if (!f->store_spec || !f->worker_store) {
         rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
         close_all(f);
         return NULL;
     }
-    /* The first open applies the migrations; the others find them done. */
-    if (!(f->api = open_one(f, err)) || !(f->submit = open_one(f, err)) || !(f->watch = open_one(f, err))) {
+    if (open_handles(f, err)) {
         close_all(f);
         return NULL;
     }
-    for (int i = 0; i < f->opt.workers; i++)
-        if (!(f->worker_store[i] = open_one(f, err))) {
-            f->nworkers = i;
-            close_all(f);
-            return NULL;
-        }
-    f->nworkers = f->opt.workers;
-    /* A daemon restarted under its id takes up its tiles at once. */
-    rd_error_code rc = rd_store_release(f->api, f->daemon_id, NULL, err);
-    if (rc) {
+    if (pthread_create(&f->watcher, NULL, watch_main, f) != 0) {
+        rd_error_set(err, RD_ERR_NOMEM, 0, 0, "cannot start the farm's watcher");
         close_all(f);
         return NULL;
     }
-    int started = 0;
-    for (int i = 0; i < f->nworkers; i++) {
-        void **arg = malloc(2 * sizeof *arg);
-        if (!arg)
-            break;
-        arg[0] = f;
-        arg[1] = f->worker_store[i];
-        if (pthread_create(&f->workers[i], NULL, farm_worker_main, arg)) {
-            free(arg);
-            break;
-        }
-        started++;
-    }
-    if (started == f->nworkers && pthread_create(&f->watcher, NULL, watch_main, f) == 0)
-        f->watcher_on = 1;
-    if (!f->watcher_on) {
-        pthread_mutex_lock(&f->mu);
-        f->stopping = 1;
-        pthread_cond_broadcast(&f->work_cv);
-        pthread_mutex_unlock(&f->mu);
-        for (int i = 0; i < started; i++)
-            pthread_join(f->workers[i], NULL);
-        rd_error_set(err, RD_ERR_NOMEM, 0, 0, "cannot start the farm's threads");
-        close_all(f);
-        return NULL;
-    }
+    f->watcher_on = 1;
+    rd_jq_source src = {farm_run, farm_halt, f};
+    rd_jq_set_source(f->opt.jobs, &src);
     return f;
 }
 
 void rd_farm_stop(rd_farm *f)
 {
-    if (!f || f->nworkers_joined)
+    if (!f || f->stopped)
         return;
-    pthread_mutex_lock(&f->mu);
-    f->stopping = 1;
-    for (farm_ctx *c = f->ctxs; c; c = c->next)
-        atomic_store(&c->stop, 1);
-    pthread_cond_broadcast(&f->work_cv);
-    pthread_mutex_unlock(&f->mu);
-    for (int i = 0; i < f->nworkers; i++)
-        pthread_join(f->workers[i], NULL);
+    farm_halt(f);
     if (f->watcher_on)
         pthread_join(f->watcher, NULL);
     rd_error err = {0};
     rd_store_release(f->api, f->daemon_id, NULL, &err);
     pthread_mutex_lock(&f->mu);
     farm_ctx_free_all(f);
-    f->nworkers_joined = 1;
+    f->stopped = 1;
     pthread_mutex_unlock(&f->mu);
 }
 
@@ -257,8 +221,7 @@ void rd_farm_free(rd_farm *f)
 {
     if (!f)
         return;
-    if (!f->nworkers_joined)
-        rd_farm_stop(f);
+    rd_farm_stop(f);
     /* The queue may be gone: what is held now was never its to count. */
     f->opt.jobs = NULL;
     close_all(f);

@@ -83,7 +83,6 @@ typedef struct rd_req {
     size_t rest;           /* where the URL goes on past the route's path */
     int started;           /* on_request has seen the request */
     int http11;            /* HTTP/1.1: may be sent an interim 102 while it waits */
-    int async;             /* POST /v1/jobs: answered 202 once the scene is read */
     int raw;               /* half-closed while waiting: answered on the socket; close */
     /* a synchronous render */
     pthread_mutex_t mu;
@@ -170,6 +169,7 @@ enum MHD_Result rd_render_begin(rd_req *r);
 enum MHD_Result rd_route_render_sync(rd_req *r, const char *rest);
 enum MHD_Result rd_route_jobs_post(rd_req *r, const char *rest);
 enum MHD_Result rd_route_render_resumed(rd_req *r);
+enum MHD_Result rd_route_jobs_resumed(rd_req *r);
 /* GET or DELETE /v1/jobs/{id}, GET /v1/jobs/{id}/image */
 enum MHD_Result rd_route_job(rd_req *r, const char *rest);
 /* GET /v1/jobs/{id}/image?partial=1 of a running job, once its snapshot is encoded. */

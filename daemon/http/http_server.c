@@ -722,11 +722,13 @@ static void free_server(rd_server *s)
         pthread_mutex_unlock(&s->conn_mu);
         pthread_join(s->reaper, NULL);
     }
-    /* The farm's renders count against the queue's budget: they stop
-     * first. Workers may be finishing grades or submissions (which commit
-     * through the farm): the queue stops next, then the farm's store. */
-    rd_farm_stop(s->farm);
+    /* One shutdown order: the render threads stop (the stored tiles they
+     * render stop with them, and grades or submissions in progress end,
+     * committing through the farm); then the farm gives its leases back and
+     * returns what it held to the budget; then both are freed. */
     rd_jq_stop(s->jobs);
+    rd_farm_stop(s->farm);
+    rd_jq_free(s->jobs);
     rd_farm_free(s->farm);
     rd_grades_free(s->grades);
     rd_codegrades_free(s->codegrades);

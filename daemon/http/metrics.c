@@ -178,8 +178,9 @@ static void counter(rd_strbuf *out, const char *name, const char *help, uint64_t
 
 static void queue_metrics(rd_strbuf *out, const rd_jq_metrics *m)
 {
-    gauge(out, "rayd_queue_depth", "Render jobs waiting for a render thread.", m->queued);
-    gauge(out, "rayd_jobs_running", "Render jobs being rendered.", m->running);
+    gauge(out, "rayd_queue_depth", "This daemon's in-memory render jobs waiting for a render thread.", m->queued);
+    gauge(out, "rayd_jobs_running",
+          "Render jobs being rendered here: in-memory, and stored jobs whose tiles render here.", m->running);
     family(out, "rayd_jobs_total", "counter", "Render jobs ended, by outcome.");
     PUT("rayd_jobs_total{outcome=\"done\"} %llu\n", (unsigned long long)m->done);
     PUT("rayd_jobs_total{outcome=\"failed\"} %llu\n", (unsigned long long)m->failed);
@@ -208,6 +209,11 @@ static void farm_metrics(rd_strbuf *out, const rd_farm_metrics *m)
     counter(out, "rayd_store_errors_total", "Store calls that found it unreachable.", m->store_errors);
     gauge(out, "rayd_farm_memory_bytes", "Estimated bytes of the stored jobs this daemon holds to render.", m->memory);
     gauge(out, "rayd_store_up", "1 when the job store answered the last call, 0 when it did not.", (size_t)m->store_up);
+    if (m->store_known) {
+        gauge(out, "rayd_store_queue_depth", "Stored jobs queued in the job store, for every daemon on it.",
+              m->store_queued);
+        gauge(out, "rayd_store_jobs_running", "Stored jobs running on any daemon of the job store.", m->store_running);
+    }
 }
 
 static void http_metrics(rd_strbuf *out, const rd_metrics *m)

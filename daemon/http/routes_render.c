@@ -9,30 +9,38 @@
 #include "json_text.h"
 #include "scene_open.h"
 
-/* An uploaded scene, parsed and given its assets on a render thread. */
+/* An uploaded scene, parsed and given its assets on a render thread: for
+ * POST /v1/render by the queue, which renders it; for POST /v1/jobs by the
+ * farm, which commits it (farm set). */
 typedef struct {
     char *body;
     size_t len;
     rd_scene_format fmt;
     rd_job_params params;
     const rd_server_options *opt;
-    rd_farm *farm;            /* an asynchronous submission: committed to the store once read */
+    rd_farm *farm;
     char id[RD_STORE_ID_MAX]; /* the stored job's, once committed */
+    char *committed;          /* its 202's JSON */
 } render_task;
 
 static rd_error_code prepare_render(void *arg, rd_scene *s, int *render, rd_error *err)
 {
+    (void)render;
     render_task *t = arg;
     rd_scene_source src = {
         .text = t->body, .len = t->len, .source = "<upload>", .format = t->fmt, .assets_dir = t->opt->scenes_dir};
-    rd_warnings w = {0, ""};
-    rd_error_code rc = rd_scene_open(&src, &t->params.ov, &t->opt->limits, s, &w, err);
-    if (!rc && t->farm) {
-        /* Rendered by the farm, from the text as sent: nothing for the queue to render. */
-        rd_scene_format f = t->fmt == RD_FMT_AUTO ? rd_scene_sniff(t->body, t->len) : t->fmt;
-        rc = rd_farm_submit(t->farm, t->body, t->len, f == RD_FMT_JSON ? "json" : "cfg", &t->params, s, t->id, err);
-        *render = 0;
-    }
+    rd_error_code rc = rd_scene_open(&src, &t->params.ov, &t->opt->limits, s, NULL, err);
+    free(t->body);
+    t->body = NULL;
+    return rc;
+}
+
+static rd_error_code prepare_submit(void *arg, rd_scene *s, int *render, rd_error *err)
+{
+    (void)s;
+    render_task *t = arg;
+    *render = 0;
+    rd_error_code rc = rd_farm_submit(t->farm, t->body, t->len, t->fmt, &t->params, t->id, &t->committed, err);
     free(t->body);
     t->body = NULL;
     return rc;
@@ -43,6 +51,7 @@ static void free_render(void *arg)
     render_task *t = arg;
     if (t) {
         free(t->body);
+        free(t->committed);
         free(t);
     }
 }
@@ -192,34 +201,31 @@ static enum MHD_Result render(rd_req *r, int async)
         return rd_reply_error_hdr(r, 503, "starting", "the server is starting", "Retry-After", "1");
     }
     so.internal = async;
-    rd_jq_task task = {prepare_render, NULL, free_render, t, t->len, NULL};
-    r->async = async;
+    so.renders_nothing = async;
+    rd_jq_task task = {async ? prepare_submit : prepare_render, NULL, free_render, t, t->len, NULL};
     return rd_req_submit(r, &task, &so);
 }
 
 static enum MHD_Result reply_ended(rd_req *r, const rd_jq_info *info);
-
-/* The answer to POST /v1/jobs once its task has ended: 202 with the
- * stored job, or why it was not stored. */
-static enum MHD_Result reply_submitted(rd_req *r, const rd_jq_info *info)
+/* The answer to POST /v1/jobs once its scene is read: 202 with the job as
+ * committed, or why it was not. */
+enum MHD_Result rd_route_jobs_resumed(rd_req *r)
 {
+    rd_jq_info info;
+    rd_jq_info_get(r->srv->jobs, r->job, &info);
     render_task *t = rd_jq_task_arg(r->job);
-    rd_error err = info->error;
-    char *text = NULL;
-    rd_error_code rc = RD_OK;
-    if (info->status == RD_JQ_CANCELLED)
-        return reply_ended(r, info);
-    if (info->status == RD_JQ_DONE)
-        rc = rd_farm_job_json(t->farm, t->id, &text, NULL, &err);
-    else if (err.code != RD_ERR_IO && err.code != RD_ERR_BUSY && err.code != RD_ERR_NOSPACE &&
-             err.code != RD_ERR_DAMAGED)
-        return reply_ended(r, info);
-    if (info->status != RD_JQ_DONE || rc)
-        return rd_reply_store_error(r, &err);
+    rd_error_code c = info.error.code;
+    if (info.status == RD_JQ_FAILED &&
+        (c == RD_ERR_IO || c == RD_ERR_BUSY || c == RD_ERR_NOSPACE || c == RD_ERR_DAMAGED))
+        return rd_reply_store_error(r, &info.error);
+    if (info.status != RD_JQ_DONE || !t->committed)
+        return reply_ended(r, &info);
     char loc[16 + RD_STORE_ID_MAX];
     snprintf(loc, sizeof loc, "/v1/jobs/%s", t->id);
     snprintf(r->job_id, sizeof r->job_id, "%s", t->id);
     const char *headers[] = {MHD_HTTP_HEADER_LOCATION, loc, NULL};
+    char *text = t->committed;
+    t->committed = NULL;
     return rd_reply_with(r, 202, "application/json", text, strlen(text), 1, headers);
 }
 
@@ -240,8 +246,6 @@ enum MHD_Result rd_route_render_resumed(rd_req *r)
     rd_server *srv = r->srv;
     rd_jq_info info;
     rd_jq_info_get(srv->jobs, r->job, &info);
-    if (r->async)
-        return reply_submitted(r, &info);
     if (info.status == RD_JQ_FAILED || info.status == RD_JQ_CANCELLED)
         return reply_ended(r, &info);
     if (info.status != RD_JQ_DONE)

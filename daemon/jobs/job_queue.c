@@ -88,13 +88,29 @@ struct rd_jq_job {
     jq_link in_all, in_kept, in_results;
 };
 
+/* One render thread's start: which one it is, for the source's run. */
+typedef struct {
+    rd_jq *q;
+    int index;
+} jq_thread;
+
 struct rd_jq {
     pthread_mutex_t mu;
     pthread_cond_t work_cv, idle_cv, watch_cv;
     rd_jq_options opt;
     pthread_t *threads, watchdog;
+    jq_thread *thread_args;
     int nthreads, has_watchdog;
     int stopping;
+    int stopped; /* rd_jq_stop has joined the threads */
+    /* The source's turn (rd_jq_source), all under mu: src.run is set once
+     * before work for it arrives; src_given counts its units since nothing
+     * of the queue's own last ran (its fair-share key); no thread asks it
+     * before src_after (ms) unless woken. */
+    rd_jq_source src;
+    uint64_t src_given;
+    double src_after;
+    uint64_t src_wakes;
     rd_jq_job *active_head, *active_tail;
     jq_list all;       /* registered jobs, oldest first */
     jq_list kept[2];   /* finished and evictable, by was_sync, oldest first */
@@ -736,11 +752,34 @@ static int prepare_fits(rd_jq *q, const rd_jq_job *j)
     return 1;
 }
 
-/* What a free worker does next: a cancelled job to end, a new job to
- * prepare, a prepared one to start, or the next tile by fair share.
- * Under q->mu. */
-static rd_jq_job *pick(rd_jq *q, int preparer)
+/* What new work of the source may take: by admit's rule, the budget left
+ * beside what is used and what older waiting jobs were held back for;
+ * anything when nothing at all runs. Under q->mu. */
+static size_t source_room(rd_jq *q, size_t held_back)
 {
+    if (!q->opt.memory_budget)
+        return SIZE_MAX;
+    size_t used = used_bytes(q) + held_back;
+    if (held_back == 0 && q->running_count == 0 && atomic_load(&q->external) <= 0)
+        return SIZE_MAX;
+    return used >= q->opt.memory_budget ? 0 : q->opt.memory_budget - used;
+}
+
+/* Whether the source's turn comes before tile_job's next tile (the fair
+ * share), and it may be asked now. Under q->mu. */
+static int source_turn(rd_jq *q, const rd_jq_job *tile_job)
+{
+    if (!q->src.run || rd_now_ms() < q->src_after)
+        return 0;
+    return !tile_job || q->src_given <= tile_job->tiles_given;
+}
+
+/* What a free worker does next: a cancelled job to end, a new job to
+ * prepare, a prepared one to start, or the next tile by fair share, which
+ * may be the source's (*room set, NULL returned). Under q->mu. */
+static rd_jq_job *pick(rd_jq *q, int preparer, int *source, size_t *room)
+{
+    *source = 0;
     rd_jq_job *tile_job = NULL;
     size_t held_back = 0;
     int older_unknown = 0; /* an older job holds a place of unknown size */
@@ -774,19 +813,60 @@ static rd_jq_job *pick(rd_jq *q, int preparer)
             (!tile_job || j->tiles_given < tile_job->tiles_given))
             tile_job = j;
     }
+    if (preparer)
+        return NULL;
+    if (q->running_count == 0)
+        q->src_given = 0; /* the next job of the queue's own starts level with it */
+    if (source_turn(q, tile_job)) {
+        *source = 1;
+        *room = source_room(q, held_back);
+        return NULL;
+    }
     return tile_job;
+}
+
+/* One unit of the source's work, without the lock. A source that found
+ * nothing is not asked again before the time it named, unless woken
+ * meanwhile. Under q->mu (released and taken again). */
+static void run_source(rd_jq *q, int worker, size_t room)
+{
+    q->src_given++;
+    uint64_t wakes = q->src_wakes;
+    rd_jq_source src = q->src;
+    pthread_mutex_unlock(&q->mu);
+    int wait_ms = src.run(src.arg, worker, room);
+    pthread_mutex_lock(&q->mu);
+    if (wait_ms > 0 && q->src_wakes == wakes)
+        q->src_after = rd_now_ms() + wait_ms;
+}
+
+/* Nothing to do: wait for work, or until the source may be asked again.
+ * Under q->mu. */
+static void idle_wait(rd_jq *q)
+{
+    double left = q->src.run ? q->src_after - rd_now_ms() : 0;
+    if (left > 0)
+        rd_timed_wait(&q->work_cv, &q->mu, left);
+    else
+        pthread_cond_wait(&q->work_cv, &q->mu);
 }
 
 /* A render thread, or with preparer set the one thread that only prepares
  * and finishes jobs that render nothing, so that reading a new scene (and
  * answering 400 or 202) never waits for a tile that may take seconds. */
-static void work(rd_jq *q, int preparer)
+static void work(rd_jq *q, int worker, int preparer)
 {
     pthread_mutex_lock(&q->mu);
     while (!q->stopping) {
-        rd_jq_job *j = pick(q, preparer);
+        int source = 0;
+        size_t room = 0;
+        rd_jq_job *j = pick(q, preparer, &source, &room);
+        if (source) {
+            run_source(q, worker, room);
+            continue;
+        }
         if (!j) {
-            pthread_cond_wait(&q->work_cv, &q->mu);
+            idle_wait(q);
             continue;
         }
         j->refs++;
@@ -807,13 +887,15 @@ static void work(rd_jq *q, int preparer)
 
 static void *worker(void *arg)
 {
-    work(arg, 0);
+    jq_thread *t = arg;
+    work(t->q, t->index, 0);
     return NULL;
 }
 
 static void *preparer(void *arg)
 {
-    work(arg, 1);
+    jq_thread *t = arg;
+    work(t->q, t->index, 1);
     return NULL;
 }
 
@@ -847,19 +929,24 @@ rd_jq *rd_jq_start(const rd_jq_options *opt, rd_error *err)
     pthread_cond_init(&q->idle_cv, NULL);
     pthread_cond_init(&q->watch_cv, NULL);
     q->threads = calloc((size_t)q->opt.workers + 1, sizeof *q->threads);
-    if (!q->threads) {
+    q->thread_args = calloc((size_t)q->opt.workers + 1, sizeof *q->thread_args);
+    if (!q->threads || !q->thread_args) {
+        free(q->threads);
+        free(q->thread_args);
+        free(q->by_id);
         free(q);
         rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
         return NULL;
     }
     for (int i = 0; i <= q->opt.workers; i++) {
-        if (pthread_create(&q->threads[i], NULL, i < q->opt.workers ? worker : preparer, q) != 0)
+        q->thread_args[i] = (jq_thread){q, i};
+        if (pthread_create(&q->threads[i], NULL, i < q->opt.workers ? worker : preparer, &q->thread_args[i]) != 0)
             break;
         q->nthreads++;
     }
     q->has_watchdog = q->nthreads == q->opt.workers + 1 && pthread_create(&q->watchdog, NULL, watchdog, q) == 0;
     if (!q->has_watchdog) {
-        rd_jq_stop(q);
+        rd_jq_free(q);
         rd_error_set(err, RD_ERR_NOMEM, 0, 0, "cannot start render threads");
         return NULL;
     }
@@ -868,14 +955,18 @@ rd_jq *rd_jq_start(const rd_jq_options *opt, rd_error *err)
 
 void rd_jq_stop(rd_jq *q)
 {
-    if (!q)
+    if (!q || q->stopped)
         return;
     rd_jq_cancel_all(q);
     pthread_mutex_lock(&q->mu);
     q->stopping = 1;
     pthread_cond_broadcast(&q->work_cv);
     pthread_cond_broadcast(&q->watch_cv);
+    rd_jq_source src = q->src;
     pthread_mutex_unlock(&q->mu);
+    /* A thread inside the source's tile returns once it is told. */
+    if (src.stop)
+        src.stop(src.arg);
     for (int i = 0; i < q->nthreads; i++)
         pthread_join(q->threads[i], NULL);
     if (q->has_watchdog)
@@ -887,11 +978,22 @@ void rd_jq_stop(rd_jq *q)
         finish_locked(q, j, RD_JQ_CANCELLED);
         notify_locked(q, j);
     }
+    q->stopped = 1;
+    pthread_mutex_unlock(&q->mu);
+}
+
+void rd_jq_free(rd_jq *q)
+{
+    if (!q)
+        return;
+    rd_jq_stop(q);
+    pthread_mutex_lock(&q->mu);
     while (q->all.head)
         drop_registered(q, q->all.head);
     pthread_mutex_unlock(&q->mu);
     free(q->by_id);
     free(q->threads);
+    free(q->thread_args);
     pthread_mutex_destroy(&q->mu);
     pthread_cond_destroy(&q->work_cv);
     pthread_cond_destroy(&q->idle_cv);
@@ -1170,6 +1272,34 @@ void rd_jq_external_bytes(rd_jq *q, long long delta)
         pthread_cond_broadcast(&q->work_cv);
         pthread_mutex_unlock(&q->mu);
     }
+}
+
+void rd_jq_set_source(rd_jq *q, const rd_jq_source *src)
+{
+    pthread_mutex_lock(&q->mu);
+    q->src = *src;
+    q->src_after = 0;
+    pthread_cond_broadcast(&q->work_cv);
+    pthread_mutex_unlock(&q->mu);
+}
+
+void rd_jq_wake(rd_jq *q)
+{
+    pthread_mutex_lock(&q->mu);
+    q->src_wakes++;
+    q->src_after = 0;
+    pthread_cond_broadcast(&q->work_cv);
+    pthread_mutex_unlock(&q->mu);
+}
+
+void rd_jq_observe_source_job(rd_jq *q, double wait_s, double render_s)
+{
+    pthread_mutex_lock(&q->mu);
+    if (wait_s >= 0)
+        rd_hist_observe(&q->wait, wait_s);
+    if (render_s >= 0)
+        rd_hist_observe(&q->render, render_s);
+    pthread_mutex_unlock(&q->mu);
 }
 
 void rd_jq_external_jobs(rd_jq *q, int delta) { atomic_fetch_add(&q->external_jobs, delta); }

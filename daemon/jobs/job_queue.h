@@ -102,9 +102,14 @@ typedef struct {
 
 rd_jq *rd_jq_start(const rd_jq_options *opt, rd_error *err);
 
-/* Stops taking tiles, cancels every job not finished, joins the threads
- * and frees everything. */
+/* Stops taking tiles, cancels every job not finished (their done
+ * callbacks run), stops the source (rd_jq_set_source) and joins the
+ * threads. The queue's other calls still work, with nothing running, until
+ * rd_jq_free. */
 void rd_jq_stop(rd_jq *q);
+
+/* Stops it if need be and frees everything (NULL: nothing). */
+void rd_jq_free(rd_jq *q);
 
 /* Enqueues a job; the queue takes over task->arg whatever the outcome
  * (freed with task->free). RD_ERR_BUSY when the queue is full. The
@@ -168,6 +173,36 @@ rd_error_code rd_jq_exr(rd_jq *q, rd_jq_job *j, unsigned char **exr, size_t *len
 
 /* Drops a finished job's PNG and EXR (a synchronous answer has been sent). */
 void rd_jq_release_png(rd_jq *q, rd_jq_job *j);
+
+/* Work for the same render threads besides the queue's own jobs: the
+ * stored jobs' tiles (farm.h). It takes its turn under the fair share as
+ * one more job would (the next unit goes to whichever has been given the
+ * fewest), and its new work is admitted by the queue's one rule. */
+typedef struct {
+    /* Does one unit of work (a tile) on render thread `worker`, 0 ..
+     * workers - 1, without the queue's lock. room: the bytes new work may
+     * take under --memory-budget (SIZE_MAX: anything, nothing else runs);
+     * work already held needs no room. Returns 0 when it did something,
+     * else the milliseconds to wait before asking again (rd_jq_wake asks
+     * sooner). */
+    int (*run)(void *arg, int worker, size_t room);
+    /* Called once by rd_jq_stop before it joins the threads: from then on
+     * run returns within milliseconds. */
+    void (*stop)(void *arg);
+    void *arg;
+} rd_jq_source;
+
+/* Gives the render threads a source (once, before any work for it
+ * arrives); it must outlive the queue's threads (rd_jq_stop joins them). */
+void rd_jq_set_source(rd_jq *q, const rd_jq_source *src);
+
+/* The source has work: a thread that found none asks again now. */
+void rd_jq_wake(rd_jq *q);
+
+/* A stored job rendered by these threads ended: its wait before it
+ * started and its render go into the same histograms as the queue's own
+ * (in seconds; a negative value is not observed). */
+void rd_jq_observe_source_job(rd_jq *q, double wait_s, double render_s);
 
 /* Memory held outside the queue (grading caches, stored jobs rendering
  * here) that counts against the budget: delta bytes more (or fewer). */

@@ -17,6 +17,7 @@ Usage: RAYD=build/rayd /usr/bin/python3 tests/integration/metrics_test.py
 (from the repository root). The daemon listens on 127.0.0.1 on a port it
 picks, and is stopped by its pid.
 """
+import json
 import math
 import os
 import re
@@ -49,6 +50,7 @@ FAMILIES = {
     "process_cpu_seconds_total": "counter", "process_resident_memory_bytes": "gauge",
     "process_virtual_memory_bytes": "gauge", "process_open_fds": "gauge", "process_max_fds": "gauge",
     "process_start_time_seconds": "gauge", "rayd_build_info": "gauge",
+    "rayd_store_queue_depth": "gauge", "rayd_store_jobs_running": "gauge",
 }
 
 
@@ -396,6 +398,35 @@ def check_deltas(before, after, requests, durations):
     check(delta("process_cpu_seconds_total") >= 0, "process_cpu_seconds_total went down")
 
 
+def check_stored_job(d, before):
+    """A stored job ended here counts in the same histograms as a synchronous
+    render, and the store's queue has its own gauges."""
+    st, _, body = d.request("POST", "/v1/jobs?width=8&height=8", body=SCENE.encode(),
+                            headers={"Content-Type": "text/x-rayd-cfg"})
+    check(st == 202, "the stored job answered %d" % st)
+    if st != 202:
+        return
+    job = json.loads(body)
+    _, mid = scrape(d)
+    check(value(mid, "rayd_store_queue_depth") + value(mid, "rayd_store_jobs_running") <= 1,
+          "the store's queue holds more than the one job")
+    status = None
+    for _ in range(600):
+        status = json.loads(d.request("GET", "/v1/jobs/" + job["id"])[2])["status"]
+        if status not in ("queued", "running"):
+            break
+        time.sleep(0.05)
+    check(status == "done", "the stored job ended %s" % status)
+    _, after = scrape(d)
+    for fam in ("rayd_render_seconds", "rayd_queue_wait_seconds"):
+        got = value(after, fam, fam + "_count") - value(before, fam, fam + "_count")
+        check(got == 1, "%s_count grew by %s for the stored job, not 1" % (fam, got))
+    got = value(after, "rayd_jobs_total", outcome="done") - value(before, "rayd_jobs_total", outcome="done")
+    check(got == 1, "rayd_jobs_total{outcome=done} grew by %s for the stored job, not 1" % got)
+    check(value(after, "rayd_store_queue_depth") == 0 and value(after, "rayd_store_jobs_running") == 0,
+          "the store's queue is not empty once its one job is done")
+
+
 def promtool(text):
     unpacked = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "build", "tools", "promtool")
     tool = os.environ.get("PROMTOOL") or shutil.which("promtool") or (unpacked if os.access(unpacked, os.X_OK) else None)
@@ -420,6 +451,7 @@ def main():
         requests, durations = known_requests(d, tmp)
         text, after = scrape(d)
         check_deltas(before, after, requests, durations)
+        check_stored_job(d, after)
         check_process(after, d.pid)
         check_build_info(after)
         promtool(text)

@@ -119,7 +119,7 @@ Test(job_queue, eviction_drops_the_oldest_finished)
     rd_jq_metrics m;
     rd_jq_metrics_get(q, &m);
     cr_assert_eq(m.jobs_kept, 3);
-    rd_jq_stop(q);
+    rd_jq_free(q);
 }
 
 /* /metrics' render and queue-wait histograms reach the job timeout (with
@@ -149,7 +149,7 @@ Test(job_queue, histograms_cover_the_job_timeout)
             cr_assert_eq(h[k]->total, 2, "histogram %d counted %llu jobs of 2", k, (unsigned long long)h[k]->total);
             cr_assert_geq(h[k]->sum, 0);
         }
-        rd_jq_stop(q);
+        rd_jq_free(q);
     }
 }
 
@@ -186,7 +186,7 @@ Test(job_queue, many_jobs_keep_exactly_the_newest)
     rd_jq_metrics m;
     rd_jq_metrics_get(q, &m);
     cr_assert_eq(m.jobs_kept, KEEP);
-    rd_jq_stop(q);
+    rd_jq_free(q);
 }
 
 /* Over the result memory the oldest images go first, and their jobs stay
@@ -203,7 +203,7 @@ Test(job_queue, result_memory_drops_the_oldest_images)
     size_t len;
     cr_assert_eq(rd_jq_png(q, first, 0, &png, &len, &err), RD_OK, "%s", err.message);
     free(png);
-    rd_jq_stop(q);
+    rd_jq_free(q);
 
     /* Room for two images of that size, not three. */
     o.result_memory = len * 5 / 2;
@@ -224,7 +224,7 @@ Test(job_queue, result_memory_drops_the_oldest_images)
         cr_assert_eq(status_of(q, jobs[i]), RD_JQ_DONE);
         rd_jq_job_unref(jobs[i]);
     }
-    rd_jq_stop(q);
+    rd_jq_free(q);
 }
 
 /* Fair share: with one render thread busy on a job of 256 tiles, a job of
@@ -261,7 +261,7 @@ Test(job_queue, a_small_job_overtakes_a_big_one)
     rd_jq_cancel(q, big);
     rd_jq_job_unref(big);
     rd_jq_job_unref(small);
-    rd_jq_stop(q);
+    rd_jq_free(q);
 }
 
 /* A finished job is readable for --result-ttl, then gone. */
@@ -286,7 +286,7 @@ Test(job_queue, finished_jobs_expire_after_their_ttl)
     rd_jq_metrics m;
     rd_jq_metrics_get(q, &m);
     cr_assert_eq(m.jobs_kept, 0);
-    rd_jq_stop(q);
+    rd_jq_free(q);
 }
 
 Test(job_queue, job_over_the_budget_fails_naming_the_flag)
@@ -302,7 +302,7 @@ Test(job_queue, job_over_the_budget_fails_naming_the_flag)
     cr_assert_eq(in.error.code, RD_ERR_LIMIT);
     cr_assert(strstr(in.error.message, "--memory-budget"), "%s", in.error.message);
     rd_jq_job_unref(j);
-    rd_jq_stop(q);
+    rd_jq_free(q);
 }
 
 /* A budget with room for one and a half 512x512 runaway renders. */
@@ -347,7 +347,7 @@ Test(job_queue, second_job_waits_for_memory)
     wait_status(q, b, RD_JQ_CANCELLED, WAIT_MS);
     rd_jq_job_unref(a);
     rd_jq_job_unref(b);
-    rd_jq_stop(q);
+    rd_jq_free(q);
 }
 
 /* A runaway 512x512 scene, prepared slowly: its preparation is still
@@ -383,7 +383,7 @@ Test(job_queue, an_older_job_in_preparation_keeps_its_place)
     wait_status(q, b, RD_JQ_CANCELLED, WAIT_MS);
     rd_jq_job_unref(a);
     rd_jq_job_unref(b);
-    rd_jq_stop(q);
+    rd_jq_free(q);
 }
 
 /* Both threads inside one pixel each: cancel still ends them at once. */
@@ -414,7 +414,7 @@ Test(job_queue, cancel_stops_a_runaway_render_inside_a_pixel)
     rd_jq_job_unref(b);
     /* Stopping the queue joins both threads. */
     double t0 = rd_now_ms();
-    rd_jq_stop(q);
+    rd_jq_free(q);
     cr_assert_lt(rd_now_ms() - t0, 5000, "rd_jq_stop waited for a runaway render");
 }
 
@@ -432,7 +432,7 @@ Test(job_queue, timeout_fails_with_its_own_code)
     cr_assert_geq(in.elapsed_ms, 200);
     cr_assert(strstr(in.error.message, "--job-timeout-ms"), "%s", in.error.message);
     rd_jq_job_unref(j);
-    rd_jq_stop(q);
+    rd_jq_free(q);
 }
 
 Test(job_queue, full_queue_is_busy)
@@ -449,7 +449,7 @@ Test(job_queue, full_queue_is_busy)
     rd_jq_cancel(q, b);
     rd_jq_job_unref(a);
     rd_jq_job_unref(b);
-    rd_jq_stop(q);
+    rd_jq_free(q);
 }
 
 static rd_error_code no_render(void *arg, rd_scene *s, int *render, rd_error *err)
@@ -482,7 +482,7 @@ Test(job_queue, internal_work_is_neither_listed_nor_counted)
     cr_assert_eq(m.done, 0);
     cr_assert_eq(m.jobs_kept, 0);
     rd_jq_job_unref(j);
-    rd_jq_stop(q);
+    rd_jq_free(q);
 }
 
 static rd_error_code bad_scene(void *arg, rd_scene *s, int *render, rd_error *err)
@@ -515,7 +515,7 @@ Test(job_queue, preparing_does_not_wait_for_busy_render_threads)
     rd_jq_job_unref(a);
     rd_jq_job_unref(b);
     rd_jq_job_unref(c);
-    rd_jq_stop(q);
+    rd_jq_free(q);
 }
 
 /* A preparation that holds memory (a code grade's sandbox): it counts how
@@ -576,5 +576,5 @@ Test(job_queue, preparations_wait_for_their_memory)
     cr_assert_eq(m.memory_reserved, 0, "%zu bytes still reserved", (size_t)m.memory_reserved);
     rd_jq_job_unref(a);
     rd_jq_job_unref(b);
-    rd_jq_stop(q);
+    rd_jq_free(q);
 }
