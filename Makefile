@@ -47,11 +47,11 @@ INC_api_grading   := $(INC_api_assets) -Iapi/grading
 INC_api_archive   := $(INC_api_util) -iquote api/archive
 INC_daemon_errors := $(INC_api_grading) -Idaemon/errors
 INC_daemon_store  := $(INC_api_util) -Idaemon/store
-INC_daemon_jobs   := $(INC_api_grading) -Idaemon/jobs -Idaemon/store
+INC_daemon_jobs   := $(INC_api_grading) -Idaemon/jobs
 INC_daemon_log    := $(INC_api_util) -Idaemon/log
 INC_daemon_sandbox := $(INC_api_util) -Idaemon/sandbox
 INC_daemon_codegrade := $(INC_api_grading) -Idaemon/sandbox -Idaemon/codegrade -Idaemon/codegrade/course
-INC_daemon_farm   := $(INC_daemon_jobs) -Idaemon/errors -Idaemon/log -Idaemon/farm
+INC_daemon_farm   := $(INC_daemon_jobs) -Idaemon/store -Idaemon/errors -Idaemon/log -Idaemon/farm
 INC_daemon_http   := $(INC_daemon_farm) -iquote api/archive -Idaemon/sandbox -Idaemon/codegrade \
                      -Idaemon/codegrade/course -Idaemon/http
 INC_daemon_cli    := $(INC_daemon_http) -Idaemon/cli

@@ -165,6 +165,7 @@ enum MHD_Result rd_reply_json(rd_req *r, unsigned status, char *json_text);
 enum MHD_Result rd_reply_cancelled(rd_req *r, const rd_jq_info *info, const char *what);
 
 /* Route handlers (router.c lists which serve what). */
+enum MHD_Result rd_jobs_begin(rd_req *r);
 enum MHD_Result rd_render_begin(rd_req *r);
 enum MHD_Result rd_route_render_sync(rd_req *r, const char *rest);
 enum MHD_Result rd_route_jobs_post(rd_req *r, const char *rest);

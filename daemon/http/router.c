@@ -57,7 +57,7 @@ static const char *job_allow(const char *rest) { return strchr(rest + 1, '/') ? 
 static const rd_route routes[] = {
     {"/v1/render", RD_ROUTE_EXACT, "POST", NULL, rd_render_begin, NULL, 1, rd_route_render_sync,
      rd_route_render_resumed},
-    {"/v1/jobs", RD_ROUTE_EXACT, "POST", NULL, rd_render_begin, NULL, 1, rd_route_jobs_post, rd_route_jobs_resumed},
+    {"/v1/jobs", RD_ROUTE_EXACT, "POST", NULL, rd_jobs_begin, NULL, 1, rd_route_jobs_post, rd_route_jobs_resumed},
     {"/v1/jobs", RD_ROUTE_BELOW, "GET, DELETE", job_allow, NULL, NULL, 0, rd_route_job, rd_route_job_image_resumed},
     {"/v1/grade", RD_ROUTE_EXACT, "POST", NULL, rd_route_grade_begin, rd_route_grade_data, 0, rd_route_grade,
      rd_route_grade_resumed},

@@ -140,19 +140,12 @@ static int refused_type(const char *ct)
     return 0;
 }
 
-/* Before the body: refuse what would be thrown away once read. */
-enum MHD_Result rd_render_begin(rd_req *r)
+/* Before the body of either: refuse what would be thrown away once read. */
+static enum MHD_Result scene_begin(rd_req *r)
 {
     rd_server *srv = r->srv;
     if (atomic_load(&srv->draining))
         return rd_reply_draining(r);
-    rd_jq_metrics m;
-    rd_jq_metrics_get(srv->jobs, &m);
-    /* What renders here: synchronous renders, and the stored jobs this
-     * daemon has taken up (the store bounds its own queue, farm.h). */
-    if (m.queued + m.running + m.external_jobs >= srv->opt.jobs.queue_length)
-        return rd_reply_error_hdr(r, 503, "queue_full", "the render queue is full; try again shortly", "Retry-After",
-                                  "1");
     const char *ct = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_CONTENT_TYPE);
     if (refused_type(ct))
         return rd_reply_error(r, 415, "unsupported_media_type", NULL,
@@ -162,6 +155,21 @@ enum MHD_Result rd_render_begin(rd_req *r)
         return rd_reply_too_large(r, "the body");
     return MHD_YES;
 }
+
+/* POST /v1/render renders here: this daemon's queue bounds it (with the
+ * stored jobs it has taken up). A stored job's queue is the store's, which
+ * the farm checks as it commits. */
+enum MHD_Result rd_render_begin(rd_req *r)
+{
+    rd_jq_metrics m;
+    rd_jq_metrics_get(r->srv->jobs, &m);
+    if (m.queued + m.running + m.external_jobs >= r->srv->opt.jobs.queue_length)
+        return rd_reply_error_hdr(r, 503, "queue_full", "the render queue is full; try again shortly", "Retry-After",
+                                  "1");
+    return scene_begin(r);
+}
+
+enum MHD_Result rd_jobs_begin(rd_req *r) { return scene_begin(r); }
 
 static enum MHD_Result render(rd_req *r, int async)
 {

@@ -21,9 +21,17 @@ double rd_jq_hist_cover(double job_timeout_ms) { return job_timeout_ms > 0 ? job
 
 enum { TILE_PENDING, TILE_RENDERING, TILE_DONE };
 
-/* Where a job is. Clients see "queued" until it runs; a phase ending in
+/* Locking. One mutex, q->mu, guards the queue and every job's fields but
+ * those marked otherwise below. Every static function in this file runs
+ * with it held, except the threads' entry points, call_done and the
+ * constructors; a function that lets it go for slow work says "Releases
+ * q->mu" and is the only one touching what it releases it for, by the
+ * phase rule below. `_locked` names the variant of a public call
+ * (rd_jq_job_unref, rd_jq_cancel) for a caller already holding q->mu.
+ *
+ * Where a job is. Clients see "queued" until it runs; a phase ending in
  * -ING is owned by one worker outside the lock, and nobody else touches the
- * job's render state then. */
+ * job's render state (scene, core, png, exr) then. */
 typedef enum { PH_NEW, PH_PREPARING, PH_WAITING, PH_STARTING, PH_RUNNING, PH_FINISHING, PH_ENDED } phase;
 
 /* The registry keeps every list it sweeps in the order jobs entered it and
@@ -40,16 +48,20 @@ struct jq_list {
     size_t link_offset; /* of the jq_link inside rd_jq_job */
 };
 
+/* Guarded by q->mu unless marked: "phase owner" fields are written by the
+ * worker owning the job's -ING phase, with q->mu released, and read by
+ * others only in phases no worker owns; "set once" fields are written at
+ * submission, before the job is shared. */
 struct rd_jq_job {
-    rd_jq *q;
+    rd_jq *q; /* set once */
     int refs;
-    char id[RD_CAP_MAX];
+    char id[RD_CAP_MAX]; /* set once */
     rd_jq_status status;
     phase ph;
-    rd_jq_task task;
-    rd_scene scene;
-    int render; /* prepare left the render in */
-    rd_job *core;
+    rd_jq_task task; /* set once; task.arg is the phase owner's */
+    rd_scene scene;  /* phase owner (PREPARING fills it, STARTING reads it) */
+    int render;      /* prepare left the render in */
+    rd_job *core;    /* phase owner, and render threads' tiles (each its own pixels) while RUNNING */
     int tiles_total, next_tile, tiles_done, inflight;
     uint64_t tiles_given; /* over all passes: the fair-share key */
     unsigned char *tile_state;
@@ -59,7 +71,7 @@ struct rd_jq_job {
     int timed_out;
     int hung_up;     /* cancelled because its client went away */
     int requested;   /* cancelled by rd_jq_cancel */
-    atomic_int stop; /* cancel as the tracer sees it */
+    atomic_int stop; /* atomic: cancel as the tracer sees it, without the lock */
     int watch_fd, watch_http11, probe_sent;
     rd_jq_done_fn done;
     void *user;
@@ -69,8 +81,8 @@ struct rd_jq_job {
     rd_jq_job *hold;
     double t_submit, t_start, t_end;
     rd_job_counts counts;
-    rd_render_stats stats; /* what the core measured so far (rd_job_stats) */
-    unsigned char *png;
+    rd_render_stats stats; /* what the core measured so far (rd_job_stats); copied in under q->mu */
+    unsigned char *png;    /* written under q->mu once FINISHING ends */
     size_t png_len;
     int hdr;              /* keeps exr beside png */
     size_t prepare_bytes; /* reserved while prepare runs (rd_jq_submit_options) */
@@ -94,13 +106,15 @@ typedef struct {
     int index;
 } jq_thread;
 
+/* Guarded by mu unless marked; "set once" fields are written by
+ * rd_jq_start before any thread runs. */
 struct rd_jq {
     pthread_mutex_t mu;
     pthread_cond_t work_cv, idle_cv, watch_cv;
-    rd_jq_options opt;
-    pthread_t *threads, watchdog;
-    jq_thread *thread_args;
-    int nthreads, has_watchdog;
+    rd_jq_options opt;            /* set once */
+    pthread_t *threads, watchdog; /* set once */
+    jq_thread *thread_args;       /* set once */
+    int nthreads, has_watchdog;   /* set once */
     int stopping;
     int stopped; /* rd_jq_stop has joined the threads */
     /* The source's turn (rd_jq_source), all under mu: src.run is set once
@@ -118,9 +132,9 @@ struct rd_jq {
     rd_jq_job **by_id; /* registered jobs by idnum, chained */
     size_t nby_id;     /* a power of two */
     size_t active_count, running_count, result_bytes, reserved;
-    size_t preparing_bytes; /* the prepare_bytes of the preparations running */
-    atomic_llong external;
-    atomic_int external_jobs;
+    size_t preparing_bytes;   /* the prepare_bytes of the preparations running */
+    atomic_llong external;    /* atomic: added to without the lock (rd_jq_external_bytes) */
+    atomic_int external_jobs; /* atomic: likewise */
     uint64_t n_done, n_failed, n_cancelled, rays;
     rd_hist render, wait;
 };
@@ -143,7 +157,6 @@ static void job_free(rd_jq_job *j)
     free(j);
 }
 
-/* Under q->mu. */
 static void unref_locked(rd_jq_job *j)
 {
     if (--j->refs > 0)
@@ -164,7 +177,7 @@ void rd_jq_job_unref(rd_jq_job *j)
 
 void *rd_jq_task_arg(rd_jq_job *j) { return j->task.arg; }
 
-/* The budget a job holds becomes n bytes. Under q->mu. */
+/* The budget a job holds becomes n bytes. */
 static void charge(rd_jq *q, rd_jq_job *j, size_t n)
 {
     q->reserved = q->reserved - j->charged + n;
@@ -239,7 +252,7 @@ static void list_remove(jq_list *l, rd_jq_job *j)
 static rd_jq_job **bucket(rd_jq *q, uint64_t idnum) { return &q->by_id[idnum & (q->nby_id - 1)]; }
 
 /* Doubles the table once it holds more jobs than buckets; when that
- * allocation fails the chains just grow longer. Under q->mu. */
+ * allocation fails the chains just grow longer. */
 static void grow_buckets(rd_jq *q)
 {
     if (q->all.n <= q->nby_id)
@@ -261,7 +274,7 @@ static void grow_buckets(rd_jq *q)
     free(old);
 }
 
-static void register_locked(rd_jq *q, rd_jq_job *j)
+static void register_job(rd_jq *q, rd_jq_job *j)
 {
     j->registered = 1;
     list_push(&q->all, j);
@@ -302,7 +315,7 @@ static int finished(const rd_jq_job *j) { return !j->active && j->t_end > 0; }
 
 /* A finished registered job becomes evictable once no waiting client
  * still has to take its PNG; its result becomes evictable once it is no
- * synchronous client's. Called when either may have changed. Under q->mu. */
+ * synchronous client's. Called when either may have changed. */
 static void make_evictable(rd_jq *q, rd_jq_job *j)
 {
     if (!j->registered || !finished(j))
@@ -319,7 +332,7 @@ static void make_evictable(rd_jq *q, rd_jq_job *j)
  * result memory. The lists are oldest first by the time a job became
  * evictable, which is its end but for a synchronous client slow to take
  * its PNG: such a job may hold back an older one's TTL by that delay.
- * Under q->mu. */
+ * */
 static void sweep(rd_jq *q)
 {
     double now = rd_now_ms();
@@ -332,7 +345,7 @@ static void sweep(rd_jq *q)
         drop_result(q, q->results.head);
 }
 
-/* The outcome counters of /metrics. Under q->mu. */
+/* The outcome counters of /metrics. */
 static void count_outcome(rd_jq *q, const rd_jq_job *j, rd_jq_status st)
 {
     if (st == RD_JQ_DONE) {
@@ -347,8 +360,8 @@ static void count_outcome(rd_jq *q, const rd_jq_job *j, rd_jq_status st)
 }
 
 /* The job leaves the active list with its final status; the caller then
- * calls its done callback without the lock. Under q->mu. */
-static void finish_locked(rd_jq *q, rd_jq_job *j, rd_jq_status st)
+ * calls its done callback without the lock. */
+static void end_job(rd_jq *q, rd_jq_job *j, rd_jq_status st)
 {
     remove_active(q, j);
     j->status = st;
@@ -371,10 +384,10 @@ static void finish_locked(rd_jq *q, rd_jq_job *j, rd_jq_status st)
     pthread_cond_broadcast(&q->work_cv); /* memory came free */
 }
 
-static void fail_locked(rd_jq *q, rd_jq_job *j, const rd_error *err)
+static void fail_job(rd_jq *q, rd_jq_job *j, const rd_error *err)
 {
     j->error = *err;
-    finish_locked(q, j, RD_JQ_FAILED);
+    end_job(q, j, RD_JQ_FAILED);
 }
 
 /* Called without the lock; the callback is read under it, since a request
@@ -390,9 +403,9 @@ static void call_done(rd_jq_job *j)
         fn(j, user);
 }
 
-/* Runs the done callback of a job that just ended or was prepared, with
- * the lock released and the job kept alive meanwhile. Under q->mu. */
-static void notify_locked(rd_jq *q, rd_jq_job *j)
+/* Runs the done callback of a job that just ended or was prepared, the
+ * job kept alive meanwhile. Releases q->mu while it calls. */
+static void notify_done(rd_jq *q, rd_jq_job *j)
 {
     j->refs++;
     pthread_mutex_unlock(&q->mu);
@@ -463,18 +476,19 @@ static void *watchdog(void *arg)
     return NULL;
 }
 
-/* A cancelled job nobody is working on ends here. Under q->mu. */
+/* A cancelled job nobody is working on ends here. Releases q->mu (its
+ * done callback). */
 static void end_cancelled(rd_jq *q, rd_jq_job *j)
 {
     if (j->timed_out) {
         rd_error e;
         rd_error_set(&e, RD_ERR_TIMEOUT, 0, 0, "the render took longer than the limit of %.0f ms (--job-timeout-ms)",
                      q->opt.job_timeout_ms);
-        fail_locked(q, j, &e);
+        fail_job(q, j, &e);
     } else {
-        finish_locked(q, j, RD_JQ_CANCELLED);
+        end_job(q, j, RD_JQ_CANCELLED);
     }
-    notify_locked(q, j);
+    notify_done(q, j);
 }
 
 static rd_job_options core_options(const rd_jq_job *j)
@@ -483,8 +497,7 @@ static rd_job_options core_options(const rd_jq_job *j)
     return jo;
 }
 
-/* Runs the task's preparation outside the lock. Under q->mu (released and
- * taken again). */
+/* Runs the task's preparation. Releases q->mu while it does. */
 static void prepare_job(rd_jq *q, rd_jq_job *j)
 {
     j->ph = PH_PREPARING;
@@ -516,7 +529,7 @@ static void prepare_job(rd_jq *q, rd_jq_job *j)
     j->width = j->scene.render.width;
     j->height = j->scene.render.height;
     if (rc) {
-        fail_locked(q, j, &err);
+        fail_job(q, j, &err);
     } else if (j->cancel) {
         end_cancelled(q, j);
         return;
@@ -527,11 +540,11 @@ static void prepare_job(rd_jq *q, rd_jq_job *j)
         pthread_cond_broadcast(&q->work_cv);
     }
     if (j->notify_prepared || rc)
-        notify_locked(q, j);
+        notify_done(q, j);
 }
 
 /* A render thread takes the job up: the end of its wait in the queue.
- * Under q->mu. */
+ * */
 static void mark_started(rd_jq *q, rd_jq_job *j)
 {
     j->t_start = rd_now_ms();
@@ -551,8 +564,7 @@ static rd_error_code encode_exr(rd_job *core, unsigned char **exr, size_t *len, 
 }
 
 /* Called once a job's last tile or its preparation is done: the task's
- * finish or the PNG (and EXR), outside the lock. Under q->mu (released and
- * taken again). */
+ * finish or the PNG (and EXR). Releases q->mu while it encodes. */
 static void finish_job(rd_jq *q, rd_jq_job *j)
 {
     j->ph = PH_FINISHING;
@@ -586,19 +598,18 @@ static void finish_job(rd_jq *q, rd_jq_job *j)
     pthread_mutex_lock(&q->mu);
     j->stats = st;
     if (rc) {
-        fail_locked(q, j, &err);
+        fail_job(q, j, &err);
     } else {
         j->png = png;
         j->png_len = len;
         j->exr = exr;
         j->exr_len = exr_len;
-        finish_locked(q, j, RD_JQ_DONE);
+        end_job(q, j, RD_JQ_DONE);
     }
-    notify_locked(q, j);
+    notify_done(q, j);
 }
 
-/* Admitted: allocate the render's state outside the lock. Under q->mu
- * (released and taken again). */
+/* Admitted: allocate the render's state. Releases q->mu while it does. */
 static void start_job(rd_jq *q, rd_jq_job *j)
 {
     j->ph = PH_STARTING;
@@ -626,8 +637,8 @@ static void start_job(rd_jq *q, rd_jq_job *j)
     j->stats = plan;
     if (rc) {
         rd_job_free(core);
-        fail_locked(q, j, &err);
-        notify_locked(q, j);
+        fail_job(q, j, &err);
+        notify_done(q, j);
         return;
     }
     j->core = core;
@@ -643,8 +654,8 @@ static void start_job(rd_jq *q, rd_jq_job *j)
 
 /* The last tile of a pass is done: the core ends the pass (estimate,
  * curve point, the next pass begun) and the job starts rendering it or
- * finishes. Under q->mu, with the job in PH_FINISHING so no other worker
- * touches it while the lock is released: ending a pass reads every pixel. */
+ * finishes. Releases q->mu while the core ends the pass, with the job in
+ * PH_FINISHING so no other worker touches it: that reads every pixel. */
 static void end_of_pass(rd_jq *q, rd_jq_job *j)
 {
     j->ph = PH_FINISHING;
@@ -671,6 +682,9 @@ static void end_of_pass(rd_jq *q, rd_jq_job *j)
     pthread_cond_broadcast(&q->work_cv);
 }
 
+/* The job's next tile. Releases q->mu while it traces: the tile's pixels
+ * are this thread's alone (TILE_RENDERING), the core's other state is
+ * read only. */
 static void render_tile(rd_jq *q, rd_jq_job *j)
 {
     int tile = j->next_tile++;
@@ -715,7 +729,7 @@ static int holds_unknown_place(const rd_jq_job *j)
  * holds its place: younger ones start only if they fit beside it, so a
  * stream of small jobs cannot starve a large one. When nothing runs, the
  * oldest starts anyway (results and caches make room as they age).
- * Under q->mu. */
+ * */
 static int admit(rd_jq *q, const rd_jq_job *j, size_t *held_back)
 {
     if (!q->opt.memory_budget)
@@ -738,7 +752,7 @@ static int admit(rd_jq *q, const rd_jq_job *j, size_t *held_back)
  * hold (a sandbox, an archive's expansion) fits beside what is used; when
  * nothing runs or prepares it goes anyway (results and caches make room
  * as they age), so one always runs. Younger jobs may pass one that waits.
- * Under q->mu. */
+ * */
 static int prepare_fits(rd_jq *q, const rd_jq_job *j)
 {
     size_t own = j->prepare_bytes;
@@ -754,7 +768,7 @@ static int prepare_fits(rd_jq *q, const rd_jq_job *j)
 
 /* What new work of the source may take: by admit's rule, the budget left
  * beside what is used and what older waiting jobs were held back for;
- * anything when nothing at all runs. Under q->mu. */
+ * anything when nothing at all runs. */
 static size_t source_room(rd_jq *q, size_t held_back)
 {
     if (!q->opt.memory_budget)
@@ -766,7 +780,7 @@ static size_t source_room(rd_jq *q, size_t held_back)
 }
 
 /* Whether the source's turn comes before tile_job's next tile (the fair
- * share), and it may be asked now. Under q->mu. */
+ * share), and it may be asked now. */
 static int source_turn(rd_jq *q, const rd_jq_job *tile_job)
 {
     if (!q->src.run || rd_now_ms() < q->src_after)
@@ -776,7 +790,7 @@ static int source_turn(rd_jq *q, const rd_jq_job *tile_job)
 
 /* What a free worker does next: a cancelled job to end, a new job to
  * prepare, a prepared one to start, or the next tile by fair share, which
- * may be the source's (*room set, NULL returned). Under q->mu. */
+ * may be the source's (*room set, NULL returned). */
 static rd_jq_job *pick(rd_jq *q, int preparer, int *source, size_t *room)
 {
     *source = 0;
@@ -827,7 +841,7 @@ static rd_jq_job *pick(rd_jq *q, int preparer, int *source, size_t *room)
 
 /* One unit of the source's work, without the lock. A source that found
  * nothing is not asked again before the time it named, unless woken
- * meanwhile. Under q->mu (released and taken again). */
+ * meanwhile. Releases q->mu while it works. */
 static void run_source(rd_jq *q, int worker, size_t room)
 {
     q->src_given++;
@@ -841,7 +855,7 @@ static void run_source(rd_jq *q, int worker, size_t room)
 }
 
 /* Nothing to do: wait for work, or until the source may be asked again.
- * Under q->mu. */
+ * */
 static void idle_wait(rd_jq *q)
 {
     double left = q->src.run ? q->src_after - rd_now_ms() : 0;
@@ -975,8 +989,8 @@ void rd_jq_stop(rd_jq *q)
     pthread_mutex_lock(&q->mu);
     while (q->active_head) {
         rd_jq_job *j = q->active_head;
-        finish_locked(q, j, RD_JQ_CANCELLED);
-        notify_locked(q, j);
+        end_job(q, j, RD_JQ_CANCELLED);
+        notify_done(q, j);
     }
     q->stopped = 1;
     pthread_mutex_unlock(&q->mu);
@@ -1068,7 +1082,7 @@ rd_error_code rd_jq_submit(rd_jq *q, const rd_jq_task *task, const rd_jq_submit_
     q->active_tail = j;
     q->active_count++;
     if (!j->internal)
-        register_locked(q, j);
+        register_job(q, j);
     pthread_cond_broadcast(&q->work_cv);
     pthread_mutex_unlock(&q->mu);
     *out = j;
