@@ -7,18 +7,22 @@
 
 #include "farm_internal.h"
 #include "hash.h"
-#include "hdr_write.h"
+#include "job_image.h"
 #include "rayd/clock.h"
 
 /* How long a render thread waits before it tries the store again after
  * finding it unreachable, and at most between claims when no event wakes
  * it (events can be lost while a connection is down). */
-enum { RETRY_MS = 500, IDLE_MS = 2000 };
+enum { RETRY_MS = 500, IDLE_MS = 2000, RETRY_FOR_MS = 2000 };
 
 /* The store's trouble, which a later call may not have: unreachable, full,
  * or damaged (a page another call may not read). What was rendered waits
  * for it rather than being thrown away. */
 static int trouble(rd_error_code rc) { return rc == RD_ERR_IO || rc == RD_ERR_NOSPACE || rc == RD_ERR_DAMAGED; }
+
+/* An answer a later call may not give: the store's trouble, or busy. Work
+ * that got one is left for a later try, never failed for it. */
+static int transient(rd_error_code rc) { return trouble(rc) || rc == RD_ERR_BUSY; }
 
 void farm_store_result(rd_farm *f, rd_error_code rc)
 {
@@ -48,28 +52,68 @@ static int stopping(rd_farm *f)
     return s;
 }
 
-/* Runs call until the store answers (anything but its trouble, or
- * RD_ERR_BUSY: other writers held it past its timeout) or the farm stops:
- * what was rendered is not thrown away for an outage or a busy store. */
+/* Whether to try a store call again after its answer rc: the store's
+ * trouble or RD_ERR_BUSY (other writers held it past its timeout), the
+ * farm not stopping, and less than RETRY_FOR_MS since the first try at t0
+ * (sleeps RETRY_MS first). A render thread is the queue's: it does not
+ * wait out an outage, so synchronous renders go on meanwhile. What it gives
+ * up is found again: a tile not stored is claimed again once its lease
+ * runs out, and a pass completed but not ended is ended by whoever sees it
+ * stuck (farm_watch.c). */
+static int retry_again(rd_farm *f, rd_error_code rc, double t0)
+{
+    if (!transient(rc) || stopping(f) || rd_now_ms() - t0 >= RETRY_FOR_MS)
+        return 0;
+    sleep_ms(RETRY_MS);
+    return 1;
+}
+
 #define RETRY_IO(f, rc, call)                                                                                          \
-    do {                                                                                                               \
+    for (double t0_ = rd_now_ms();;) {                                                                                 \
         (rc) = (call);                                                                                                 \
         farm_store_result((f), (rc));                                                                                  \
-        if ((!trouble(rc) && (rc) != RD_ERR_BUSY) || stopping(f))                                                      \
+        if (!retry_again((f), (rc), t0_))                                                                              \
             break;                                                                                                     \
-        sleep_ms(RETRY_MS);                                                                                            \
-    } while (1)
+    }
 
 static void wake(rd_farm *f) { rd_jq_wake(f->opt.jobs); }
+
+/* Keeps what the store would not take for a later try (takes over blob). */
+static void keep_pending(rd_farm *f, const rd_store_tile *t, unsigned char *blob, size_t len, const rd_error *why)
+{
+    pthread_mutex_lock(&f->mu);
+    int room = f->npending < (int)(sizeof f->pending / sizeof f->pending[0]);
+    if (room) {
+        f->pending[f->npending].tile = *t;
+        f->pending[f->npending].blob = blob;
+        f->pending[f->npending].len = len;
+        f->pending[f->npending].why = why ? *why : (rd_error){0};
+        f->npending++;
+    }
+    pthread_mutex_unlock(&f->mu);
+    if (!room) {
+        rd_log_msg(f->opt.log, "warning", "job %s: a result the store would not take is dropped", t->job_id);
+        free(blob);
+    }
+}
+
+static void failed(rd_farm *f, const char *id, const rd_error *why)
+{
+    atomic_fetch_add(&f->failed, 1);
+    rd_log_msg(f->opt.log, "info", "job %s failed: %s", id, why->message);
+}
 
 static void fail_job(rd_farm *f, rd_store *h, const char *id, const rd_error *why)
 {
     rd_error_code rc;
     rd_error err = {0};
     RETRY_IO(f, rc, rd_store_job_fail(h, id, why, NULL, &err));
-    if (rc == RD_OK) {
-        atomic_fetch_add(&f->failed, 1);
-        rd_log_msg(f->opt.log, "info", "job %s failed: %s", id, why->message);
+    if (rc == RD_OK)
+        failed(f, id, why);
+    if (transient(rc)) {
+        rd_store_tile t = {0};
+        snprintf(t.job_id, sizeof t.job_id, "%s", id);
+        keep_pending(f, &t, NULL, 0, why);
     }
     farm_ctx_ended(f, id);
 }
@@ -77,30 +121,15 @@ static void fail_job(rd_farm *f, rd_store *h, const char *id, const rd_error *wh
 /* The image, assembled from every tile (the write lock held). */
 static void finish(rd_farm *f, rd_store *h, farm_ctx *c, int64_t now)
 {
-    int w = rd_job_width(c->core), ht = rd_job_height(c->core);
     rd_error err = {0};
-    rd_error_code rc = RD_OK;
-    unsigned char *png = NULL, *exr = NULL;
-    size_t png_len = 0, exr_len = 0;
+    rd_job_image im = {0};
     char *stats = farm_stats_text(c, now, 1);
-    uint8_t *rgb = malloc((size_t)w * (size_t)ht * 3);
-    if (!rgb || !stats)
-        rc = rd_error_set(&err, RD_ERR_NOMEM, 0, 0, "out of memory assembling a %dx%d image", w, ht);
-    if (!rc) {
-        rd_job_rgb8(c->core, rgb);
-        rc = rd_png_encode(rgb, w, ht, &f->opt.png, &png, &png_len, &err);
-    }
-    free(rgb);
-    if (!rc && c->params.hdr) {
-        rd_image img;
-        rd_job_take_image(c->core, &img);
-        rc = rd_exr_encode(&img, &exr, &exr_len, &err);
-        rd_image_free(&img);
-    }
+    rd_error_code rc = stats ? rd_job_image_encode(c->core, &f->opt.png, c->params.hdr, &im, &err)
+                             : rd_error_set(&err, RD_ERR_NOMEM, 0, 0, "out of memory");
     if (rc) {
         fail_job(f, h, c->id, &err);
     } else {
-        rd_store_result r = {png, png_len, exr, exr_len, stats};
+        rd_store_result r = {im.png, im.png_len, im.exr, im.exr_len, stats};
         RETRY_IO(f, rc, rd_store_job_finish(h, c->id, &r, &err));
         if (rc == RD_OK) {
             atomic_fetch_add(&f->done, 1);
@@ -109,8 +138,7 @@ static void finish(rd_farm *f, rd_store *h, farm_ctx *c, int64_t now)
         }
         farm_ctx_ended(f, c->id);
     }
-    free(png);
-    free(exr);
+    rd_job_image_free(&im);
     free(stats);
 }
 
@@ -154,7 +182,7 @@ static void end_pass(rd_farm *f, rd_store *h, farm_ctx *c, int pass)
     if (!rc)
         RETRY_IO(f, rc, farm_ctx_gather(h, c, pass + 1, &complete, &err));
     if (rc || !complete) {
-        if (rc && rc != RD_ERR_CANCELLED && !trouble(rc) && rc != RD_ERR_NOT_FOUND)
+        if (rc && rc != RD_ERR_CANCELLED && !transient(rc) && rc != RD_ERR_NOT_FOUND)
             fail_job(f, h, c->id, &err);
         pthread_rwlock_unlock(&c->rw);
         return;
@@ -239,15 +267,14 @@ static void do_claim(rd_farm *f, rd_store *h, const rd_store_tile *t)
 {
     rd_error err = {0};
     farm_ctx *c;
-    for (;;) {
+    for (double t0 = rd_now_ms();;) {
         c = farm_ctx_get(f, h, t->job_id, &err);
         farm_store_result(f, c ? RD_OK : err.code);
-        if (c || !trouble(err.code) || stopping(f))
+        if (c || !retry_again(f, err.code, t0))
             break;
-        sleep_ms(RETRY_MS);
     }
     if (!c) {
-        if (!trouble(err.code) && err.code != RD_ERR_NOT_FOUND)
+        if (!transient(err.code) && err.code != RD_ERR_NOT_FOUND)
             fail_job(f, h, t->job_id, &err);
         return;
     }
@@ -266,12 +293,17 @@ static void do_claim(rd_farm *f, rd_store *h, const rd_store_tile *t)
         RETRY_IO(f, rc, rd_store_release(h, f->daemon_id, NULL, &err));
     } else if (rc == RD_ERR_NOT_FOUND) {
         farm_ctx_ended(f, c->id); /* deleted meanwhile */
-    } else if (rc && !trouble(rc)) {
+    } else if (rc && !transient(rc)) {
         fail_job(f, h, c->id, &err);
     } else if (blob) {
         rd_store_tile_outcome out = RD_STORE_TILE_MORE;
         RETRY_IO(f, rc, rd_store_tile_done(h, f->daemon_id, t, blob, len, &out, &err));
-        atomic_fetch_add(rc == RD_OK ? &f->tiles : &f->tiles_lost, 1);
+        if (transient(rc)) {
+            keep_pending(f, t, blob, len, NULL);
+            blob = NULL;
+        } else {
+            atomic_fetch_add(rc == RD_OK ? &f->tiles : &f->tiles_lost, 1);
+        }
         if (rc == RD_ERR_CANCELLED)
             farm_ctx_ended(f, c->id);
         if (rc == RD_OK && out != RD_STORE_TILE_MORE)
@@ -324,6 +356,47 @@ static rd_error_code claim_next(rd_farm *f, rd_store *h, size_t room, rd_store_t
     return rd_store_claim_where(h, f->daemon_id, 1, f->opt.lease_ms, &fit, t, n, err);
 }
 
+/* One try of a result kept back (keep_pending): 1 when there was one. *rc
+ * is the store's answer; a transient one keeps it back again. */
+static int retry_pending(rd_farm *f, rd_store *h, rd_error_code *rc)
+{
+    pthread_mutex_lock(&f->mu);
+    int have = f->npending > 0;
+    rd_store_tile t = {0};
+    unsigned char *blob = NULL;
+    size_t len = 0;
+    rd_error why = {0}, err = {0};
+    if (have) {
+        f->npending--;
+        t = f->pending[f->npending].tile;
+        blob = f->pending[f->npending].blob;
+        len = f->pending[f->npending].len;
+        why = f->pending[f->npending].why;
+    }
+    pthread_mutex_unlock(&f->mu);
+    if (!have)
+        return 0;
+    rd_store_tile_outcome out = RD_STORE_TILE_MORE;
+    *rc = blob ? rd_store_tile_done(h, f->daemon_id, &t, blob, len, &out, &err)
+               : rd_store_job_fail(h, t.job_id, &why, NULL, &err);
+    farm_store_result(f, *rc);
+    if (transient(*rc)) {
+        keep_pending(f, &t, blob, len, &why);
+        return 1;
+    }
+    free(blob);
+    if (!blob && *rc == RD_OK)
+        failed(f, t.job_id, &why);
+    if (blob)
+        atomic_fetch_add(*rc == RD_OK ? &f->tiles : &f->tiles_lost, 1);
+    farm_ctx *c = blob && *rc == RD_OK && out != RD_STORE_TILE_MORE ? farm_ctx_get(f, h, t.job_id, &err) : NULL;
+    if (c) {
+        end_pass(f, h, c, t.pass);
+        farm_ctx_put(f, c);
+    }
+    return 1;
+}
+
 int farm_run(void *arg, int worker, size_t room)
 {
     rd_farm *f = arg;
@@ -332,11 +405,14 @@ int farm_run(void *arg, int worker, size_t room)
     rd_store *h = f->worker_store[worker];
     char id[RD_STORE_ID_MAX];
     int pass = 0;
-    pthread_mutex_lock(&f->mu);
-    int stop = f->stopping, stuck = !stop && take_stuck(f, id, &pass);
-    pthread_mutex_unlock(&f->mu);
-    if (stop)
+    if (stopping(f))
         return IDLE_MS;
+    rd_error_code kept;
+    if (retry_pending(f, h, &kept))
+        return transient(kept) ? RETRY_MS : 0;
+    pthread_mutex_lock(&f->mu);
+    int stuck = take_stuck(f, id, &pass);
+    pthread_mutex_unlock(&f->mu);
     if (stuck) {
         do_stuck(f, h, id, pass);
         return 0;

@@ -48,7 +48,6 @@ typedef struct {
     double job_timeout_ms;
     double result_ttl_ms;
     size_t queue_length; /* stored jobs queued or running at most; more are RD_ERR_BUSY */
-    size_t memory_budget;
     rd_scene_limits limits;
     const char *scenes_dir; /* where a scene's meshes and textures resolve */
     rd_png_options png;

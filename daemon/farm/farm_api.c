@@ -31,11 +31,8 @@ static char *first_schedule(const rd_progress_settings *p, int64_t now)
 
 static rd_error_code check_room(rd_farm *f, size_t need, rd_error *err)
 {
-    size_t budget = f->opt.memory_budget;
-    if (budget && need > budget)
-        return rd_error_set(err, RD_ERR_LIMIT, 0, 0,
-                            "the render needs about %zu MiB, over the limit of %zu MiB (--memory-budget)", need >> 20,
-                            budget >> 20);
+    if (rd_jq_check_budget(f->opt.jobs, "the render", need, err))
+        return err->code;
     rd_store_job_brief *b = NULL;
     size_t n = 0;
     unsigned active = RD_STORE_MASK(RD_STORE_QUEUED) | RD_STORE_MASK(RD_STORE_RUNNING);

@@ -62,6 +62,17 @@ struct rd_farm {
         int pass;
     } stuck[16];
     int nstuck;
+    /* Work a render thread did while the store would not take it (a tile's
+     * pixels, or a job's failure), kept for a later farm_run rather than
+     * waited out on the queue's thread: a lease this daemon holds is
+     * renewed, so nobody else would claim that tile again. */
+    struct {
+        rd_store_tile tile;  /* the claim (a failure: its job_id) */
+        unsigned char *blob; /* the tile's bytes; NULL for a failure */
+        size_t len;
+        rd_error why; /* a failure's */
+    } pending[16];
+    int npending;
     atomic_ullong tiles, tiles_lost, passes, done, failed, cancelled, submitted, store_errors, rays;
     atomic_int store_up;
 };

@@ -212,6 +212,10 @@ void rd_farm_stop(rd_farm *f)
     rd_error err = {0};
     rd_store_release(f->api, f->daemon_id, NULL, &err);
     pthread_mutex_lock(&f->mu);
+    /* Their leases are given back: whoever claims those tiles renders them. */
+    for (int i = 0; i < f->npending; i++)
+        free(f->pending[i].blob);
+    f->npending = 0;
     farm_ctx_free_all(f);
     f->stopped = 1;
     pthread_mutex_unlock(&f->mu);

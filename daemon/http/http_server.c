@@ -860,7 +860,6 @@ static rd_error_code start_farm(rd_server *s, rd_error *err)
                           .job_timeout_ms = o->jobs.job_timeout_ms,
                           .result_ttl_ms = o->jobs.result_ttl_ms,
                           .queue_length = o->jobs.queue_length,
-                          .memory_budget = o->jobs.memory_budget,
                           .limits = o->limits,
                           .scenes_dir = o->scenes_dir,
                           .png = o->jobs.png,

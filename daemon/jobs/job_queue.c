@@ -12,7 +12,7 @@
 #include <sys/socket.h>
 #include <time.h>
 
-#include "hdr_write.h"
+#include "job_image.h"
 #include "rayd/clock.h"
 #include "rayd/job.h"
 #include "timed_wait.h"
@@ -513,10 +513,7 @@ static void prepare_job(rd_jq *q, rd_jq_job *j)
         j->progress.max_samples = j->scene.render.samples < 1 ? 1 : j->scene.render.samples;
         rd_job_options jo = core_options(j);
         need = rd_job_estimate_bytes(&j->scene, &jo);
-        if (q->opt.memory_budget && need > q->opt.memory_budget)
-            rc = rd_error_set(&err, RD_ERR_LIMIT, 0, 0,
-                              "the render needs about %zu MiB, over the limit of %zu MiB (--memory-budget)", need >> 20,
-                              q->opt.memory_budget >> 20);
+        rc = rd_jq_check_budget(q, "the render", need, &err);
     }
     size_t held = rc ? 0 : rd_scene_bytes(&j->scene);
     pthread_mutex_lock(&q->mu);
@@ -552,19 +549,26 @@ static void mark_started(rd_jq *q, rd_jq_job *j)
         rd_hist_observe(&q->wait, (j->t_start - j->t_submit) / 1e3);
 }
 
-/* The linear image as EXR, for a job submitted with hdr. It is moved out
- * of the core, whose pixels are not needed after the 8-bit copy. */
-static rd_error_code encode_exr(rd_job *core, unsigned char **exr, size_t *len, rd_error *err)
+/* What a finished job gives: its task's own finish, which takes the 8-bit
+ * image (NULL when prepare skipped the render), or the image clients take. */
+static rd_error_code finish_output(rd_jq *q, rd_jq_job *j, rd_job_image *im, rd_error *err)
 {
-    rd_image img;
-    rd_job_take_image(core, &img);
-    rd_error_code rc = rd_exr_encode(&img, exr, len, err);
-    rd_image_free(&img);
+    if (!j->task.finish)
+        return j->core ? rd_job_image_encode(j->core, &q->opt.png, j->hdr, im, err) : RD_OK;
+    if (!j->core)
+        return j->task.finish(j->task.arg, NULL, 0, 0, err);
+    int w = rd_job_width(j->core), h = rd_job_height(j->core);
+    uint8_t *rgb = malloc((size_t)w * (size_t)h * 3);
+    if (!rgb)
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+    rd_job_rgb8(j->core, rgb);
+    rd_error_code rc = j->task.finish(j->task.arg, rgb, w, h, err);
+    free(rgb);
     return rc;
 }
 
-/* Called once a job's last tile or its preparation is done: the task's
- * finish or the PNG (and EXR). Releases q->mu while it encodes. */
+/* Called once a job's last tile or its preparation is done. Releases
+ * q->mu while it encodes. */
 static void finish_job(rd_jq *q, rd_jq_job *j)
 {
     j->ph = PH_FINISHING;
@@ -572,26 +576,8 @@ static void finish_job(rd_jq *q, rd_jq_job *j)
         mark_started(q, j);
     pthread_mutex_unlock(&q->mu);
     rd_error err = {0};
-    rd_error_code rc = RD_OK;
-    unsigned char *png = NULL;
-    size_t len = 0;
-    uint8_t *rgb = NULL;
-    int w = j->core ? rd_job_width(j->core) : 0, h = j->core ? rd_job_height(j->core) : 0;
-    if (j->core && !(rgb = malloc((size_t)w * (size_t)h * 3)))
-        rc = rd_error_set(&err, RD_ERR_NOMEM, 0, 0, "out of memory");
-    if (rgb)
-        rd_job_rgb8(j->core, rgb);
-    if (!rc && j->task.finish)
-        rc = j->task.finish(j->task.arg, rgb, w, h, &err);
-    else if (!rc && rgb)
-        rc = rd_png_encode(rgb, w, h, &q->opt.png, &png, &len, &err);
-    free(rgb);
-    unsigned char *exr = NULL;
-    size_t exr_len = 0;
-    if (!rc && png && j->hdr && (rc = encode_exr(j->core, &exr, &exr_len, &err))) {
-        free(png);
-        png = NULL;
-    }
+    rd_job_image im = {0};
+    rd_error_code rc = finish_output(q, j, &im, &err);
     rd_render_stats st = j->stats;
     if (j->core)
         rd_job_stats(j->core, &st);
@@ -600,10 +586,10 @@ static void finish_job(rd_jq *q, rd_jq_job *j)
     if (rc) {
         fail_job(q, j, &err);
     } else {
-        j->png = png;
-        j->png_len = len;
-        j->exr = exr;
-        j->exr_len = exr_len;
+        j->png = im.png;
+        j->png_len = im.png_len;
+        j->exr = im.exr;
+        j->exr_len = im.exr_len;
         end_job(q, j, RD_JQ_DONE);
     }
     notify_done(q, j);
@@ -1020,12 +1006,10 @@ rd_error_code rd_jq_submit(rd_jq *q, const rd_jq_task *task, const rd_jq_submit_
 {
     *out = NULL;
     size_t prep = so ? so->prepare_bytes : 0, need = task->input_bytes + prep;
-    if (prep && q->opt.memory_budget && need > q->opt.memory_budget) {
+    if (prep && rd_jq_check_budget(q, "the job", need, err)) {
         if (task->free)
             task->free(task->arg);
-        return rd_error_set(err, RD_ERR_LIMIT, 0, 0,
-                            "the job needs about %zu MiB, over the limit of %zu MiB (--memory-budget)", need >> 20,
-                            q->opt.memory_budget >> 20);
+        return err->code;
     }
     rd_jq_job *j = calloc(1, sizeof *j);
     if (!j) {
@@ -1286,6 +1270,14 @@ void rd_jq_external_bytes(rd_jq *q, long long delta)
         pthread_cond_broadcast(&q->work_cv);
         pthread_mutex_unlock(&q->mu);
     }
+}
+
+rd_error_code rd_jq_check_budget(const rd_jq *q, const char *what, size_t need, rd_error *err)
+{
+    if (!q->opt.memory_budget || need <= q->opt.memory_budget)
+        return RD_OK;
+    return rd_error_set(err, RD_ERR_LIMIT, 0, 0, "%s needs about %zu MiB, over the limit of %zu MiB (--memory-budget)",
+                        what, need >> 20, q->opt.memory_budget >> 20);
 }
 
 void rd_jq_set_source(rd_jq *q, const rd_jq_source *src)

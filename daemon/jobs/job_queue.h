@@ -192,6 +192,11 @@ typedef struct {
     void *arg;
 } rd_jq_source;
 
+/* RD_ERR_LIMIT, naming what ("the render") and the flag, when need bytes
+ * could never fit the memory budget; RD_OK otherwise. The one answer for
+ * the queue's jobs and the source's. */
+rd_error_code rd_jq_check_budget(const rd_jq *q, const char *what, size_t need, rd_error *err);
+
 /* Gives the render threads a source (once, before any work for it
  * arrives); it must outlive the queue's threads (rd_jq_stop joins them). */
 void rd_jq_set_source(rd_jq *q, const rd_jq_source *src);
