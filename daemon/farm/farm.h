@@ -120,6 +120,7 @@ typedef struct {
     uint64_t submitted;    /* jobs committed through this daemon */
     uint64_t store_errors; /* calls that found the store unreachable */
     uint64_t rays;         /* rays of the tiles rendered here */
+    uint64_t read_back;    /* scenes read back from the store to render (not submitted here, or dropped) */
     int store_up;          /* the last call reached the store */
     int active;            /* stored jobs whose tiles render here now */
     size_t memory;         /* what the jobs held here count against the budget */

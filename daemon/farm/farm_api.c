@@ -241,6 +241,7 @@ void rd_farm_metrics_get(rd_farm *f, rd_farm_metrics *m)
     m->submitted = atomic_load(&f->submitted);
     m->store_errors = atomic_load(&f->store_errors);
     m->rays = atomic_load(&f->rays);
+    m->read_back = atomic_load(&f->read_back);
     m->store_up = atomic_load(&f->store_up);
     char ids[CTX_HELD_MAX][RD_STORE_ID_MAX];
     m->active = farm_ctx_held(f, ids);

@@ -94,6 +94,7 @@ static rd_error_code read_back(rd_farm *f, rd_store *h, farm_ctx *c, rd_error *e
     rd_store_job_input_free(&in);
     if (!rc)
         c->have_scene = 1;
+    atomic_fetch_add(&f->read_back, 1);
     return rc;
 }
 

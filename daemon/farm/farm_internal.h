@@ -73,7 +73,7 @@ struct rd_farm {
         rd_error why; /* a failure's */
     } pending[16];
     int npending;
-    atomic_ullong tiles, tiles_lost, passes, done, failed, cancelled, submitted, store_errors, rays;
+    atomic_ullong tiles, tiles_lost, passes, done, failed, cancelled, submitted, store_errors, rays, read_back;
     atomic_int store_up;
 };
 

@@ -205,6 +205,10 @@ static void farm_metrics(rd_strbuf *out, const rd_farm_metrics *m)
     counter(out, "rayd_farm_tiles_lost_total",
             "Tiles rendered here whose lease had passed to another daemon, or whose job had ended.", m->tiles_lost);
     counter(out, "rayd_farm_passes_total", "Passes of stored jobs this daemon ended.", m->passes);
+    counter(out, "rayd_farm_scenes_read_total",
+            "Stored jobs' scenes read back from the store to render here (a job submitted here is read once, as it "
+            "is submitted).",
+            m->read_back);
     counter(out, "rayd_store_jobs_submitted_total", "Jobs committed to the store through this daemon.", m->submitted);
     counter(out, "rayd_store_errors_total", "Store calls that found it unreachable.", m->store_errors);
     gauge(out, "rayd_farm_memory_bytes", "Estimated bytes of the stored jobs this daemon holds to render.", m->memory);

@@ -51,6 +51,7 @@ FAMILIES = {
     "process_virtual_memory_bytes": "gauge", "process_open_fds": "gauge", "process_max_fds": "gauge",
     "process_start_time_seconds": "gauge", "rayd_build_info": "gauge",
     "rayd_store_queue_depth": "gauge", "rayd_store_jobs_running": "gauge",
+    "rayd_farm_scenes_read_total": "counter",
 }
 
 
@@ -423,6 +424,8 @@ def check_stored_job(d, before):
         check(got == 1, "%s_count grew by %s for the stored job, not 1" % (fam, got))
     got = value(after, "rayd_jobs_total", outcome="done") - value(before, "rayd_jobs_total", outcome="done")
     check(got == 1, "rayd_jobs_total{outcome=done} grew by %s for the stored job, not 1" % got)
+    got = value(after, "rayd_farm_scenes_read_total") - value(before, "rayd_farm_scenes_read_total")
+    check(got == 0, "the stored job's scene was read back %s times by the daemon it was submitted to" % got)
     check(value(after, "rayd_store_queue_depth") == 0 and value(after, "rayd_store_jobs_running") == 0,
           "the store's queue is not empty once its one job is done")
 
