@@ -578,3 +578,109 @@ Test(job_queue, preparations_wait_for_their_memory)
     rd_jq_job_unref(b);
     rd_jq_free(q);
 }
+
+/* A source that always has work: each unit takes about a millisecond and
+ * notes what the queue told it. */
+typedef struct {
+    atomic_int units, stops, max_inside, inside;
+    atomic_int bad_worker;
+    atomic_llong last_room;
+    int workers;
+} busy_source;
+
+static int busy_run(void *arg, int worker, size_t room)
+{
+    busy_source *b = arg;
+    if (worker < 0 || worker >= b->workers)
+        atomic_store(&b->bad_worker, 1);
+    int in = atomic_fetch_add(&b->inside, 1) + 1;
+    if (in > atomic_load(&b->max_inside))
+        atomic_store(&b->max_inside, in);
+    atomic_store(&b->last_room, room == SIZE_MAX ? -1 : (long long)room);
+    struct timespec ts = {0, 1000000};
+    nanosleep(&ts, NULL);
+    atomic_fetch_sub(&b->inside, 1);
+    atomic_fetch_add(&b->units, 1);
+    return 0;
+}
+
+static void busy_stop(void *arg)
+{
+    busy_source *b = arg;
+    atomic_fetch_add(&b->stops, 1);
+}
+
+/* One render thread: a job of the queue's own finishes while the source
+ * always has work, and the source goes on getting units meanwhile (the
+ * fair share alternates them); the source never runs on more threads than
+ * there are, and is told to stop once. */
+Test(job_queue, a_source_shares_the_render_threads)
+{
+    rd_jq_options o = options();
+    o.workers = 1;
+    rd_error err = {0};
+    rd_jq *q = rd_jq_start(&o, &err);
+    cr_assert(q, "%s", err.message);
+    busy_source b = {.workers = 1};
+    rd_jq_source src = {busy_run, busy_stop, &b};
+    rd_jq_set_source(q, &src);
+    /* 64x64 pixels: 16 tiles of 16x16 (RD_JOB_TILE), each far under a second. */
+    rd_jq_job *j = submit(q, small_scene, "64", RD_OK);
+    double t0 = rd_now_ms();
+    while (status_of(q, j) != RD_JQ_RUNNING && status_of(q, j) != RD_JQ_DONE && rd_now_ms() - t0 < WAIT_MS)
+        nanosleep(&(struct timespec){0, 100000}, NULL);
+    int at_start = atomic_load(&b.units);
+    cr_assert_lt(wait_status(q, j, RD_JQ_DONE, WAIT_MS), WAIT_MS, "the queue's job starved beside the source");
+    int during = atomic_load(&b.units) - at_start;
+    rd_jq_info in;
+    rd_jq_info_get(q, j, &in);
+    cr_assert_eq(in.status, RD_JQ_DONE);
+    cr_assert_geq(during, 4, "the source got %d units while a 16-tile job ran: starved", during);
+    cr_assert_eq(atomic_load(&b.max_inside), 1, "the source ran on %d threads at once with one render thread",
+                 atomic_load(&b.max_inside));
+    cr_assert_eq(atomic_load(&b.bad_worker), 0, "a worker index out of range");
+    rd_jq_job_unref(j);
+    rd_jq_stop(q);
+    cr_assert_eq(atomic_load(&b.stops), 1);
+    int after_stop = atomic_load(&b.units);
+    nanosleep(&(struct timespec){0, 20000000}, NULL);
+    cr_assert_eq(atomic_load(&b.units), after_stop, "the source ran after rd_jq_stop returned");
+    rd_jq_free(q);
+}
+
+/* Under a budget the source is handed the room the queue's one rule
+ * leaves: everything while nothing else runs, and no more than the budget
+ * minus what a running job holds while one does (two threads: one inside
+ * the runaway's only tile, one for the source). */
+Test(job_queue, a_source_gets_the_room_the_budget_leaves)
+{
+    rd_jq_options o = options();
+    o.workers = 2;
+    o.memory_budget = 256u << 20;
+    rd_error err = {0};
+    rd_jq *q = rd_jq_start(&o, &err);
+    cr_assert(q, "%s", err.message);
+    busy_source b = {.workers = 2};
+    rd_jq_source src = {busy_run, NULL, &b};
+    rd_jq_set_source(q, &src);
+    double t0 = rd_now_ms();
+    while (atomic_load(&b.units) < 3 && rd_now_ms() - t0 < WAIT_MS)
+        nanosleep(&(struct timespec){0, 100000}, NULL);
+    cr_assert_eq(atomic_load(&b.last_room), -1, "with nothing running the source may take anything");
+    rd_jq_job *j = submit(q, runaway_scene, NULL, RD_OK);
+    t0 = rd_now_ms();
+    while (status_of(q, j) != RD_JQ_RUNNING && rd_now_ms() - t0 < WAIT_MS)
+        nanosleep(&(struct timespec){0, 100000}, NULL);
+    int seen = atomic_load(&b.units);
+    while (atomic_load(&b.units) < seen + 3 && rd_now_ms() - t0 < WAIT_MS)
+        nanosleep(&(struct timespec){0, 100000}, NULL);
+    rd_jq_metrics m;
+    rd_jq_metrics_get(q, &m);
+    long long room = atomic_load(&b.last_room);
+    cr_assert_eq(m.running, 1);
+    cr_assert(room >= 0 && (size_t)room <= o.memory_budget - m.memory_reserved,
+              "room %lld beside a running job holding %zu of %zu", room, m.memory_reserved, o.memory_budget);
+    rd_jq_cancel(q, j);
+    rd_jq_job_unref(j);
+    rd_jq_free(q);
+}
