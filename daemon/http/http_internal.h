@@ -29,6 +29,10 @@ struct rd_server {
     atomic_ullong requests;
     atomic_int waiting; /* suspended synchronous renders */
     atomic_int stopped;
+    /* Set (under conn_mu) once the stop has cancelled what runs: no request
+     * suspends its connection after it, since libmicrohttpd aborts when it
+     * is stopped with one suspended. */
+    int no_more_waits;
     struct rd_grades *grades;         /* grade results and the reference cache */
     struct rd_codegrades *codegrades; /* grading code (routes_code.c) */
     /* Every open connection with its deadline, for the reaper thread. */

@@ -505,15 +505,28 @@ void rd_req_on_done(rd_jq_job *job, void *user)
 
 int rd_req_wait(rd_req *r, rd_jq_job *job)
 {
+    rd_server *srv = r->srv;
     r->job = job;
     pthread_mutex_lock(&r->mu);
-    int finished = r->finished;
+    int finished = r->finished, late = 0;
     if (!finished) {
-        MHD_suspend_connection(r->conn);
-        r->suspended = 1;
-        atomic_fetch_add(&r->srv->waiting, 1);
+        pthread_mutex_lock(&srv->conn_mu);
+        late = srv->no_more_waits;
+        if (!late) {
+            MHD_suspend_connection(r->conn);
+            r->suspended = 1;
+            atomic_fetch_add(&srv->waiting, 1);
+        }
+        pthread_mutex_unlock(&srv->conn_mu);
     }
     pthread_mutex_unlock(&r->mu);
+    if (late) {
+        /* Too late to wait: the job stops now and is answered as stopped
+         * by the shutdown, on this thread. */
+        rd_jq_cancel(srv->jobs, job);
+        rd_jq_wait_ended(srv->jobs, job, CANCELLED_END_MS);
+        finished = 1;
+    }
     return finished;
 }
 
@@ -936,6 +949,13 @@ void rd_server_stop(rd_server *s, double drain_ms)
     rd_jq_drain(s->jobs, drain_ms);
     /* The rest are cancelled and end within milliseconds (a job being
      * prepared, within its parse). */
+    rd_jq_cancel_all(s->jobs);
+    /* A request that passed its draining check before it was set may be
+     * submitting still: from here it does not suspend (rd_req_wait), and
+     * what it submitted before is cancelled with the rest. */
+    pthread_mutex_lock(&s->conn_mu);
+    s->no_more_waits = 1;
+    pthread_mutex_unlock(&s->conn_mu);
     rd_jq_cancel_all(s->jobs);
     rd_jq_drain(s->jobs, CANCELLED_END_MS);
     /* Every suspended client has been resumed: let MHD send their answers. */

@@ -1335,6 +1335,21 @@ void rd_jq_metrics_get(rd_jq *q, rd_jq_metrics *m)
     pthread_mutex_unlock(&q->mu);
 }
 
+int rd_jq_wait_ended(rd_jq *q, rd_jq_job *j, double timeout_ms)
+{
+    double end = rd_now_ms() + timeout_ms;
+    pthread_mutex_lock(&q->mu);
+    while (!finished(j)) {
+        double left = end - rd_now_ms();
+        if (left <= 0)
+            break;
+        rd_timed_wait(&q->idle_cv, &q->mu, left);
+    }
+    int ended = finished(j);
+    pthread_mutex_unlock(&q->mu);
+    return ended;
+}
+
 int rd_jq_drain(rd_jq *q, double timeout_ms)
 {
     double end = rd_now_ms() + timeout_ms;

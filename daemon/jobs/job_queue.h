@@ -237,6 +237,10 @@ typedef struct {
 
 void rd_jq_metrics_get(rd_jq *q, rd_jq_metrics *m);
 
+/* Waits until job j has ended (done, failed or cancelled), or timeout_ms
+ * passes; returns 1 when it has. */
+int rd_jq_wait_ended(rd_jq *q, rd_jq_job *j, double timeout_ms);
+
 /* Waits until no job is queued or running, or timeout_ms passes; returns 1
  * when idle. */
 int rd_jq_drain(rd_jq *q, double timeout_ms);
