@@ -85,32 +85,31 @@ static const struct figure {
     figure_type type;
     unsigned needs; /* the parts that select it; RD_STATS_COSTS also says where it goes */
 } figures[] = {
-#define FIG(key, field, type, needs)                                                                                   \
-    {                                                                                                                  \
-        key, offsetof(rd_render_stats, field), type, needs                                                             \
-    }
-    FIG("samples", samples, FIG_INT, 0),
-    FIG("mean_samples", mean_samples, FIG_DOUBLE, RD_STATS_PROCESS),
-    FIG("error_estimate", error_estimate, FIG_DOUBLE, 0),
-    FIG("passes", passes, FIG_INT, 0),
-    FIG("camera_rays", camera_rays, FIG_U64, RD_STATS_COSTS),
-    FIG("shadow_rays", shadow_rays, FIG_U64, RD_STATS_COSTS),
-    FIG("secondary_rays", secondary_rays, FIG_U64, RD_STATS_COSTS),
-    FIG("rays_per_second", rays_per_second, FIG_DOUBLE, RD_STATS_COSTS),
-    FIG("prepare_ms", prepare_ms, FIG_DOUBLE, RD_STATS_COSTS),
-    FIG("primitives", primitives, FIG_SIZE, RD_STATS_COSTS),
-    FIG("threads", threads, FIG_INT, RD_STATS_COSTS | RD_STATS_PROCESS),
-    FIG("time_ms", wall_ms, FIG_DOUBLE, RD_STATS_COSTS | RD_STATS_PROCESS),
-    FIG("nonfinite", nonfinite, FIG_U64, RD_STATS_COSTS | RD_STATS_PROCESS),
-    FIG("bvh_build_ms", bvh_build_ms, FIG_DOUBLE, RD_STATS_COSTS | RD_STATS_PROCESS),
-    FIG("bvh_nodes", bvh_nodes, FIG_SIZE, RD_STATS_COSTS | RD_STATS_PROCESS),
-    FIG("world_bytes", world_bytes, FIG_SIZE, RD_STATS_COSTS | RD_STATS_PROCESS),
-#undef FIG
+#define AT(field) offsetof(rd_render_stats, field)
+    {"samples", AT(samples), FIG_INT, 0},
+    {"mean_samples", AT(mean_samples), FIG_DOUBLE, RD_STATS_PROCESS},
+    {"error_estimate", AT(error_estimate), FIG_DOUBLE, 0},
+    {"passes", AT(passes), FIG_INT, 0},
+    {"camera_rays", AT(camera_rays), FIG_U64, RD_STATS_COSTS},
+    {"shadow_rays", AT(shadow_rays), FIG_U64, RD_STATS_COSTS},
+    {"secondary_rays", AT(secondary_rays), FIG_U64, RD_STATS_COSTS},
+    {"rays_per_second", AT(rays_per_second), FIG_DOUBLE, RD_STATS_COSTS},
+    {"prepare_ms", AT(prepare_ms), FIG_DOUBLE, RD_STATS_COSTS},
+    {"primitives", AT(primitives), FIG_SIZE, RD_STATS_COSTS},
+    {"threads", AT(threads), FIG_INT, RD_STATS_COSTS | RD_STATS_PROCESS},
+    {"time_ms", AT(wall_ms), FIG_DOUBLE, RD_STATS_COSTS | RD_STATS_PROCESS},
+    {"nonfinite", AT(nonfinite), FIG_U64, RD_STATS_COSTS | RD_STATS_PROCESS},
+    {"bvh_build_ms", AT(bvh_build_ms), FIG_DOUBLE, RD_STATS_COSTS | RD_STATS_PROCESS},
+    {"bvh_nodes", AT(bvh_nodes), FIG_SIZE, RD_STATS_COSTS | RD_STATS_PROCESS},
+    {"world_bytes", AT(world_bytes), FIG_SIZE, RD_STATS_COSTS | RD_STATS_PROCESS},
+#undef AT
 };
 
 enum { N_FIGURES = sizeof figures / sizeof figures[0] };
 
-/* Counts are sent as JSON numbers: doubles, exact up to 2^53. */
+/* Counts are sent as JSON numbers: doubles, whole up to 2^53 (cJSON 1.7.15
+ * prints 15 significant digits where they come within about an ulp, so a
+ * count beyond 10^15 may come back a few off: none comes near). */
 #define COUNT_MAX 9007199254740992.0
 
 static double figure_get(const rd_render_stats *st, const struct figure *f)
@@ -173,6 +172,7 @@ void rd_stats_read(const cJSON *from, rd_render_stats *st, unsigned parts)
                 st, &figures[i],
                 cJSON_GetObjectItemCaseSensitive(figures[i].needs & RD_STATS_COSTS ? costs : from, figures[i].key));
     const char *why = cJSON_GetStringValue(cJSON_GetObjectItemCaseSensitive(from, "stopped_by"));
+    /* RD_STOP_CANCELLED is the last reason (rayd/progress.h). */
     for (rd_stop_reason r = RD_STOP_NONE; (parts & RD_STATS_STOPPED) && why && r <= RD_STOP_CANCELLED; r++)
         if (strcmp(why, rd_stop_reason_name(r)) == 0)
             st->stopped_by = r;
