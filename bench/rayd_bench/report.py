@@ -82,8 +82,10 @@ def t_scenes(sec):
     for r in sec["rows"]:
         b = r["best"]
         pm = mrays(r["rays_povray"], b["povray_trace_ms"])
+        # A results.json from before the rate took the job status's name has rays_per_s.
+        rate = b["rayd_rays_per_second"] if "rayd_rays_per_second" in b else b["rayd_rays_per_s"]
         rows.append([r["scene"], r["threads"], f(b["rayd_wall_ms"]), f(b["rayd_render_ms"]),
-                     f(b["rayd_rays_per_s"] / 1e6, "%.2f"), f(b["povray_wall_ms"]), f(b["povray_trace_ms"]),
+                     f(rate / 1e6, "%.2f"), f(b["povray_wall_ms"]), f(b["povray_trace_ms"]),
                      f(pm, "%.2f"), ratio(b["rayd_wall_ms"], b["povray_wall_ms"]),
                      ratio(b["rayd_render_ms"], b["povray_trace_ms"])])
     w, h = sec["settings"]["size"]

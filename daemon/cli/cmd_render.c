@@ -10,6 +10,7 @@
 #include "cli.h"
 #include "file_io.h"
 #include "hdr_write.h"
+#include "json_text.h"
 #include "png_write.h"
 #include "progress_bar.h"
 #include "rayd/job.h"
@@ -64,8 +65,8 @@ static const char render_help_tail[] = "\n"
                                        "\n"
                                        "Statistics line (stderr):\n"
                                        "  render: WxH samples=N threads=N time_ms=T camera_rays=N shadow_rays=N\n"
-                                       "  secondary_rays=N rays_per_s=R error_estimate=E nonfinite=N prepare_ms=T\n"
-                                       "  bvh_build_ms=T bvh_nodes=N primitives=N world_bytes=B\n"
+                                       "  secondary_rays=N rays_per_second=R error_estimate=E nonfinite=N\n"
+                                       "  prepare_ms=T bvh_build_ms=T bvh_nodes=N primitives=N world_bytes=B\n"
                                        "  stopped_by=samples|time_budget|target_error passes=N curve=MS:SPP:ERR,...\n"
                                        "error_estimate is the estimated RMS error of the image against a converged\n"
                                        "render, in [0,1] units (1 = 255 levels); 0 with one sample per pixel. curve\n"
@@ -73,10 +74,13 @@ static const char render_help_tail[] = "\n"
                                        "\n"
                                        "Statistics object (--stats-format json): the same figures under the same\n"
                                        "names, numbers at full precision: width, height, samples, threads, time_ms,\n"
-                                       "camera_rays, shadow_rays, secondary_rays, rays_per_s, error_estimate,\n"
+                                       "camera_rays, shadow_rays, secondary_rays, rays_per_second, error_estimate,\n"
                                        "nonfinite, prepare_ms, bvh_build_ms, bvh_nodes, primitives, world_bytes,\n"
-                                       "stopped_by, passes, curve (an array of {ms, samples, error}), and\n"
-                                       "mean_samples (the exact mean per pixel; samples is it rounded).\n";
+                                       "stopped_by, passes, curve (an array of [ms, samples, error]), and\n"
+                                       "mean_samples (the exact mean per pixel; samples is it rounded). The names\n"
+                                       "and the curve are those of the daemon's job status (GET /v1/jobs/{id}),\n"
+                                       "which gives the ray counts, rays_per_second, prepare_ms and primitives\n"
+                                       "under \"stats\".\n";
 
 enum { STATS_TEXT = 1, STATS_JSON = 2 };
 
@@ -84,7 +88,7 @@ static void stats_text(const rd_image *img, const rd_render_stats *st)
 {
     fprintf(stderr,
             "render: %dx%d samples=%d threads=%d time_ms=%.3f camera_rays=%llu shadow_rays=%llu "
-            "secondary_rays=%llu rays_per_s=%.4g error_estimate=%.6f nonfinite=%llu prepare_ms=%.3f "
+            "secondary_rays=%llu rays_per_second=%.4g error_estimate=%.6f nonfinite=%llu prepare_ms=%.3f "
             "bvh_build_ms=%.3f bvh_nodes=%zu primitives=%zu world_bytes=%zu stopped_by=%s passes=%d curve=",
             img->width, img->height, st->samples, st->threads, st->wall_ms, (unsigned long long)st->camera_rays,
             (unsigned long long)st->shadow_rays, (unsigned long long)st->secondary_rays, st->rays_per_second,
@@ -96,44 +100,19 @@ static void stats_text(const rd_image *img, const rd_render_stats *st)
 }
 
 /* One line, so that a reader can take the last line of stderr whatever
- * warnings came before it. Returns 0, or -1 when out of memory. */
+ * warnings came before it. The figures under the names, and the curve in
+ * the shape, of the daemon's job status (rd_stats_json), flat, with the
+ * ones only a whole render in one process has. Returns 0, or -1 when out
+ * of memory. */
 static int stats_json(const rd_image *img, const rd_render_stats *st)
 {
+    int failed = 0;
     cJSON *o = cJSON_CreateObject();
-    int ok = o != NULL;
-    ok = ok && cJSON_AddNumberToObject(o, "width", img->width);
-    ok = ok && cJSON_AddNumberToObject(o, "height", img->height);
-    ok = ok && cJSON_AddNumberToObject(o, "samples", st->samples);
-    ok = ok && cJSON_AddNumberToObject(o, "mean_samples", st->mean_samples);
-    ok = ok && cJSON_AddNumberToObject(o, "threads", st->threads);
-    ok = ok && cJSON_AddNumberToObject(o, "time_ms", st->wall_ms);
-    ok = ok && cJSON_AddNumberToObject(o, "camera_rays", (double)st->camera_rays);
-    ok = ok && cJSON_AddNumberToObject(o, "shadow_rays", (double)st->shadow_rays);
-    ok = ok && cJSON_AddNumberToObject(o, "secondary_rays", (double)st->secondary_rays);
-    ok = ok && cJSON_AddNumberToObject(o, "rays_per_s", st->rays_per_second);
-    ok = ok && cJSON_AddNumberToObject(o, "error_estimate", st->error_estimate);
-    ok = ok && cJSON_AddNumberToObject(o, "nonfinite", (double)st->nonfinite);
-    ok = ok && cJSON_AddNumberToObject(o, "prepare_ms", st->prepare_ms);
-    ok = ok && cJSON_AddNumberToObject(o, "bvh_build_ms", st->bvh_build_ms);
-    ok = ok && cJSON_AddNumberToObject(o, "bvh_nodes", (double)st->bvh_nodes);
-    ok = ok && cJSON_AddNumberToObject(o, "primitives", (double)st->primitives);
-    ok = ok && cJSON_AddNumberToObject(o, "world_bytes", (double)st->world_bytes);
-    ok = ok && cJSON_AddStringToObject(o, "stopped_by", rd_stop_reason_name(st->stopped_by));
-    ok = ok && cJSON_AddNumberToObject(o, "passes", st->passes);
-    cJSON *curve = ok ? cJSON_AddArrayToObject(o, "curve") : NULL;
-    ok = curve != NULL;
-    for (int i = 0; ok && i < st->curve_len; i++) {
-        cJSON *pt = cJSON_CreateObject();
-        if (!pt || !cJSON_AddItemToArray(curve, pt)) {
-            cJSON_Delete(pt);
-            ok = 0;
-            break;
-        }
-        ok = ok && cJSON_AddNumberToObject(pt, "ms", st->curve[i].ms);
-        ok = ok && cJSON_AddNumberToObject(pt, "samples", st->curve[i].samples);
-        ok = ok && cJSON_AddNumberToObject(pt, "error", st->curve[i].error);
-    }
-    char *text = ok ? cJSON_PrintUnformatted(o) : NULL;
+    rd_json_add(o, "width", cJSON_CreateNumber(img->width), &failed);
+    rd_json_add(o, "height", cJSON_CreateNumber(img->height), &failed);
+    if (!failed && rd_stats_json(o, st, RD_STATS_STOPPED | RD_STATS_COSTS | RD_STATS_PROCESS))
+        failed = 1;
+    char *text = failed ? NULL : cJSON_PrintUnformatted(o);
     cJSON_Delete(o);
     if (!text)
         return -1;

@@ -9,6 +9,7 @@
 
 #include "error_map.h"
 #include "farm_internal.h"
+#include "job_status.h"
 #include "json_text.h"
 
 char *farm_schedule_text(const rd_job_schedule *sc, int64_t opened_ms, int max_samples)
@@ -48,27 +49,6 @@ static int int_of(const cJSON *o, const char *key, int *out)
     return 1;
 }
 
-static int read_curve(const cJSON *o, rd_job_schedule *sc)
-{
-    const cJSON *curve = cJSON_GetObjectItemCaseSensitive(o, "curve");
-    if (!cJSON_IsArray(curve) || cJSON_GetArraySize(curve) > RD_CURVE_MAX)
-        return 0;
-    sc->curve_len = 0;
-    const cJSON *pt;
-    cJSON_ArrayForEach(pt, curve)
-    {
-        double v[3];
-        for (int k = 0; k < 3; k++) {
-            const cJSON *x = cJSON_GetArrayItem(pt, k);
-            if (!cJSON_IsNumber(x) || !isfinite(x->valuedouble))
-                return 0;
-            v[k] = x->valuedouble;
-        }
-        sc->curve[sc->curve_len++] = (rd_curve_point){v[0], v[1], v[2]};
-    }
-    return 1;
-}
-
 /* The store's bytes are read as hostile as any: a schedule that does not
  * parse, or whose values are out of range (rd_job_schedule_set checks
  * those), is an error, never a guess. */
@@ -82,7 +62,8 @@ rd_error_code farm_schedule_parse(const char *text, rd_job_schedule *sc, int64_t
              num(o, "mean_weight", &sc->mean_weight) && int_of(o, "spp", &sc->spp) &&
              int_of(o, "passes_done", &sc->passes_done) && num(o, "error", &sc->error) &&
              num(o, "last_pass_ms", &sc->last_pass_ms) && int_of(o, "stopped_by", &stopped) &&
-             num(o, "opened_ms", &opened) && read_curve(o, sc);
+             num(o, "opened_ms", &opened) &&
+             !rd_json_curve_read(cJSON_GetObjectItemCaseSensitive(o, "curve"), sc->curve, &sc->curve_len);
     cJSON_Delete(o);
     if (!ok)
         return rd_error_set(err, RD_ERR_INVALID, 0, 0, "a stored job's schedule does not parse");
@@ -104,21 +85,11 @@ char *farm_stats_text(farm_ctx *c, int64_t now_ms, int final)
     }
     double wall = (double)(now_ms - c->started_ms);
     rd_stats_add_counts(&st, &sum, wall > 0 ? wall : 0);
+    /* In the job status's layout: every daemon on the store reads this
+     * text, an older one by copying its keys into its answers as they are. */
     cJSON *o = cJSON_CreateObject();
-    cJSON_AddNumberToObject(o, "samples", st.samples);
-    cJSON_AddNumberToObject(o, "error_estimate", st.error_estimate);
-    cJSON_AddItemToObject(o, "curve", rd_json_curve(st.curve, st.curve_len));
-    cJSON_AddNumberToObject(o, "passes", st.passes);
-    if (final)
-        cJSON_AddStringToObject(o, "stopped_by", rd_stop_reason_name(st.stopped_by));
-    cJSON *s = cJSON_AddObjectToObject(o, "stats");
-    cJSON_AddNumberToObject(s, "camera_rays", (double)st.camera_rays);
-    cJSON_AddNumberToObject(s, "shadow_rays", (double)st.shadow_rays);
-    cJSON_AddNumberToObject(s, "secondary_rays", (double)st.secondary_rays);
-    cJSON_AddNumberToObject(s, "rays_per_second", st.rays_per_second);
-    cJSON_AddNumberToObject(s, "prepare_ms", st.prepare_ms);
-    cJSON_AddNumberToObject(s, "primitives", (double)st.primitives);
-    char *t = cJSON_PrintUnformatted(o);
+    int failed = rd_stats_json(o, &st, RD_STATS_COSTS | RD_STATS_NESTED | (final ? RD_STATS_STOPPED : 0));
+    char *t = failed ? NULL : cJSON_PrintUnformatted(o);
     cJSON_Delete(o);
     return t;
 }
@@ -144,50 +115,38 @@ static double progress_of(const rd_store_job_info *in, const cJSON *sched)
     return p < 0.999 ? p : 0.999;
 }
 
-static void add_stats(cJSON *o, const rd_store_job_info *in)
-{
-    cJSON *st = in->stats ? cJSON_Parse(in->stats) : NULL;
-    static const char *const keys[] = {"samples", "error_estimate", "curve", "passes", "stopped_by", "stats", NULL};
-    for (int i = 0; keys[i]; i++) {
-        cJSON *v = st ? cJSON_DetachItemFromObjectCaseSensitive(st, keys[i]) : NULL;
-        if (v && (i != 5 || in->status == RD_STORE_DONE || in->status == RD_STORE_RUNNING))
-            cJSON_AddItemToObject(o, keys[i], v);
-        else if (v)
-            cJSON_Delete(v);
-        else if (i == 2)
-            cJSON_AddArrayToObject(o, "curve");
-        else if (i == 0 || i == 1 || i == 3)
-            cJSON_AddNumberToObject(o, keys[i], 0);
-    }
-    cJSON_Delete(st);
-}
-
 /* From one wall-clock stamp to a later one. The stamps come from different
  * readings of the wall clock (and with PostgreSQL from its server's), which
  * may step back a little: a job once read queued_ms -2. */
 static double span_ms(int64_t from, int64_t to) { return to > from ? (double)(to - from) : 0; }
 
+/* rd_job_status takes a stored job's status as the queue's. */
+_Static_assert(RD_STORE_QUEUED == (int)RD_JQ_QUEUED && RD_STORE_RUNNING == (int)RD_JQ_RUNNING &&
+                   RD_STORE_DONE == (int)RD_JQ_DONE && RD_STORE_FAILED == (int)RD_JQ_FAILED &&
+                   RD_STORE_CANCELLED == (int)RD_JQ_CANCELLED,
+               "rd_store_status has the order of rd_jq_status");
+
 char *farm_job_json(const rd_store_job_info *in)
 {
-    cJSON *o = cJSON_CreateObject();
     cJSON *sched = in->schedule ? cJSON_Parse(in->schedule) : NULL;
-    int64_t now = rd_wall_ms();
-    int64_t end = in->finished_ms ? in->finished_ms : now;
-    cJSON_AddStringToObject(o, "id", in->id);
-    cJSON_AddStringToObject(o, "status", rd_store_status_name(in->status));
-    cJSON_AddNumberToObject(o, "progress", progress_of(in, sched));
-    cJSON_AddNumberToObject(o, "elapsed_ms", in->started_ms ? span_ms(in->started_ms, end) : 0);
-    cJSON_AddNumberToObject(o, "queued_ms", span_ms(in->submitted_ms, in->started_ms ? in->started_ms : end));
-    cJSON_AddNumberToObject(o, "width", in->width);
-    cJSON_AddNumberToObject(o, "height", in->height);
-    add_stats(o, in);
+    cJSON *stats = in->stats ? cJSON_Parse(in->stats) : NULL;
+    int64_t end = in->finished_ms ? in->finished_ms : rd_wall_ms();
+    rd_job_status s = {.id = in->id,
+                       .status = (rd_jq_status)in->status,
+                       .progress = progress_of(in, sched),
+                       .elapsed_ms = in->started_ms ? span_ms(in->started_ms, end) : 0,
+                       .queued_ms = span_ms(in->submitted_ms, in->started_ms ? in->started_ms : end),
+                       .width = in->width,
+                       .height = in->height};
+    /* farm_stats_text's, as the last daemon to end a pass wrote it (none
+     * before the first pass ends: every figure 0 then). */
+    rd_stats_read(stats, &s.stats, RD_STATS_COSTS | RD_STATS_NESTED | RD_STATS_STOPPED);
     if (in->status == RD_STORE_FAILED) {
-        cJSON *e = cJSON_AddObjectToObject(o, "error");
-        cJSON_AddStringToObject(e, "code", rd_error_answer_for(in->error.code).code);
-        cJSON_AddStringToObject(e, "message", in->error.message);
+        s.error_code = rd_error_answer_for(in->error.code).code;
+        s.error_message = in->error.message;
     }
+    char *t = rd_job_status_json(&s);
     cJSON_Delete(sched);
-    char *t = cJSON_PrintUnformatted(o);
-    cJSON_Delete(o);
+    cJSON_Delete(stats);
     return t;
 }

@@ -6,7 +6,7 @@
 #include <strings.h>
 
 #include "http_internal.h"
-#include "json_text.h"
+#include "job_status.h"
 #include "scene_open.h"
 
 /* An uploaded scene, parsed and given its assets on a render thread: for
@@ -90,39 +90,26 @@ static int read_params(struct MHD_Connection *c, rd_job_params *p, rd_error *err
     return 0;
 }
 
+/* A job in memory as GET /v1/jobs/{id} gives it: the view a stored job
+ * has too (job_status.h). */
 static char *job_json(const rd_jq_info *in)
 {
-    cJSON *o = cJSON_CreateObject();
-    cJSON_AddStringToObject(o, "id", in->id);
-    cJSON_AddStringToObject(o, "status", rd_jq_status_name(in->status));
-    cJSON_AddNumberToObject(o, "progress", in->progress);
-    cJSON_AddNumberToObject(o, "elapsed_ms", in->elapsed_ms);
-    cJSON_AddNumberToObject(o, "queued_ms", in->queued_ms);
-    cJSON_AddNumberToObject(o, "samples", in->samples);
-    cJSON_AddNumberToObject(o, "error_estimate", in->error_estimate);
-    cJSON_AddNumberToObject(o, "width", in->width);
-    cJSON_AddNumberToObject(o, "height", in->height);
-    cJSON_AddItemToObject(o, "curve", rd_json_curve(in->curve, in->curve_len));
-    cJSON_AddNumberToObject(o, "passes", in->passes);
-    if (in->status == RD_JQ_DONE)
-        cJSON_AddStringToObject(o, "stopped_by", rd_stop_reason_name(in->stopped_by));
-    if (in->status == RD_JQ_DONE || in->status == RD_JQ_RUNNING) {
-        cJSON *st = cJSON_AddObjectToObject(o, "stats");
-        cJSON_AddNumberToObject(st, "camera_rays", (double)in->stats.camera_rays);
-        cJSON_AddNumberToObject(st, "shadow_rays", (double)in->stats.shadow_rays);
-        cJSON_AddNumberToObject(st, "secondary_rays", (double)in->stats.secondary_rays);
-        cJSON_AddNumberToObject(st, "rays_per_second", in->stats.rays_per_second);
-        cJSON_AddNumberToObject(st, "prepare_ms", in->stats.prepare_ms);
-        cJSON_AddNumberToObject(st, "primitives", (double)in->stats.primitives);
-    }
+    rd_job_status s = {.id = in->id,
+                       .status = in->status,
+                       .progress = in->progress,
+                       .elapsed_ms = in->elapsed_ms,
+                       .queued_ms = in->queued_ms,
+                       .width = in->width,
+                       .height = in->height,
+                       .stats = in->stats};
+    /* While it runs, the samples per pixel of the passes done as the queue
+     * counts them; once done, the rounded mean (rd_jq_info_get). */
+    s.stats.samples = in->samples;
     if (in->status == RD_JQ_FAILED) {
-        cJSON *e = cJSON_AddObjectToObject(o, "error");
-        cJSON_AddStringToObject(e, "code", rd_error_answer_for(in->error.code).code);
-        cJSON_AddStringToObject(e, "message", in->error.message);
+        s.error_code = rd_error_answer_for(in->error.code).code;
+        s.error_message = in->error.message;
     }
-    char *t = cJSON_PrintUnformatted(o);
-    cJSON_Delete(o);
-    return t;
+    return rd_job_status_json(&s);
 }
 
 /* Scene types we read; other families are refused with 415 (a PNG or a
@@ -267,6 +254,9 @@ enum MHD_Result rd_route_render_resumed(rd_req *r)
     if (rc)
         return rd_reply_error(r, 503, "unavailable", &err, NULL);
     rd_jq_release_png(srv->jobs, r->job);
+    /* The figures of its status (GET /v1/jobs/{X-Rayd-Job}) under the
+     * spec's header names: X-Rayd-Render-Ms is its elapsed_ms, the others
+     * are named as its keys are. */
     char ms[32], spp[32], est[32], passes[32];
     snprintf(ms, sizeof ms, "%.3f", info.elapsed_ms);
     snprintf(spp, sizeof spp, "%d", info.samples);

@@ -89,7 +89,7 @@ done
 
 # The statistics line has every field.
 "$RAYD" render scenes/phong.cfg -o "$T/s.png" --width 32 --height 24 --samples 4 2>"$T/err"
-grep -Eq '^render: 32x24 samples=4 threads=[0-9]+ time_ms=[0-9.]+ camera_rays=3072 shadow_rays=[0-9]+ secondary_rays=0 rays_per_s=[0-9.e+]+ error_estimate=[0-9.]+ nonfinite=0 prepare_ms=[0-9.]+ bvh_build_ms=[0-9.]+ bvh_nodes=[0-9]+ primitives=4 world_bytes=[0-9]+ stopped_by=samples passes=1 curve=[0-9.]+:4:[0-9.]+$' "$T/err" &&
+grep -Eq '^render: 32x24 samples=4 threads=[0-9]+ time_ms=[0-9.]+ camera_rays=3072 shadow_rays=[0-9]+ secondary_rays=0 rays_per_second=[0-9.e+]+ error_estimate=[0-9.]+ nonfinite=0 prepare_ms=[0-9.]+ bvh_build_ms=[0-9.]+ bvh_nodes=[0-9]+ primitives=4 world_bytes=[0-9]+ stopped_by=samples passes=1 curve=[0-9.]+:4:[0-9.]+$' "$T/err" &&
     ok || bad "statistics line: $(cat "$T/err")"
 
 # Same bytes whatever the thread count.
@@ -117,7 +117,7 @@ if len(text) != 1 or len(objs) != 1:
 o = json.loads(objs[0])
 t = text[0][len("render: "):].split(" ")
 size, kv = t[0], dict(f.split("=", 1) for f in t[1:])
-fmt = {"time_ms": "%.3f", "rays_per_s": "%.4g", "error_estimate": "%.6f", "prepare_ms": "%.3f",
+fmt = {"time_ms": "%.3f", "rays_per_second": "%.4g", "error_estimate": "%.6f", "prepare_ms": "%.3f",
        "bvh_build_ms": "%.3f"}
 bad = []
 if size != "%dx%d" % (o["width"], o["height"]):
@@ -126,7 +126,7 @@ for k, v in kv.items():
     if k not in o:
         bad.append("%s: in the text line, not in the JSON" % k)
     elif k == "curve":
-        got = ",".join("%.3f:%s:%.6f" % (p["ms"], "%g" % p["samples"], p["error"]) for p in o["curve"])
+        got = ",".join("%.3f:%s:%.6f" % (ms, "%g" % spp, e) for ms, spp, e in o["curve"])
     elif k == "stopped_by":
         got = o[k]
     elif k in fmt:
@@ -152,6 +152,9 @@ import json, sys
 o = json.load(open(sys.argv[1]))
 assert (o["width"], o["height"], o["samples"], o["camera_rays"], o["primitives"]) == (32, 24, 4, 3072, 4), o
 assert o["stopped_by"] == "samples" and o["passes"] == 1 and len(o["curve"]) == 1, o
+# The daemon'"'"'s names and curve shape (GET /v1/jobs/{id}), not the old rays_per_s and {ms, samples, error}.
+assert "rays_per_s" not in o and o["rays_per_second"] > 0, o
+assert all(isinstance(p, list) and len(p) == 3 and p[1] == 4 for p in o["curve"]), o
 ' "$T/err" && ok || bad "--stats-format json: $(cat "$T/err")"
 "$RAYD" render scenes/phong.cfg -o "$T/j2.png" --width 32 --height 24 --samples 4 2>/dev/null
 cmp -s "$T/j1.png" "$T/j2.png" && ok || bad "--stats-format json changes the image"

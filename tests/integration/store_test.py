@@ -14,6 +14,12 @@ killed with SIGKILL and started again on the same folder.
   has (rayd_farm_tiles_total of the new process): the tiles stored before
   the kill were kept, not rendered again.
 - Every answer carries X-Rayd-Daemon: the --daemon-id.
+- One vocabulary: a synchronous render's job (in memory), a stored job and
+  `rayd render --stats-format json` of the same progressive render give
+  the same keys for the same figures, with the same values, and the same
+  curve of [ms, samples, error] points; POST /v1/render's X-Rayd-* headers
+  are its job's figures; a stored job running has its "stats" as a job in
+  memory does, and no stopped_by.
 
 Usage: RAYD=build/rayd /usr/bin/python3 tests/integration/store_test.py
 (from the repository root; scenes/generated/knot.obj from `make scenes` adds
@@ -29,12 +35,13 @@ import os
 import shutil
 import signal
 import sqlite3
+import subprocess
 import sys
 import tempfile
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
-from rayd_http import Checks, Daemon, cli_render, decode_png, metric_value  # noqa: E402
+from rayd_http import RAYD, Checks, Daemon, cli_render, decode_png, metric_value  # noqa: E402
 import stored_jobs  # noqa: E402
 from stored_jobs import (JOBS, TILES, Abort, Headers, OutOfTime, on_alarm, png_body, query,  # noqa: E402
                          scene_bytes, status_json)
@@ -195,6 +202,9 @@ def resume(tmp, data, refs, d2, jobs):
             break
         time.sleep(0.02)
     s = status_of(d2, jid)
+    if s.get("status") == "running":
+        check(isinstance(s.get("stats"), dict) and "stopped_by" not in s,
+              "a running stored job's status has stats, and no stopped_by, as a job in memory: %s" % s)
     rc = d2.kill()
     print("store: the large job killed at %s with %d of its %d tiles stored (progress %s)" %
           (s.get("status"), delta, tiles, s.get("progress")))
@@ -219,6 +229,71 @@ def resume(tmp, data, refs, d2, jobs):
     check(image(d3, first) is not None, "job %s's image is not served after a second restart" % first)
     clock_stepped_back(data, d3, first)
     return d3
+
+
+# Progressive: passes of 2, 2 and 4 samples, so the curve has three points.
+VOCAB = ("area_light.cfg", {"width": 48, "height": 36, "samples": 8, "time_budget_ms": 600000})
+# The job's own keys in GET /v1/jobs/{id}; the others are the render's figures.
+ENVELOPE = {"id", "status", "progress", "elapsed_ms", "queued_ms", "width", "height"}
+SAME = ("samples", "passes", "stopped_by", "camera_rays", "shadow_rays", "secondary_rays", "primitives")
+
+
+def figures(status):
+    """A job status's figures, its stats lifted beside the others."""
+    out = {k: v for k, v in status.items() if k not in ENVELOPE and k != "stats"}
+    out.update(status.get("stats") or {})
+    return out
+
+
+def curve_points(curve):
+    return isinstance(curve, list) and all(isinstance(p, list) and len(p) == 3 and
+                                           all(isinstance(x, (int, float)) for x in p) for p in curve)
+
+
+def one_vocabulary(tmp, d):
+    """The CLI, a job in memory and a stored job name each figure alike."""
+    scene, ov = VOCAB
+    status, h, _ = call(d, "POST", "/v1/render?" + query(ov), body=scene_bytes(scene),
+                        headers={"Content-Type": "text/x-rayd-cfg"})
+    check(status == 200 and h.get("x-rayd-job"), "POST /v1/render %s: %d, X-Rayd-Job %s" %
+          (scene, status, h.get("x-rayd-job")))
+    mem = status_of(d, h.get("x-rayd-job", "none"))
+    jid = submit(d, scene, ov)
+    stored = wait_done(d, [jid], 30 * SLOW, "the vocabulary's job").get(jid, {})
+    args = [RAYD, "render", os.path.join("scenes", scene), "-o", os.path.join(tmp, "vocab.png"), "--quiet",
+            "--stats-format", "json"] + [a for k, v in ov.items() for a in ("--" + k.replace("_", "-"), str(v))]
+    p = subprocess.run(args, capture_output=True, timeout=60)
+    try:
+        cli = json.loads(p.stderr.decode().splitlines()[-1])
+    except (IndexError, ValueError):
+        cli = {}
+    if not check(mem.get("status") == "done" and stored.get("status") == "done" and cli,
+                 "the vocabulary's renders: in memory %s, stored %s, CLI exit %d %r" %
+                 (mem.get("status"), stored.get("status"), p.returncode, p.stderr[-300:])):
+        return
+    check(list(mem) == list(stored) and list(mem.get("stats", {})) == list(stored.get("stats", {})),
+          "a job in memory and a stored job have other keys:\n  %s\n  %s" % (mem, stored))
+    fm, fs = figures(mem), figures(stored)
+    check(set(fm) <= set(cli), "figures of the job status the CLI names otherwise: %s" % sorted(set(fm) - set(cli)))
+    check("rays_per_s" not in cli, "the CLI still names rays_per_s: %s" % cli)
+    for what, curve in (("in memory", mem.get("curve")), ("stored", stored.get("curve")), ("CLI", cli.get("curve"))):
+        check(curve_points(curve) and len(curve) == 3, "%s: the curve is not 3 points [ms, samples, error]: %s" %
+              (what, curve))
+    for k in SAME:
+        check(fm.get(k) == fs.get(k) == cli.get(k), "%s: in memory %s, stored %s, CLI %s" %
+              (k, fm.get(k), fs.get(k), cli.get(k)))
+    spp = [[p[1] for p in c] if curve_points(c) else None for c in (mem["curve"], stored["curve"], cli["curve"])]
+    check(spp[0] == spp[1] == spp[2] == [2, 4, 8], "the curves' samples: %s" % spp)
+    check(math.isclose(fm.get("error_estimate", -1), cli.get("error_estimate", -2), rel_tol=1e-9) and
+          math.isclose(fs.get("error_estimate", -1), cli.get("error_estimate", -2), rel_tol=1e-9),
+          "error_estimate: in memory %s, stored %s, CLI %s" %
+          (fm.get("error_estimate"), fs.get("error_estimate"), cli.get("error_estimate")))
+    # The headers of the answer are its job's figures, under the spec's names.
+    want = {"x-rayd-samples": str(mem.get("samples")), "x-rayd-passes": str(mem.get("passes")),
+            "x-rayd-stopped-by": mem.get("stopped_by"), "x-rayd-error-estimate": "%.6f" % mem["error_estimate"],
+            "x-rayd-render-ms": "%.3f" % mem["elapsed_ms"]}
+    got = {k: h.get(k) for k in want}
+    check(got == want, "POST /v1/render's headers %s are not its job's status %s" % (got, want))
 
 
 def clock_stepped_back(data, d, jid):
@@ -248,8 +323,10 @@ def main():
         d2, jobs = crash_and_restart(tmp, data, refs)
         t2 = time.time()
         d3 = resume(tmp, data, refs, d2, jobs)
-        print("store: the CLI's references took %.1f s, the 20 jobs %.1f s, the large job %.1f s" %
-              (t1 - t0, t2 - t1, time.time() - t2))
+        t3 = time.time()
+        one_vocabulary(tmp, d3)
+        print("store: the CLI's references took %.1f s, the 20 jobs %.1f s, the large job %.1f s, "
+              "the vocabulary %.1f s" % (t1 - t0, t2 - t1, t3 - t2, time.time() - t3))
         seen.report()
         rc = d3.stop()
         check(rc == 0, "the daemon exited %s after SIGTERM" % rc)

@@ -35,7 +35,7 @@ def run(ctx):
                 "best": {
                     "rayd_wall_ms": best(x["wall_ms"] for x in rr),
                     "rayd_render_ms": best(x["stats"]["time_ms"] for x in rr),
-                    "rayd_rays_per_s": best((x["stats"]["rays_per_s"] for x in rr), max),
+                    "rayd_rays_per_second": best((x["stats"]["rays_per_second"] for x in rr), max),
                     "povray_wall_ms": best(x["wall_ms"] for x in pr),
                     "povray_trace_ms": best(x["trace_ms"] for x in pr),
                 },

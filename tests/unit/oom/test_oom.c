@@ -38,7 +38,9 @@
  *               through a disk cache (the second grade finds the reference
  *               there); the verdict JSON; the assignment list of
  *               scenes/assignments;
- *   writing     scene.cfg written as cfg and as JSON; the JSON Schema.
+ *   writing     scene.cfg written as cfg and as JSON; the JSON Schema; a
+ *               render's statistics as rayd render's object and as a job
+ *               status.
  *
  * cJSON's allocations are failed too (rd_fault_route_cjson); those of
  * libpng and zlib are not (fault_alloc.h says why). Every test runs from
@@ -54,6 +56,7 @@
 #include "assignment.h"
 #include "file_io.h"
 #include "grading.h"
+#include "job_status.h"
 #include "json_text.h"
 #include "png_read.h"
 #include "png_write.h"
@@ -790,4 +793,45 @@ Test(oom, schema)
 {
     operation op = {"JSON Schema", run_schema, text_after_error, same_text, release_text};
     exercise(&op);
+}
+
+/* A finished render's statistics, with a curve of every pass. */
+static rd_render_stats g_stats;
+
+static void progressive_stats(void)
+{
+    memset(&g_stats, 0, sizeof g_stats);
+    g_stats.samples = 16;
+    g_stats.passes = RD_CURVE_MAX;
+    g_stats.curve_len = RD_CURVE_MAX;
+    for (int i = 0; i < RD_CURVE_MAX; i++)
+        g_stats.curve[i] = (rd_curve_point){10.0 * i, 2.0 * i, 1.0 / (i + 1)};
+    g_stats.stopped_by = RD_STOP_TARGET_ERROR;
+}
+
+static rd_error_code run_stats_object(result *r, rd_error *err)
+{
+    cJSON *o = cJSON_CreateObject();
+    if (rd_stats_json(o, &g_stats, RD_STATS_STOPPED | RD_STATS_COSTS | RD_STATS_PROCESS)) {
+        cJSON_Delete(o);
+        o = NULL;
+    }
+    r->text = o ? rd_json_print(o) : NULL;
+    return r->text ? RD_OK : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+}
+
+static rd_error_code run_job_status(result *r, rd_error *err)
+{
+    rd_job_status s = {.id = "0123456789abcdef", .status = RD_JQ_DONE, .progress = 1, .stats = g_stats};
+    r->text = rd_job_status_json(&s);
+    return r->text ? RD_OK : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+}
+
+Test(oom, stats_json)
+{
+    progressive_stats();
+    operation op = {"statistics object", run_stats_object, text_after_error, same_text, release_text};
+    exercise(&op);
+    operation status = {"job status", run_job_status, text_after_error, same_text, release_text};
+    exercise(&status);
 }
