@@ -56,8 +56,6 @@ failure, keeping the temporary folder (logs) and naming it.
 import concurrent.futures
 import json
 import os
-import shutil
-import signal
 import subprocess
 import sys
 import tempfile
@@ -65,7 +63,8 @@ import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
 from rayd_http import RAYD, Checks, Daemon, answered, form_parts, metric_value, png, raw_post  # noqa: E402
-from stored_jobs import Abort, OutOfTime, on_alarm, status_json  # noqa: E402
+import stored_jobs  # noqa: E402
+from stored_jobs import Abort, status_json  # noqa: E402
 
 check = Checks("cpu")
 SLOW = float(os.environ.get("RAYD_TEST_SLOW", "1"))
@@ -274,15 +273,14 @@ def measure(tmp, n, student):
 
 def main():
     tmp = tempfile.mkdtemp(prefix="rayd-cpu-")
-    signal.signal(signal.SIGALRM, on_alarm)
-    signal.alarm(BOUND_S)
-    figures = []
-    try:
+
+    def run():
         out = os.path.join(tmp, "student.png")
         subprocess.run([RAYD, "render", "scenes/assignments/phong.cfg", "-o", out, "--quiet"], check=True,
                        capture_output=True, timeout=120 * SLOW)
         with open(out, "rb") as f:
             student = f.read()
+        figures = []
         for n in (1, 2):
             try:
                 cpu, wall = measure(tmp, n, student)
@@ -293,15 +291,9 @@ def main():
             print("cpu: this machine has %d cores: --threads 2 cannot exceed N x wall here; the bound by its "
                   "busiest threads still tells" % os.cpu_count())
         print("cpu: %s" % "; ".join(figures))
-    except OutOfTime:
-        check(False, "the run took longer than its bound of %d s" % BOUND_S)
-    finally:
-        signal.alarm(0)
-    if check.failed:
-        print("cpu: the logs are in %s" % tmp, file=sys.stderr)
-    else:
-        shutil.rmtree(tmp, ignore_errors=True)
-    return check.summary()
+
+    # measure() stops its daemon whatever happens.
+    return stored_jobs.bounded_run(check, "cpu", BOUND_S, run, [], [tmp], [])
 
 
 if __name__ == "__main__":
