@@ -40,9 +40,10 @@ Sizes: the scenes of scenes/extreme/ render as they are (65x49 pixels at
 most). Every other scene renders at SMALL, 161x121 (--width/--height on the
 CLI, ?width=&height= for the daemons: the same override table), with its
 own samples, depth, gamma and seed. On this two-core machine, loaded, the
-run took 16 s so (32 s under AddressSanitizer, RAYD_TEST_SLOW=3) against
-153 s with every scene at its own size (`--full`; several times that under
-AddressSanitizer), for the same property. 161 and 121 are not multiples of
+run took 16 to 27 s so (32 to 48 s under AddressSanitizer,
+RAYD_TEST_SLOW=3) against 153 s with every scene at its own size
+(`--full`; several times that under AddressSanitizer), for the same
+property. 161 and 121 are not multiples of
 any tile edge, so every path has partial tiles. bench/same_bytes.py
 compares two builds at full size through the CLI.
 
