@@ -19,15 +19,14 @@ The ways, each answering a PNG that must be byte for byte the CLI's:
     queue's 16x16 tiles: a stored job POSTed to each daemon in turn, its
     tiles claimed by whichever daemon asks first, its image read from each
     of the three (each of the three answers the same bytes).
-The farm is on PostgreSQL, not on one SQLite folder shared by three
-daemons: docs/deploy.md gives SQLite to one daemon on one machine and
-PostgreSQL to several daemons sharing one queue, so PostgreSQL is the farm
-that is deployed (three daemons on one SQLite folder did share a job's
-tiles and gave the same bytes when tried, but that is no deployment the
-documentation describes). Tiles by daemon are printed per scene, and every farm
-daemon must have stored tiles over the run (each job is claimed tile by
-tile, so which daemon takes which tile varies from run to run; the bytes
-must not).
+The farm is on PostgreSQL, not on one SQLite folder shared by three daemons:
+docs/deploy.md gives SQLite to one daemon on one machine and PostgreSQL to
+several daemons sharing one queue, so PostgreSQL is the farm that is
+deployed (three daemons on one SQLite folder did share a job's tiles and
+gave the same bytes when tried, but that is no deployment the documentation
+describes). Tiles by daemon are printed per scene, and every farm daemon
+must have stored tiles over the run (each job is claimed tile by tile, so
+which daemon takes which tile varies from run to run; the bytes must not).
 
 Assets: an uploaded scene's meshes and textures resolve inside the daemon's
 --scenes folder (docs/http-api.md), here the checkout's scenes/. A scene in
@@ -38,14 +37,13 @@ file; the CLI reads the file as it is.
 
 Sizes: the scenes of scenes/extreme/ render as they are (65x49 pixels at
 most). Every other scene renders at SMALL, 161x121 (--width/--height on the
-CLI, ?width=&height= for the daemons: the same override table), with its
-own samples, depth, gamma and seed. On this two-core machine, loaded, the
-run took 16 to 27 s so (32 to 48 s under AddressSanitizer,
-RAYD_TEST_SLOW=3) against 153 s with every scene at its own size
-(`--full`; several times that under AddressSanitizer), for the same
-property. 161 and 121 are not multiples of
-any tile edge, so every path has partial tiles. bench/same_bytes.py
-compares two builds at full size through the CLI.
+CLI, ?width=&height= for the daemons: the same override table), with its own
+samples, depth, gamma and seed. On this two-core machine, loaded, the run
+took 16 to 27 s so (32 to 48 s under AddressSanitizer, RAYD_TEST_SLOW=3)
+against 153 s with every scene at its own size (`--full`; several times that
+under AddressSanitizer), for the same property. 161 and 121 are not
+multiples of any tile edge, so every path has partial tiles.
+bench/same_bytes.py compares two builds at full size through the CLI.
 
 Usage: RAYD=build/rayd /usr/bin/python3 tests/integration/same_bytes_test.py
 (from the repository root; needs scenes/generated/knot.obj, `make scenes`,
