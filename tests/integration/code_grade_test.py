@@ -18,7 +18,7 @@ import tempfile
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "support"))
-from rayd_http import RAYD, Checks, Daemon, form_parts, metric_value  # noqa: E402
+from rayd_http import RAYD, Checks, Daemon, form_parts, metric_value, raw_post  # noqa: E402
 
 check = Checks("code grade")
 STUDENTS = "tests/codegrade/students"
@@ -365,15 +365,6 @@ def busy(tmp):
         _, _, m = d.request("GET", "/metrics")
         check(metric_value(m.decode(), "rayd_code_grades_total", {"verdict": "pass"}) == 1,
               "rayd_code_grades_total counts the pass")
-
-
-def raw_post(port, path, body, headers):
-    """A POST on a socket of its own, left open: the caller hangs up."""
-    sock = socket.create_connection(("127.0.0.1", port), timeout=30)
-    head = "POST %s HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: %d\r\n" % (path, len(body))
-    head += "".join("%s: %s\r\n" % kv for kv in headers.items())
-    sock.sendall(head.encode() + b"\r\n" + body)
-    return sock
 
 
 def per_client(tmp):

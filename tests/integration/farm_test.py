@@ -32,7 +32,6 @@ folders (logs) are kept then and named.
 import json
 import math
 import os
-import shutil
 import signal
 import sys
 import tempfile
@@ -41,9 +40,9 @@ import time
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
 from rayd_http import Checks, Daemon, cli_render, decode_png, http_request, metric_value  # noqa: E402
 import stored_jobs  # noqa: E402
-from stored_jobs import (ENDED, JOBS, TILES, Abort, Headers, OutOfTime, on_alarm, png_body, query,  # noqa: E402
+from stored_jobs import (ENDED, JOBS, TILES, Abort, Headers, png_body, query,  # noqa: E402
                          scene_bytes, status_json)
-from servers import Nginx, PostgreSQL  # noqa: E402
+from servers import Nginx  # noqa: E402
 
 check = Checks("farm")
 # RAYD_TEST_SLOW=3 (sanitizer builds, say) stretches every wait and the bound.
@@ -330,25 +329,20 @@ def store_down(pg, ds, front, refs):
 
 def main():
     tmp = tempfile.mkdtemp(prefix="rayd-farm-")
-    kept = [tmp]
-    pg = front_nginx = None
-    signal.signal(signal.SIGALRM, on_alarm)
-    signal.alarm(BOUND_S)
-    try:
+    kept, closers = [tmp], []
+
+    def run():
         t0 = time.time()
         refs = references(tmp)
         print("farm: the CLI's references took %.1f s" % (time.time() - t0))
-        try:
-            pg = PostgreSQL(tempfile.mkdtemp(prefix="rayd-farm-pg-"))
-        except RuntimeError as e:
-            raise Abort("PostgreSQL did not start: %s" % e)
-        kept.append(pg.dir)
+        pg = stored_jobs.postgresql("rayd-farm-pg-", kept, closers)
         ds = [start_daemon(tmp, i, ["--store", pg.url]) for i in IDS]
         try:
             front_nginx = Nginx(tempfile.mkdtemp(prefix="rayd-farm-nginx-"), [ep.port for ep in ds])
         except (RuntimeError, ValueError) as e:
             raise Abort("nginx did not start: %s" % e)
         kept.append(front_nginx.dir)
+        closers.insert(0, front_nginx.stop)
         front = Endpoint("nginx", front_nginx.port, IDS)
         for phase, args in ((through_nginx, (ds, front, refs)), (progressive_across, (ds, refs)),
                             (shared_job, (tmp, ds, refs)), (cancel_across, (ds,)),
@@ -362,25 +356,8 @@ def main():
             check(rc == 0, "%s exited %s after SIGTERM" % (ep.name, rc))
         rc = front_nginx.stop()
         check(rc == 0, "nginx exited %s after SIGTERM" % rc)
-    except Abort as e:
-        check(False, str(e))
-    except OutOfTime:
-        check(False, "the run took longer than its bound of %d s" % BOUND_S)
-    finally:
-        signal.alarm(0)
-        for d in STARTED:
-            if d.proc.poll() is None:
-                d.kill()
-        if front_nginx:
-            front_nginx.stop()
-        if pg:
-            pg.close()
-    if check.failed:
-        print("farm: the logs are in %s" % " ".join(kept), file=sys.stderr)
-    else:
-        for d in kept:
-            shutil.rmtree(d, ignore_errors=True)
-    return check.summary()
+
+    return stored_jobs.bounded_run(check, "farm", BOUND_S, run, STARTED, kept, closers)
 
 
 if __name__ == "__main__":

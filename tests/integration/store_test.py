@@ -32,7 +32,6 @@ named.
 import json
 import math
 import os
-import shutil
 import signal
 import sqlite3
 import subprocess
@@ -43,7 +42,7 @@ import time
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
 from rayd_http import RAYD, Checks, Daemon, cli_render, decode_png, metric_value  # noqa: E402
 import stored_jobs  # noqa: E402
-from stored_jobs import (JOBS, TILES, Abort, Headers, OutOfTime, on_alarm, png_body, query,  # noqa: E402
+from stored_jobs import (JOBS, TILES, Abort, Headers, png_body, query,  # noqa: E402
                          scene_bytes, status_json)
 
 check = Checks("store")
@@ -314,9 +313,8 @@ def clock_stepped_back(data, d, jid):
 def main():
     tmp = tempfile.mkdtemp(prefix="rayd-store-")
     data = os.path.join(tmp, "data")
-    signal.signal(signal.SIGALRM, on_alarm)
-    signal.alarm(BOUND_S)
-    try:
+
+    def run():
         t0 = time.time()
         refs = references(tmp)
         t1 = time.time()
@@ -330,20 +328,9 @@ def main():
         seen.report()
         rc = d3.stop()
         check(rc == 0, "the daemon exited %s after SIGTERM" % rc)
-    except Abort as e:
-        check(False, str(e))
-    except OutOfTime:
-        check(False, "the run took longer than its bound of %d s" % BOUND_S)
-    finally:
-        signal.alarm(0)
-        for d in STARTED:
-            if d.proc.poll() is None:
-                d.kill()
-    if check.failed:
-        print("store: the data and the daemons' logs are in %s" % tmp, file=sys.stderr)
-    else:
-        shutil.rmtree(tmp, ignore_errors=True)
-    return check.summary()
+
+    return stored_jobs.bounded_run(check, "store", BOUND_S, run, STARTED, [tmp], [],
+                                   kept_what="the data and the daemons' logs")
 
 
 if __name__ == "__main__":

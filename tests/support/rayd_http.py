@@ -3,7 +3,9 @@
 checks. Standard library only."""
 import http.client
 import os
+import select
 import signal
+import socket
 import struct
 import subprocess
 import sys
@@ -177,6 +179,22 @@ def cli_render(scene_path, out_path, overrides=None, extra=()):
     subprocess.run(args, check=True, capture_output=True, timeout=300)
     with open(out_path, "rb") as f:
         return f.read()
+
+
+def raw_post(port, path, body, headers):
+    """A POST on a socket of its own, left open: the caller hangs up
+    (close) or sees whether the answer has begun (answered)."""
+    sock = socket.create_connection(("127.0.0.1", port), timeout=30)
+    head = "POST %s HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: %d\r\n" % (path, len(body))
+    head += "".join("%s: %s\r\n" % kv for kv in headers.items())
+    sock.sendall(head.encode() + b"\r\n" + body)
+    return sock
+
+
+def answered(sock):
+    """Whether a raw_post's socket has something to read: an answer (or an
+    interim 102), or its end."""
+    return bool(select.select([sock], [], [], 0)[0])
 
 
 def http_request(host, port, method, path, body=None, headers=None, timeout=120):

@@ -1,13 +1,19 @@
-"""What the stored-job tests (store_test.py, farm_test.py) share: the query
-of a job's overrides, its status and image as a test reads them, waiting for
-jobs to end, and comparing an image's pixels with `rayd render`'s."""
+"""What the stored-job tests (store_test.py, farm_test.py, same_bytes_test.py)
+share: the query of a job's overrides, its status and image as a test reads
+them, waiting for jobs to end, comparing an image's pixels with `rayd
+render`'s, and a run bounded in time that stops its servers and keeps its
+folders only when a check failed (cpu_test.py too)."""
 
 import json
 import os
+import shutil
+import signal
 import sys
+import tempfile
 import time
 
 from rayd_http import decode_png
+from servers import PostgreSQL
 
 ENDED = ("done", "failed", "cancelled")
 
@@ -34,6 +40,49 @@ class OutOfTime(Exception):
 
 def on_alarm(signum, frame):
     raise OutOfTime()
+
+
+def bounded_run(check, name, bound_s, body, started, kept, closers, kept_what="the logs"):
+    """body() under an alarm of bound_s seconds: an Abort or running out of
+    time is a failed check. Then every Daemon of started still running is
+    killed and every function of closers is called (PostgreSQL's close,
+    nginx's stop), in order. The folders of kept are removed when every
+    check passed, named on stderr otherwise (as kept_what). body may add to
+    all three lists. Returns check.summary()."""
+    signal.signal(signal.SIGALRM, on_alarm)
+    signal.alarm(bound_s)
+    try:
+        body()
+    except Abort as e:
+        check(False, str(e))
+    except OutOfTime:
+        check(False, "the run took longer than its bound of %d s" % bound_s)
+    finally:
+        signal.alarm(0)
+        for d in started:
+            if d.proc.poll() is None:
+                d.kill()
+        for close in closers:
+            close()
+    if check.failed:
+        print("%s: %s are in %s" % (name, kept_what, " ".join(kept)), file=sys.stderr)
+    else:
+        for d in kept:
+            shutil.rmtree(d, ignore_errors=True)
+    return check.summary()
+
+
+def postgresql(prefix, kept, closers):
+    """A PostgreSQL of the test's own (servers.PostgreSQL) in a new folder,
+    added to kept, its close to closers (bounded_run's lists); Abort when
+    it does not start."""
+    try:
+        pg = PostgreSQL(tempfile.mkdtemp(prefix=prefix))
+    except RuntimeError as e:
+        raise Abort("PostgreSQL did not start: %s" % e)
+    kept.append(pg.dir)
+    closers.append(pg.close)
+    return pg
 
 
 def scene_bytes(scene):

@@ -22,10 +22,10 @@ KNOT = {False: (4000, 125), True: (100, 25)}
 MAX_OBJECTS = ["--limit-objects", "2000000"]
 
 
-def generate(ctx, gen):
-    """The scenes as rayd JSON files in gen/, and their POV-Ray files:
-    {name: {"scene": path, "pov": path, "expect_primitives": n, "what": text}}."""
-    w, h = ctx.large_size
+def scene_files(ctx, gen):
+    """The scenes as rayd files in gen/ (bench/rayd_bench/scene_set.py
+    lists them too): {name: {"scene": path, "expect_primitives": n, "what":
+    text}}."""
     out = {}
     py = sys.executable
     for s in ctx.large:
@@ -58,10 +58,22 @@ def generate(ctx, gen):
             out[s] = {"expect_primitives": tris + 1, "triangles": tris,
                       "what": "scenes/mesh.cfg with scenes/gen.py knot %d %d: %s triangles, Cook-Torrance gold "
                               "on a Lambert plane, 2 point lights" % (segs, sides, "{:,}".format(tris))}
+        out[s]["scene"] = scene
+    return out
+
+
+def generate(ctx, gen):
+    """The scenes as rayd files in gen/, and their POV-Ray files:
+    {name: {"scene": path, "pov": path, "expect_primitives": n, "what": text}}."""
+    w, h = ctx.large_size
+    py = sys.executable
+    out = scene_files(ctx, gen)
+    for s in out:
+        scene = out[s]["scene"]
         pov = os.path.join(gen, s + ".pov")
         measure.run([py, "bench/cfg2pov.py", scene, pov, "--width", str(w), "--height", str(h),
                      "--rayd", ctx.rayd] + MAX_OBJECTS, cwd=ctx.root, what="bench/cfg2pov.py on " + s)
-        out[s].update(scene=scene, pov=pov)
+        out[s]["pov"] = pov
     return out
 
 
