@@ -202,6 +202,7 @@ check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/access_test.py
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/store_faults_test.py
 	RAYD=$(BUILD)/rayd $(if $(SAN),RAYD_TEST_SLOW=3) /usr/bin/python3 tests/integration/same_bytes_test.py
+	RAYD=$(BUILD)/rayd $(if $(SAN),RAYD_TEST_SLOW=3) /usr/bin/python3 tests/integration/cpu_test.py
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/code_grade_test.py
 
 # Three daemons on one PostgreSQL behind nginx (tests/integration/farm_test.py):
