@@ -140,29 +140,52 @@ static int step(stmt *q, rd_error *err) { return q->d->step(q->st, err); }
 
 static void done(stmt *q) { q->d->finalize(q->st); }
 
+/* Reads q's row into entry; on an error entry holds nothing to free. */
+typedef rd_error_code (*row_reader)(const stmt *q, void *entry, rd_error *err);
+
+/* Runs sql (with ap's values): its first row, if any, read into entry by
+ * row (NULL: not read), *found (may be NULL) whether it had one, *changes
+ * (may be NULL) the rows it changed. */
+static rd_error_code vrun(rd_store *s, row_reader row, void *entry, int *found, int *changes, rd_error *err,
+                          const char *sql, const char *fmt, va_list ap)
+{
+    stmt q;
+    rd_error_code c = vprep(s, &q, err, sql, fmt, ap);
+    if (c)
+        return c;
+    int r = step(&q, err);
+    if (r == 1 && row)
+        c = row(&q, entry, err);
+    if (r >= 0 && changes)
+        *changes = q.d->changes(q.st);
+    if (found)
+        *found = r == 1;
+    done(&q);
+    return r < 0 ? (rd_error_code)-r : c;
+}
+
 /* Runs a statement whose rows are not needed; *changes (may be NULL) the
  * rows it changed. */
 static rd_error_code run(rd_store *s, int *changes, rd_error *err, const char *sql, const char *fmt, ...)
 {
-    stmt q;
     va_list ap;
     va_start(ap, fmt);
-    rd_error_code c = vprep(s, &q, err, sql, fmt, ap);
+    rd_error_code c = vrun(s, NULL, NULL, NULL, changes, err, sql, fmt, ap);
     va_end(ap);
-    if (c)
-        return c;
-    int r = step(&q, err);
-    if (r < 0)
-        c = (rd_error_code)-r;
-    else if (changes)
-        *changes = q.d->changes(q.st);
-    done(&q);
     return c;
 }
 
-/* A one-row read's code once its statement is done: the failed step's
- * (r < 0), else c, what reading the row gave. */
-static rd_error_code read_code(int r, rd_error_code c) { return r < 0 ? (rd_error_code)-r : c; }
+/* The first row of sql (with fmt's values) read into entry by row (NULL:
+ * not read); *found 0, and entry untouched, when it has none. */
+static rd_error_code read_row(rd_store *s, row_reader row, void *entry, int *found, rd_error *err, const char *sql,
+                              const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    rd_error_code c = vrun(s, row, entry, found, NULL, err, sql, fmt, ap);
+    va_end(ap);
+    return c;
+}
 
 static int64_t col_int(const stmt *q, int i) { return q->d->col_int(q->st, i); }
 
@@ -215,40 +238,94 @@ static rd_error_code notify(rd_store *s, rd_store_event_kind kind, const char *i
 
 static int64_t clamp_max(size_t max) { return (int64_t)(max > INT64_MAX ? INT64_MAX : max); }
 
-/* Room for entry k of a list read row by row, doubling it when full. */
-static rd_error_code room_for(size_t k, size_t *cap, void **list, size_t size, const char *what, rd_error *err)
+/* Every row of sql (with fmt's values) into *out, a malloc'ed array of
+ * size-byte entries (NULL when none) that free_list frees; on an error the
+ * entries read are freed and nothing is given. */
+static rd_error_code read_rows(rd_store *s, size_t size, row_reader row, void (*free_list)(void *, size_t),
+                               const char *what, void **out, size_t *n, rd_error *err, const char *sql, const char *fmt,
+                               ...)
 {
-    if (!rd_grow_array(list, cap, k + 1, size, 16))
-        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no memory for %s", what);
+    stmt q;
+    va_list ap;
+    va_start(ap, fmt);
+    rd_error_code c = vprep(s, &q, err, sql, fmt, ap);
+    va_end(ap);
+    if (c)
+        return c;
+    char *list = NULL;
+    size_t k = 0, cap = 0;
+    int r = 0;
+    while (!c && (r = step(&q, err)) == 1) {
+        if (!rd_grow_array((void **)&list, &cap, k + 1, size, 16))
+            c = rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no memory for %s", what);
+        else if (!(c = row(&q, list + k * size, err)))
+            k++;
+    }
+    if (!c && r < 0)
+        c = (rd_error_code)-r;
+    done(&q);
+    if (c) {
+        free_list(list, k);
+        return c;
+    }
+    *out = list;
+    *n = k;
+    return RD_OK;
+}
+
+static void free_plain(void *list, size_t n)
+{
+    (void)n;
+    free(list);
+}
+
+static rd_error_code absent(rd_error *err, const char *what, const char *id)
+{
+    return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no %s %s", what, id);
+}
+
+static rd_error_code int_row(const stmt *q, void *entry, rd_error *err)
+{
+    (void)err;
+    *(int64_t *)entry = col_int(q, 0);
+    return RD_OK;
+}
+
+/* A text column's malloc'ed copy, "" for NULL, into a char *. */
+static rd_error_code text_row(const stmt *q, void *entry, rd_error *err)
+{
+    const char *t = col_text(q, 0);
+    if (!(*(char **)entry = rd_store_dup(t, strlen(t))))
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no memory for a text");
+    return RD_OK;
+}
+
+typedef struct {
+    unsigned char *data;
+    size_t len;
+} bytes;
+
+static rd_error_code bytes_row(const stmt *q, void *entry, rd_error *err)
+{
+    bytes *b = entry;
+    if (!(b->data = col_blob_dup(q, 0, &b->len)))
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no memory for an image");
     return RD_OK;
 }
 
 /* *found: whether sql (a SELECT on one id) has a row. */
 static rd_error_code exists(rd_store *s, const char *sql, const char *id, int *found, rd_error *err)
 {
-    stmt q;
-    rd_error_code c = prep(s, &q, err, sql, "t", id);
-    if (c)
-        return c;
-    int r = step(&q, err);
-    done(&q);
-    *found = r == 1;
-    return r < 0 ? (rd_error_code)-r : RD_OK;
+    return read_row(s, NULL, NULL, found, err, sql, "t", id);
 }
 
-/* The cut of an expiry, read once so that its statements all delete by
- * the same time. */
-static rd_error_code cut_of(rd_store *s, int64_t ttl_ms, int64_t *cut, rd_error *err)
+/* Begins an expiry: its transaction, and the cut (ttl_ms before now) read
+ * once, so that its statements all delete by the same time. */
+static rd_error_code begin_expiry(rd_store *s, int64_t ttl_ms, int64_t *cut, rd_error *err)
 {
-    stmt q;
-    rd_error_code c = prep(s, &q, err, "SELECT @NOW@ - ?", "I", ttl_ms);
-    if (c)
-        return c;
-    int r = step(&q, err);
-    if (r == 1)
-        *cut = col_int(&q, 0);
-    done(&q);
-    return read_code(r, RD_OK);
+    int found = 0;
+    rd_error_code c = begin(s, err);
+    return c ? c : read_row(s, int_row, cut, &found, err, "SELECT @NOW@ - ?", "I", ttl_ms);
 }
 
 /* Jobs. */
@@ -261,20 +338,19 @@ static rd_error_code code_parse(const char *name)
     return RD_ERR_IO;
 }
 
+static rd_error_code status_row(const stmt *q, void *entry, rd_error *err)
+{
+    (void)err;
+    *(rd_store_status *)entry = (rd_store_status)rd_store_status_parse(col_text(q, 0));
+    return RD_OK;
+}
+
 /* The status of job id: RD_ERR_NOT_FOUND when there is none. */
 static rd_error_code job_status(rd_store *s, const char *id, rd_store_status *out, rd_error *err)
 {
-    stmt q;
-    rd_error_code c = prep(s, &q, err, "SELECT status FROM jobs WHERE id = ?", "t", id);
-    if (c)
-        return c;
-    int r = step(&q, err);
-    if (r == 1)
-        *out = (rd_store_status)rd_store_status_parse(col_text(&q, 0));
-    done(&q);
-    if (r == 0)
-        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no job %s", id);
-    return r < 0 ? (rd_error_code)-r : RD_OK;
+    int found = 0;
+    rd_error_code c = read_row(s, status_row, out, &found, err, "SELECT status FROM jobs WHERE id = ?", "t", id);
+    return c || found ? c : absent(err, "job", id);
 }
 
 /* Why a change of a queued or running job changed nothing (changes 0
@@ -342,8 +418,10 @@ rd_error_code rd_store_op_job_create(rd_store *s, const rd_store_job_spec *j, rd
     return end(s, c, err);
 }
 
-static void info_row(const stmt *q, rd_store_job_info *o)
+static rd_error_code info_row(const stmt *q, void *entry, rd_error *err)
 {
+    rd_store_job_info *o = entry;
+    int ok = 1;
     memset(o, 0, sizeof *o);
     snprintf(o->id, sizeof o->id, "%s", col_text(q, 0));
     o->status = (rd_store_status)rd_store_status_parse(col_text(q, 1));
@@ -369,41 +447,32 @@ static void info_row(const stmt *q, rd_store_job_info *o)
     o->exr_bytes = (size_t)col_int(q, 20);
     o->gated = (int)col_int(q, 21);
     o->open_pass = (int)col_int(q, 22);
+    o->stats = col_dup(q, 14, &ok);
+    o->schedule = col_dup(q, 23, &ok);
+    if (ok)
+        return RD_OK;
+    rd_store_job_info_free(o);
+    return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no memory for a job's texts");
 }
 
 rd_error_code rd_store_op_job_get(rd_store *s, const char *id, rd_store_job_info *out, rd_error *err)
 {
-    stmt q;
-    rd_error_code c = prep(s, &q, err,
-                           "SELECT id, status, format, hdr, width, height, memory_bytes, submitted_ms, started_ms, "
-                           "finished_ms, error_code, error_line, error_column, error_message, stats, tiles_total, "
-                           "tiles_done, pass, passes, "
-                           "(SELECT length(data) FROM results WHERE job_id = jobs.id AND kind = 'png'), "
-                           "(SELECT length(data) FROM results WHERE job_id = jobs.id AND kind = 'exr'), "
-                           "gated, open_pass, schedule FROM jobs WHERE id = ?",
-                           "t", id);
-    if (c)
-        return c;
-    int r = step(&q, err), ok = 1;
-    if (r == 1) {
-        rd_store_job_info o;
-        info_row(&q, &o);
-        o.stats = col_dup(&q, 14, &ok);
-        o.schedule = col_dup(&q, 23, &ok);
-        if (!ok)
-            c = rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no memory for a job's texts");
-        if (!c)
-            *out = o;
-        else
-            rd_store_job_info_free(&o);
-    }
-    done(&q);
-    if (r == 0)
-        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no job %s", id);
-    return read_code(r, c);
+    rd_store_job_info o;
+    int found = 0;
+    rd_error_code c = read_row(s, info_row, &o, &found, err,
+                               "SELECT id, status, format, hdr, width, height, memory_bytes, submitted_ms, started_ms, "
+                               "finished_ms, error_code, error_line, error_column, error_message, stats, tiles_total, "
+                               "tiles_done, pass, passes, "
+                               "(SELECT length(data) FROM results WHERE job_id = jobs.id AND kind = 'png'), "
+                               "(SELECT length(data) FROM results WHERE job_id = jobs.id AND kind = 'exr'), "
+                               "gated, open_pass, schedule FROM jobs WHERE id = ?",
+                               "t", id);
+    if (!c && found)
+        *out = o;
+    return c || found ? c : absent(err, "job", id);
 }
 
-static rd_error_code input_row(const stmt *q, rd_store_job_input *out, rd_error *err)
+static rd_error_code input_row(const stmt *q, void *entry, rd_error *err)
 {
     rd_store_job_input in;
     memset(&in, 0, sizeof in);
@@ -419,26 +488,18 @@ static rd_error_code input_row(const stmt *q, rd_store_job_input *out, rd_error 
         rd_store_job_input_free(&in);
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no memory for a job's scene");
     }
-    *out = in;
+    *(rd_store_job_input *)entry = in;
     return RD_OK;
 }
 
 rd_error_code rd_store_op_job_input(rd_store *s, const char *id, rd_store_job_input *out, rd_error *err)
 {
-    stmt q;
-    rd_error_code c = prep(s, &q, err,
-                           "SELECT scene, format, query, hdr, width, height, memory_bytes, submitted_ms "
-                           "FROM jobs WHERE id = ?",
-                           "t", id);
-    if (c)
-        return c;
-    int r = step(&q, err);
-    if (r == 1)
-        c = input_row(&q, out, err);
-    done(&q);
-    if (r == 0)
-        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no job %s", id);
-    return read_code(r, c);
+    int found = 0;
+    rd_error_code c = read_row(s, input_row, out, &found, err,
+                               "SELECT scene, format, query, hdr, width, height, memory_bytes, submitted_ms "
+                               "FROM jobs WHERE id = ?",
+                               "t", id);
+    return c || found ? c : absent(err, "job", id);
 }
 
 rd_error_code rd_store_op_job_start(rd_store *s, const char *id, rd_error *err)
@@ -517,7 +578,7 @@ rd_error_code rd_store_op_job_delete(rd_store *s, const char *id, rd_error *err)
     if (!c)
         c = run(s, &n, err, "DELETE FROM jobs WHERE id = ?", "t", id);
     if (!c && n == 0)
-        c = rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no job %s", id);
+        c = absent(err, "job", id);
     return end(s, c, err);
 }
 
@@ -536,24 +597,13 @@ static rd_error_code no_image(rd_store *s, const char *id, rd_store_image_kind k
 static rd_error_code bytes_of(rd_store *s, const char *sql, const char *id, const char *kind, unsigned char **data,
                               size_t *len, int *found, rd_error *err)
 {
-    stmt q;
-    rd_error_code c = prep(s, &q, err, sql, "tt", id, kind);
-    if (c)
-        return c;
-    int r = step(&q, err);
-    if (r == 1) {
-        size_t n = 0;
-        unsigned char *d = col_blob_dup(&q, 0, &n);
-        if (d) {
-            *data = d;
-            *len = n;
-        } else {
-            c = rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no memory for an image");
-        }
+    bytes b = {0};
+    rd_error_code c = read_row(s, bytes_row, &b, found, err, sql, "tt", id, kind);
+    if (!c && *found) {
+        *data = b.data;
+        *len = b.len;
     }
-    done(&q);
-    *found = r == 1;
-    return read_code(r, c);
+    return c;
 }
 
 rd_error_code rd_store_op_job_image(rd_store *s, const char *id, rd_store_image_kind kind, unsigned char **data,
@@ -565,46 +615,37 @@ rd_error_code rd_store_op_job_image(rd_store *s, const char *id, rd_store_image_
     return c || found ? c : no_image(s, id, kind, err);
 }
 
+static rd_error_code brief_row(const stmt *q, void *entry, rd_error *err)
+{
+    rd_store_job_brief *b = entry;
+    (void)err;
+    snprintf(b->id, sizeof b->id, "%s", col_text(q, 0));
+    b->status = (rd_store_status)rd_store_status_parse(col_text(q, 1));
+    b->submitted_ms = col_int(q, 2);
+    return RD_OK;
+}
+
 rd_error_code rd_store_op_jobs_list(rd_store *s, unsigned mask, size_t max, rd_store_job_brief **out, size_t *n,
                                     rd_error *err)
 {
     const char *names[RD_STORE_STATUS_COUNT];
     for (int i = 0; i < RD_STORE_STATUS_COUNT; i++)
         names[i] = mask & RD_STORE_MASK(i) ? rd_store_status_name((rd_store_status)i) : NULL;
-    stmt q;
-    rd_error_code c = prep(s, &q, err,
-                           "SELECT id, status, submitted_ms FROM jobs WHERE status IN (?, ?, ?, ?, ?) "
-                           "ORDER BY submitted_ms, id LIMIT ?",
-                           "tttttI", names[0], names[1], names[2], names[3], names[4], clamp_max(max));
-    rd_store_job_brief *list = NULL;
-    size_t k = 0, cap = 0;
-    int r = 0;
-    while (!c && (r = step(&q, err)) == 1) {
-        if ((c = room_for(k, &cap, (void **)&list, sizeof *list, "a job list", err)))
-            break;
-        snprintf(list[k].id, sizeof list[k].id, "%s", col_text(&q, 0));
-        list[k].status = (rd_store_status)rd_store_status_parse(col_text(&q, 1));
-        list[k++].submitted_ms = col_int(&q, 2);
-    }
-    if (!c && r < 0)
-        c = (rd_error_code)-r;
-    done(&q);
-    if (c) {
-        free(list);
-        return c;
-    }
-    *out = list;
-    *n = k;
-    return RD_OK;
+    void *list = NULL;
+    rd_error_code c = read_rows(s, sizeof **out, brief_row, free_plain, "a job list", &list, n, err,
+                                "SELECT id, status, submitted_ms FROM jobs WHERE status IN (?, ?, ?, ?, ?) "
+                                "ORDER BY submitted_ms, id LIMIT ?",
+                                "tttttI", names[0], names[1], names[2], names[3], names[4], clamp_max(max));
+    if (!c)
+        *out = list;
+    return c;
 }
 
 rd_error_code rd_store_op_jobs_expire(rd_store *s, int64_t ttl_ms, size_t *deleted, rd_error *err)
 {
     int64_t cut = 0;
     int n = 0;
-    rd_error_code c = begin(s, err);
-    if (!c)
-        c = cut_of(s, ttl_ms, &cut, err);
+    rd_error_code c = begin_expiry(s, ttl_ms, &cut, err);
     if (!c)
         c = run(s, NULL, err,
                 "DELETE FROM results WHERE job_id IN (SELECT id FROM jobs "
@@ -749,25 +790,30 @@ static rd_error_code advance(rd_store *s, const rd_store_tile *t, int last, int 
     return c || last || gated ? c : notify(s, RD_STORE_EV_TILES, t->job_id, err);
 }
 
+/* A tile count's row: tiles done, of total, passes, gated. */
+static rd_error_code counts_row(const stmt *q, void *entry, rd_error *err)
+{
+    (void)err;
+    for (int i = 0; i < 4; i++)
+        ((int64_t *)entry)[i] = col_int(q, i);
+    return RD_OK;
+}
+
 /* Counts a tile of the current pass done; advances the pass when it was
  * the last. The WHERE is the whole rule: on PostgreSQL the job's row lock
  * makes a second tile_done of the pass evaluate it again on the first's
  * committed row; on SQLite BEGIN IMMEDIATE runs them one after the other. */
 static rd_error_code count_tile(rd_store *s, const rd_store_tile *t, rd_store_tile_outcome *outcome, rd_error *err)
 {
-    stmt q;
-    rd_error_code c = prep(s, &q, err,
-                           "UPDATE jobs SET tiles_done = tiles_done + 1 WHERE id = ? AND pass = ? "
-                           "AND status IN ('queued', 'running') RETURNING tiles_done, tiles_total, passes, gated",
-                           "ti", t->job_id, t->pass);
-    if (c)
-        return c;
-    int r = step(&q, err);
-    int counted = r == 1 ? (int)col_int(&q, 0) : 0, total = r == 1 ? (int)col_int(&q, 1) : 0;
-    int passes = r == 1 ? (int)col_int(&q, 2) : 0, gated = r == 1 ? (int)col_int(&q, 3) : 0;
-    done(&q);
-    if (r <= 0)
-        return r < 0 ? (rd_error_code)-r : runnable(s, t->job_id, 0, RD_OK, err);
+    int64_t v[4];
+    int found = 0;
+    rd_error_code c = read_row(s, counts_row, v, &found, err,
+                               "UPDATE jobs SET tiles_done = tiles_done + 1 WHERE id = ? AND pass = ? "
+                               "AND status IN ('queued', 'running') RETURNING tiles_done, tiles_total, passes, gated",
+                               "ti", t->job_id, t->pass);
+    if (c || !found)
+        return c ? c : runnable(s, t->job_id, 0, RD_OK, err);
+    int counted = (int)v[0], total = (int)v[1], passes = (int)v[2], gated = (int)v[3];
     *outcome = RD_STORE_TILE_MORE;
     if (counted < total)
         return RD_OK;
@@ -796,18 +842,27 @@ rd_error_code rd_store_op_tile_done(rd_store *s, const char *daemon, const rd_st
     return c;
 }
 
-/* Why pass_open opened nothing, from the job's row as it is now: ended
+/* Why pass_open opened nothing, from the job's row as it is now (status,
+ * gated, passes completed, passes, passes opened): ended
  * (RD_ERR_CANCELLED), else not gated or not the next pass (RD_ERR_INVALID). */
-static rd_error_code pass_refusal(const char *id, int pass, rd_store_status st, int gated, int done, int passes,
-                                  int opened, rd_error *err)
+typedef struct {
+    const char *id;
+    int pass;
+} pass_ask;
+
+static rd_error_code pass_refusal(const stmt *q, void *entry, rd_error *err)
 {
+    const pass_ask *a = entry;
+    const char *id = a->id;
+    int pass = a->pass, gated = (int)col_int(q, 1), done = (int)col_int(q, 2), passes = (int)col_int(q, 3);
+    rd_store_status st = (rd_store_status)rd_store_status_parse(col_text(q, 0));
     if (st != RD_STORE_QUEUED && st != RD_STORE_RUNNING)
         return rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "store: job %s is %s", id, rd_store_status_name(st));
     if (!gated)
         return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: job %s is not gated: its passes open by themselves", id);
     if (pass >= passes)
         return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: job %s has no pass %d: it has %d", id, pass, passes);
-    if (opened > pass)
+    if (col_int(q, 4) > pass)
         return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: pass %d of job %s is open already", pass, id);
     return rd_error_set(err, RD_ERR_INVALID, 0, 0,
                         "store: pass %d of job %s cannot open: %d of its passes are complete, not %d", pass, id, done,
@@ -816,18 +871,11 @@ static rd_error_code pass_refusal(const char *id, int pass, rd_store_status st, 
 
 static rd_error_code pass_refused(rd_store *s, const char *id, int pass, rd_error *err)
 {
-    stmt q;
-    rd_error_code c = prep(s, &q, err, "SELECT status, gated, pass, passes, open_pass FROM jobs WHERE id = ?", "t", id);
-    if (c)
-        return c;
-    int r = step(&q, err);
-    if (r == 1)
-        c = pass_refusal(id, pass, (rd_store_status)rd_store_status_parse(col_text(&q, 0)), (int)col_int(&q, 1),
-                         (int)col_int(&q, 2), (int)col_int(&q, 3), (int)col_int(&q, 4), err);
-    done(&q);
-    if (r == 0)
-        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no job %s", id);
-    return read_code(r, c);
+    pass_ask a = {id, pass};
+    int found = 0;
+    rd_error_code c = read_row(s, pass_refusal, &a, &found, err,
+                               "SELECT status, gated, pass, passes, open_pass FROM jobs WHERE id = ?", "t", id);
+    return c || found ? c : absent(err, "job", id);
 }
 
 /* The WHERE is the whole rule (gated, running, pass - 1 complete, pass not
@@ -854,8 +902,11 @@ rd_error_code rd_store_op_pass_open(rd_store *s, const char *id, int pass, const
     return end(s, c, err);
 }
 
-static rd_error_code tile_row(const stmt *q, rd_store_tile_data *t, rd_error *err)
+static void free_tiles(void *list, size_t n) { rd_store_tiles_free(list, n); }
+
+static rd_error_code tile_row(const stmt *q, void *entry, rd_error *err)
 {
+    rd_store_tile_data *t = entry;
     t->index = (int)col_int(q, 0);
     t->passes = (int)col_int(q, 1);
     t->len = 0;
@@ -869,35 +920,24 @@ static rd_error_code tile_row(const stmt *q, rd_store_tile_data *t, rd_error *er
 rd_error_code rd_store_op_tiles_get(rd_store *s, const char *id, int index, rd_store_tile_data **out, size_t *n,
                                     rd_error *err)
 {
-    stmt q;
+    void *list = NULL;
+    size_t k = 0;
+    rd_store_status st;
     rd_error_code c =
-        index < 0 ? prep(s, &q, err,
-                         "SELECT tile, passes_done, data FROM tiles WHERE job_id = ? AND passes_done > 0 ORDER BY tile",
-                         "t", id)
-                  : prep(s, &q, err, "SELECT tile, passes_done, data FROM tiles WHERE job_id = ? AND tile = ?", "ti",
-                         id, index);
-    rd_store_tile_data *list = NULL;
-    size_t k = 0, cap = 0;
-    int r = 0;
-    while (!c && (r = step(&q, err)) == 1) {
-        if ((c = room_for(k, &cap, (void **)&list, sizeof *list, "tiles", err)))
-            break;
-        if (!(c = tile_row(&q, &list[k], err)))
-            k++;
-    }
-    if (!c && r < 0)
-        c = (rd_error_code)-r;
-    done(&q);
-    rd_store_status status;
+        index < 0
+            ? read_rows(s, sizeof **out, tile_row, free_tiles, "tiles", &list, &k, err,
+                        "SELECT tile, passes_done, data FROM tiles WHERE job_id = ? AND passes_done > 0 "
+                        "ORDER BY tile",
+                        "t", id)
+            : read_rows(s, sizeof **out, tile_row, free_tiles, "tiles", &list, &k, err,
+                        "SELECT tile, passes_done, data FROM tiles WHERE job_id = ? AND tile = ?", "ti", id, index);
     if (!c && k == 0)
-        c = job_status(s, id, &status, err);
-    if (c) {
-        rd_store_tiles_free(list, k);
-        return c;
+        c = job_status(s, id, &st, err);
+    if (!c) {
+        *out = list;
+        *n = k;
     }
-    *out = list;
-    *n = k;
-    return RD_OK;
+    return c;
 }
 
 /* Grades and batches. A put takes the batch's row lock (its count) before
@@ -915,33 +955,33 @@ static const char *grade_image_name(rd_store_grade_image_kind kind)
 }
 
 /* Why a batch refused to count a grade of assignment, from its row as it is
- * now: ended (RD_ERR_CANCELLED) or of another assignment (RD_ERR_INVALID). */
-static rd_error_code batch_refusal(const char *batch_id, const char *assignment, rd_store_batch_status st,
-                                   const char *batch_assignment, int done, int total, rd_error *err)
+ * now (status, assignment, done, total): ended (RD_ERR_CANCELLED) or of
+ * another assignment (RD_ERR_INVALID). */
+typedef struct {
+    const char *batch_id, *assignment;
+} batch_ask;
+
+static rd_error_code batch_refusal(const stmt *q, void *entry, rd_error *err)
 {
+    const batch_ask *a = entry;
+    rd_store_batch_status st = (rd_store_batch_status)rd_store_batch_status_parse(col_text(q, 0));
+    int done = (int)col_int(q, 2), total = (int)col_int(q, 3);
     if (st != RD_STORE_BATCH_RUNNING)
-        return rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "store: batch %s is %s (%d of %d grades)", batch_id,
+        return rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "store: batch %s is %s (%d of %d grades)", a->batch_id,
                             rd_store_batch_status_name(st), done, total);
-    if (strcmp(assignment, batch_assignment) != 0)
-        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: batch %s grades %s, not %s", batch_id, batch_assignment,
-                            assignment);
-    return rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "store: batch %s has all its %d grades", batch_id, total);
+    if (strcmp(a->assignment, col_text(q, 1)) != 0)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: batch %s grades %s, not %s", a->batch_id, col_text(q, 1),
+                            a->assignment);
+    return rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "store: batch %s has all its %d grades", a->batch_id, total);
 }
 
 static rd_error_code batch_refused(rd_store *s, const char *id, const char *assignment, rd_error *err)
 {
-    stmt q;
-    rd_error_code c = prep(s, &q, err, "SELECT status, assignment, done, total FROM batches WHERE id = ?", "t", id);
-    if (c)
-        return c;
-    int r = step(&q, err);
-    if (r == 1)
-        c = batch_refusal(id, assignment, (rd_store_batch_status)rd_store_batch_status_parse(col_text(&q, 0)),
-                          col_text(&q, 1), (int)col_int(&q, 2), (int)col_int(&q, 3), err);
-    done(&q);
-    if (r == 0)
-        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no batch %s", id);
-    return read_code(r, c);
+    batch_ask a = {id, assignment};
+    int found = 0;
+    rd_error_code c = read_row(s, batch_refusal, &a, &found, err,
+                               "SELECT status, assignment, done, total FROM batches WHERE id = ?", "t", id);
+    return c || found ? c : absent(err, "batch", id);
 }
 
 /* Counts a grade of its batch, which becomes done with its last. The WHERE
@@ -1016,20 +1056,19 @@ static rd_error_code grade_row(const stmt *q, rd_store_grade *g, rd_error *err)
     return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no memory for a grade");
 }
 
+static rd_error_code grade_entry(const stmt *q, void *entry, rd_error *err) { return grade_row(q, entry, err); }
+
+static void free_grades(void *list, size_t n) { rd_store_grades_free(list, n); }
+
 rd_error_code rd_store_op_grade_get(rd_store *s, const char *id, rd_store_grade *out, rd_error *err)
 {
-    stmt q;
-    rd_error_code c = prep(s, &q, err, "SELECT " GRADE_COLUMNS " FROM grades WHERE id = ?", "t", id);
-    if (c)
-        return c;
-    int r = step(&q, err);
     rd_store_grade g;
-    if (r == 1 && !(c = grade_row(&q, &g, err)))
+    int found = 0;
+    rd_error_code c =
+        read_row(s, grade_entry, &g, &found, err, "SELECT " GRADE_COLUMNS " FROM grades WHERE id = ?", "t", id);
+    if (!c && found)
         *out = g;
-    done(&q);
-    if (r == 0)
-        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no grade %s", id);
-    return read_code(r, c);
+    return c || found ? c : absent(err, "grade", id);
 }
 
 rd_error_code rd_store_op_grade_image(rd_store *s, const char *id, rd_store_grade_image_kind kind, unsigned char **data,
@@ -1044,7 +1083,7 @@ rd_error_code rd_store_op_grade_image(rd_store *s, const char *id, rd_store_grad
     if ((c = exists(s, "SELECT 1 FROM grades WHERE id = ?", id, &found, err)))
         return c;
     if (!found)
-        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no grade %s", id);
+        return absent(err, "grade", id);
     return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: grade %s has no %s image", id, name);
 }
 
@@ -1058,28 +1097,12 @@ rd_error_code rd_store_op_grades_list(rd_store *s, const rd_store_grade_filter *
              "SELECT " GRADE_COLUMNS " FROM grades WHERE graded_ms >= ?1%s%s%s ORDER BY graded_ms, id LIMIT ?5",
              f->assignment ? " AND assignment = ?2" : "", f->student ? " AND student = ?3" : "",
              f->batch_id ? " AND batch_id = ?4" : "");
-    stmt q;
-    rd_error_code c =
-        prep(s, &q, err, sql, "ItttI", f->since_ms, f->assignment, f->student, f->batch_id, clamp_max(f->max));
-    rd_store_grade *list = NULL;
-    size_t k = 0, cap = 0;
-    int r = 0;
-    while (!c && (r = step(&q, err)) == 1) {
-        if ((c = room_for(k, &cap, (void **)&list, sizeof *list, "a grade list", err)))
-            break;
-        if (!(c = grade_row(&q, &list[k], err)))
-            k++;
-    }
-    if (!c && r < 0)
-        c = (rd_error_code)-r;
-    done(&q);
-    if (c) {
-        rd_store_grades_free(list, k);
-        return c;
-    }
-    *out = list;
-    *n = k;
-    return RD_OK;
+    void *list = NULL;
+    rd_error_code c = read_rows(s, sizeof **out, grade_entry, free_grades, "a grade list", &list, n, err, sql, "ItttI",
+                                f->since_ms, f->assignment, f->student, f->batch_id, clamp_max(f->max));
+    if (!c)
+        *out = list;
+    return c;
 }
 
 /* The old batches are locked first (PostgreSQL; SQLite's BEGIN IMMEDIATE
@@ -1091,9 +1114,7 @@ rd_error_code rd_store_op_grades_expire(rd_store *s, int64_t ttl_ms, size_t *del
 {
     int64_t cut = 0;
     int n = 0;
-    rd_error_code c = begin(s, err);
-    if (!c)
-        c = cut_of(s, ttl_ms, &cut, err);
+    rd_error_code c = begin_expiry(s, ttl_ms, &cut, err);
     if (!c)
         c = run(s, NULL, err,
                 "SELECT count(*) FROM (SELECT 1 FROM batches WHERE created_ms < ? ORDER BY id@LOCK@) AS locked", "I",
@@ -1146,65 +1167,40 @@ static rd_store_batch batch_of(const stmt *q)
     return b;
 }
 
+static rd_error_code batch_entry(const stmt *q, void *entry, rd_error *err)
+{
+    (void)err;
+    *(rd_store_batch *)entry = batch_of(q);
+    return RD_OK;
+}
+
 rd_error_code rd_store_op_batch_get(rd_store *s, const char *id, rd_store_batch *out, rd_error *err)
 {
-    stmt q;
-    rd_error_code c = prep(s, &q, err, "SELECT " BATCH_COLUMNS " FROM batches WHERE id = ?", "t", id);
-    if (c)
-        return c;
-    int r = step(&q, err);
-    if (r == 1)
-        *out = batch_of(&q);
-    done(&q);
-    if (r == 0)
-        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no batch %s", id);
-    return read_code(r, RD_OK);
+    int found = 0;
+    rd_error_code c =
+        read_row(s, batch_entry, out, &found, err, "SELECT " BATCH_COLUMNS " FROM batches WHERE id = ?", "t", id);
+    return c || found ? c : absent(err, "batch", id);
 }
 
 rd_error_code rd_store_op_batches_running(rd_store *s, const char *daemon, size_t max, rd_store_batch **out, size_t *n,
                                           rd_error *err)
 {
-    stmt q;
-    rd_error_code c = prep(s, &q, err,
-                           "SELECT " BATCH_COLUMNS " FROM batches WHERE daemon = ? AND status = 'running' "
-                           "ORDER BY created_ms, id LIMIT ?",
-                           "tI", daemon, clamp_max(max));
-    rd_store_batch *list = NULL;
-    size_t k = 0, cap = 0;
-    int r = 0;
-    while (!c && (r = step(&q, err)) == 1) {
-        if ((c = room_for(k, &cap, (void **)&list, sizeof *list, "a batch list", err)))
-            break;
-        list[k++] = batch_of(&q);
-    }
-    if (!c && r < 0)
-        c = (rd_error_code)-r;
-    done(&q);
-    if (c) {
-        free(list);
-        return c;
-    }
-    *out = list;
-    *n = k;
-    return RD_OK;
+    void *list = NULL;
+    rd_error_code c = read_rows(s, sizeof **out, batch_entry, free_plain, "a batch list", &list, n, err,
+                                "SELECT " BATCH_COLUMNS " FROM batches WHERE daemon = ? AND status = 'running' "
+                                "ORDER BY created_ms, id LIMIT ?",
+                                "tI", daemon, clamp_max(max));
+    if (!c)
+        *out = list;
+    return c;
 }
 
 rd_error_code rd_store_op_batch_students(rd_store *s, const char *id, char **students, rd_error *err)
 {
-    stmt q;
-    rd_error_code c = prep(s, &q, err, "SELECT students FROM batches WHERE id = ?", "t", id);
-    if (c)
-        return c;
-    int r = step(&q, err);
-    char *t = NULL;
-    if (r == 1 && !(t = rd_store_dup(col_text(&q, 0), strlen(col_text(&q, 0)))))
-        c = rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: out of memory reading a batch's students");
-    done(&q);
-    if (r == 0)
-        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no batch %s", id);
-    if ((c = read_code(r, c)) == RD_OK)
-        *students = t;
-    return c;
+    int found = 0;
+    rd_error_code c =
+        read_row(s, text_row, students, &found, err, "SELECT students FROM batches WHERE id = ?", "t", id);
+    return c || found ? c : absent(err, "batch", id);
 }
 
 rd_error_code rd_store_op_batch_cancel(rd_store *s, const char *id, int *changed, rd_error *err)
@@ -1223,16 +1219,10 @@ rd_error_code rd_store_op_batch_cancel(rd_store *s, const char *id, int *changed
 
 /* Migrations. */
 
-static rd_error_code schema_version(rd_store *s, int *v, rd_error *err)
+static rd_error_code schema_version(rd_store *s, int64_t *v, rd_error *err)
 {
-    stmt q;
-    rd_error_code c = prep(s, &q, err, "SELECT coalesce(max(version), 0) FROM schema_version", "");
-    if (c)
-        return c;
-    int r = step(&q, err);
-    *v = r == 1 ? (int)col_int(&q, 0) : 0;
-    done(&q);
-    return r < 0 ? (rd_error_code)-r : RD_OK;
+    int found = 0;
+    return read_row(s, int_row, v, &found, err, "SELECT coalesce(max(version), 0) FROM schema_version", "");
 }
 
 static rd_error_code apply(rd_store *s, const rd_store_migration *m, rd_error *err)
@@ -1253,7 +1243,7 @@ static rd_error_code apply(rd_store *s, const rd_store_migration *m, rd_error *e
 rd_error_code rd_store_migrate(rd_store *s, rd_error *err)
 {
     const char *lock = s->drv->sql.migration_lock;
-    int v = 0;
+    int64_t v = 0;
     rd_error_code c = begin(s, err);
     if (c)
         return c;
@@ -1268,9 +1258,9 @@ rd_error_code rd_store_migrate(rd_store *s, rd_error *err)
         c = schema_version(s, &v, err);
     if (!c && v > rd_store_migration_count)
         c = rd_error_set(err, RD_ERR_UNSUPPORTED, 0, 0,
-                         "store: its schema is version %d, newer than this rayd's %d: run a newer rayd", v,
+                         "store: its schema is version %lld, newer than this rayd's %d: run a newer rayd", (long long)v,
                          rd_store_migration_count);
-    for (int i = v; !c && i < rd_store_migration_count; i++)
+    for (int i = (int)v; !c && i < rd_store_migration_count; i++)
         c = apply(s, &rd_store_migrations[i], err);
     return end(s, c, err);
 }
