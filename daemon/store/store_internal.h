@@ -22,7 +22,7 @@ typedef struct rd_store_stmt rd_store_stmt;
 typedef struct {
     const char *now;            /* @NOW@: the store's clock, milliseconds since the epoch, one value a statement */
     const char *lock;           /* @LOCK@: after a SELECT whose rows the transaction then holds */
-    const char *skip_locked;    /* @SKIP_LOCKED@: after the claim's SELECT of tiles t, passing tiles others hold */
+    const char *skip_locked;    /* @SKIP_LOCKED@: after the claim's SELECT of tiles, passing those others hold */
     const char *blob;           /* @BLOB@: the migrations' type of bytes */
     const char *migration_lock; /* a statement that makes concurrent openers migrate one at a time; NULL: none */
     int dollar;                 /* placeholders are $N, not ?N */

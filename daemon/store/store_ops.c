@@ -1,9 +1,10 @@
 /* Every operation of the store, written once: one SQL text each, which both
  * engines run through their drivers (store_internal.h). Where the engines
  * really differ the text names a fragment of the dialect:
- *   @NOW@          the store's clock: SQLite's is this machine's, bound by
- *                  the driver; PostgreSQL's the server's, so that daemons
- *                  on machines whose clocks differ agree on leases.
+ *   @NOW@          the store's clock, in milliseconds: SQLite's is this
+ *                  machine's (the driver's rayd_now()); PostgreSQL's the
+ *                  server's, so that daemons on machines whose clocks
+ *                  differ agree on leases.
  *   @LOCK@         PostgreSQL runs writers side by side, so a transaction
  *                  locks the rows it decides on; SQLite's BEGIN IMMEDIATE
  *                  lets one writer in at a time, and needs nothing.
@@ -685,27 +686,46 @@ rd_error_code rd_store_op_tiles_init(rd_store *s, const char *id, int tiles, int
     return end(s, c, err);
 }
 
-/* The oldest runnable job's claimable tiles, up to ?2 of them, picked
- * across the jobs in queue order (with SKIP LOCKED a tile another claim
- * holds is passed over, and one it has just claimed fails the re-check of
- * its lease), then those of the first job taken. A gated job's pass that is
- * not open has no claimable tiles, so it does not hold up the jobs behind
- * it. On PostgreSQL the job row a claim reads may be older than a
- * concurrent tile_done or pass_open; but a pass once open stays open, so a
- * stale row can make a claim miss a pass just opened (the next claim takes
- * it), never take one that is not. */
-static const char claim_sql[] =
-    "WITH picked AS MATERIALIZED ("
-    " SELECT t.job_id AS job, t.tile AS pick, j.submitted_ms AS sub FROM tiles AS t JOIN jobs AS j ON j.id = t.job_id"
-    " WHERE j.status IN ('queued', 'running') AND j.pass < j.passes AND t.passes_done = j.pass"
+/* The oldest runnable job after the one at (?2, ?3) when ?1 is set, among
+ * those the filter (?4, ?5) allows, that has a tile of its current pass
+ * nobody holds a live lease on. A gated job whose current pass is not open
+ * has none, so it does not hold up the jobs behind it. On PostgreSQL the
+ * job row may be older than a concurrent tile_done or pass_open; but a pass
+ * once open stays open, so a stale row can make a claim miss a pass just
+ * opened (the next claim takes it), never take one that is not. */
+static const char claimable_sql[] =
+    "SELECT j.id, j.pass, j.submitted_ms FROM jobs AS j WHERE j.status IN ('queued', 'running') AND j.pass < j.passes"
     " AND (j.gated = 0 OR j.pass < j.open_pass)"
+    " AND (?1 = 0 OR j.submitted_ms > ?2 OR (j.submitted_ms = ?2 AND j.id > ?3))"
     " AND (?4 IS NULL OR j.id = ?4) AND (?5 <= 0 OR j.memory_bytes <= ?5)"
-    " AND (t.owner IS NULL OR t.lease_until < @NOW@)"
-    " ORDER BY j.submitted_ms, j.id, t.tile LIMIT ?2@SKIP_LOCKED@),"
-    " first AS MATERIALIZED (SELECT job FROM picked ORDER BY sub, job LIMIT 1)"
-    " UPDATE tiles AS t SET owner = ?1, lease_until = @NOW@ + ?3 FROM picked AS p"
-    " WHERE t.job_id = (SELECT job FROM first) AND t.job_id = p.job AND t.tile = p.pick"
-    " RETURNING job_id, tile, passes_done";
+    " AND EXISTS (SELECT 1 FROM tiles AS t WHERE t.job_id = j.id AND t.passes_done = j.pass"
+    " AND (t.owner IS NULL OR t.lease_until < @NOW@))"
+    " ORDER BY j.submitted_ms, j.id LIMIT 1";
+
+/* Up to ?5 of job ?3's claimable tiles of pass ?4, leased to ?1 for ?2 ms.
+ * With SKIP LOCKED a tile another claim holds is passed over, and one it
+ * has just claimed fails the re-check of its lease. */
+static const char take_sql[] =
+    "WITH picked AS MATERIALIZED (SELECT tile AS pick FROM tiles WHERE job_id = ?3 AND passes_done = ?4"
+    " AND (owner IS NULL OR lease_until < @NOW@) ORDER BY tile LIMIT ?5@SKIP_LOCKED@)"
+    " UPDATE tiles SET owner = ?1, lease_until = @NOW@ + ?2 FROM picked WHERE job_id = ?3 AND tile = pick"
+    " RETURNING tile";
+
+typedef struct {
+    char id[RD_STORE_ID_MAX];
+    int pass;
+    int64_t submitted_ms;
+} claimable;
+
+static rd_error_code claimable_row(const stmt *q, void *entry, rd_error *err)
+{
+    claimable *j = entry;
+    (void)err;
+    snprintf(j->id, sizeof j->id, "%s", col_text(q, 0));
+    j->pass = (int)col_int(q, 1);
+    j->submitted_ms = col_int(q, 2);
+    return RD_OK;
+}
 
 static int tile_cmp(const void *a, const void *b)
 {
@@ -713,16 +733,16 @@ static int tile_cmp(const void *a, const void *b)
     return (x->index > y->index) - (x->index < y->index);
 }
 
-static rd_error_code take_tiles(rd_store *s, const char *daemon, int max, int lease_ms, const rd_store_claim_filter *f,
+static rd_error_code take_tiles(rd_store *s, const char *daemon, const claimable *j, int max, int lease_ms,
                                 rd_store_tile *out, int *n, rd_error *err)
 {
     stmt q;
-    rd_error_code c = prep(s, &q, err, claim_sql, "tiitI", daemon, max, lease_ms, f->job_id, f->max_memory_bytes);
+    rd_error_code c = prep(s, &q, err, take_sql, "titii", daemon, lease_ms, j->id, j->pass, max);
     int k = 0, r = 0;
     while (!c && (r = step(&q, err)) == 1 && k < max) {
-        snprintf(out[k].job_id, sizeof out[k].job_id, "%s", col_text(&q, 0));
-        out[k].index = (int)col_int(&q, 1);
-        out[k++].pass = (int)col_int(&q, 2);
+        snprintf(out[k].job_id, sizeof out[k].job_id, "%s", j->id);
+        out[k].pass = j->pass;
+        out[k++].index = (int)col_int(&q, 0);
     }
     if (!c && r < 0)
         c = (rd_error_code)-r;
@@ -732,18 +752,26 @@ static rd_error_code take_tiles(rd_store *s, const char *daemon, int max, int le
     return c;
 }
 
+/* Job by job in queue order until one gives tiles: under SQLite's single
+ * writer the first does, unless the job is gone; on PostgreSQL claims not
+ * yet committed may hold all the claimable tiles of the oldest job, and a
+ * claim then takes the next job's, as it would once they commit. */
 rd_error_code rd_store_op_claim(rd_store *s, const char *daemon, int max, int lease_ms, const rd_store_claim_filter *f,
                                 rd_store_tile *out, int *n, rd_error *err)
 {
-    int k = 0;
+    claimable j = {"", 0, 0}, after;
+    int k = 0, found = 1;
     rd_error_code c = begin(s, err);
-    if (c)
-        return c;
-    c = take_tiles(s, daemon, max, lease_ms, f, out, &k, err);
+    for (int more = 0; !c && !k && found; more = 1) {
+        after = j;
+        c = read_row(s, claimable_row, &j, &found, err, claimable_sql, "iIttI", more, after.submitted_ms, after.id,
+                     f->job_id, f->max_memory_bytes);
+        if (!c && found)
+            c = take_tiles(s, daemon, &j, max, lease_ms, out, &k, err);
+    }
     if (!c && k)
         c = run(s, NULL, err,
-                "UPDATE jobs SET status = 'running', started_ms = @NOW@ WHERE id = ? AND status = 'queued'", "t",
-                out[0].job_id);
+                "UPDATE jobs SET status = 'running', started_ms = @NOW@ WHERE id = ? AND status = 'queued'", "t", j.id);
     c = end(s, c, err);
     if (!c)
         *n = k;

@@ -512,7 +512,7 @@ static const rd_store_driver pg_driver = {
     .name = "postgresql",
     .sql = {.now = "(extract(epoch FROM statement_timestamp()) * 1000)::bigint",
             .lock = " FOR UPDATE",
-            .skip_locked = " FOR UPDATE OF t SKIP LOCKED",
+            .skip_locked = " FOR UPDATE SKIP LOCKED",
             .blob = "BYTEA",
             .migration_lock = "SELECT pg_advisory_xact_lock(7265617964)",
             .dollar = 1},

@@ -283,7 +283,8 @@ static rd_error_code sq_pragmas(sq_store *q, int sync_full, rd_error *err)
     c = sq_exec(q, sync_full ? "PRAGMA synchronous = FULL" : "PRAGMA synchronous = NORMAL", "setting up", err);
     if (!c)
         c = sq_exec(q, "PRAGMA foreign_keys = ON", "setting up", err);
-    if (!c && sqlite3_create_function_v2(q->db, "rayd_now", 0, SQLITE_UTF8, q, sq_now, NULL, NULL, NULL) != SQLITE_OK)
+    if (!c && sqlite3_create_function_v2(q->db, "rayd_now", 0, SQLITE_UTF8 | SQLITE_DETERMINISTIC | SQLITE_DIRECTONLY,
+                                         q, sq_now, NULL, NULL, NULL) != SQLITE_OK)
         c = sq_fail(q, sqlite3_errcode(q->db), "setting up", err);
     return c;
 }
