@@ -366,7 +366,7 @@ static rd_error_code runnable(rd_store *s, const char *id, int changes, rd_error
     return rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "store: job %s is %s", id, rd_store_status_name(st));
 }
 
-/* A zero page of the probe's write. */
+/* What the probe writes: 64 KiB of zeros, a few pages. */
 static const unsigned char probe_pad[65536];
 
 /* A read, then a committed write of a few pages (deleted in the same

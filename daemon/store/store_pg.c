@@ -35,7 +35,7 @@
 #define EVENTS_KEPT 64
 
 /* The types values are sent as (the server's pg_type OIDs, fixed). */
-enum { OID_BYTEA = 17, OID_INT8 = 20, OID_TEXT = 25, OID_FLOAT4 = 700, OID_FLOAT8 = 701 };
+enum { OID_BYTEA = 17, OID_INT8 = 20, OID_TEXT = 25, OID_FLOAT8 = 701 };
 
 /* The most values one statement binds. */
 #define VALUES_MAX 16
@@ -162,26 +162,20 @@ static int result_ok(const PGresult *r)
 }
 
 /* Runs one statement with st's values (st NULL: a script of several, with
- * none) and returns its result (the first error of a script), or NULL with
- * err set. */
-static PGresult *pg_run(pg_store *p, const char *sql, const rd_store_stmt *st, rd_error *err)
+ * none); *out (may be NULL) its result, the caller's to PQclear. A script
+ * fails with its first error. */
+static rd_error_code pg_run(pg_store *p, const char *sql, const rd_store_stmt *st, PGresult **out, rd_error *err)
 {
     if (!p->conn)
-        return pg_broken(p, "connection lost in a transaction", err), NULL;
+        return pg_broken(p, "connection lost in a transaction", err);
     int sent = st ? PQsendQueryParams(p->conn, sql, st->n, st->types, st->vals, st->lens, st->fmts, 1)
                   : PQsendQuery(p->conn, sql);
     if (!sent)
-        return pg_broken(p, "sending", err), NULL;
+        return pg_broken(p, "sending", err);
     double deadline = rd_now_ms() + p->base.opt.timeout_ms + 1000;
-    PGresult *keep = NULL;
-    for (;;) {
-        if (pg_pump(p, deadline, err)) {
-            PQclear(keep);
-            return NULL;
-        }
-        PGresult *r = PQgetResult(p->conn);
-        if (!r)
-            break;
+    PGresult *keep = NULL, *r;
+    rd_error_code c;
+    while (!(c = pg_pump(p, deadline, err)) && (r = PQgetResult(p->conn))) {
         if (!keep || result_ok(keep)) {
             PQclear(keep);
             keep = r;
@@ -189,18 +183,17 @@ static PGresult *pg_run(pg_store *p, const char *sql, const rd_store_stmt *st, r
             PQclear(r);
         }
     }
-    if (!keep)
-        return pg_broken(p, "answering", err), NULL;
+    if (c || !keep) {
+        PQclear(keep);
+        return c ? c : pg_broken(p, "answering", err);
+    }
     if (!result_ok(keep))
-        return pg_failed(p, keep, err), NULL;
-    return keep;
-}
-
-static rd_error_code pg_cmd(pg_store *p, const char *sql, const rd_store_stmt *st, rd_error *err)
-{
-    PGresult *r = pg_run(p, sql, st, err);
-    PQclear(r);
-    return r ? RD_OK : err->code;
+        return pg_failed(p, keep, err);
+    if (out)
+        *out = keep;
+    else
+        PQclear(keep);
+    return RD_OK;
 }
 
 /* Events. Their payload: "s:ID" submitted, "t:ID" tiles, "e:ID" ended. */
@@ -264,7 +257,7 @@ static rd_error_code pg_connect(pg_store *p, rd_error *err)
     PQsetNoticeProcessor(p->conn, quiet, NULL);
     PQsetnonblocking(p->conn, 1);
     p->backend = PQbackendPID(p->conn);
-    return pg_cmd(p, "LISTEN " CHANNEL, NULL, err);
+    return pg_run(p, "LISTEN " CHANNEL, NULL, NULL, err);
 }
 
 /* Connected and idle: reads what the server sent meanwhile (a shutdown's
@@ -284,7 +277,7 @@ static rd_error_code pg_ready(pg_store *p, rd_error *err)
 static rd_error_code pg_script(rd_store *s, const char *sql, const char *what, rd_error *err)
 {
     (void)what; /* the server's message names the statement */
-    return pg_cmd(pg(s), sql, NULL, err);
+    return pg_run(pg(s), sql, NULL, NULL, err);
 }
 
 static rd_error_code pg_begin(rd_store *s, rd_error *err)
@@ -292,7 +285,7 @@ static rd_error_code pg_begin(rd_store *s, rd_error *err)
     pg_store *p = pg(s);
     rd_error_code c = pg_ready(p, err);
     if (!c)
-        c = pg_cmd(p, "BEGIN", NULL, err);
+        c = pg_run(p, "BEGIN", NULL, NULL, err);
     p->in_tx = !c;
     return c;
 }
@@ -300,7 +293,7 @@ static rd_error_code pg_begin(rd_store *s, rd_error *err)
 static rd_error_code pg_commit(rd_store *s, rd_error *err)
 {
     pg(s)->in_tx = 0;
-    return pg_cmd(pg(s), "COMMIT", NULL, err);
+    return pg_run(pg(s), "COMMIT", NULL, NULL, err);
 }
 
 static void pg_rollback(rd_store *s)
@@ -309,7 +302,7 @@ static void pg_rollback(rd_store *s)
     rd_error ignored;
     p->in_tx = 0;
     if (p->conn && PQtransactionStatus(p->conn) != PQTRANS_IDLE)
-        pg_cmd(p, "ROLLBACK", NULL, &ignored);
+        pg_run(p, "ROLLBACK", NULL, NULL, &ignored);
 }
 
 static rd_error_code pg_prepare(rd_store *s, const char *sql, rd_store_stmt **out, rd_error *err)
@@ -387,9 +380,7 @@ static rd_error_code pg_execute(rd_store_stmt *st, rd_error *err)
     if (st->too_many)
         return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: a statement of more than %d values", VALUES_MAX);
     rd_error_code c = p->in_tx ? RD_OK : pg_ready(p, err);
-    if (!c && !(st->res = pg_run(p, st->sql, st, err)))
-        c = err->code;
-    return c;
+    return c ? c : pg_run(p, st->sql, st, &st->res, err);
 }
 
 static int pg_step(rd_store_stmt *st, rd_error *err)
@@ -415,22 +406,15 @@ static int64_t pg_col_int(rd_store_stmt *st, int col)
     return n == 4 ? (int64_t)(int32_t)x : n == 2 ? (int64_t)(int16_t)x : (int64_t)x;
 }
 
+/* The schema's reals are all DOUBLE PRECISION: 8 bytes, big-endian. */
 static double pg_col_double(rd_store_stmt *st, int col)
 {
-    Oid type = PQftype(st->res, col);
     uint64_t bits = (uint64_t)pg_col_int(st, col);
-    if (type == OID_FLOAT8) {
-        double d;
-        memcpy(&d, &bits, sizeof d);
-        return d;
-    }
-    if (type == OID_FLOAT4) {
-        uint32_t b32 = (uint32_t)bits;
-        float f;
-        memcpy(&f, &b32, sizeof f);
-        return f;
-    }
-    return (double)(int64_t)bits;
+    double d;
+    if (PQftype(st->res, col) != OID_FLOAT8)
+        return (double)(int64_t)bits;
+    memcpy(&d, &bits, sizeof d);
+    return d;
 }
 
 /* A text's binary form is its bytes, and libpq ends every value with a NUL. */
@@ -460,7 +444,7 @@ static rd_error_code pg_notify(rd_store *s, rd_store_event_kind kind, const char
     snprintf(payload, sizeof payload, "%c:%s", event_letters[kind], id);
     rd_store_stmt st = {.p = pg(s)};
     pg_bind_text(&st, 1, payload);
-    return pg_cmd(pg(s), "SELECT pg_notify('" CHANNEL "', $1)", &st, err);
+    return pg_run(pg(s), "SELECT pg_notify('" CHANNEL "', $1)", &st, NULL, err);
 }
 
 /* The oldest event kept, if any. */
