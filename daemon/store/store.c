@@ -1,6 +1,6 @@
-/* The engine-agnostic half of the store: arguments and limits are checked
- * here, once, so both engines refuse the same inputs with the same
- * messages; then the call runs in its engine with the handle's mutex held. */
+/* The store's entry points: arguments and limits are checked here, once, so
+ * both engines refuse the same inputs with the same messages; then the
+ * operation (store_ops.c) runs with the handle's mutex held. */
 #include "store.h"
 
 #include <math.h>
@@ -59,68 +59,12 @@ int rd_store_batch_status_parse(const char *name)
     return -1;
 }
 
-const char *rd_store_grade_image_name(rd_store_grade_image_kind kind)
-{
-    return kind == RD_STORE_GRADE_DIFF ? "diff" : "image";
-}
-
 int rd_store_status_parse(const char *name)
 {
     for (int i = 0; name && i < RD_STORE_STATUS_COUNT; i++)
         if (strcmp(name, status_names[i]) == 0)
             return i;
     return -1;
-}
-
-rd_error_code rd_store_code_parse(const char *name)
-{
-    for (int c = 0; name && c < RD_ERROR_COUNT; c++)
-        if (strcmp(name, rd_error_name((rd_error_code)c)) == 0)
-            return (rd_error_code)c;
-    return RD_ERR_IO;
-}
-
-char *rd_store_migration_text(const char *sql, const char *blob)
-{
-    static const char mark[] = "@BLOB@";
-    size_t n = 0, blen = strlen(blob), mlen = sizeof mark - 1;
-    for (const char *p = strstr(sql, mark); p; p = strstr(p + mlen, mark))
-        n++;
-    char *out = malloc(strlen(sql) + n * blen + 1);
-    if (!out)
-        return NULL;
-    char *o = out;
-    for (const char *p = sql, *q; *p; p = q + mlen) {
-        q = strstr(p, mark);
-        size_t keep = q ? (size_t)(q - p) : strlen(p);
-        memcpy(o, p, keep);
-        o += keep;
-        if (!q)
-            break;
-        memcpy(o, blob, blen);
-        o += blen;
-    }
-    *o = '\0';
-    return out;
-}
-
-static const char event_letters[] = {
-    [RD_STORE_EV_SUBMITTED] = 's', [RD_STORE_EV_TILES] = 't', [RD_STORE_EV_ENDED] = 'e'};
-
-void rd_store_event_payload(char *out, size_t outsz, rd_store_event_kind kind, const char *id)
-{
-    snprintf(out, outsz, "%c:%s", event_letters[kind], id);
-}
-
-void rd_store_event_parse(const char *payload, rd_store_event *ev)
-{
-    memset(ev, 0, sizeof *ev);
-    ev->kind = RD_STORE_EV_CHANGED;
-    for (int k = RD_STORE_EV_SUBMITTED; k <= RD_STORE_EV_ENDED; k++)
-        if (payload[0] == event_letters[k] && payload[1] == ':') {
-            ev->kind = (rd_store_event_kind)k;
-            snprintf(ev->job_id, sizeof ev->job_id, "%s", payload + 2);
-        }
 }
 
 void *rd_store_dup(const void *data, size_t len)
@@ -159,7 +103,7 @@ rd_store *rd_store_open(const char *spec, const rd_store_options *opt, rd_error 
     }
     rd_store *s = is_postgres_spec(spec) ? rd_store_pg_open(spec, &o, err) : rd_store_sqlite_open(spec, &o, err);
     if (s && pthread_mutex_init(&s->lock, NULL) != 0) {
-        s->ops->close(s);
+        s->drv->close(s);
         rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no mutex");
         return NULL;
     }
@@ -171,10 +115,10 @@ void rd_store_close(rd_store *s)
     if (!s)
         return;
     pthread_mutex_destroy(&s->lock);
-    s->ops->close(s);
+    s->drv->close(s);
 }
 
-const char *rd_store_engine_name(const rd_store *s) { return s->ops->name; }
+const char *rd_store_engine_name(const rd_store *s) { return s->drv->name; }
 
 /* Checks: ids, texts, sizes. Each returns RD_OK or sets err. */
 
@@ -342,14 +286,12 @@ void rd_store_saw(rd_store *s, rd_error_code c)
         s->nospace_ms = rd_wall_ms();
 }
 
-void rd_store_committed(rd_store *s) { s->nospace_ms = 0; }
-
 /* The engine's ping writes a little (a probe); a recent write that found
  * no space outweighs it. Under s->lock. */
 static rd_error_code ping_locked(rd_store *s, rd_error *err)
 {
     int64_t seen = s->nospace_ms;
-    rd_error_code c = s->ops->ping(s, err);
+    rd_error_code c = rd_store_op_ping(s, err);
     /* The probe's own commit is no real write's. */
     if (!c)
         s->nospace_ms = seen;
@@ -370,14 +312,14 @@ rd_error_code rd_store_job_create(rd_store *s, const rd_store_job_spec *spec, rd
 {
     USE_ERR(err);
     CHECKED(check_spec(s, spec, err));
-    LOCKED(s, s->ops->job_create(s, spec, err));
+    LOCKED(s, rd_store_op_job_create(s, spec, err));
 }
 
 rd_error_code rd_store_job_get(rd_store *s, const char *id, rd_store_job_info *out, rd_error *err)
 {
     USE_ERR(err);
     CHECKED(check_id("a job id", id, err));
-    LOCKED(s, s->ops->job_get(s, id, out, err));
+    LOCKED(s, rd_store_op_job_get(s, id, out, err));
 }
 
 void rd_store_job_info_free(rd_store_job_info *info)
@@ -391,7 +333,7 @@ rd_error_code rd_store_job_input_get(rd_store *s, const char *id, rd_store_job_i
 {
     USE_ERR(err);
     CHECKED(check_id("a job id", id, err));
-    LOCKED(s, s->ops->job_input(s, id, out, err));
+    LOCKED(s, rd_store_op_job_input(s, id, out, err));
 }
 
 void rd_store_job_input_free(rd_store_job_input *in)
@@ -405,7 +347,7 @@ rd_error_code rd_store_job_start(rd_store *s, const char *id, rd_error *err)
 {
     USE_ERR(err);
     CHECKED(check_id("a job id", id, err));
-    LOCKED(s, s->ops->job_start(s, id, err));
+    LOCKED(s, rd_store_op_job_start(s, id, err));
 }
 
 rd_error_code rd_store_job_stats(rd_store *s, const char *id, const char *stats, rd_error *err)
@@ -413,7 +355,7 @@ rd_error_code rd_store_job_stats(rd_store *s, const char *id, const char *stats,
     USE_ERR(err);
     CHECKED(check_id("a job id", id, err));
     CHECKED(check_text(s, "the statistics", stats, err));
-    LOCKED(s, s->ops->job_stats(s, id, stats, err));
+    LOCKED(s, rd_store_op_job_stats(s, id, stats, err));
 }
 
 /* A job that had ended already is RD_ERR_CANCELLED for finish and fail. */
@@ -422,7 +364,7 @@ static rd_error_code end_job(rd_store *s, const char *id, rd_store_status to, co
 {
     int ch = 0;
     pthread_mutex_lock(&s->lock);
-    rd_error_code c = s->ops->job_end(s, id, to, why, r, &ch, err);
+    rd_error_code c = rd_store_op_job_end(s, id, to, why, r, &ch, err);
     pthread_mutex_unlock(&s->lock);
     if (c == RD_OK && !ch && to != RD_STORE_CANCELLED)
         c = rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "store: job %s has ended already", id);
@@ -466,7 +408,7 @@ rd_error_code rd_store_job_delete(rd_store *s, const char *id, rd_error *err)
 {
     USE_ERR(err);
     CHECKED(check_id("a job id", id, err));
-    LOCKED(s, s->ops->job_delete(s, id, err));
+    LOCKED(s, rd_store_op_job_delete(s, id, err));
 }
 
 rd_error_code rd_store_job_image(rd_store *s, const char *id, rd_store_image_kind kind, unsigned char **data,
@@ -476,7 +418,7 @@ rd_error_code rd_store_job_image(rd_store *s, const char *id, rd_store_image_kin
     CHECKED(check_id("a job id", id, err));
     if (kind != RD_STORE_PNG && kind != RD_STORE_EXR)
         return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: no image kind %d", (int)kind);
-    LOCKED(s, s->ops->job_image(s, id, kind, data, len, err));
+    LOCKED(s, rd_store_op_job_image(s, id, kind, data, len, err));
 }
 
 rd_error_code rd_store_jobs_list(rd_store *s, unsigned mask, size_t max, rd_store_job_brief **out, size_t *n,
@@ -489,7 +431,7 @@ rd_error_code rd_store_jobs_list(rd_store *s, unsigned mask, size_t max, rd_stor
         *n = 0;
         return RD_OK;
     }
-    LOCKED(s, s->ops->jobs_list(s, mask, max, out, n, err));
+    LOCKED(s, rd_store_op_jobs_list(s, mask, max, out, n, err));
 }
 
 rd_error_code rd_store_jobs_expire(rd_store *s, int64_t ttl_ms, size_t *deleted, rd_error *err)
@@ -499,7 +441,7 @@ rd_error_code rd_store_jobs_expire(rd_store *s, int64_t ttl_ms, size_t *deleted,
     if (ttl_ms < 0)
         return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: a negative TTL");
     pthread_mutex_lock(&s->lock);
-    rd_error_code c = s->ops->jobs_expire(s, ttl_ms, &d, err);
+    rd_error_code c = rd_store_op_jobs_expire(s, ttl_ms, &d, err);
     pthread_mutex_unlock(&s->lock);
     if (c == RD_OK && deleted)
         *deleted = d;
@@ -512,7 +454,7 @@ rd_error_code rd_store_tiles_init(rd_store *s, const char *id, int tiles, int pa
     CHECKED(check_id("a job id", id, err));
     CHECKED(check_count("tiles", tiles, s->opt.limits.tiles, err));
     CHECKED(check_count("passes", passes, s->opt.limits.passes, err));
-    LOCKED(s, s->ops->tiles_init(s, id, tiles, passes, err));
+    LOCKED(s, rd_store_op_tiles_init(s, id, tiles, passes, err));
 }
 
 rd_error_code rd_store_claim_where(rd_store *s, const char *daemon, int max, int lease_ms,
@@ -525,7 +467,7 @@ rd_error_code rd_store_claim_where(rd_store *s, const char *daemon, int max, int
     if (filter && filter->job_id)
         CHECKED(check_id("a job id", filter->job_id, err));
     rd_store_claim_filter any = {NULL, 0};
-    LOCKED(s, s->ops->claim(s, daemon, max, lease_ms, filter ? filter : &any, out, n, err));
+    LOCKED(s, rd_store_op_claim(s, daemon, max, lease_ms, filter ? filter : &any, out, n, err));
 }
 
 rd_error_code rd_store_claim(rd_store *s, const char *daemon, int max, int lease_ms, rd_store_tile *out, int *n,
@@ -539,7 +481,7 @@ static rd_error_code leases(rd_store *s, const char *daemon, int lease_ms, int *
     int k = 0;
     CHECKED(check_id("a daemon id", daemon, err));
     pthread_mutex_lock(&s->lock);
-    rd_error_code c = s->ops->leases(s, daemon, lease_ms, &k, err);
+    rd_error_code c = rd_store_op_leases(s, daemon, lease_ms, &k, err);
     pthread_mutex_unlock(&s->lock);
     if (c == RD_OK && count)
         *count = k;
@@ -570,7 +512,7 @@ rd_error_code rd_store_tile_done(rd_store *s, const char *daemon, const rd_store
         return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: tile %d of pass %d", t->index, t->pass);
     rd_store_tile_outcome o;
     pthread_mutex_lock(&s->lock);
-    rd_error_code c = s->ops->tile_done(s, daemon, t, data, len, &o, err);
+    rd_error_code c = rd_store_op_tile_done(s, daemon, t, data, len, &o, err);
     pthread_mutex_unlock(&s->lock);
     if (c == RD_OK && outcome)
         *outcome = o;
@@ -585,14 +527,14 @@ rd_error_code rd_store_pass_open(rd_store *s, const char *id, int pass, const ch
     if (pass < 1)
         return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: pass %d is not one to open (1 or later)", pass);
     CHECKED(check_text(s, "the schedule", schedule, err));
-    LOCKED(s, s->ops->pass_open(s, id, pass, schedule, err));
+    LOCKED(s, rd_store_op_pass_open(s, id, pass, schedule, err));
 }
 
 rd_error_code rd_store_tiles_get(rd_store *s, const char *id, rd_store_tile_data **out, size_t *n, rd_error *err)
 {
     USE_ERR(err);
     CHECKED(check_id("a job id", id, err));
-    LOCKED(s, s->ops->tiles_get(s, id, -1, out, n, err));
+    LOCKED(s, rd_store_op_tiles_get(s, id, -1, out, n, err));
 }
 
 rd_error_code rd_store_tile_get(rd_store *s, const char *id, int index, rd_store_tile_data *out, rd_error *err)
@@ -604,7 +546,7 @@ rd_error_code rd_store_tile_get(rd_store *s, const char *id, int index, rd_store
     rd_store_tile_data *t = NULL;
     size_t n = 0;
     pthread_mutex_lock(&s->lock);
-    rd_error_code c = s->ops->tiles_get(s, id, index, &t, &n, err);
+    rd_error_code c = rd_store_op_tiles_get(s, id, index, &t, &n, err);
     pthread_mutex_unlock(&s->lock);
     if (c == RD_OK && n == 0)
         c = rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: job %s has no tile %d", id, index);
@@ -625,31 +567,7 @@ rd_error_code rd_store_wait(rd_store *s, int timeout_ms, rd_store_event *ev, rd_
 {
     USE_ERR(err);
     memset(ev, 0, sizeof *ev);
-    return s->ops->wait(s, timeout_ms < 0 ? 0 : timeout_ms, ev, err);
-}
-
-rd_error_code rd_store_refusal(rd_store_status st, const char *daemon, const rd_store_tile *t, rd_error *err)
-{
-    if (st != RD_STORE_QUEUED && st != RD_STORE_RUNNING)
-        return rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "store: job %s is %s", t->job_id, rd_store_status_name(st));
-    return rd_error_set(err, RD_ERR_TIMEOUT, 0, 0, "store: tile %d of pass %d of job %s is not leased to %s", t->index,
-                        t->pass, t->job_id, daemon);
-}
-
-rd_error_code rd_store_pass_refusal(const char *id, int pass, rd_store_status st, int gated, int done, int passes,
-                                    int opened, rd_error *err)
-{
-    if (st != RD_STORE_QUEUED && st != RD_STORE_RUNNING)
-        return rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "store: job %s is %s", id, rd_store_status_name(st));
-    if (!gated)
-        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: job %s is not gated: its passes open by themselves", id);
-    if (pass >= passes)
-        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: job %s has no pass %d: it has %d", id, pass, passes);
-    if (opened > pass)
-        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: pass %d of job %s is open already", pass, id);
-    return rd_error_set(err, RD_ERR_INVALID, 0, 0,
-                        "store: pass %d of job %s cannot open: %d of its passes are complete, not %d", pass, id, done,
-                        pass);
+    return s->drv->wait(s, timeout_ms < 0 ? 0 : timeout_ms, ev, err);
 }
 
 /* Grades and batches. */
@@ -662,14 +580,14 @@ rd_error_code rd_store_grade_put(rd_store *s, const rd_store_grade *g, const uns
     rd_store_grade n = *g;
     n.student = g->student ? g->student : "";
     n.pass = g->error ? 0 : g->pass != 0;
-    LOCKED(s, s->ops->grade_put(s, &n, diff_png, len, err));
+    LOCKED(s, rd_store_op_grade_put(s, &n, diff_png, len, err));
 }
 
 rd_error_code rd_store_grade_get(rd_store *s, const char *id, rd_store_grade *out, rd_error *err)
 {
     USE_ERR(err);
     CHECKED(check_id("a grade id", id, err));
-    LOCKED(s, s->ops->grade_get(s, id, out, err));
+    LOCKED(s, rd_store_op_grade_get(s, id, out, err));
 }
 
 void rd_store_grade_free(rd_store_grade *g)
@@ -689,21 +607,6 @@ void rd_store_grades_free(rd_store_grade *g, size_t n)
     free(g);
 }
 
-rd_error_code rd_store_grade_texts(rd_store_grade *g, const char *const texts[RD_STORE_GRADE_TEXTS], rd_error *err)
-{
-    const char **to[RD_STORE_GRADE_TEXTS] = {&g->id,      &g->batch_id,      &g->assignment, &g->student,
-                                             &g->verdict, &g->reference_key, &g->error};
-    int ok = 1;
-    for (int i = 0; i < RD_STORE_GRADE_TEXTS; i++) {
-        *to[i] = texts[i] ? rd_store_dup(texts[i], strlen(texts[i])) : NULL;
-        ok = ok && (!texts[i] || *to[i]);
-    }
-    if (ok)
-        return RD_OK;
-    rd_store_grade_free(g);
-    return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "store: no memory for a grade");
-}
-
 rd_error_code rd_store_grade_image(rd_store *s, const char *id, rd_store_grade_image_kind kind, unsigned char **data,
                                    size_t *len, rd_error *err)
 {
@@ -711,7 +614,7 @@ rd_error_code rd_store_grade_image(rd_store *s, const char *id, rd_store_grade_i
     CHECKED(check_id("a grade id", id, err));
     if (kind != RD_STORE_GRADE_DIFF && kind != RD_STORE_GRADE_IMAGE)
         return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: no grade image kind %d", (int)kind);
-    LOCKED(s, s->ops->grade_image(s, id, kind, data, len, err));
+    LOCKED(s, rd_store_op_grade_image(s, id, kind, data, len, err));
 }
 
 rd_error_code rd_store_grades_list(rd_store *s, const rd_store_grade_filter *f, rd_store_grade **out, size_t *n,
@@ -732,7 +635,7 @@ rd_error_code rd_store_grades_list(rd_store *s, const rd_store_grade_filter *f, 
         *n = 0;
         return RD_OK;
     }
-    LOCKED(s, s->ops->grades_list(s, f, out, n, err));
+    LOCKED(s, rd_store_op_grades_list(s, f, out, n, err));
 }
 
 rd_error_code rd_store_grades_expire(rd_store *s, int64_t ttl_ms, size_t *deleted, rd_error *err)
@@ -742,7 +645,7 @@ rd_error_code rd_store_grades_expire(rd_store *s, int64_t ttl_ms, size_t *delete
     if (ttl_ms < 0)
         return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: a negative TTL");
     pthread_mutex_lock(&s->lock);
-    rd_error_code c = s->ops->grades_expire(s, ttl_ms, &d, err);
+    rd_error_code c = rd_store_op_grades_expire(s, ttl_ms, &d, err);
     pthread_mutex_unlock(&s->lock);
     if (c == RD_OK && deleted)
         *deleted = d;
@@ -760,7 +663,7 @@ rd_error_code rd_store_batch_create(rd_store *s, const char *id, const char *ass
     CHECKED(check_text(s, "the students", students, err));
     if (total < 1)
         return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: a batch of %d grades", total);
-    LOCKED(s, s->ops->batch_create(s, id, assignment, total, daemon ? daemon : "", students ? students : "", err));
+    LOCKED(s, rd_store_op_batch_create(s, id, assignment, total, daemon ? daemon : "", students ? students : "", err));
 }
 
 rd_error_code rd_store_batches_running(rd_store *s, const char *daemon, size_t max, rd_store_batch **out, size_t *n,
@@ -773,21 +676,21 @@ rd_error_code rd_store_batches_running(rd_store *s, const char *daemon, size_t m
         *n = 0;
         return RD_OK;
     }
-    LOCKED(s, s->ops->batches_running(s, daemon, max, out, n, err));
+    LOCKED(s, rd_store_op_batches_running(s, daemon, max, out, n, err));
 }
 
 rd_error_code rd_store_batch_students(rd_store *s, const char *id, char **students, rd_error *err)
 {
     USE_ERR(err);
     CHECKED(check_id("a batch id", id, err));
-    LOCKED(s, s->ops->batch_students(s, id, students, err));
+    LOCKED(s, rd_store_op_batch_students(s, id, students, err));
 }
 
 rd_error_code rd_store_batch_get(rd_store *s, const char *id, rd_store_batch *out, rd_error *err)
 {
     USE_ERR(err);
     CHECKED(check_id("a batch id", id, err));
-    LOCKED(s, s->ops->batch_get(s, id, out, err));
+    LOCKED(s, rd_store_op_batch_get(s, id, out, err));
 }
 
 rd_error_code rd_store_batch_cancel(rd_store *s, const char *id, int *changed, rd_error *err)
@@ -796,21 +699,9 @@ rd_error_code rd_store_batch_cancel(rd_store *s, const char *id, int *changed, r
     int ch = 0;
     CHECKED(check_id("a batch id", id, err));
     pthread_mutex_lock(&s->lock);
-    rd_error_code c = s->ops->batch_cancel(s, id, &ch, err);
+    rd_error_code c = rd_store_op_batch_cancel(s, id, &ch, err);
     pthread_mutex_unlock(&s->lock);
     if (c == RD_OK && changed)
         *changed = ch;
     return c;
-}
-
-rd_error_code rd_store_batch_refusal(const char *batch_id, const char *assignment, rd_store_batch_status st,
-                                     const char *batch_assignment, int done, int total, rd_error *err)
-{
-    if (st != RD_STORE_BATCH_RUNNING)
-        return rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "store: batch %s is %s (%d of %d grades)", batch_id,
-                            rd_store_batch_status_name(st), done, total);
-    if (strcmp(assignment, batch_assignment) != 0)
-        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: batch %s grades %s, not %s", batch_id, batch_assignment,
-                            assignment);
-    return rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "store: batch %s has all its %d grades", batch_id, total);
 }
