@@ -113,7 +113,7 @@ char *farm_stats_text(farm_ctx *c, int64_t now_ms, int final);
 /* farm_json.c: the status JSON of a stored job. */
 char *farm_job_json(const rd_store_job_info *in);
 
-/* Notes the store's answer: up, or (RD_ERR_IO) down. */
+/* Notes the store's answer: up, or (RD_ERR_UNAVAILABLE) down. */
 void farm_store_result(rd_farm *f, rd_error_code rc);
 
 #endif

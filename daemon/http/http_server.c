@@ -444,7 +444,7 @@ enum MHD_Result rd_reply_draining(rd_req *r)
 enum MHD_Result rd_reply_store_error(rd_req *r, const rd_error *err)
 {
     switch (err->code) {
-    case RD_ERR_IO:
+    case RD_ERR_UNAVAILABLE:
         return rd_reply_error_hdr(r, 503, "store_unavailable", "the job store is unreachable; try again shortly",
                                   "Retry-After", "5");
     case RD_ERR_BUSY: return rd_reply_error_hdr(r, 503, "queue_full", err->message, "Retry-After", "1");

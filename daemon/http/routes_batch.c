@@ -665,7 +665,7 @@ rd_error_code rd_grades_batch_start(rd_server *srv, const char *assignment, rd_g
     grade_batch *b = calloc(1, sizeof *b);
     batch_task *t = calloc(1, sizeof *t);
     rd_error_code rc = !b || !t ? rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory")
-                       : !s     ? rd_error_set(err, RD_ERR_IO, 0, 0, "the store is not open yet")
+                       : !s     ? rd_error_set(err, RD_ERR_UNAVAILABLE, 0, 0, "the store is not open yet")
                                 : RD_OK;
     if (!rc)
         rc = rd_cap_new(b->id, 0, err);
@@ -824,7 +824,7 @@ rd_error_code rd_grades_batch_json(rd_server *srv, const char *id, int form, cha
 {
     rd_store *s = rd_grades_store(srv->grades);
     if (!s)
-        return rd_error_set(err, RD_ERR_IO, 0, 0, "the store is not open yet");
+        return rd_error_set(err, RD_ERR_UNAVAILABLE, 0, 0, "the store is not open yet");
     rd_store_batch b;
     rd_error_code rc = rd_store_batch_get(s, id, &b, err);
     if (rc == RD_ERR_INVALID)
@@ -916,7 +916,8 @@ enum MHD_Result rd_route_grades_list(rd_req *r)
     rd_store_grade *g = NULL;
     size_t n = 0;
     rd_error err = {0};
-    rd_error_code rc = s ? rd_store_grades_list(s, &f, &g, &n, &err) : rd_error_set(&err, RD_ERR_IO, 0, 0, "no store");
+    rd_error_code rc =
+        s ? rd_store_grades_list(s, &f, &g, &n, &err) : rd_error_set(&err, RD_ERR_UNAVAILABLE, 0, 0, "no store");
     if (rc == RD_ERR_INVALID)
         return rd_reply_error(r, 400, "parse_error", &err, NULL);
     if (rc)

@@ -211,7 +211,7 @@ static enum MHD_Result reply_submitted(rd_req *r, const rd_jq_info *info)
         return reply_ended(r, info);
     if (info->status == RD_JQ_DONE)
         rc = rd_farm_job_json(t->farm, t->id, &text, NULL, &err);
-    else if (err.code != RD_ERR_IO && err.code != RD_ERR_BUSY && err.code != RD_ERR_NOSPACE &&
+    else if (err.code != RD_ERR_UNAVAILABLE && err.code != RD_ERR_BUSY && err.code != RD_ERR_NOSPACE &&
              err.code != RD_ERR_DAMAGED)
         return reply_ended(r, info);
     if (info->status != RD_JQ_DONE || rc)
@@ -348,8 +348,8 @@ enum MHD_Result rd_route_job_image_resumed(rd_req *r)
         static const char *const no_store[] = {MHD_HTTP_HEADER_CACHE_CONTROL, "no-store", NULL};
         return rd_reply_with(r, 200, "image/png", png, t->len, 1, no_store);
     }
-    if (info.status == RD_JQ_FAILED &&
-        (info.error.code == RD_ERR_IO || info.error.code == RD_ERR_NOSPACE || info.error.code == RD_ERR_DAMAGED))
+    if (info.status == RD_JQ_FAILED && (info.error.code == RD_ERR_UNAVAILABLE || info.error.code == RD_ERR_NOSPACE ||
+                                        info.error.code == RD_ERR_DAMAGED))
         return rd_reply_store_error(r, &info.error);
     if (info.status == RD_JQ_FAILED)
         return rd_reply_error(r, 409, "not_ready", &info.error, NULL);

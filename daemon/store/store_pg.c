@@ -66,10 +66,10 @@ static void pg_drop(pg_store *p)
 static rd_error_code pg_broken(pg_store *p, const char *what, rd_error *err)
 {
     char line[400];
-    rd_error_set(err, RD_ERR_IO, 0, 0, "store: PostgreSQL %s: %s", what,
+    rd_error_set(err, RD_ERR_UNAVAILABLE, 0, 0, "store: PostgreSQL %s: %s", what,
                  one_line(line, sizeof line, p->conn ? PQerrorMessage(p->conn) : NULL));
     pg_drop(p);
-    return RD_ERR_IO;
+    return RD_ERR_UNAVAILABLE;
 }
 
 /* Sends what is buffered and reads until the result is complete, by the
@@ -85,7 +85,7 @@ static rd_error_code pg_pump(pg_store *p, double deadline, rd_error *err)
         double left = deadline - rd_now_ms();
         if (left <= 0) {
             pg_drop(p);
-            return rd_error_set(err, RD_ERR_IO, 0, 0, "store: PostgreSQL did not answer within %d ms",
+            return rd_error_set(err, RD_ERR_UNAVAILABLE, 0, 0, "store: PostgreSQL did not answer within %d ms",
                                 p->base.opt.timeout_ms);
         }
         struct pollfd pfd = {PQsocket(p->conn), (short)(POLLIN | (f ? POLLOUT : 0)), 0};
@@ -103,13 +103,13 @@ static int result_ok(const PGresult *r)
     return st == PGRES_COMMAND_OK || st == PGRES_TUPLES_OK;
 }
 
-/* A failed statement's code: connection and server trouble is RD_ERR_IO
+/* A failed statement's code: connection and server trouble is RD_ERR_UNAVAILABLE
  * (503), a bad value RD_ERR_INVALID, a lost conflict RD_ERR_BUSY, a full
  * disk RD_ERR_NOSPACE, a corrupt page or index RD_ERR_DAMAGED. */
 static rd_error_code pg_code(const char *state)
 {
     if (!state)
-        return RD_ERR_IO;
+        return RD_ERR_UNAVAILABLE;
     if (strncmp(state, "22", 2) == 0 || strncmp(state, "23", 2) == 0)
         return RD_ERR_INVALID;
     if (strcmp(state, "40001") == 0 || strcmp(state, "40P01") == 0 || strcmp(state, "55P03") == 0)
@@ -120,7 +120,7 @@ static rd_error_code pg_code(const char *state)
         return RD_ERR_NOSPACE;
     if (strcmp(state, "XX001") == 0 || strcmp(state, "XX002") == 0)
         return RD_ERR_DAMAGED;
-    return RD_ERR_IO;
+    return RD_ERR_UNAVAILABLE;
 }
 
 static rd_error_code pg_failed(pg_store *p, PGresult *r, rd_error *err)
