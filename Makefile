@@ -52,8 +52,10 @@ INC_daemon_log    := $(INC_api_util) -Idaemon/log
 INC_daemon_sandbox := $(INC_api_util) -Idaemon/sandbox
 INC_daemon_codegrade := $(INC_api_grading) -Idaemon/sandbox -Idaemon/codegrade -Idaemon/codegrade/course
 INC_daemon_farm   := $(INC_daemon_jobs) -Idaemon/errors -Idaemon/log -Idaemon/farm
+INC_daemon_grading := $(INC_daemon_jobs) -Idaemon/errors -Idaemon/log -Idaemon/sandbox -Idaemon/codegrade \
+                     -Idaemon/codegrade/course -Idaemon/grading
 INC_daemon_http   := $(INC_daemon_farm) -iquote api/archive -Idaemon/sandbox -Idaemon/codegrade \
-                     -Idaemon/codegrade/course -Idaemon/http
+                     -Idaemon/codegrade/course -Idaemon/grading -Idaemon/http
 INC_daemon_cli    := $(INC_daemon_http) -Idaemon/cli
 INC_daemon        := $(INC_daemon_cli)
 # Tests are white-box: every folder, and tests/ for support/ and oracles/.
