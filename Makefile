@@ -52,8 +52,10 @@ INC_daemon_log    := $(INC_api_util) -Idaemon/log
 INC_daemon_sandbox := $(INC_api_util) -Idaemon/sandbox
 INC_daemon_codegrade := $(INC_api_grading) -Idaemon/sandbox -Idaemon/codegrade -Idaemon/codegrade/course
 INC_daemon_farm   := $(INC_daemon_jobs) -Idaemon/store -Idaemon/errors -Idaemon/log -Idaemon/farm
+INC_daemon_grading := $(INC_daemon_jobs) -Idaemon/store -Idaemon/errors -Idaemon/log -Idaemon/sandbox \
+                      -Idaemon/codegrade -Idaemon/codegrade/course -Idaemon/grading
 INC_daemon_http   := $(INC_daemon_farm) -iquote api/archive -Idaemon/sandbox -Idaemon/codegrade \
-                     -Idaemon/codegrade/course -Idaemon/http
+                     -Idaemon/codegrade/course -Idaemon/grading -Idaemon/http
 INC_daemon_cli    := $(INC_daemon_http) -Idaemon/cli
 INC_daemon        := $(INC_daemon_cli)
 # Tests are white-box: every folder, and tests/ for support/ and oracles/.
@@ -79,6 +81,8 @@ STORE_OBJ  := $(patsubst %.c,$(BUILD)/%.o,$(wildcard daemon/store/*.c)) $(BUILD)
 # The sandbox's and the code grader's: tests/unit/daemon runs programs in
 # the one and reads compiler messages with the other.
 SANDBOX_OBJ := $(patsubst %.c,$(BUILD)/%.o,$(wildcard daemon/sandbox/*.c) $(wildcard daemon/codegrade/*.c))
+# The error map: tests/unit/daemon checks every code's answer.
+ERRORS_OBJ := $(patsubst %.c,$(BUILD)/%.o,$(wildcard daemon/errors/*.c))
 
 # The first rule: `make` alone builds build/rayd.
 all: deps
@@ -181,9 +185,9 @@ $(BUILD)/rayd: $(DAEMON_OBJ) $(BUILD)/librayd.a $(BUILD)/rayd-eval
 # can fail the k-th one (the oom suite).
 FAULT_WRAP := -Wl,--wrap=malloc,--wrap=calloc,--wrap=realloc,--wrap=free,--wrap=aligned_alloc,--wrap=strdup,--wrap=strndup
 
-$(BUILD)/unit-tests: $(TEST_OBJ) $(JOBS_OBJ) $(STORE_OBJ) $(SANDBOX_OBJ) $(BUILD)/librayd.a
+$(BUILD)/unit-tests: $(TEST_OBJ) $(JOBS_OBJ) $(STORE_OBJ) $(SANDBOX_OBJ) $(ERRORS_OBJ) $(BUILD)/librayd.a
 	@echo "  LD  $@"
-	@$(CC) $(LDFLAGS) $(FAULT_WRAP) -o $@ $(TEST_OBJ) $(JOBS_OBJ) $(STORE_OBJ) $(SANDBOX_OBJ) $(BUILD)/librayd.a $(PKG_LIBS) $(shell pkg-config --libs $(TESTPKG))
+	@$(CC) $(LDFLAGS) $(FAULT_WRAP) -o $@ $(TEST_OBJ) $(JOBS_OBJ) $(STORE_OBJ) $(SANDBOX_OBJ) $(ERRORS_OBJ) $(BUILD)/librayd.a $(PKG_LIBS) $(shell pkg-config --libs $(TESTPKG))
 
 # One build and run of the unit suite with the current CC/SAN/BUILD.
 check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)

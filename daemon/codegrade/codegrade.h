@@ -105,7 +105,7 @@ typedef struct {
 /* Runs the pipeline. RD_ERR_NOT_FOUND: no such assignment;
  * RD_ERR_INVALID: a bad file name, a file too long or with NUL bytes, an
  * assignment with no material a student writes (err says which);
- * RD_ERR_IO: the sandbox cannot start; RD_ERR_LIMIT: the image needs more
+ * RD_ERR_UNAVAILABLE: the sandbox cannot start; RD_ERR_LIMIT: the image needs more
  * than max_queries calls; RD_ERR_NOMEM. Else RD_OK, whatever the code did:
  * its result is in *out (pass, or why not). */
 rd_error_code rd_codegrade_run(const rd_codegrade_config *cfg, const rd_codegrade_input *in, rd_codegrade_result *out,

@@ -19,9 +19,11 @@ enum {
 };
 
 typedef struct {
-    unsigned http;    /* status */
-    const char *code; /* the JSON error.code */
-    int exit;         /* RD_EXIT_* */
+    unsigned http;        /* status */
+    const char *code;     /* the JSON error.code */
+    int exit;             /* RD_EXIT_* */
+    unsigned retry_after; /* seconds for a Retry-After header; 0: none */
+    const char *lead;     /* said before the error's own message, or NULL */
 } rd_error_answer;
 
 /* The answer for c; codes outside RD_ERRORS answer as out of memory. */
@@ -33,7 +35,8 @@ rd_error_answer rd_grade_error_answer(rd_grade_stage stage, rd_error_code c);
 /* The answer for a code grade that could not run (codegrade.h): the
  * assignment's stages as a grade's; then a file that is not C++ text is
  * 422 bad_code, one too long 413 too_large, a sandbox that cannot start
- * 503 sandbox_unavailable. */
+ * (RD_ERR_UNAVAILABLE, which elsewhere is the job store's) 503
+ * sandbox_unavailable. */
 rd_error_answer rd_code_error_answer(rd_grade_stage stage, rd_error_code c);
 
 #endif

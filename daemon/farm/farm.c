@@ -18,7 +18,10 @@ enum { RETRY_MS = 500, IDLE_MS = 2000, RETRY_FOR_MS = 2000 };
 /* The store's trouble, which a later call may not have: unreachable, full,
  * or damaged (a page another call may not read). What was rendered waits
  * for it rather than being thrown away. */
-static int trouble(rd_error_code rc) { return rc == RD_ERR_IO || rc == RD_ERR_NOSPACE || rc == RD_ERR_DAMAGED; }
+static int trouble(rd_error_code rc)
+{
+    return rc == RD_ERR_UNAVAILABLE || rc == RD_ERR_NOSPACE || rc == RD_ERR_DAMAGED;
+}
 
 /* An answer a later call may not give: the store's trouble, or busy. Work
  * that got one is left for a later try, never failed for it. */

@@ -14,7 +14,7 @@
  * after --lease-ms and others (or itself, restarted with the same
  * --daemon-id, at once) render those tiles again; a pass completed but
  * never opened (its finisher died) is ended by the next daemon that sees it
- * stuck. The store unreachable: submissions fail with RD_ERR_IO (503), the
+ * stuck. The store unreachable: submissions fail with RD_ERR_UNAVAILABLE (503), the
  * render threads wait and retry, and nothing committed is lost.
  *
  * Errors are values (rd_error_code, err filled). Thread safety: every
@@ -60,7 +60,7 @@ typedef struct {
 /* Opens the store (its migrations applied), starts the watcher and makes
  * the farm the queue's source: from then on the queue's render threads
  * claim and render stored tiles. NULL with err set when the store cannot
- * be opened (RD_ERR_IO) or is newer than this binary (RD_ERR_UNSUPPORTED). */
+ * be opened (RD_ERR_UNAVAILABLE, IO) or is newer than this binary (RD_ERR_UNSUPPORTED). */
 rd_farm *rd_farm_start(const rd_farm_options *opt, rd_error *err);
 
 /* Call after rd_jq_stop (whose threads render the farm's tiles, and which
@@ -84,13 +84,13 @@ const char *rd_farm_engine(const rd_farm *f);
  * daemon renders from (other daemons read the stored text the same way).
  * The scene's own error (a 4xx), RD_ERR_BUSY when --queue jobs are queued
  * or running, RD_ERR_LIMIT when it could never fit the memory budget,
- * RD_ERR_IO when the store is unreachable. Call it on a render thread: it
+ * RD_ERR_UNAVAILABLE when the store is unreachable. Call it on a render thread: it
  * parses, loads assets and waits for the commit. */
 rd_error_code rd_farm_submit(rd_farm *f, const char *text, size_t len, rd_scene_format fmt, const rd_job_params *p,
                              char id[RD_STORE_ID_MAX], char **json, rd_error *err);
 
 /* A stored job's status as the JSON of GET /v1/jobs/{id} (malloc'ed
- * text), its status in *status. RD_ERR_NOT_FOUND, RD_ERR_IO. */
+ * text), its status in *status. RD_ERR_NOT_FOUND, RD_ERR_UNAVAILABLE. */
 rd_error_code rd_farm_job_json(rd_farm *f, const char *id, char **json, rd_store_status *status, rd_error *err);
 
 /* Cancels a job (the tiles rendering here stop at once, other daemons'
@@ -98,7 +98,7 @@ rd_error_code rd_farm_job_json(rd_farm *f, const char *id, char **json, rd_store
 rd_error_code rd_farm_cancel(rd_farm *f, const char *id, int *changed, rd_error *err);
 
 /* A finished job's PNG or EXR. RD_ERR_INVALID when it has none of that
- * kind (*status says why), RD_ERR_NOT_FOUND, RD_ERR_IO. */
+ * kind (*status says why), RD_ERR_NOT_FOUND, RD_ERR_UNAVAILABLE. */
 rd_error_code rd_farm_image(rd_farm *f, const char *id, rd_store_image_kind kind, unsigned char **data, size_t *len,
                             rd_store_status *status, int *hdr, rd_error *err);
 

@@ -202,7 +202,7 @@ rd_error_code rd_farm_partial_png(rd_farm *f, const char *id, unsigned char **pn
         return rd_error_set(err, RD_ERR_INVALID, 0, 0, "job %s is %s, not running", id, rd_store_status_name(st));
     farm_ctx *c = farm_ctx_get(f, f->submit, id, err);
     if (!c)
-        return err ? err->code : RD_ERR_IO;
+        return err->code;
     int w = rd_job_width(c->core), h = rd_job_height(c->core);
     uint8_t *rgb = calloc((size_t)w * (size_t)h, 3);
     rc = rgb ? snapshot(f, c, rgb, err) : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");

@@ -87,7 +87,7 @@ void farm_halt(void *arg);
 
 /* The job's context, built (scene read, core made) on first use; with a
  * reference the caller drops with farm_ctx_put. NULL with err set when it
- * cannot be built (its error is the job's, or RD_ERR_IO). */
+ * cannot be built (its error is the job's, or the store's). */
 farm_ctx *farm_ctx_get(rd_farm *f, rd_store *h, const char *id, rd_error *err);
 void farm_ctx_put(rd_farm *f, farm_ctx *c);
 
@@ -141,7 +141,7 @@ char *farm_stats_text(farm_ctx *c, int64_t now_ms, int final);
 /* farm_json.c: the status JSON of a stored job. */
 char *farm_job_json(const rd_store_job_info *in);
 
-/* Notes the store's answer: up, or (RD_ERR_IO) down. */
+/* Notes the store's answer: up, or (RD_ERR_UNAVAILABLE) down. */
 void farm_store_result(rd_farm *f, rd_error_code rc);
 
 #endif

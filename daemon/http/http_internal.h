@@ -10,7 +10,7 @@
 #include "auth.h"
 #include "capability.h"
 #include "error_map.h"
-#include "grading.h"
+#include "grading_service.h"
 #include "rayd/error.h"
 #include "server.h"
 
@@ -33,8 +33,7 @@ struct rd_server {
      * suspends its connection after it, since libmicrohttpd aborts when it
      * is stopped with one suspended. */
     int no_more_waits;
-    struct rd_grades *grades;         /* grade results and the reference cache */
-    struct rd_codegrades *codegrades; /* grading code (routes_code.c) */
+    rd_grading *grading; /* NULL until the server is ready (rd_server_grading) */
     /* Every open connection with its deadline, for the reaper thread. */
     pthread_mutex_t conn_mu;
     pthread_cond_t conn_cv;
@@ -60,6 +59,10 @@ struct rd_server {
  * daemon id holds the port), and ready is stored after it, so a thread
  * that sees ready sees the farm. NULL before. */
 static inline rd_farm *rd_server_farm(rd_server *s) { return atomic_load(&s->ready) ? s->farm : NULL; }
+
+/* The grading service, likewise: it starts once the farm has (its batches
+ * are named by the daemon id). */
+static inline rd_grading *rd_server_grading(rd_server *s) { return atomic_load(&s->ready) ? s->grading : NULL; }
 
 typedef struct rd_route rd_route;
 
@@ -203,37 +206,103 @@ enum MHD_Result rd_route_batch_post(rd_req *r, const char *rest);
 enum MHD_Result rd_route_batch_resumed(rd_req *r);
 enum MHD_Result rd_route_batch_get(rd_req *r, const char *rest);
 
-/* A form's file part: appends size bytes to *buf (kept NUL-terminated);
- * 0 when out of memory. A text field: appends to dst (NUL-terminated,
- * cap bytes); 0 when it would not fit. (form.c) */
-int rd_form_append(unsigned char **buf, size_t *len, const char *data, size_t size);
-int rd_form_text(char *dst, size_t cap, const char *data, size_t size);
-
 /* A multipart form as it arrives: the first member of each route's form
- * struct (the request's state). libmicrohttpd 0.9.75 cannot answer in the
- * middle of an upload, so a form found bad stops being parsed and the rest
- * of it is read and dropped; the answer goes out once it has all arrived
- * (one that runs far past the limit has its connection closed instead). */
+ * struct (the request's state), read by the route's table of fields.
+ * libmicrohttpd 0.9.75 cannot answer in the middle of an upload, so a form
+ * found bad stops being parsed and the rest of it is read and dropped; the
+ * answer goes out once it has all arrived (one that runs far past the
+ * limit has its connection closed instead). */
 typedef struct {
     struct MHD_PostProcessor *post;
-    const char *bad;     /* malformed: why */
-    const char *too_big; /* a part passed a limit: the limit's flag */
+    const struct rd_form_field *fields;
+    size_t files_max;       /* every file part's bytes together; 0: no bound */
+    const char *files_flag; /* ... the flag that sets it */
+    size_t file_bytes;
+    unsigned refused; /* 0, or the answer's status: 400, 413, 503 */
+    char why[320];    /* ... and its message */
+    /* The part an empty call at offset 0 began (form.c, part_starts). */
+    int empty_start;
+    char empty_key[64], empty_name[256];
 } rd_form;
 
+/* A file's bytes (malloc'ed, NUL-terminated; NULL while empty: the form's
+ * free_state frees them with rd_form_blob_free, unless the route took
+ * them), how many parts of its field began, the first one's file name. */
 typedef struct {
-    size_t size;           /* of the route's form struct, calloc'ed */
-    size_t max_total;      /* a larger Content-Length is 413 at once ... */
-    const char *too_large; /* ... naming this */
-    const char *hint;      /* what to send, when it is not multipart/form-data (415) */
-    MHD_PostDataIterator on_field;
+    unsigned char *data;
+    size_t len;
+    int parts;
+    char filename[80];
+} rd_form_blob;
+
+void rd_form_blob_free(rd_form_blob *b);
+
+typedef enum {
+    RD_FORM_TEXT, /* a char[cap] at offset, parts appended; longer is 400 saying too_long */
+    RD_FORM_BLOB, /* an rd_form_blob at offset, parts appended, at most the flag at cap (413) */
+    RD_FORM_FILE, /* the same, of one part only, whose file name is kept */
+    RD_FORM_EACH  /* each part is the route's: part() is called with its bytes */
+} rd_form_kind;
+
+/* One field of a route's form. Every route answers the same faults with
+ * the same words: a part without a name, a text too long, a second part of
+ * a FILE, a part over its flag, the files over the form's. */
+typedef struct rd_form_field {
+    const char *name; /* NULL ends the table */
+    rd_form_kind kind;
+    size_t offset; /* in the route's form struct */
+    /* TEXT: the array's size; BLOB, FILE: offsetof(rd_server_options, the
+     * size_t flag bounding the field's bytes) */
+    size_t cap;
+    const char *too_long; /* TEXT: the 400's message; BLOB, FILE: the flag's name */
+    /* EACH: the bytes of a part of the field (starts: its first call);
+     * MHD_NO after rd_form_refuse. */
+    enum MHD_Result (*part)(rd_req *r, rd_form *f, const char *filename, int starts, const char *data, size_t size);
+} rd_form_field;
+
+/* The rows of the text fields every grading form has, in a table of the
+ * form struct T. */
+#define RD_FORM_ASSIGNMENT(T)                                                                                          \
+    {                                                                                                                  \
+        "assignment", RD_FORM_TEXT, offsetof(T, assignment), sizeof(((T *)0)->assignment), RD_FORM_ASSIGNMENT_LONG,    \
+            NULL                                                                                                       \
+    }
+#define RD_FORM_STUDENT(T)                                                                                             \
+    {                                                                                                                  \
+        "student", RD_FORM_TEXT, offsetof(T, student), sizeof(((T *)0)->student), RD_FORM_STUDENT_LONG, NULL           \
+    }
+#define RD_FORM_ASSIGNMENT_LONG "the 'assignment' field is longer than an assignment name can be"
+#define RD_FORM_STUDENT_LONG "the 'student' field is longer than a student id can be"
+
+/* Appends a part's bytes within limit (the flag named) and the form's
+ * files_max: MHD_YES, or MHD_NO with the form refused (413, or 503 when out
+ * of memory). */
+enum MHD_Result rd_form_take(rd_form *f, const char *name, unsigned char **buf, size_t *len, size_t limit,
+                             const char *flag, const char *data, size_t size);
+
+/* The form is refused with this status and message (the first refusal
+ * stands): MHD_NO, to stop the post processor. */
+enum MHD_Result rd_form_refuse(rd_form *f, unsigned status, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+
+typedef struct {
+    size_t size;                 /* of the route's form struct, calloc'ed */
+    const rd_form_field *fields; /* the route's table */
+    size_t max_total;            /* a larger Content-Length is 413 at once ... */
+    const char *too_large;       /* ... naming the flags that set it */
+    size_t files_max;            /* rd_form.files_max */
+    const char *files_flag;      /* rd_form.files_flag */
+    const char *hint;            /* what to send, when it is not multipart/form-data (415) */
     void (*free_state)(rd_req *r);
 } rd_form_spec;
 
 /* The headers have arrived: 413, 415, or the form set up as r's state. */
 enum MHD_Result rd_form_begin(rd_req *r, const rd_form_spec *spec);
-/* Body bytes: parsed, or dropped once the form is bad or too big, up to
+/* Body bytes: parsed, or dropped once the form is refused, up to
  * discard_max dropped bytes in all, after which the connection closes. */
 enum MHD_Result rd_form_data(rd_req *r, const char *data, size_t size, size_t discard_max);
+/* The whole form has arrived: 0 when it was not refused, else 1 with its
+ * answer (the refusal's, or 400 when there is no form) in *ret. */
+int rd_form_refused(rd_req *r, enum MHD_Result *ret);
 /* Destroys the post processor (the route frees its own struct). */
 void rd_form_end(rd_form *f);
 
@@ -244,65 +313,9 @@ enum MHD_Result rd_route_code_data(rd_req *r, const char *data, size_t size);
 enum MHD_Result rd_route_code(rd_req *r, const char *rest);
 enum MHD_Result rd_route_code_resumed(rd_req *r);
 enum MHD_Result rd_route_code_get(rd_req *r, const char *rest);
-/* Grading code's state: the configuration, whether the sandbox starts
- * here (probed once, at start-up; NULL from unavailable when it does,
- * else why not), the lobe plots kept. */
-struct rd_codegrades *rd_codegrades_new(const rd_server_options *opt, const rd_grader *grader);
-void rd_codegrades_free(struct rd_codegrades *c);
-const char *rd_codegrades_unavailable(const struct rd_codegrades *c);
-
 /* The instructors' routes' gate (--instructor-tokens, auth.h): 0 when the
  * request may go on, else its answer (404 off, 401, 403) is in *ret. */
 int rd_require_instructor(rd_req *r, enum MHD_Result *ret);
-
-/* Grading's shared state (routes_grade.c). */
-const rd_grader *rd_grades_grader(struct rd_grades *g);
-/* The store the records go to (NULL before the server is ready); the
- * grades own it from rd_grades_set_store on. */
-rd_store *rd_grades_store(struct rd_grades *g);
-void rd_grades_set_store(struct rd_grades *g, rd_store *s);
-/* A finished grade: its images kept, its verdict (malloc'ed, with its id
- * and student) in *verdict, its record stored (an assignment's grade
- * only). */
-rd_error_code rd_grades_one(rd_server *srv, const rd_grade_output *o, const char *student, const char *batch_id,
-                            char id[RD_CAP_MAX], char **verdict, rd_error *err);
-/* rd_grades_one in two steps, for a grade whose record says more than the
- * image's verdict (a code grade: pass is the function's and the image's):
- * the images kept with the verdict and a malloc'ed copy of the heat map
- * for the record (both the caller's to free); then the record, with pass
- * and the verdict text the caller gives. */
-rd_error_code rd_grades_keep(rd_server *srv, const rd_grade_output *o, const char *student, char id[RD_CAP_MAX],
-                             char **verdict, unsigned char **diff, size_t *diff_len, rd_error *err);
-void rd_grades_record(rd_server *srv, const rd_grade_output *o, const char *id, const char *student,
-                      const char *batch_id, int pass, const char *verdict, const unsigned char *diff, size_t diff_len);
-/* The record of a student whose image could not be graded. */
-void rd_grades_error_record(rd_server *srv, const char *assignment, const char *student, const char *batch_id,
-                            const char *message, char id[RD_CAP_MAX]);
-
-/* A batch's images: the grades take them over. student is UTF-8; error
- * (a static text, or NULL) says why the image is not graded but becomes
- * an error row (a name that was not UTF-8). */
-typedef struct {
-    char student[256];
-    unsigned char *png;
-    size_t len;
-    const char *error;
-} rd_grade_batch_image;
-
-/* At the start, once the store is open: ends every batch this daemon (its
- * id) left running when it was killed, keeping its rows and adding an
- * error row, saying the daemon restarted, for each student without one.
- * Failures are logged. */
-void rd_grades_batches_end_restarted(rd_server *srv);
-
-/* Records the batch (with this daemon's id and its students), then grades
- * it on the render threads; its id in id. Takes images (the array and each
- * png) over whatever happens. */
-rd_error_code rd_grades_batch_start(rd_server *srv, const char *assignment, rd_grade_batch_image *images, size_t n,
-                                    char id[RD_STORE_ID_MAX], rd_error *err);
-/* form 0: the batch's status with its rows (JSON), 1: the rows (a JSON
- * array), 2: the rows as CSV. */
-rd_error_code rd_grades_batch_json(rd_server *srv, const char *id, int form, char **text, rd_error *err);
 
 /* An image that never changes under its name: ETag etag (quoted here),
  * Cache-Control for max_age_s seconds, and 304 without a body when the
@@ -319,15 +332,15 @@ enum MHD_Result rd_reply_too_large(rd_req *r, const char *what);
 /* The 503 of a server that is stopping. */
 enum MHD_Result rd_reply_draining(rd_req *r);
 
-/* The answer to a store's error (store.h): 503 with Retry-After when it
- * is unreachable or the queue is full, 507 store_full when it has no
- * space, 503 store_damaged when its data is damaged (both saying so, with
- * the store's message), 404 for no such job, else the error's own 4xx (a
- * 5xx only as 503). */
-enum MHD_Result rd_reply_store_error(rd_req *r, const rd_error *err);
+/* The 503 of a server whose start-up has not finished. */
+enum MHD_Result rd_reply_starting(rd_req *r);
 
-struct rd_grades *rd_grades_new(rd_jq *jobs, const rd_server_options *opt);
-void rd_grades_free(struct rd_grades *g);
+/* The answer to err as the error map gives it (error_map.h), a stage's
+ * (rd_code_error_answer, ...) or the code's own (rd_reply_failed): its
+ * status and JSON code, Retry-After when it has one, the message after
+ * the answer's lead. */
+enum MHD_Result rd_reply_answer(rd_req *r, rd_error_answer a, const rd_error *err);
+enum MHD_Result rd_reply_failed(rd_req *r, const rd_error *err);
 
 /* The web page, generated from daemon/http/web/index.html. */
 extern const char rd_web_index_html[];

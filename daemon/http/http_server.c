@@ -441,31 +441,24 @@ enum MHD_Result rd_reply_draining(rd_req *r)
     return rd_reply_error_hdr(r, 503, "draining", "the server is shutting down", "Retry-After", "5");
 }
 
-enum MHD_Result rd_reply_store_error(rd_req *r, const rd_error *err)
+enum MHD_Result rd_reply_starting(rd_req *r)
 {
-    switch (err->code) {
-    case RD_ERR_IO:
-        return rd_reply_error_hdr(r, 503, "store_unavailable", "the job store is unreachable; try again shortly",
-                                  "Retry-After", "5");
-    case RD_ERR_BUSY: return rd_reply_error_hdr(r, 503, "queue_full", err->message, "Retry-After", "1");
-    case RD_ERR_NOSPACE:
-    case RD_ERR_DAMAGED: {
-        char msg[640];
-        snprintf(msg, sizeof msg, "%s (%s)",
-                 err->code == RD_ERR_NOSPACE ? "the job store has no space left to write: free some"
-                                             : "the job store is damaged: an operator must repair or restore it",
-                 err->message);
-        rd_error_answer a = rd_error_answer_for(err->code);
-        return rd_reply_error_hdr(r, a.http, a.code, msg, "Retry-After", "30");
-    }
-    case RD_ERR_NOT_FOUND:
-        return rd_reply_error(r, 404, "not_found", NULL,
-                              "no job with that id (finished jobs expire, see --result-ttl)");
-    default: {
-        rd_error_answer a = rd_error_answer_for(err->code);
-        return rd_reply_error(r, a.http < 500 ? a.http : 503, a.http < 500 ? a.code : "unavailable", err, NULL);
-    }
-    }
+    return rd_reply_error_hdr(r, 503, "starting", "the server is starting", "Retry-After", "1");
+}
+
+enum MHD_Result rd_reply_answer(rd_req *r, rd_error_answer a, const rd_error *err)
+{
+    rd_error said = *err; /* its line and column stay */
+    if (a.lead)
+        snprintf(said.message, sizeof said.message, "%s (%.*s)", a.lead, (int)(sizeof said.message / 2), err->message);
+    char after[16];
+    snprintf(after, sizeof after, "%u", a.retry_after);
+    return reply_error_full(r, a.http, a.code, &said, NULL, a.retry_after ? "Retry-After" : NULL, after);
+}
+
+enum MHD_Result rd_reply_failed(rd_req *r, const rd_error *err)
+{
+    return rd_reply_answer(r, rd_error_answer_for(err->code), err);
 }
 
 /* Answers a half-closed client on the socket, then resumes its connection
@@ -738,13 +731,13 @@ static void free_server(rd_server *s)
     /* One shutdown order: the render threads stop (the stored tiles they
      * render stop with them, and grades or submissions in progress end,
      * committing through the farm); then the farm gives its leases back and
-     * returns what it held to the budget; then both are freed. */
+     * returns what it held to the budget; then the grading service,
+     * whose tasks the queue ran and whose caches it counts, and the rest. */
     rd_jq_stop(s->jobs);
     rd_farm_stop(s->farm);
+    rd_grading_free(s->grading);
     rd_jq_free(s->jobs);
     rd_farm_free(s->farm);
-    rd_grades_free(s->grades);
-    rd_codegrades_free(s->codegrades);
     rd_access_free(s->access);
     rd_auth_free(s->auth);
     rd_metrics_free(s->metrics);
@@ -858,14 +851,27 @@ static void daemon_id_of(rd_server *s)
     snprintf(s->daemon_id, sizeof s->daemon_id, "%.48s:%u", host, (unsigned)s->port);
 }
 
+/* The job store's options, for the farm and the grade records alike. */
+static rd_store_options store_options(const rd_server_options *o)
+{
+    rd_store_options so = rd_store_options_default();
+    if (so.limits.scene_bytes < o->max_body_bytes)
+        so.limits.scene_bytes = o->max_body_bytes;
+    return so;
+}
+
+static const char *store_spec(const rd_server_options *o) { return o->store && *o->store ? o->store : o->data_dir; }
+
+static const char *store_flag(const rd_server_options *o) { return o->store && *o->store ? "--store" : "--data-dir"; }
+
 /* Once the port is known (it names the daemon): the store opened, its
  * migrations applied, the render threads claiming. */
 static rd_error_code start_farm(rd_server *s, rd_error *err)
 {
     const rd_server_options *o = &s->opt;
     daemon_id_of(s);
-    rd_farm_options fo = {.store_spec = o->store && *o->store ? o->store : o->data_dir,
-                          .store = rd_store_options_default(),
+    rd_farm_options fo = {.store_spec = store_spec(o),
+                          .store = store_options(o),
                           .daemon_id = s->daemon_id,
                           .workers = o->jobs.workers,
                           .lease_ms = o->lease_ms,
@@ -878,16 +884,42 @@ static rd_error_code start_farm(rd_server *s, rd_error *err)
                           .png = o->jobs.png,
                           .log = o->log,
                           .jobs = s->jobs};
-    if (fo.store.limits.scene_bytes < o->max_body_bytes)
-        fo.store.limits.scene_bytes = o->max_body_bytes;
     rd_error why = {0};
     s->farm = rd_farm_start(&fo, &why);
-    rd_store *records = s->farm ? rd_store_open(fo.store_spec, &fo.store, &why) : NULL;
-    if (!records)
-        return rd_error_set(err, why.code ? why.code : RD_ERR_IO, 0, 0, "the job store (%s) cannot be used: %s",
-                            o->store && *o->store ? "--store" : "--data-dir", why.message);
-    rd_grades_set_store(s->grades, records);
-    rd_grades_batches_end_restarted(s);
+    if (!s->farm)
+        return rd_error_set(err, why.code, 0, 0, "the job store (%s) cannot be used: %s", store_flag(o), why.message);
+    return RD_OK;
+}
+
+/* After the farm, on the same store: the grading service. */
+static rd_error_code start_grading(rd_server *s, rd_error *err)
+{
+    const rd_server_options *o = &s->opt;
+    rd_grading_options go = {.jobs = s->jobs,
+                             .store_spec = store_spec(o),
+                             .store = store_options(o),
+                             .daemon_id = s->daemon_id,
+                             .workers = o->jobs.workers,
+                             .assignments_dir = o->assignments_dir,
+                             .scenes_dir = o->scenes_dir,
+                             .cache_dir = o->cache_dir,
+                             .cache_bytes = o->grade_cache_bytes,
+                             .limits = o->limits,
+                             .ttl_ms = o->grade_ttl_ms,
+                             .log = o->log,
+                             .bwrap = o->bwrap,
+                             .course_dir = o->course_dir,
+                             .code_eval = o->code_eval,
+                             .max_code_bytes = o->max_code_bytes,
+                             .code_compile_ms = o->code_compile_ms,
+                             .code_run_ms = o->code_run_ms,
+                             .sandbox_uid = o->sandbox_uid,
+                             .max_code_jobs = o->max_code_jobs,
+                             .max_code_jobs_per_client = o->max_code_jobs_per_client};
+    rd_error why = {0};
+    s->grading = rd_grading_start(&go, &why);
+    if (!s->grading)
+        return rd_error_set(err, why.code, 0, 0, "%s (%s)", why.message, store_flag(o));
     return RD_OK;
 }
 
@@ -910,9 +942,7 @@ rd_server *rd_server_start(const rd_server_options *opt, rd_error *err)
     }
     s->access = rd_access_new(opt, err);
     s->jobs = s->access ? rd_jq_start(&opt->jobs, err) : NULL;
-    s->grades = s->jobs ? rd_grades_new(s->jobs, &s->opt) : NULL;
-    s->codegrades = s->grades ? rd_codegrades_new(&s->opt, rd_grades_grader(s->grades)) : NULL;
-    s->metrics = s->codegrades ? rd_metrics_new(rd_jq_hist_cover(opt->jobs.job_timeout_ms)) : NULL;
+    s->metrics = s->jobs ? rd_metrics_new(rd_jq_hist_cover(opt->jobs.job_timeout_ms)) : NULL;
     if (!s->metrics || pthread_create(&s->reaper, NULL, reaper, s) != 0) {
         if (s->jobs && !s->metrics)
             rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
@@ -927,7 +957,7 @@ rd_server *rd_server_start(const rd_server_options *opt, rd_error *err)
     }
     const union MHD_DaemonInfo *info = MHD_get_daemon_info(s->mhd, MHD_DAEMON_INFO_BIND_PORT);
     s->port = info ? info->port : opt->port;
-    if (start_farm(s, err)) {
+    if (start_farm(s, err) || start_grading(s, err)) {
         MHD_stop_daemon(s->mhd);
         free_server(s);
         return NULL;

@@ -35,7 +35,6 @@ struct rd_metrics {
     uint64_t classes[6];            /* 1xx..5xx; [0] unused */
     uint64_t grades[3];             /* by rd_verdict */
     uint64_t code_grades[3];        /* POST /v1/grade/code, by rd_verdict */
-    uint64_t ref_hits, ref_misses;
 };
 
 rd_metrics *rd_metrics_new(double cover_seconds)
@@ -112,17 +111,6 @@ void rd_metrics_code_grade(rd_server *srv, rd_verdict v)
     rd_metrics *m = srv->metrics;
     pthread_mutex_lock(&m->mu);
     m->code_grades[v]++;
-    pthread_mutex_unlock(&m->mu);
-}
-
-void rd_metrics_reference(rd_server *srv, int cached)
-{
-    rd_metrics *m = srv->metrics;
-    pthread_mutex_lock(&m->mu);
-    if (cached)
-        m->ref_hits++;
-    else
-        m->ref_misses++;
     pthread_mutex_unlock(&m->mu);
 }
 
@@ -244,7 +232,7 @@ static void http_metrics(rd_strbuf *out, const rd_metrics *m)
     }
 }
 
-static void grade_metrics(rd_strbuf *out, const rd_metrics *m)
+static void grade_metrics(rd_strbuf *out, const rd_metrics *m, const rd_grading_metrics *gm)
 {
     static const char *const verdicts[] = {"pass", "fail", "error"};
     family(out, "rayd_grades_total", "counter", "Grades answered, by verdict (error: the grade could not be made).");
@@ -256,8 +244,8 @@ static void grade_metrics(rd_strbuf *out, const rd_metrics *m)
         PUT("rayd_code_grades_total{verdict=\"%s\"} %llu\n", verdicts[v], (unsigned long long)m->code_grades[v]);
     family(out, "rayd_grade_reference_cache_total", "counter",
            "Grading references looked up: found cached (hit) or rendered (miss).");
-    PUT("rayd_grade_reference_cache_total{result=\"hit\"} %llu\n", (unsigned long long)m->ref_hits);
-    PUT("rayd_grade_reference_cache_total{result=\"miss\"} %llu\n", (unsigned long long)m->ref_misses);
+    PUT("rayd_grade_reference_cache_total{result=\"hit\"} %llu\n", gm->reference_hits);
+    PUT("rayd_grade_reference_cache_total{result=\"miss\"} %llu\n", gm->reference_misses);
 }
 
 /* ---- the process, as Prometheus' client libraries report it ---------- */
@@ -359,6 +347,10 @@ enum MHD_Result rd_route_metrics(rd_req *r, const char *rest)
     rd_farm *farm = rd_server_farm(srv);
     if (farm)
         rd_farm_metrics_get(farm, &fm);
+    rd_grading_metrics gm = {0};
+    rd_grading *grading = rd_server_grading(srv);
+    if (grading)
+        rd_grading_metrics_get(grading, &gm);
     /* A job ends in the queue (synchronous) or in the store (POST /v1/jobs). */
     jm.done += fm.done;
     jm.failed += fm.failed;
@@ -383,7 +375,7 @@ enum MHD_Result rd_route_metrics(rd_req *r, const char *rest)
     counter(&out, "rayd_http_refused_total", "Requests answered 431 before parsing (--max-query-args).",
             atomic_load(&srv->raw_refused));
     http_metrics(&out, copy);
-    grade_metrics(&out, copy);
+    grade_metrics(&out, copy, &gm);
     free(copy);
     process_metrics(&out);
     char version[256];

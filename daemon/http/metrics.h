@@ -1,7 +1,8 @@
 /* GET /metrics (Prometheus text format 0.0.4) and what the HTTP side
  * records for it: requests by route and exact status, their durations,
- * grades by verdict, reference cache hits. The job queue keeps its own
- * figures (rd_jq_metrics), read at each scrape.
+ * grades by verdict. The job queue, the farm and the grading service keep
+ * their own figures (rd_jq_metrics, ...: reference cache hits), read at
+ * each scrape.
  *
  * Route labels are the route table's paths (router.c), "other" when no
  * route matched, so the number of series is bounded by the table.
@@ -33,8 +34,5 @@ typedef enum { RD_VERDICT_PASS, RD_VERDICT_FAIL, RD_VERDICT_ERROR } rd_verdict;
 /* A grade was answered: with a verdict, or with an error of its pipeline. */
 void rd_metrics_grade(rd_server *srv, rd_verdict v);
 void rd_metrics_code_grade(rd_server *srv, rd_verdict v);
-
-/* A grade looked its reference up: cached, or to be rendered. */
-void rd_metrics_reference(rd_server *srv, int cached);
 
 #endif

@@ -44,8 +44,8 @@ enum MHD_Result rd_route_ready(rd_req *r, const char *rest)
                     : rc == RD_ERR_NOSPACE                               ? full
                     : rc == RD_ERR_DAMAGED                               ? damaged
                                                                          : no_store;
-    const char *no_sandbox = rd_codegrades_unavailable(r->srv->codegrades);
-    if (t == ok && no_sandbox)
+    const char *no_sandbox = t == ok ? rd_grading_code_unavailable(rd_server_grading(r->srv)) : NULL;
+    if (no_sandbox)
         return ready_without(r, "code_grading", no_sandbox);
     const char *headers[] = {"Retry-After", "5", NULL};
     return rd_reply_with(r, t == ok ? 200 : 503, "application/json", (void *)t, strlen(t), 0, t == ok ? NULL : headers);

@@ -209,12 +209,10 @@ enum MHD_Result rd_route_jobs_resumed(rd_req *r)
     rd_jq_info info;
     rd_jq_info_get(r->srv->jobs, r->job, &info);
     render_task *t = rd_jq_task_arg(r->job);
-    rd_error_code c = info.error.code;
-    if (info.status == RD_JQ_FAILED &&
-        (c == RD_ERR_IO || c == RD_ERR_BUSY || c == RD_ERR_NOSPACE || c == RD_ERR_DAMAGED))
-        return rd_reply_store_error(r, &info.error);
-    if (info.status != RD_JQ_DONE || !t->committed)
+    if (info.status == RD_JQ_CANCELLED)
         return reply_ended(r, &info);
+    if (info.status != RD_JQ_DONE || !t->committed)
+        return rd_reply_failed(r, &info.error);
     char loc[16 + RD_STORE_ID_MAX];
     snprintf(loc, sizeof loc, "/v1/jobs/%s", t->id);
     snprintf(r->job_id, sizeof r->job_id, "%s", t->id);
@@ -350,9 +348,8 @@ enum MHD_Result rd_route_job_image_resumed(rd_req *r)
         static const char *const no_store[] = {MHD_HTTP_HEADER_CACHE_CONTROL, "no-store", NULL};
         return rd_reply_with(r, 200, "image/png", png, t->len, 1, no_store);
     }
-    if (info.status == RD_JQ_FAILED &&
-        (info.error.code == RD_ERR_IO || info.error.code == RD_ERR_NOSPACE || info.error.code == RD_ERR_DAMAGED))
-        return rd_reply_store_error(r, &info.error);
+    if (info.status == RD_JQ_FAILED && rd_error_answer_for(info.error.code).http >= 500)
+        return rd_reply_failed(r, &info.error);
     if (info.status == RD_JQ_FAILED)
         return rd_reply_error(r, 409, "not_ready", &info.error, NULL);
     return rd_reply_cancelled(r, &info, "render");
@@ -405,6 +402,14 @@ static enum MHD_Result reply_job_exr(rd_req *r, rd_jq_job *job)
 
 static const char no_job[] = "no job with that id (finished jobs expire, see --result-ttl)";
 
+/* The store's answer for a stored job, saying what expires one it lacks. */
+static enum MHD_Result stored_failed(rd_req *r, const rd_error *err)
+{
+    if (err->code == RD_ERR_NOT_FOUND)
+        return rd_reply_error(r, 404, "not_found", NULL, no_job);
+    return rd_reply_failed(r, err);
+}
+
 /* Why a stored job has no image of the kind asked for. */
 static enum MHD_Result stored_no_image(rd_req *r, rd_store_status st, int exr, int hdr, const rd_error *err)
 {
@@ -434,7 +439,7 @@ static enum MHD_Result stored_image(rd_req *r, const char *id)
     if (rc == RD_ERR_INVALID)
         return stored_no_image(r, st, exr, hdr, &err);
     if (rc)
-        return rd_reply_store_error(r, &err);
+        return stored_failed(r, &err);
     /* A finished job's image never changes under its id. */
     char tag[40];
     snprintf(tag, sizeof tag, "%s.%s", id, exr ? "exr" : "png");
@@ -459,10 +464,10 @@ static enum MHD_Result stored_job(rd_req *r, const char *id, const char *rest)
     if (*rest)
         return rd_reply_error(r, 404, "not_found", NULL, "no such route");
     if (strcmp(r->method, "DELETE") == 0 && rd_farm_cancel(farm, id, NULL, &err))
-        return rd_reply_store_error(r, &err);
+        return stored_failed(r, &err);
     char *text;
     if (rd_farm_job_json(farm, id, &text, NULL, &err))
-        return rd_reply_store_error(r, &err);
+        return stored_failed(r, &err);
     return rd_reply_json(r, 200, text);
 }
 

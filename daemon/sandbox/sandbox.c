@@ -398,21 +398,21 @@ rd_error_code rd_sandbox_run(const rd_sandbox_spec *s, rd_sandbox_result *out, r
     for (; nf < s->nfiles; nf++) {
         fds[nf] = file_fd(&s->files[nf]);
         if (fds[nf] < 0) {
-            rc = rd_error_set(err, RD_ERR_IO, 0, 0, "cannot open %s for the sandbox: %s",
+            rc = rd_error_set(err, RD_ERR_UNAVAILABLE, 0, 0, "cannot open %s for the sandbox: %s",
                               s->files[nf].host_path ? s->files[nf].host_path : s->files[nf].dest, strerror(errno));
             break;
         }
     }
     int filter = rc ? -1 : rd_seccomp_filter_fd(err);
     if (filter < 0 && !rc)
-        rc = RD_ERR_IO;
+        rc = RD_ERR_UNAVAILABLE;
     fds[nf] = filter;
     int devnull = rc ? -1 : open("/dev/null", O_RDONLY | O_CLOEXEC);
     for (int i = 0; i < 3 && !rc; i++)
         if (pipe2(pipes[i], O_CLOEXEC) != 0)
-            rc = rd_error_set(err, RD_ERR_IO, 0, 0, "cannot make a pipe: %s", strerror(errno));
+            rc = rd_error_set(err, RD_ERR_UNAVAILABLE, 0, 0, "cannot make a pipe: %s", strerror(errno));
     if (!rc && devnull < 0)
-        rc = rd_error_set(err, RD_ERR_IO, 0, 0, "cannot open /dev/null");
+        rc = rd_error_set(err, RD_ERR_UNAVAILABLE, 0, 0, "cannot open /dev/null");
     pid_t pid = -1;
     if (!rc) {
         int std[NSTD] = {devnull, pipes[0][1], pipes[0][1], pipes[1][1], pipes[2][1]};
@@ -421,7 +421,7 @@ rd_error_code rd_sandbox_run(const rd_sandbox_spec *s, rd_sandbox_result *out, r
         if (pid == 0)
             child(s, a, src);
         if (pid < 0)
-            rc = rd_error_set(err, RD_ERR_IO, 0, 0, "cannot start the sandbox: %s", strerror(errno));
+            rc = rd_error_set(err, RD_ERR_UNAVAILABLE, 0, 0, "cannot start the sandbox: %s", strerror(errno));
     }
     close_all(fds, nf);
     if (filter >= 0)
@@ -457,10 +457,10 @@ rd_error_code rd_sandbox_run(const rd_sandbox_spec *s, rd_sandbox_result *out, r
     }
     if (!ok) {
         /* bwrap stopped before it started the program: its own message. */
-        rd_error_set(err, RD_ERR_IO, 0, 0, "the sandbox (bubblewrap) cannot start here: %.300s",
+        rd_error_set(err, RD_ERR_UNAVAILABLE, 0, 0, "the sandbox (bubblewrap) cannot start here: %.300s",
                      out->output_len ? out->output : "bwrap failed without a message");
         rd_sandbox_result_free(out);
-        return RD_ERR_IO;
+        return RD_ERR_UNAVAILABLE;
     }
     return RD_OK;
 }
@@ -486,7 +486,7 @@ rd_error_code rd_sandbox_probe(const char *bwrap, rd_error *err)
     s.argv = argv;
     s.wall_ms = 10000;
     if (access(bwrap, X_OK) != 0)
-        return rd_error_set(err, RD_ERR_IO, 0, 0,
+        return rd_error_set(err, RD_ERR_UNAVAILABLE, 0, 0,
                             "the sandbox needs bubblewrap, and %s is not there (apt-get install bubblewrap)", bwrap);
     rd_sandbox_result r;
     rd_error_code rc = rd_sandbox_run(&s, &r, err);
@@ -494,7 +494,7 @@ rd_error_code rd_sandbox_probe(const char *bwrap, rd_error *err)
         return rc;
     int ok = r.end == RD_SANDBOX_EXITED && r.status == 0;
     if (!ok)
-        rd_error_set(err, RD_ERR_IO, 0, 0, "a test program in the sandbox failed: %.300s", r.output);
+        rd_error_set(err, RD_ERR_UNAVAILABLE, 0, 0, "a test program in the sandbox failed: %.300s", r.output);
     rd_sandbox_result_free(&r);
-    return ok ? RD_OK : RD_ERR_IO;
+    return ok ? RD_OK : RD_ERR_UNAVAILABLE;
 }

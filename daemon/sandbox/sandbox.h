@@ -87,7 +87,7 @@ rd_sandbox_spec rd_sandbox_spec_default(void);
  * cannot be read count 0. */
 unsigned long long rd_sandbox_memory_bytes(const rd_sandbox_spec *spec);
 
-/* Runs spec->argv in a new sandbox and waits for its end. RD_ERR_IO when
+/* Runs spec->argv in a new sandbox and waits for its end. RD_ERR_UNAVAILABLE when
  * the sandbox could not be set up (bwrap missing, user namespaces
  * refused: err says which); RD_ERR_NOMEM; else RD_OK with *out filled,
  * whatever the program did. */
@@ -96,7 +96,7 @@ rd_error_code rd_sandbox_run(const rd_sandbox_spec *spec, rd_sandbox_result *out
 void rd_sandbox_result_free(rd_sandbox_result *r);
 
 /* Whether a sandbox starts on this machine: runs /usr/bin/true in one.
- * RD_OK, or RD_ERR_IO with the reason (bwrap's own message) in err. */
+ * RD_OK, or RD_ERR_UNAVAILABLE with the reason (bwrap's own message) in err. */
 rd_error_code rd_sandbox_probe(const char *bwrap, rd_error *err);
 
 #endif

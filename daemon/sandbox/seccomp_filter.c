@@ -122,7 +122,7 @@ int rd_seccomp_filter_fd(rd_error *err)
     }
     seccomp_release(ctx);
     if (fd < 0)
-        rd_error_set(err, RD_ERR_IO, 0, 0, "the sandbox's seccomp filter cannot be built (libseccomp): %s",
+        rd_error_set(err, RD_ERR_UNAVAILABLE, 0, 0, "the sandbox's seccomp filter cannot be built (libseccomp): %s",
                      strerror(errno));
     return fd;
 }

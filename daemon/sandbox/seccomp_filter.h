@@ -28,7 +28,7 @@
 #include "rayd/error.h"
 
 /* A memfd holding the filter as BPF, positioned at its start, close-on-
- * exec; the caller closes it. -1 with err set (RD_ERR_IO) when libseccomp
+ * exec; the caller closes it. -1 with err set (RD_ERR_UNAVAILABLE) when libseccomp
  * cannot build it. */
 int rd_seccomp_filter_fd(rd_error *err);
 

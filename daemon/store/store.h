@@ -7,9 +7,11 @@
  *
  * Errors are values: every call returns an rd_error_code and fills err
  * (which may be NULL).
- *   RD_ERR_IO          the store is unreachable or failing (disk, server
+ *   RD_ERR_UNAVAILABLE the store is unreachable or failing (disk, server
  *                      down, a statement past the timeout): answer 503. The
  *                      same handle reconnects on a later call.
+ *   RD_ERR_IO          rd_store_open only: the folder cannot be made or
+ *                      used.
  *   RD_ERR_BUSY        other writers held the store past the timeout, or a
  *                      transaction lost a conflict: try again.
  *   RD_ERR_NOT_FOUND   no job (grade, batch) of that id.
@@ -100,8 +102,9 @@ rd_store_options rd_store_options_default(void);
  *   anything else                       a folder (made when missing) holding
  *                                       rayd.sqlite3 (WAL, busy timeout).
  * A folder whose name starts KEY= is written ./KEY=... opt NULL: the
- * defaults. NULL with err set on failure (RD_ERR_IO unreachable or
- * unwritable, RD_ERR_UNSUPPORTED schema too new). */
+ * defaults. NULL with err set on failure (RD_ERR_UNAVAILABLE unreachable,
+ * RD_ERR_IO a folder that cannot be made or used, RD_ERR_UNSUPPORTED schema
+ * too new). */
 rd_store *rd_store_open(const char *spec, const rd_store_options *opt, rd_error *err);
 
 /* Closes the connection and frees the handle (NULL: nothing). */
@@ -112,7 +115,7 @@ const char *rd_store_engine_name(const rd_store *s);
 
 /* The readiness probe: RD_OK when the store can be written now: a small
  * write (committed, then deleted) round-trips, reconnecting first if the
- * connection was lost. RD_ERR_IO when it is unreachable, RD_ERR_DAMAGED
+ * connection was lost. RD_ERR_UNAVAILABLE when it is unreachable, RD_ERR_DAMAGED
  * when its data is damaged, RD_ERR_NOSPACE when the probe, or any write of
  * this handle in the last 30 s (RD_STORE_NOSPACE_MS; none committed since),
  * found no space. */
@@ -352,7 +355,7 @@ typedef struct {
  *     down are lost: a caller also polls (claims) on every timeout.
  *   SQLite: looks at PRAGMA data_version every 10 ms, so any commit of
  *     another handle, in this process or another, wakes it as CHANGED.
- * An unreachable store is RD_ERR_IO after the whole timeout, so that a
+ * An unreachable store is RD_ERR_UNAVAILABLE after the whole timeout, so that a
  * loop around this call does not spin. */
 rd_error_code rd_store_wait(rd_store *s, int timeout_ms, rd_store_event *ev, rd_error *err);
 

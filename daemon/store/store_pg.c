@@ -78,13 +78,13 @@ static const char *one_line(char *buf, size_t size, const char *msg)
 
 /* The one mapping of PostgreSQL's failures to the store's codes: a
  * statement's SQLSTATE, or NULL for the connection's trouble (down, broken,
- * past the deadline), which is unreachable: RD_ERR_IO (503). A bad value is
+ * past the deadline), which is unreachable: RD_ERR_UNAVAILABLE (503). A bad value is
  * RD_ERR_INVALID, a lost conflict RD_ERR_BUSY, a full disk RD_ERR_NOSPACE,
  * a corrupt page or index RD_ERR_DAMAGED. */
 static rd_error_code pg_code(const char *state)
 {
     if (!state)
-        return RD_ERR_IO;
+        return RD_ERR_UNAVAILABLE;
     if (strncmp(state, "22", 2) == 0 || strncmp(state, "23", 2) == 0)
         return RD_ERR_INVALID;
     if (strcmp(state, "40001") == 0 || strcmp(state, "40P01") == 0 || strcmp(state, "55P03") == 0)
@@ -95,7 +95,7 @@ static rd_error_code pg_code(const char *state)
         return RD_ERR_NOSPACE;
     if (strcmp(state, "XX001") == 0 || strcmp(state, "XX002") == 0)
         return RD_ERR_DAMAGED;
-    return RD_ERR_IO;
+    return RD_ERR_UNAVAILABLE;
 }
 
 static void pg_drop(pg_store *p)

@@ -47,7 +47,7 @@ static rd_error_code sq_fail(sq_store *q, int rc, const char *what, rd_error *er
     case SQLITE_FULL: c = RD_ERR_NOSPACE; break;
     case SQLITE_CORRUPT:
     case SQLITE_NOTADB: c = RD_ERR_DAMAGED; break;
-    default: c = RD_ERR_IO;
+    default: c = RD_ERR_UNAVAILABLE;
     }
     rd_store_saw(&q->base, c);
     return rd_error_set(err, c, 0, 0, "store: %s: %s%s", what,

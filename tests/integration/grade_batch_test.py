@@ -413,6 +413,61 @@ def bombs_within_budget(tmp, tokens):
               "%.3f s" % (budget, hwm, peak[0], worst[0]))
 
 
+def form_words(tmp, tokens, right):
+    """Every form's limits answered in the same words, naming its flag;
+    an unknown batch is a batch's 404, not a job's."""
+    flags = ["--instructor-tokens", tokens, "--data-dir", os.path.join(tmp, "data-words"),
+             "--max-body-bytes", "200000", "--max-code-bytes", "4096"]
+    big, name = b"x" * 300000, b"n" * 100
+
+    def post(path, parts, headers=None):
+        body, ct = form_parts(parts)
+        return d.request("POST", path, body=body, headers=dict(headers or {}, **{"Content-Type": ct}))
+
+    def said(b):
+        try:
+            return json.loads(b).get("error", {})
+        except ValueError:
+            return {}
+    with Daemon(tmp, flags) as d:
+        over = "the 'image' part is over the limit of 200000 bytes (--max-body-bytes)"
+        for path, parts, headers in (("/v1/grade", [("assignment", None, b"phong"), ("image", "a.png", big)], None),
+                                     ("/v1/grade/batch", [("assignment", None, b"phong"), ("image", "a.png", big)],
+                                      AUTH)):
+            st, _, b = post(path, parts, headers)
+            check(st == 413 and said(b).get("code") == "too_large" and said(b).get("message") == over,
+                  "%s, an image over --max-body-bytes: %d %r" % (path, st, b[:200]))
+        long_name = "the 'assignment' field is longer than an assignment name can be"
+        for path, headers in (("/v1/grade", None), ("/v1/grade/batch", AUTH), ("/v1/grade/code", None)):
+            st, _, b = post(path, [("assignment", None, name), ("image", "a.png", right)], headers)
+            check(st == 400 and said(b).get("message") == long_name,
+                  "%s, an assignment name too long: %d %r" % (path, st, b[:200]))
+            nameless = b"--XyZ\r\nContent-Disposition: form-data\r\n\r\nx\r\n--XyZ--\r\n"
+            st, _, b = d.request("POST", path, body=nameless,
+                                 headers=dict(headers or {}, **{"Content-Type": "multipart/form-data; boundary=XyZ"}))
+            check(st == 400 and "no field name" in said(b).get("message", ""),
+                  "%s, a part without a name: %d %r" % (path, st, b[:200]))
+        code = [("assignment", None, b"phong"), ("source", "PhongMaterial.h", b"/" * 5000)]
+        st, _, b = post("/v1/grade/code", code)
+        check(st == 413 and said(b).get("message") ==
+              "the 'source' part is over the limit of 4096 bytes (--max-code-bytes)",
+              "a source over --max-code-bytes: %d %r" % (st, b[:200]))
+        two = [("assignment", None, b"phong"), ("source", "a.h", b"//"), ("code", "b.h", b"//")]
+        st, _, b = post("/v1/grade/code", two)
+        check(st == 400 and said(b).get("message") == "the form has more than one 'source' file",
+              "two source files: %d %r" % (st, b[:200]))
+        st, _, b = post("/v1/grade/code", [("assignment", None, b"phong"), ("source", "a.h", b"/" * 100000)])
+        check(st == 413 and "--max-code-bytes" in said(b).get("message", "") and
+              "--max-body-bytes" not in said(b).get("message", ""),
+              "a code form over its Content-Length bound names --max-code-bytes: %d %r" % (st, b[:200]))
+        no_batch = "no batch with that id (batches expire with their grades, see --grade-ttl)"
+        for path in ("/v1/grade/batch/0123456789abcdef0123456789abcdef", "/v1/grade/batch/" + "a" * 200,
+                     "/v1/grade/batch/nosuch/results.csv", "/v1/grade/batch/nosuch/results.json"):
+            st, _, b = d.request("GET", path, headers=AUTH)
+            check(st == 404 and said(b).get("code") == "not_found" and said(b).get("message") == no_batch,
+                  "GET %s: %d %r" % (path[:60], st, b[:200]))
+
+
 def main():
     tmp = tempfile.mkdtemp(prefix="rayd-batch-")
     try:
@@ -437,6 +492,7 @@ def main():
         large_form(tmp, tokens)
         killed_mid_batch(tmp, tokens, images["alice"][0])
         bombs_within_budget(tmp, tokens)
+        form_words(tmp, tokens, images["alice"][0])
     finally:
         if not check.failed:
             shutil.rmtree(tmp, ignore_errors=True)

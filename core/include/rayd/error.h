@@ -21,7 +21,8 @@
     X(RD_ERR_NOT_FOUND, "not_found", "nothing of that name: assignment, scene, job")                                   \
     X(RD_ERR_UNSUPPORTED, "unsupported", "a kind of input it does not read (not a PNG)")                               \
     X(RD_ERR_NOSPACE, "nospace", "no space left to write: a full disk, a store at its size limit")                     \
-    X(RD_ERR_DAMAGED, "damaged", "stored data is damaged: a corrupt page, not a database")
+    X(RD_ERR_DAMAGED, "damaged", "stored data is damaged: a corrupt page, not a database")                             \
+    X(RD_ERR_UNAVAILABLE, "unavailable", "a service it needs cannot be used now (store unreachable, no sandbox)")
 
 typedef enum {
 #define RD_ERROR_ENUM(code, name, meaning) code,

@@ -135,7 +135,7 @@ Test(sandbox, cancel_stops_it)
 Test(sandbox, no_bubblewrap_is_an_error_and_nothing_runs)
 {
     rd_error err = {0};
-    cr_assert_eq(rd_sandbox_probe("/nonexistent/bwrap", &err), RD_ERR_IO);
+    cr_assert_eq(rd_sandbox_probe("/nonexistent/bwrap", &err), RD_ERR_UNAVAILABLE);
     cr_assert_not_null(strstr(err.message, "bubblewrap"), "%s", err.message);
     cr_assert_eq(rd_sandbox_probe("/usr/bin/bwrap", &err), RD_OK, "%s", err.message);
 }

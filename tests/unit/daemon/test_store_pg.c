@@ -164,12 +164,12 @@ Test(store_pg, an_unreachable_server_fails_fast_at_open)
     rd_error err = {0};
     double t0 = rd_now_ms();
     cr_assert_null(rd_store_open(spec, NULL, &err));
-    cr_assert_eq(err.code, RD_ERR_IO, "%s", err.message);
+    cr_assert_eq(err.code, RD_ERR_UNAVAILABLE, "%s", err.message);
     cr_assert_lt(rd_now_ms() - t0, 3000.0);
     close(fd);
 }
 
-/* Every call on a handle whose server is down: RD_ERR_IO, quickly. */
+/* Every call on a handle whose server is down: RD_ERR_UNAVAILABLE, quickly. */
 static void assert_down(rd_store *s, const rd_store_tile *held)
 {
     rd_store_job_info in;
@@ -188,13 +188,14 @@ static void assert_down(rd_store *s, const rd_store_tile *held)
                           : call == 4 ? rd_store_tile_done(s, "d1", held, "r1", 2, NULL, &err)
                                       : rd_store_jobs_list(s, ~0u, 10, &l, &ln, &err);
         double ms = rd_now_ms() - t0;
-        cr_assert_eq(c, RD_ERR_IO, "call %d with the server down: %s (%s)", call, rd_error_name(c), err.message);
+        cr_assert_eq(c, RD_ERR_UNAVAILABLE, "call %d with the server down: %s (%s)", call, rd_error_name(c),
+                     err.message);
         cr_assert_lt(ms, 1500.0, "call %d took %.0f ms", call, ms);
     }
     rd_store_event ev;
     rd_error err = {0};
     double t0 = rd_now_ms();
-    cr_assert_eq(rd_store_wait(s, 300, &ev, &err), RD_ERR_IO);
+    cr_assert_eq(rd_store_wait(s, 300, &ev, &err), RD_ERR_UNAVAILABLE);
     cr_assert(rd_now_ms() - t0 >= 290 && rd_now_ms() - t0 < 1800, "a failing wait sleeps out its timeout");
 }
 
@@ -213,7 +214,7 @@ Test(store_pg, a_server_restart_fails_fast_then_the_same_handle_recovers)
     pg_server_stop(&g_pg);
     assert_down(s, &t[1]);
     sleep_ms_store(2000);
-    cr_assert_eq(rd_store_ping(s, &err), RD_ERR_IO, "still down");
+    cr_assert_eq(rd_store_ping(s, &err), RD_ERR_UNAVAILABLE, "still down");
     pg_server_restart(&g_pg);
     cr_assert_eq(rd_store_ping(s, &err), RD_OK, "the same handle reconnects: %s", err.message);
     rd_store_job_info in;
