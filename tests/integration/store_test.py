@@ -1,6 +1,9 @@
 #!/usr/bin/env python3
-"""Jobs outlive the daemon: `rayd serve --data-dir DIR` (the SQLite store)
-killed with SIGKILL and started again on the same folder.
+"""Jobs outlive the daemon: `rayd serve` killed with SIGKILL and started
+again on the same job store, of the engine RAYD_TEST_STORE names
+(tests/support/stored_jobs.py): sqlite, the default (`--data-dir DIR`, the
+embedded SQLite store), or postgresql (`--store URL`, a PostgreSQL server of
+the test's own: tests/support/servers.py). The checks are the same on both.
 
 - 20 asynchronous jobs over several bundled scenes; the daemon is killed
   once some are done and some running, the last one accepted (202) just
@@ -20,20 +23,23 @@ killed with SIGKILL and started again on the same folder.
   curve of [ms, samples, error] points; POST /v1/render's X-Rayd-* headers
   are its job's figures; a stored job running has its "stats" as a job in
   memory does, and no stopped_by.
+- A job whose stamps in the store are changed there directly (sqlite3, or
+  psql) reads the durations they make; stamps that went back read
+  queued_ms and elapsed_ms 0, not below.
 
 Usage: RAYD=build/rayd /usr/bin/python3 tests/integration/store_test.py
 (from the repository root; scenes/generated/knot.obj from `make scenes` adds
-mesh.cfg). Daemons listen on 127.0.0.1 on ports they pick and are stopped
-by their pid; the whole run is bounded by BOUND_S seconds (times
-RAYD_TEST_SLOW, default 1). It prints `store: N passed, M failed` and
-exits 1 on any failure; the temporary folder (data, logs) is kept then and
-named.
+mesh.cfg); RAYD_TEST_STORE=postgresql before it for PostgreSQL (the Debian
+package postgresql, `make deps`: initdb, pg_ctl and psql). Daemons listen on
+127.0.0.1 on ports they pick and are stopped by their pid; the whole run is
+bounded by BOUND_S seconds (times RAYD_TEST_SLOW, default 1). It prints `store: N passed, M failed` and
+exits 1 on any failure; the temporary folders (data, logs, PostgreSQL's) are
+kept then and named.
 """
 import json
 import math
 import os
 import signal
-import sqlite3
 import subprocess
 import sys
 import tempfile
@@ -72,11 +78,11 @@ def call(d, method, path, body=None, headers=None, timeout=30):
     return status, h, b
 
 
-def start(tmp, name, data):
+def start(tmp, name, store):
     folder = os.path.join(tmp, name)
     os.makedirs(folder, exist_ok=True)
-    flags = ["--data-dir", data, "--threads", "2", "--lease-ms", str(LEASE_MS), "--daemon-id", DAEMON_ID,
-             "--store-tile", str(STORE_TILE)]
+    flags = store.flags + ["--threads", "2", "--lease-ms", str(LEASE_MS), "--daemon-id", DAEMON_ID,
+                           "--store-tile", str(STORE_TILE)]
     try:
         d = Daemon(folder, flags)
     except RuntimeError as e:
@@ -135,9 +141,9 @@ def tiles_metric(d):
     return metric_value(body, TILES) if status == 200 else None
 
 
-def crash_and_restart(tmp, data, refs):
+def crash_and_restart(tmp, store, refs):
     """The 20 jobs; the kill; every one done after the restart."""
-    d1 = start(tmp, "d1", data)
+    d1 = start(tmp, "d1", store)
     jobs = {}
     for scene, ov in JOBS[:-1]:
         jobs[submit(d1, scene, ov)] = (scene, ov)
@@ -165,7 +171,7 @@ def crash_and_restart(tmp, data, refs):
           "the kill came with some jobs done (%d) and some running (%d) of %d" %
           (len(done_before), len(running), len(jobs)))
 
-    d2 = start(tmp, "d2", data)
+    d2 = start(tmp, "d2", store)
     status, h, _ = call(d2, "GET", "/healthz")
     check(status == 200, "GET /healthz after the restart: %d" % status)
     for j in done_before:
@@ -186,7 +192,7 @@ def crash_and_restart(tmp, data, refs):
     return d2, jobs
 
 
-def resume(tmp, data, refs, d2, jobs):
+def resume(tmp, store, refs, d2, jobs):
     """A large job killed mid-way is finished, not started over."""
     scene, ov = BIG
     tiles = math.ceil(ov["width"] / STORE_TILE) * math.ceil(ov["height"] / STORE_TILE)
@@ -210,7 +216,7 @@ def resume(tmp, data, refs, d2, jobs):
     check(rc == -signal.SIGKILL, "the daemon was killed by SIGKILL (exit %s)" % rc)
     check(delta >= 1 and s.get("status") != "done", "the large job was mid-way at the kill: %d tiles stored, %s" %
           (delta, s.get("status")))
-    d3 = start(tmp, "d3", data)
+    d3 = start(tmp, "d3", store)
     final = wait_done(d3, [jid], 45 * SLOW, "the large job after the restart").get(jid, {})
     passes = final.get("passes") if isinstance(final.get("passes"), int) and final.get("passes") > 0 else 1
     rendered = tiles_metric(d3)
@@ -226,7 +232,7 @@ def resume(tmp, data, refs, d2, jobs):
         same_pixels(image(d3, jid), refs[(scene, query(ov))], "the resumed job %s" % jid)
     first = next(iter(jobs))
     check(image(d3, first) is not None, "job %s's image is not served after a second restart" % first)
-    clock_stepped_back(data, d3, first)
+    clock_stepped_back(store, d3, first)
     return d3
 
 
@@ -295,15 +301,21 @@ def one_vocabulary(tmp, d):
     check(got == want, "POST /v1/render's headers %s are not its job's status %s" % (got, want))
 
 
-def clock_stepped_back(data, d, jid):
+def clock_stepped_back(store, d, jid):
     """Durations from wall-clock stamps are never negative: the stamps are
     separate readings of a clock that may step back (a job once read
-    queued_ms -2), here made so in the store itself."""
-    db = sqlite3.connect(os.path.join(data, "rayd.sqlite3"), timeout=10)
-    with db:
-        db.execute("UPDATE jobs SET started_ms = submitted_ms - 5, finished_ms = submitted_ms - 7 WHERE id = ?",
-                   (jid,))
-    db.close()
+    queued_ms -2), here made so in the store itself. First stamps that go
+    forward, so that the status is seen to read what was written."""
+    n = store.execute("UPDATE jobs SET started_ms = submitted_ms + 5000, finished_ms = submitted_ms + 5250 "
+                      "WHERE id = ?", jid)
+    check(n == 1, "setting job %s's stamps in the %s store changed %d rows, not 1" % (jid, store.engine, n))
+    s = status_of(d, jid)
+    check(s.get("queued_ms") == 5000 and s.get("elapsed_ms") == 250,
+          "a job whose stamps were set 5000 and 5250 ms after its submission reads queued_ms %s, elapsed_ms %s "
+          "(want 5000 and 250)" % (s.get("queued_ms"), s.get("elapsed_ms")))
+    n = store.execute("UPDATE jobs SET started_ms = submitted_ms - 5, finished_ms = submitted_ms - 7 WHERE id = ?",
+                      jid)
+    check(n == 1, "setting job %s's stamps back in the %s store changed %d rows, not 1" % (jid, store.engine, n))
     s = status_of(d, jid)
     check(s.get("queued_ms") == 0 and s.get("elapsed_ms") == 0,
           "a job whose stamps went back reads queued_ms %s, elapsed_ms %s (want 0 and 0)" %
@@ -312,15 +324,18 @@ def clock_stepped_back(data, d, jid):
 
 def main():
     tmp = tempfile.mkdtemp(prefix="rayd-store-")
-    data = os.path.join(tmp, "data")
+    kept, closers = [tmp], []
 
     def run():
+        t = time.time()
+        store = stored_jobs.store(tmp, kept, closers)
+        print("store: the %s store (%s) in %.1f s" % (store.engine, " ".join(store.flags), time.time() - t))
         t0 = time.time()
         refs = references(tmp)
         t1 = time.time()
-        d2, jobs = crash_and_restart(tmp, data, refs)
+        d2, jobs = crash_and_restart(tmp, store, refs)
         t2 = time.time()
-        d3 = resume(tmp, data, refs, d2, jobs)
+        d3 = resume(tmp, store, refs, d2, jobs)
         t3 = time.time()
         one_vocabulary(tmp, d3)
         print("store: the CLI's references took %.1f s, the 20 jobs %.1f s, the large job %.1f s, "
@@ -329,7 +344,7 @@ def main():
         rc = d3.stop()
         check(rc == 0, "the daemon exited %s after SIGTERM" % rc)
 
-    return stored_jobs.bounded_run(check, "store", BOUND_S, run, STARTED, [tmp], [],
+    return stored_jobs.bounded_run(check, "store", BOUND_S, run, STARTED, kept, closers,
                                    kept_what="the data and the daemons' logs")
 
 

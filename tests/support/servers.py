@@ -9,7 +9,7 @@ free port, the Unix socket in tmpdir, CREATE DATABASE rayd. initdb refuses
 root: as root the folder is given to the postgres user (Debian's package
 postgresql makes it) and the server's commands run through
 `runuser -u postgres`, as tests/support/pg_server.c does for the C tests.
-.url is postgresql://postgres@127.0.0.1:PORT/rayd; .stop() (fast shutdown,
+.url is postgresql://postgres@127.0.0.1:PORT/rayd (.database: rayd); .stop() (fast shutdown,
 data kept) and .start() (same folder, same port) may alternate; .close()
 stops it for good. A guard process stops the server if the test process
 dies without doing so (kill -9, a CI timeout), and .close() runs at exit.
@@ -152,6 +152,7 @@ class PostgreSQL:
         else:
             raise RuntimeError("PostgreSQL did not start in %s:\n%s" % (self.dir, _tail(self.log_path)))
         self.url = self.create_database(database)
+        self.database = database
 
     def _check_reachable(self):
         """The postgres user must reach the folder: every folder above it

@@ -1,13 +1,16 @@
 """What the stored-job tests (store_test.py, farm_test.py, same_bytes_test.py)
 share: the query of a job's overrides, its status and image as a test reads
 them, waiting for jobs to end, comparing an image's pixels with `rayd
-render`'s, and a run bounded in time that stops its servers and keeps its
-folders only when a check failed (cpu_test.py too)."""
+render`'s, a run bounded in time that stops its servers and keeps its
+folders only when a check failed (cpu_test.py too), and the job store of
+the engine RAYD_TEST_STORE names (store())."""
 
 import json
 import os
+import re
 import shutil
 import signal
+import sqlite3
 import sys
 import tempfile
 import time
@@ -83,6 +86,79 @@ def postgresql(prefix, kept, closers):
     kept.append(pg.dir)
     closers.append(pg.close)
     return pg
+
+
+ENGINES = ("sqlite", "postgresql")
+
+
+def engine():
+    """The store engine RAYD_TEST_STORE names: sqlite (unset or empty) or
+    postgresql; ValueError for another name."""
+    name = os.environ.get("RAYD_TEST_STORE") or "sqlite"
+    if name not in ENGINES:
+        raise ValueError("RAYD_TEST_STORE=%s: not one of %s" % (name, ", ".join(ENGINES)))
+    return name
+
+
+class SQLiteStore:
+    """The embedded store in the folder data: `rayd serve --data-dir data`."""
+
+    engine = "sqlite"
+
+    def __init__(self, data):
+        self.data = data
+        self.flags = ["--data-dir", data]
+
+    def execute(self, sql, *params):
+        """One statement written into the store directly, ? for each
+        parameter; the number of rows it changed. Abort when it fails."""
+        try:
+            db = sqlite3.connect(os.path.join(self.data, "rayd.sqlite3"), timeout=10)
+            try:
+                with db:
+                    return db.execute(sql, params).rowcount
+            finally:
+                db.close()
+        except sqlite3.Error as e:
+            raise Abort("sqlite3 %s: %s" % (sql, e))
+
+
+class PostgreSQLStore:
+    """A PostgreSQL of the test's own (postgresql()): `rayd serve --store
+    URL`; statements written into it directly go through psql."""
+
+    engine = "postgresql"
+
+    def __init__(self, pg):
+        self.pg = pg
+        self.flags = ["--store", pg.url]
+
+    def execute(self, sql, *params):
+        """As SQLiteStore.execute: each ? is its parameter as a quoted
+        literal (text; the SQL itself holds no other ?)."""
+        parts = sql.split("?")
+        if len(parts) != len(params) + 1:
+            raise ValueError("%d parameters for %d ? in %s" % (len(params), len(parts) - 1, sql))
+        text = parts[0] + "".join("'%s'%s" % (str(v).replace("'", "''"), rest) for v, rest in zip(params, parts[1:]))
+        rc, out = self.pg.psql(self.pg.database, text)
+        # psql -t prints a statement's tag: UPDATE 1, DELETE 0, INSERT 0 1.
+        m = re.search(r"^(?:UPDATE|DELETE|INSERT \d+) (\d+)$", out, re.M)
+        if rc != 0 or not m:
+            raise Abort("psql %s: exit %d: %s" % (text, rc, out.strip()[-500:]))
+        return int(m.group(1))
+
+
+def store(tmp, kept, closers):
+    """The job store of engine(): SQLite in tmp/data, or a PostgreSQL of the
+    test's own (postgresql(), so kept and closers are bounded_run's);
+    Abort when it cannot be had."""
+    try:
+        name = engine()
+    except ValueError as e:
+        raise Abort(str(e))
+    if name == "postgresql":
+        return PostgreSQLStore(postgresql("rayd-store-pg-", kept, closers))
+    return SQLiteStore(os.path.join(tmp, "data"))
 
 
 def scene_bytes(scene):
