@@ -31,6 +31,8 @@ void farm_store_result(rd_farm *f, rd_error_code rc)
 {
     if (trouble(rc)) {
         atomic_fetch_add(&f->store_errors, 1);
+        if (rc == RD_ERR_NOSPACE)
+            atomic_store(&f->nospace_ms, (long long)rd_now_ms());
         if (atomic_exchange(&f->store_up, 0))
             rd_log_msg(f->opt.log, "warning", "%s; retrying",
                        rc == RD_ERR_NOSPACE   ? "the job store has no space left to write"
@@ -39,6 +41,15 @@ void farm_store_result(rd_farm *f, rd_error_code rc)
     } else if (!atomic_exchange(&f->store_up, 1)) {
         rd_log_msg(f->opt.log, "info", "the job store is reachable again");
     }
+}
+
+rd_error_code farm_full(rd_farm *f, rd_error *err)
+{
+    long long seen = atomic_load(&f->nospace_ms), ago = rd_now_ms() - seen;
+    if (!seen || ago >= FARM_NOSPACE_MS || ago < 0)
+        return RD_OK;
+    return rd_error_set(err, RD_ERR_NOSPACE, 0, 0, "store: no space left: a write failed %.1f s ago",
+                        (double)ago / 1e3);
 }
 
 static void sleep_ms(int ms)

@@ -13,7 +13,7 @@ rd_error_code rd_farm_ping(rd_farm *f, rd_error *err)
 {
     rd_error_code rc = rd_store_ping(f->api, err);
     farm_store_result(f, rc);
-    return rc;
+    return rc ? rc : farm_full(f, err);
 }
 
 /* The schedule's first pass as the core will begin it (rd_job_first_pass),
@@ -96,8 +96,11 @@ static rd_error_code commit(rd_farm *f, const char *text, size_t len, const char
                               .passes = rd_progress_is_progressive(&jo.progress) ? RD_CURVE_MAX : 1,
                               .gated = 1,
                               .schedule = sched};
-    rc = rd_store_job_create(f->submit, &spec, err);
-    farm_store_result(f, rc);
+    rc = farm_full(f, err);
+    if (!rc) {
+        rc = rd_store_job_create(f->submit, &spec, err);
+        farm_store_result(f, rc);
+    }
     if (!rc && !(*json = committed_json(&spec)))
         rc = rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory"); /* committed: it renders unanswered */
     free(sched);

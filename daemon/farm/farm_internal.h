@@ -75,7 +75,16 @@ struct rd_farm {
     int npending;
     atomic_ullong tiles, tiles_lost, passes, done, failed, cancelled, submitted, store_errors, rays, read_back;
     atomic_int store_up;
+    /* When a call of any of the farm's handles last found no space
+     * (rd_now_ms), 0 if none has. */
+    atomic_llong nospace_ms;
 };
+
+/* How long after a write found no space the farm takes no new job and
+ * says it is full: a small write may still fit (SQLite reuses its log's
+ * pages) where the tiles of the jobs it holds do not, and the room left is
+ * theirs. */
+enum { FARM_NOSPACE_MS = 30000 };
 
 /* The farm as the queue's source (rd_jq_source, farm.c): one stored
  * tile, or a stuck pass's end, on the queue's render thread `worker`. */
@@ -141,7 +150,11 @@ char *farm_stats_text(farm_ctx *c, int64_t now_ms, int final);
 /* farm_json.c: the status JSON of a stored job. */
 char *farm_job_json(const rd_store_job_info *in);
 
-/* Notes the store's answer: up, or (RD_ERR_UNAVAILABLE) down. */
+/* Notes the store's answer: up, or in trouble (unreachable, full,
+ * damaged); a full one's time for farm_full. */
 void farm_store_result(rd_farm *f, rd_error_code rc);
+/* RD_ERR_NOSPACE, saying how long ago, within FARM_NOSPACE_MS of the last
+ * call that found no space; else RD_OK. */
+rd_error_code farm_full(rd_farm *f, rd_error *err);
 
 #endif

@@ -280,32 +280,10 @@ static rd_error_code check_lease(int lease_ms, rd_error *err)
             return c_;                                                                                                 \
     } while (0)
 
-void rd_store_saw(rd_store *s, rd_error_code c)
-{
-    if (c == RD_ERR_NOSPACE)
-        s->nospace_ms = rd_wall_ms();
-}
-
-/* The engine's ping writes a little (a probe); a recent write that found
- * no space outweighs it. Under s->lock. */
-static rd_error_code ping_locked(rd_store *s, rd_error *err)
-{
-    int64_t seen = s->nospace_ms;
-    rd_error_code c = rd_store_op_ping(s, err);
-    /* The probe's own commit is no real write's. */
-    if (!c)
-        s->nospace_ms = seen;
-    long long ago = rd_wall_ms() - s->nospace_ms;
-    if (!c && s->nospace_ms && ago < RD_STORE_NOSPACE_MS)
-        return rd_error_set(err, RD_ERR_NOSPACE, 0, 0, "store: no space left: a write failed %.1f s ago",
-                            (double)ago / 1e3);
-    return c;
-}
-
 rd_error_code rd_store_ping(rd_store *s, rd_error *err)
 {
     USE_ERR(err);
-    LOCKED(s, ping_locked(s, err));
+    LOCKED(s, rd_store_op_ping(s, err));
 }
 
 rd_error_code rd_store_job_create(rd_store *s, const rd_store_job_spec *spec, rd_error *err)

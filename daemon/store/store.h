@@ -116,9 +116,9 @@ const char *rd_store_engine_name(const rd_store *s);
 /* The readiness probe: RD_OK when the store can be written now: a small
  * write (committed, then deleted) round-trips, reconnecting first if the
  * connection was lost. RD_ERR_UNAVAILABLE when it is unreachable, RD_ERR_DAMAGED
- * when its data is damaged, RD_ERR_NOSPACE when the probe, or any write of
- * this handle in the last 30 s (RD_STORE_NOSPACE_MS; none committed since),
- * found no space. */
+ * when its data is damaged, RD_ERR_NOSPACE when the probe found no space.
+ * What the probe's small write says of larger ones is the caller's to
+ * judge (the farm remembers, farm_full). */
 rd_error_code rd_store_ping(rd_store *s, rd_error *err);
 
 /* The order and names of rd_jq_status. */

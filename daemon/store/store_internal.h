@@ -71,19 +71,7 @@ struct rd_store {
     const rd_store_driver *drv;
     pthread_mutex_t lock;
     rd_store_options opt;
-    /* When a write last failed for want of space (RD_ERR_NOSPACE), 0 since
-     * a commit went through: the readiness probe says so for a while,
-     * since a probe's small write may fit where a real one does not.
-     * Under lock. */
-    int64_t nospace_ms;
 };
-
-/* How long rd_store_ping answers RD_ERR_NOSPACE after a write failed for
- * want of space, unless a commit goes through meanwhile. */
-#define RD_STORE_NOSPACE_MS 30000
-
-/* The engines' error mapping tells of each failed call's code. */
-void rd_store_saw(rd_store *s, rd_error_code c);
 
 /* Engines: a handle with base filled but for lock, migrated, or NULL. */
 rd_store *rd_store_sqlite_open(const char *folder, const rd_store_options *opt, rd_error *err);

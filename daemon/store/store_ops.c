@@ -226,10 +226,7 @@ static rd_error_code end(rd_store *s, rd_error_code c, rd_error *err)
         s->drv->rollback(s);
         return c;
     }
-    c = s->drv->commit(s, err);
-    if (!c)
-        s->nospace_ms = 0;
-    return c;
+    return s->drv->commit(s, err);
 }
 
 static rd_error_code notify(rd_store *s, rd_store_event_kind kind, const char *id, rd_error *err)

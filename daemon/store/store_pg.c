@@ -119,7 +119,6 @@ static rd_error_code pg_failed(pg_store *p, PGresult *r, rd_error *err)
     char line[400];
     const char *msg = PQresultErrorField(r, PG_DIAG_MESSAGE_PRIMARY);
     rd_error_code c = pg_code(PQresultErrorField(r, PG_DIAG_SQLSTATE));
-    rd_store_saw(&p->base, c);
     rd_error_set(err, c, 0, 0, "store: PostgreSQL: %s%s",
                  c == RD_ERR_DAMAGED   ? "the database is damaged: "
                  : c == RD_ERR_NOSPACE ? "no space left: "

@@ -49,7 +49,6 @@ static rd_error_code sq_fail(sq_store *q, int rc, const char *what, rd_error *er
     case SQLITE_NOTADB: c = RD_ERR_DAMAGED; break;
     default: c = RD_ERR_UNAVAILABLE;
     }
-    rd_store_saw(&q->base, c);
     return rd_error_set(err, c, 0, 0, "store: %s: %s%s", what,
                         c == RD_ERR_DAMAGED   ? "the database is damaged: "
                         : c == RD_ERR_NOSPACE ? "no space left: "

@@ -282,9 +282,9 @@ static rd_error_code create_fails_with(rd_store *s, const char *sqlstate, const 
     return c;
 }
 
-/* disk_full (53100) is RD_ERR_NOSPACE, and the readiness probe says so
- * until a write commits; data_corrupted (XX001) and index_corrupted
- * (XX002) are RD_ERR_DAMAGED, saying so. */
+/* disk_full (53100) is RD_ERR_NOSPACE, the next write may go through;
+ * data_corrupted (XX001) and index_corrupted (XX002) are RD_ERR_DAMAGED,
+ * saying so. */
 Test(store_pg, a_full_disk_and_a_damaged_page_are_said)
 {
     rd_error err = {0};
@@ -292,10 +292,9 @@ Test(store_pg, a_full_disk_and_a_damaged_page_are_said)
     cr_assert(s, "%s", err.message);
     cr_assert_eq(create_fails_with(s, "53100", "full", &err), RD_ERR_NOSPACE, "%s", err.message);
     cr_assert(strstr(err.message, "no space left"), "%s", err.message);
-    cr_assert_eq(rd_store_ping(s, &err), RD_ERR_NOSPACE, "the probe forgot the full disk: %s", err.message);
     rd_store_job_spec spec = {.id = "after", .scene = "x", .scene_len = 1, .format = "cfg", .submitted_ms = 2};
     cr_assert_eq(rd_store_job_create(s, &spec, &err), RD_OK, "%s", err.message);
-    cr_assert_eq(rd_store_ping(s, &err), RD_OK, "a commit went through: %s", err.message);
+    cr_assert_eq(rd_store_ping(s, &err), RD_OK, "%s", err.message);
     const char *damaged[] = {"XX001", "XX002"};
     for (int i = 0; i < 2; i++) {
         cr_assert_eq(create_fails_with(s, damaged[i], "damaged", &err), RD_ERR_DAMAGED, "%s: %s", damaged[i],
