@@ -231,9 +231,19 @@ RD_PACKET_ANY(any_sse2, __attribute__((noinline)), node_sse2)
 RD_PACKET_ANY(any_avx2, __attribute__((noinline, target("avx2"))), node_avx2)
 RD_PACKET_ANY(any_avx512, __attribute__((noinline, target(RD_AVX512))), node_avx512)
 
+/* A ray the walks turn away (rd_ray_finite) would accept every box of
+ * the packet's walk: such packets go ray by ray. */
+static int all_finite(const rd_ray *r, int n)
+{
+    int ok = 1;
+    for (int i = 0; i < n; i++)
+        ok &= rd_ray_finite(r[i]);
+    return ok;
+}
+
 unsigned rd_world_closest_packet(const rd_world *w, const rd_ray *r, int n, double tmax, rd_hit *h)
 {
-    if (!w->use_bvh || n < 2) {
+    if (!w->use_bvh || n < 2 || !all_finite(r, n)) {
         unsigned found = 0;
         for (int i = 0; i < n; i++)
             found |= (unsigned)rd_world_closest(w, r[i], tmax, &h[i]) << i;
@@ -269,7 +279,7 @@ unsigned rd_world_closest_packet(const rd_world *w, const rd_ray *r, int n, doub
 
 unsigned rd_world_any_packet(const rd_world *w, const rd_ray *r, const double *tmax, int n, uint32_t *last)
 {
-    if (!w->use_bvh || n < 2) {
+    if (!w->use_bvh || n < 2 || !all_finite(r, n)) {
         unsigned blocked = 0;
         for (int i = 0; i < n; i++)
             blocked |= (unsigned)rd_world_any_hint(w, r[i], tmax[i], last) << i;

@@ -13,6 +13,16 @@ typedef struct {
 
 static inline rd_vec3 rd_ray_at(rd_ray r, double t) { return v3_add(r.o, v3_scale(r.d, t)); }
 
+/* 1 when every component of r is finite. No primitive is hit by any other
+ * ray, and a box test of one (NaN everywhere) accepts every box, the empty
+ * slots of a node too: the walks turn such rays away first. */
+static inline int rd_ray_finite(rd_ray r)
+{
+    double z =
+        (r.o.x - r.o.x) + (r.o.y - r.o.y) + (r.o.z - r.o.z) + (r.d.x - r.d.x) + (r.d.y - r.d.y) + (r.d.z - r.d.z);
+    return z == 0;
+}
+
 /* The course's HitRecord. */
 typedef struct {
     double t;

@@ -379,6 +379,8 @@ void rd_world_finish_hit(const rd_world *w, rd_ray r, const rd_best *b, rd_hit *
 
 int rd_world_closest(const rd_world *w, rd_ray r, double tmax, rd_hit *h)
 {
+    if (!rd_ray_finite(r))
+        return 0;
     rd_best b = rd_best_make(tmax);
     rd_world_planes_closest(w, r, &b);
     if (w->use_bvh) {
@@ -435,6 +437,8 @@ int rd_world_planes_any(const rd_world *w, rd_ray r, double tmax)
 
 int rd_world_any_hint(const rd_world *w, rd_ray r, double tmax, uint32_t *last)
 {
+    if (!rd_ray_finite(r))
+        return 0;
     if (rd_world_planes_any(w, r, tmax))
         return 1;
     if (w->use_bvh)

@@ -13,6 +13,7 @@
 #   archive      the upload archive reader (zip, tar, tar.gz)
 #   frames       the code grader's reading of its sandbox's frames and the
 #                compiler's messages
+#   walk         the ray walks against their definition (tests/oracles/)
 # SECONDS is per target. For each target, in turn (the machine has two
 # cores and each libFuzzer process uses one), it
 #   1. builds build/fuzz/fuzz_TARGET with clang, libFuzzer, ASan and UBSan
@@ -48,7 +49,7 @@ die() {
     exit 2
 }
 
-ALL_TARGETS="cfg json obj png grade_file form query archive frames"
+ALL_TARGETS="cfg json obj png grade_file form query archive frames walk"
 # The targets that run the daemon in-process.
 HTTP_TARGETS="form query"
 # The targets that take some of the daemon's objects: the code grader's.
@@ -103,7 +104,9 @@ mkdir -p "$OBJ" "$LOGS" || die "cannot create $OUT"
 # Every folder's include path at once, from the Makefile (the main build
 # checks the layering; this one only compiles).
 INCLUDES=$(make --no-print-directory -s print-includes) || die "make print-includes failed"
-STD="-std=c11 -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L $INCLUDES -Wall -Wextra -Werror"
+# -ffp-contract=off as in the Makefile: clang would fuse a*b+c in the
+# functions compiled for AVX-512 (FMA) and change the bits a walk returns.
+STD="-std=c11 -ffp-contract=off -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L $INCLUDES -Wall -Wextra -Werror"
 PKG_CFLAGS=$(pkg-config --cflags $PKGS)
 PKG_LIBS="$(pkg-config --libs $PKGS) -lm -lpthread"
 COMMON="$STD $PKG_CFLAGS -g -O1 -fno-omit-frame-pointer -fno-sanitize-recover=all"
@@ -181,7 +184,7 @@ if [ "$need_daemon" -eq 1 ]; then
         DAEMON_OBJS="$DAEMON_OBJS $OBJ/gen/$gen.o"
     done
 fi
-for src in tests/fuzz/*.c; do
+for src in tests/fuzz/*.c tests/oracles/walk_oracle.c; do
     obj=$OBJ/${src%.c}.o
     if stale "$obj" "$src" "tests/fuzz/*.h $DAEMON_HEADERS"; then
         compile "$src" "$obj" $TGT_FLAGS
@@ -197,6 +200,7 @@ for t in $TARGETS; do
     case " $CODE_TARGETS " in
     *" $t "*) extra="$OBJ/daemon/codegrade/code_read.o $OBJ/daemon/codegrade/code_diag.o" ;;
     esac
+    [ "$t" = walk ] && extra="$OBJ/tests/oracles/walk_oracle.o"
     "$CC" $TGT_FLAGS -o "$OUT/fuzz_$t" "$OBJ/tests/fuzz/fuzz_$t.o" "$OBJ/tests/fuzz/fuzz_check.o" $extra \
         $LIB_OBJS $PKG_LIBS || die "linking $OUT/fuzz_$t failed"
 done
