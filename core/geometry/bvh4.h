@@ -103,6 +103,49 @@ rd_bvh4_test_avx2(const rd_bvh4_node *n, const rd_bvh_ray *r, double tmax, doubl
     return (unsigned)_mm256_movemask_pd(_mm256_and_pd(in, _mm256_cmp_pd(t0, t1, _CMP_LE_OQ)));
 }
 
+/* A ray as the AVX2 walk tests it: origin and reciprocal broadcast once,
+ * and per axis the byte offsets in a node of the near and far bounds, so
+ * that the test has no branch. Only for rays without a flat axis
+ * (rd_bvh_ray.flat); the others take rd_bvh4_test_avx2. */
+typedef struct {
+    __m256d o[3], inv[3];
+    uint32_t near[3], far[3];
+} rd_bvh4_ray_avx2;
+
+static inline __attribute__((always_inline, target("avx2"))) void rd_bvh4_ray_avx2_make(const rd_bvh_ray *b,
+                                                                                        rd_bvh4_ray_avx2 *q)
+{
+    const double o[3] = {b->o.x, b->o.y, b->o.z}, inv[3] = {b->inv.x, b->inv.y, b->inv.z};
+    for (int k = 0; k < 3; k++) {
+        uint32_t lo = (uint32_t)(offsetof(rd_bvh4_node, lo) + sizeof(float[4]) * (size_t)k);
+        uint32_t hi = (uint32_t)(offsetof(rd_bvh4_node, hi) + sizeof(float[4]) * (size_t)k);
+        q->o[k] = _mm256_set1_pd(o[k]);
+        q->inv[k] = _mm256_set1_pd(inv[k]);
+        q->near[k] = b->neg[k] ? hi : lo;
+        q->far[k] = b->neg[k] ? lo : hi;
+    }
+}
+
+/* rd_bvh4_test_avx2 for such a ray: the same operations in the same order
+ * (a flat axis's mask is all ones), so the same boxes and entries. */
+static inline __attribute__((always_inline, target("avx2"))) unsigned
+rd_bvh4_test_avx2_ray(const rd_bvh4_node *n, const rd_bvh4_ray_avx2 *q, double tmax, double tnear[4])
+{
+    const char *base = (const char *)n;
+    __m256d t0 = _mm256_setzero_pd(), t1 = _mm256_set1_pd(tmax);
+    const __m256d widen = _mm256_set1_pd(RD_BVH4_WIDEN);
+    for (int k = 0; k < 3; k++) {
+        __m256d l = _mm256_cvtps_pd(_mm_loadu_ps((const float *)(const void *)(base + q->near[k])));
+        __m256d u = _mm256_cvtps_pd(_mm_loadu_ps((const float *)(const void *)(base + q->far[k])));
+        __m256d a = _mm256_mul_pd(_mm256_sub_pd(l, q->o[k]), q->inv[k]);
+        __m256d b = _mm256_mul_pd(_mm256_mul_pd(_mm256_sub_pd(u, q->o[k]), q->inv[k]), widen);
+        t0 = _mm256_max_pd(a, t0);
+        t1 = _mm256_min_pd(b, t1);
+    }
+    _mm256_storeu_pd(tnear, t0);
+    return (unsigned)_mm256_movemask_pd(_mm256_cmp_pd(t0, t1, _CMP_LE_OQ));
+}
+
 /* 1 when this CPU runs the AVX2 test. */
 int rd_bvh4_cpu_has_avx2(void);
 

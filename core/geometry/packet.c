@@ -134,7 +134,7 @@ static inline double least_entry(const node_hits *nh, int c)
 /* Leaves are searched as soon as their node is tested, ray by ray; inner
  * children go on the stack nearest on top. */
 #define RD_PACKET_CLOSEST(NAME, ATTR, NODE)                                                                            \
-    ATTR static void NAME(const rd_world *w, const rd_ray *r, const packet *p, const rd_tri_ray *tr, unsigned rays,    \
+    ATTR static void NAME(const rd_world *w, const rd_ray *r, const packet *p, rd_tri_lazy *tr, unsigned rays,         \
                           rd_best *b)                                                                                  \
     {                                                                                                                  \
         double cut[RD_PACKET_MAX];                                                                                     \
@@ -161,7 +161,7 @@ static inline double least_entry(const node_hits *nh, int c)
                     int i = __builtin_ctz(m);                                                                          \
                     double floor = rd_leaf_floor(nh.t[c][i]);                                                          \
                     for (uint32_t k = 0; k < n->count[c]; k++)                                                         \
-                        rd_prim_closest(w, w->bvh.prims[n->child[c] + k], r[i], &tr[i], floor, &b[i]);                 \
+                        rd_prim_closest(w, w->bvh.prims[n->child[c] + k], &r[i], &tr[i], floor, &b[i]);                \
                     cut[i] = b[i].cut;                                                                                 \
                 }                                                                                                      \
             }                                                                                                          \
@@ -176,7 +176,7 @@ static inline double least_entry(const node_hits *nh, int c)
     }
 
 #define RD_PACKET_ANY(NAME, ATTR, NODE)                                                                                \
-    ATTR static unsigned NAME(const rd_world *w, const rd_ray *r, const packet *p, const rd_tri_ray *tr,               \
+    ATTR static unsigned NAME(const rd_world *w, const rd_ray *r, const packet *p, rd_tri_lazy *tr,                    \
                               const double *tmax, unsigned rays, uint32_t *last)                                       \
     {                                                                                                                  \
         double tm[RD_PACKET_MAX];                                                                                      \
@@ -211,7 +211,7 @@ static inline double least_entry(const node_hits *nh, int c)
                     int i = __builtin_ctz(m);                                                                          \
                     for (uint32_t k = 0; k < n->count[c]; k++) {                                                       \
                         uint32_t id = w->bvh.prims[n->child[c] + k];                                                   \
-                        if (rd_prim_any(w, id, r[i], &tr[i], tmax[i])) {                                               \
+                        if (rd_prim_any(w, id, &r[i], &tr[i], tmax[i])) {                                              \
                             *last = rd_world_hint(node, c);                                                            \
                             blocked |= 1u << i;                                                                        \
                             rays &= ~(1u << i);                                                                        \
@@ -251,12 +251,12 @@ unsigned rd_world_closest_packet(const rd_world *w, const rd_ray *r, int n, doub
     }
     rd_best b[RD_PACKET_MAX];
     packet p;
-    rd_tri_ray tr[RD_PACKET_MAX];
+    rd_tri_lazy tr[RD_PACKET_MAX];
     for (int i = 0; i < n; i++) {
         b[i] = rd_best_make(tmax);
         rd_world_planes_closest(w, r[i], &b[i]);
         p.br[i] = rd_bvh_ray_make(r[i]);
-        tr[i] = rd_prim_tri_ray(w, r[i]);
+        tr[i] = rd_tri_lazy_none();
     }
     unsigned all = (1u << n) - 1;
     if (w->avx512) {
@@ -287,16 +287,16 @@ unsigned rd_world_any_packet(const rd_world *w, const rd_ray *r, const double *t
     }
     unsigned blocked = 0, rays = 0;
     packet p;
-    rd_tri_ray tr[RD_PACKET_MAX];
+    rd_tri_lazy tr[RD_PACKET_MAX];
     for (int i = 0; i < n; i++) {
         if (rd_world_planes_any(w, r[i], tmax[i])) {
             blocked |= 1u << i;
             continue;
         }
-        tr[i] = rd_prim_tri_ray(w, r[i]);
+        tr[i] = rd_tri_lazy_none();
         p.br[i] = rd_bvh_ray_make(r[i]);
         /* The leaf that blocked the last blocked ray first (world.h). */
-        if (last && *last && rd_world_hint_blocks(w, r[i], &p.br[i], &tr[i], tmax[i], *last)) {
+        if (last && *last && rd_world_hint_blocks(w, &r[i], &p.br[i], &tr[i], tmax[i], *last)) {
             blocked |= 1u << i;
             continue;
         }

@@ -80,39 +80,56 @@ static inline void rd_best_set(rd_best *b, double t, int kind, size_t idx, uint3
     b->cut = t * RD_CUT_UP;
 }
 
+/* The triangle test's per-ray part (its shear and three divisions), made
+ * when a ray first reaches a triangle: most rays of a sphere scene, or of
+ * a mesh's empty surroundings, never do. */
+typedef struct {
+    rd_tri_ray tr;
+    int made;
+} rd_tri_lazy;
+
+static inline rd_tri_lazy rd_tri_lazy_none(void) { return (rd_tri_lazy){.made = 0}; }
+
+static inline __attribute__((always_inline)) const rd_tri_ray *rd_tri_lazy_get(rd_tri_lazy *l, const rd_ray *r)
+{
+    if (!l->made) {
+        l->tr = rd_tri_ray_make(*r);
+        l->made = 1;
+    }
+    return &l->tr;
+}
+
+/* Whether the leaf `hint` names (as rd_world_any_hint leaves it) blocks the
+ * ray: its box as the ray's walk tests it, then its primitives. */
+int rd_world_hint_blocks(const rd_world *w, const rd_ray *r, const rd_bvh_ray *br, rd_tri_lazy *tr, double tmax,
+                         uint32_t hint);
+
 /* Primitive id against b; floor: its leaf's (0 outside a BVH). */
-static inline __attribute__((always_inline)) void rd_prim_closest(const rd_world *w, uint32_t id, rd_ray r,
-                                                                  const rd_tri_ray *tr, double floor, rd_best *b)
+static inline __attribute__((always_inline)) void rd_prim_closest(const rd_world *w, uint32_t id, const rd_ray *r,
+                                                                  rd_tri_lazy *tr, double floor, rd_best *b)
 {
     if (id < w->nspheres) {
-        double t = rd_sphere_intersect(&w->spheres[id], r, b->limit);
+        double t = rd_sphere_intersect(&w->spheres[id], *r, b->limit);
         if (t > 0 && t >= floor && rd_best_takes(b, t, id))
             rd_best_set(b, t, RD_K_SPHERE, id, id);
         return;
     }
     size_t k = id - w->nspheres;
     double bary[3];
-    double t = rd_tri_intersect_ray(w->tris[k].v, tr, b->limit, bary);
+    double t = rd_tri_intersect_ray(w->tris[k].v, rd_tri_lazy_get(tr, r), b->limit, bary);
     if (t > 0 && t >= floor && rd_best_takes(b, t, id)) {
         rd_best_set(b, t, RD_K_TRI, k, id);
         memcpy(b->bary, bary, sizeof bary);
     }
 }
 
-static inline __attribute__((always_inline)) int rd_prim_any(const rd_world *w, uint32_t id, rd_ray r,
-                                                             const rd_tri_ray *tr, double tmax)
+static inline __attribute__((always_inline)) int rd_prim_any(const rd_world *w, uint32_t id, const rd_ray *r,
+                                                             rd_tri_lazy *tr, double tmax)
 {
     if (id < w->nspheres)
-        return rd_sphere_intersect(&w->spheres[id], r, tmax) > 0;
+        return rd_sphere_intersect(&w->spheres[id], *r, tmax) > 0;
     double bary[3];
-    return rd_tri_intersect_ray(w->tris[id - w->nspheres].v, tr, tmax, bary) > 0;
-}
-
-/* The triangle test's per-ray part; sphere-only worlds skip its shear and
- * three divisions. */
-static inline rd_tri_ray rd_prim_tri_ray(const rd_world *w, rd_ray r)
-{
-    return w->ntris ? rd_tri_ray_make(r) : (rd_tri_ray){r.o, 0, 0, 0, 0, 0, 0, 0};
+    return rd_tri_intersect_ray(w->tris[id - w->nspheres].v, rd_tri_lazy_get(tr, r), tmax, bary) > 0;
 }
 
 /* Pushes entry e (with a field t) onto a walk's stack, among the entries

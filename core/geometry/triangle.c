@@ -2,38 +2,6 @@
 
 #include <float.h>
 
-static double comp(rd_vec3 v, int k) { return k == 0 ? v.x : (k == 1 ? v.y : v.z); }
-
-rd_tri_ray rd_tri_ray_make(rd_ray r)
-{
-    /* Permute so that z is the ray's dominant axis, then shear the
-     * triangle into the ray's frame, where the test is 2D. */
-    rd_tri_ray t = {r.o, 0, 0, 0, 0, 0, 0, 0};
-    int kz = 0;
-    double ax = fabs(r.d.x), ay = fabs(r.d.y), az = fabs(r.d.z);
-    if (ay > ax && ay >= az)
-        kz = 1;
-    else if (az > ax && az > ay)
-        kz = 2;
-    int kx = (kz + 1) % 3, ky = (kx + 1) % 3;
-    double dz = comp(r.d, kz);
-    if (dz == 0 || !isfinite(dz))
-        return t;
-    if (dz < 0) {
-        int tmp = kx;
-        kx = ky;
-        ky = tmp;
-    }
-    t.kx = kx;
-    t.ky = ky;
-    t.kz = kz;
-    t.ok = 1;
-    t.sx = comp(r.d, kx) / dz;
-    t.sy = comp(r.d, ky) / dz;
-    t.sz = 1.0 / dz;
-    return t;
-}
-
 double rd_tri_intersect(const rd_vec3 v[3], rd_ray r, double tmax, double bary[3])
 {
     rd_tri_ray t = rd_tri_ray_make(r);
@@ -47,9 +15,9 @@ double rd_tri_intersect_ray(const rd_vec3 v[3], const rd_tri_ray *r, double tmax
     const int kx = r->kx, ky = r->ky, kz = r->kz;
     const double sx = r->sx, sy = r->sy, sz = r->sz;
     rd_vec3 A = v3_sub(v[0], r->o), B = v3_sub(v[1], r->o), C = v3_sub(v[2], r->o);
-    double Ax = comp(A, kx) - sx * comp(A, kz), Ay = comp(A, ky) - sy * comp(A, kz);
-    double Bx = comp(B, kx) - sx * comp(B, kz), By = comp(B, ky) - sy * comp(B, kz);
-    double Cx = comp(C, kx) - sx * comp(C, kz), Cy = comp(C, ky) - sy * comp(C, kz);
+    double Ax = rd_tri_comp(A, kx) - sx * rd_tri_comp(A, kz), Ay = rd_tri_comp(A, ky) - sy * rd_tri_comp(A, kz);
+    double Bx = rd_tri_comp(B, kx) - sx * rd_tri_comp(B, kz), By = rd_tri_comp(B, ky) - sy * rd_tri_comp(B, kz);
+    double Cx = rd_tri_comp(C, kx) - sx * rd_tri_comp(C, kz), Cy = rd_tri_comp(C, ky) - sy * rd_tri_comp(C, kz);
     double U = Cx * By - Cy * Bx;
     double V = Ax * Cy - Ay * Cx;
     double W = Bx * Ay - By * Ax;
@@ -65,7 +33,7 @@ double rd_tri_intersect_ray(const rd_vec3 v[3], const rd_tri_ray *r, double tmax
                    (fabs(Cx * By) + fabs(Cy * Bx) + fabs(Ax * Cy) + fabs(Ay * Cx) + fabs(Bx * Ay) + fabs(By * Ax));
     if (fabs(det) <= noise)
         return 0;
-    double T = U * sz * comp(A, kz) + V * sz * comp(B, kz) + W * sz * comp(C, kz);
+    double T = U * sz * rd_tri_comp(A, kz) + V * sz * rd_tri_comp(B, kz) + W * sz * rd_tri_comp(C, kz);
     /* t = T/det must lie in (0, tmax); compare without dividing. */
     if (det < 0) {
         T = -T;

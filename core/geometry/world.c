@@ -189,13 +189,22 @@ typedef struct {
     double t;
 } visit;
 
+/* The ray as a walk's box test takes it: the AVX2 walk of rays without a
+ * flat axis has its own form (bvh4.h); the others test the plain one. */
+static inline void plain_ray(const rd_bvh_ray *b, const rd_bvh_ray **q) { *q = b; }
+#define RD_TEST_PLAIN_SSE2(n, q, tmax, tn) rd_bvh4_test_sse2(n, q, tmax, tn)
+#define RD_TEST_PLAIN_AVX2(n, q, tmax, tn) rd_bvh4_test_avx2(n, q, tmax, tn)
+#define RD_TEST_RAY_AVX2(n, q, tmax, tn) rd_bvh4_test_avx2_ray(n, &(q), tmax, tn)
+
 /* The walks, written once and compiled for each box test: the test is
- * inlined into its loop. */
-#define RD_WALK_CLOSEST(NAME, ATTR, TEST)                                                                              \
-    ATTR static void NAME(const rd_world *w, rd_ray r, rd_best *b)                                                     \
+ * inlined into its loop. The ray comes by pointer and its triangle set-up
+ * waits for the first triangle (prim.h). */
+#define RD_WALK_CLOSEST(NAME, ATTR, QTYPE, QMAKE, TEST)                                                                \
+    ATTR static void NAME(const rd_world *w, const rd_ray *r, const rd_bvh_ray *br, rd_best *b)                        \
     {                                                                                                                  \
-        rd_bvh_ray br = rd_bvh_ray_make(r);                                                                            \
-        rd_tri_ray tr = rd_prim_tri_ray(w, r);                                                                         \
+        QTYPE q;                                                                                                       \
+        QMAKE(br, &q);                                                                                                 \
+        rd_tri_lazy tr = rd_tri_lazy_none();                                                                           \
         visit stack[RD_BVH4_STACK];                                                                                    \
         int sp = 0;                                                                                                    \
         stack[sp++] = (visit){0, 0, 0};                                                                                \
@@ -212,7 +221,7 @@ typedef struct {
             }                                                                                                          \
             const rd_bvh4_node *n = &w->bvh4.nodes[v.idx];                                                             \
             double tn[4];                                                                                              \
-            unsigned m = TEST(n, &br, b->cut, tn);                                                                     \
+            unsigned m = TEST(n, q, b->cut, tn);                                                                       \
             int base = sp;                                                                                             \
             for (int i = 0; i < 4; i++) {                                                                              \
                 if (!(m >> i & 1))                                                                                     \
@@ -223,13 +232,14 @@ typedef struct {
         }                                                                                                              \
     }
 
-#define RD_WALK_ANY(NAME, ATTR, TEST)                                                                                  \
-    ATTR static int NAME(const rd_world *w, rd_ray r, double tmax, uint32_t *last)                                     \
+#define RD_WALK_ANY(NAME, ATTR, QTYPE, QMAKE, TEST)                                                                    \
+    ATTR static int NAME(const rd_world *w, const rd_ray *r, const rd_bvh_ray *br, double tmax, uint32_t *last)        \
     {                                                                                                                  \
-        rd_bvh_ray br = rd_bvh_ray_make(r);                                                                            \
-        rd_tri_ray tr = rd_prim_tri_ray(w, r);                                                                         \
-        if (last && *last && rd_world_hint_blocks(w, r, &br, &tr, tmax, *last))                                        \
+        rd_tri_lazy tr = rd_tri_lazy_none();                                                                           \
+        if (last && *last && rd_world_hint_blocks(w, r, br, &tr, tmax, *last))                                         \
             return 1;                                                                                                  \
+        QTYPE q;                                                                                                       \
+        QMAKE(br, &q);                                                                                                 \
         uint32_t stack[RD_BVH4_STACK];                                                                                 \
         int sp = 0;                                                                                                    \
         stack[sp++] = 0;                                                                                               \
@@ -237,7 +247,7 @@ typedef struct {
             uint32_t node = stack[--sp];                                                                               \
             const rd_bvh4_node *n = &w->bvh4.nodes[node];                                                              \
             double tn[4];                                                                                              \
-            unsigned m = TEST(n, &br, tmax, tn);                                                                       \
+            unsigned m = TEST(n, q, tmax, tn);                                                                         \
             for (int i = 0; i < 4; i++) {                                                                              \
                 if (!(m >> i & 1))                                                                                     \
                     continue;                                                                                          \
@@ -260,20 +270,28 @@ typedef struct {
 
 /* Not inlined: their stacks would enlarge every caller's frame, also for
  * worlds without a BVH. */
-RD_WALK_CLOSEST(closest_sse2, __attribute__((noinline)), rd_bvh4_test_sse2)
-RD_WALK_CLOSEST(closest_avx2, __attribute__((noinline, target("avx2"))), rd_bvh4_test_avx2)
-RD_WALK_ANY(any_sse2, __attribute__((noinline)), rd_bvh4_test_sse2)
-RD_WALK_ANY(any_avx2, __attribute__((noinline, target("avx2"))), rd_bvh4_test_avx2)
+#define RD_NOINLINE_AVX2 __attribute__((noinline, target("avx2")))
+RD_WALK_CLOSEST(closest_sse2, __attribute__((noinline)), const rd_bvh_ray *, plain_ray, RD_TEST_PLAIN_SSE2)
+RD_WALK_CLOSEST(closest_avx2_flat, RD_NOINLINE_AVX2, const rd_bvh_ray *, plain_ray, RD_TEST_PLAIN_AVX2)
+RD_WALK_CLOSEST(closest_avx2, RD_NOINLINE_AVX2, rd_bvh4_ray_avx2, rd_bvh4_ray_avx2_make, RD_TEST_RAY_AVX2)
+RD_WALK_ANY(any_sse2, __attribute__((noinline)), const rd_bvh_ray *, plain_ray, RD_TEST_PLAIN_SSE2)
+RD_WALK_ANY(any_avx2_flat, RD_NOINLINE_AVX2, const rd_bvh_ray *, plain_ray, RD_TEST_PLAIN_AVX2)
+RD_WALK_ANY(any_avx2, RD_NOINLINE_AVX2, rd_bvh4_ray_avx2, rd_bvh4_ray_avx2_make, RD_TEST_RAY_AVX2)
 
-static void bvh_closest(const rd_world *w, rd_ray r, rd_best *b)
+static int has_flat(const rd_bvh_ray *br) { return br->flat[0] | br->flat[1] | br->flat[2]; }
+
+static void bvh_closest(const rd_world *w, const rd_ray *r, rd_best *b)
 {
-    if (w->avx2)
-        closest_avx2(w, r, b);
+    rd_bvh_ray br = rd_bvh_ray_make(*r);
+    if (!w->avx2)
+        closest_sse2(w, r, &br, b);
+    else if (has_flat(&br))
+        closest_avx2_flat(w, r, &br, b);
     else
-        closest_sse2(w, r, b);
+        closest_avx2(w, r, &br, b);
 }
 
-int rd_world_hint_blocks(const rd_world *w, rd_ray r, const rd_bvh_ray *br, const rd_tri_ray *tr, double tmax,
+int rd_world_hint_blocks(const rd_world *w, const rd_ray *r, const rd_bvh_ray *br, rd_tri_lazy *tr, double tmax,
                          uint32_t hint)
 {
     uint32_t node = (hint - 1) >> 2;
@@ -291,9 +309,12 @@ int rd_world_hint_blocks(const rd_world *w, rd_ray r, const rd_bvh_ray *br, cons
     return 0;
 }
 
-static int bvh_any(const rd_world *w, rd_ray r, double tmax, uint32_t *last)
+static int bvh_any(const rd_world *w, const rd_ray *r, double tmax, uint32_t *last)
 {
-    int blocked = w->avx2 ? any_avx2(w, r, tmax, last) : any_sse2(w, r, tmax, last);
+    rd_bvh_ray br = rd_bvh_ray_make(*r);
+    int blocked = !w->avx2        ? any_sse2(w, r, &br, tmax, last)
+                  : has_flat(&br) ? any_avx2_flat(w, r, &br, tmax, last)
+                                  : any_avx2(w, r, &br, tmax, last);
     /* A ray that reached its light forgets the occluder: in the light, the
      * next ray would test it in vain (world.h). */
     if (!blocked && last)
@@ -384,12 +405,12 @@ int rd_world_closest(const rd_world *w, rd_ray r, double tmax, rd_hit *h)
     rd_best b = rd_best_make(tmax);
     rd_world_planes_closest(w, r, &b);
     if (w->use_bvh) {
-        bvh_closest(w, r, &b);
+        bvh_closest(w, &r, &b);
     } else {
         /* A few primitives: one loop in id order, which is the tie order. */
-        rd_tri_ray tr = rd_prim_tri_ray(w, r);
+        rd_tri_lazy tr = rd_tri_lazy_none();
         for (size_t i = 0; i < w->nspheres + w->ntris; i++)
-            rd_prim_closest(w, (uint32_t)i, r, &tr, 0, &b);
+            rd_prim_closest(w, (uint32_t)i, &r, &tr, 0, &b);
     }
     if (b.kind == RD_K_NONE)
         return 0;
@@ -442,7 +463,7 @@ int rd_world_any_hint(const rd_world *w, rd_ray r, double tmax, uint32_t *last)
     if (rd_world_planes_any(w, r, tmax))
         return 1;
     if (w->use_bvh)
-        return bvh_any(w, r, tmax, last);
+        return bvh_any(w, &r, tmax, last);
     for (size_t i = 0; i < w->nspheres; i++)
         if (rd_sphere_intersect(&w->spheres[i], r, tmax) > 0)
             return 1;

@@ -92,11 +92,6 @@ int rd_world_any(const rd_world *w, rd_ray r, double tmax);
  * asks for. */
 int rd_world_any_hint(const rd_world *w, rd_ray r, double tmax, uint32_t *last);
 
-/* Whether the leaf `hint` names (as rd_world_any_hint leaves it) blocks the
- * ray: its box as the ray's walk tests it, then its primitives. */
-int rd_world_hint_blocks(const rd_world *w, rd_ray r, const rd_bvh_ray *br, const rd_tri_ray *tr, double tmax,
-                         uint32_t hint);
-
 /* The hint naming child `slot` of four-wide node `node`. */
 static inline uint32_t rd_world_hint(uint32_t node, int slot) { return (node << 2 | (uint32_t)slot) + 1; }
 

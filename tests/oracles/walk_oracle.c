@@ -39,7 +39,7 @@ static int visit_accepted(const rd_world *w, const rd_bvh_ray *br, double tmax, 
 
 typedef struct {
     rd_ray r;
-    rd_tri_ray tr;
+    rd_tri_lazy tr;
     rd_best b;
     double tmax;
     int any;
@@ -49,7 +49,7 @@ static void closest_leaf(const rd_world *w, uint32_t first, uint32_t count, doub
 {
     query *q = arg;
     for (uint32_t i = 0; i < count; i++)
-        rd_prim_closest(w, w->bvh.prims[first + i], q->r, &q->tr, rd_leaf_floor(t0), &q->b);
+        rd_prim_closest(w, w->bvh.prims[first + i], &q->r, &q->tr, rd_leaf_floor(t0), &q->b);
 }
 
 static void any_leaf(const rd_world *w, uint32_t first, uint32_t count, double t0, void *arg)
@@ -57,12 +57,12 @@ static void any_leaf(const rd_world *w, uint32_t first, uint32_t count, double t
     (void)t0;
     query *q = arg;
     for (uint32_t i = 0; i < count && !q->any; i++)
-        q->any = rd_prim_any(w, w->bvh.prims[first + i], q->r, &q->tr, q->tmax);
+        q->any = rd_prim_any(w, w->bvh.prims[first + i], &q->r, &q->tr, q->tmax);
 }
 
 int walk_oracle_closest(const rd_world *w, rd_ray r, double tmax, rd_hit *h)
 {
-    query q = {.r = r, .tr = rd_tri_ray_make(r), .b = rd_best_make(tmax), .tmax = tmax, .any = 0};
+    query q = {.r = r, .tr = rd_tri_lazy_none(), .b = rd_best_make(tmax), .tmax = tmax, .any = 0};
     rd_world_planes_closest(w, r, &q.b);
     if (w->use_bvh) {
         rd_bvh_ray br = rd_bvh_ray_make(r);
@@ -70,7 +70,7 @@ int walk_oracle_closest(const rd_world *w, rd_ray r, double tmax, rd_hit *h)
             return -1;
     } else {
         for (size_t i = 0; i < w->nspheres + w->ntris; i++)
-            rd_prim_closest(w, (uint32_t)i, r, &q.tr, 0, &q.b);
+            rd_prim_closest(w, (uint32_t)i, &r, &q.tr, 0, &q.b);
     }
     if (q.b.kind == RD_K_NONE)
         return 0;
@@ -82,7 +82,7 @@ int walk_oracle_any(const rd_world *w, rd_ray r, double tmax)
 {
     if (rd_world_planes_any(w, r, tmax))
         return 1;
-    query q = {.r = r, .tr = rd_tri_ray_make(r), .tmax = tmax, .any = 0};
+    query q = {.r = r, .tr = rd_tri_lazy_none(), .tmax = tmax, .any = 0};
     if (w->use_bvh) {
         rd_bvh_ray br = rd_bvh_ray_make(r);
         if (visit_accepted(w, &br, tmax, any_leaf, &q))
@@ -90,7 +90,7 @@ int walk_oracle_any(const rd_world *w, rd_ray r, double tmax)
         return q.any;
     }
     for (size_t i = 0; i < w->nspheres + w->ntris && !q.any; i++)
-        q.any = rd_prim_any(w, (uint32_t)i, r, &q.tr, tmax);
+        q.any = rd_prim_any(w, (uint32_t)i, &r, &q.tr, tmax);
     return q.any;
 }
 
