@@ -384,3 +384,40 @@ void rd_bvh_free(rd_bvh *b)
     free(b->prims);
     memset(b, 0, sizeof *b);
 }
+
+/* The binary children a node takes: the two of its binary node, then the
+ * largest inner one among them opened up, while fewer than width. */
+int rd_bvh_gather(const rd_bvh *b, uint32_t node, uint32_t *slot, int width)
+{
+    const rd_bvh_node *n = &b->nodes[node];
+    if (n->count) {
+        slot[0] = node;
+        return 1;
+    }
+    int k = 0;
+    slot[k++] = node + 1;
+    slot[k++] = n->offset;
+    while (k < width) {
+        int best = -1;
+        double best_area = -1;
+        for (int i = 0; i < k; i++) {
+            const rd_bvh_node *c = &b->nodes[slot[i]];
+            if (c->count)
+                continue;
+            double d[3];
+            for (int a = 0; a < 3; a++)
+                d[a] = (double)c->hi[a] - (double)c->lo[a];
+            double area = d[0] * d[1] + d[1] * d[2] + d[2] * d[0];
+            if (area > best_area) {
+                best_area = area;
+                best = i;
+            }
+        }
+        if (best < 0)
+            break;
+        uint32_t opened = slot[best];
+        slot[best] = opened + 1;
+        slot[k++] = b->nodes[opened].offset;
+    }
+    return k;
+}
