@@ -780,6 +780,31 @@ Test(intersect, offset_plane_scale_1e_minus9) { plane_offset_at_scale(1e-9, 11);
 Test(intersect, offset_plane_scale_1) { plane_offset_at_scale(1, 12); }
 Test(intersect, offset_plane_scale_1e9) { plane_offset_at_scale(1e9, 13); }
 
+/* The tracer computes a hit's two pushed origins once and hands them to all
+ * of its shadow rays: rd_offset_origin must depend on dir only through the
+ * side rd_offset_below gives (a dir along the surface, or NaN, counts as
+ * above), to the bit. */
+Test(intersect, offset_depends_on_dir_only_by_side)
+{
+    test_rng g = {21};
+    for (int i = 0; i < 2000; i++) {
+        rd_hit h;
+        memset(&h, 0, sizeof h);
+        h.p = v3_scale(rng_point(&g, -1, 1), exp(rng_range(&g, -20, 20)));
+        h.ng = rng_unit(&g);
+        h.perr = 1e-15 * exp(rng_range(&g, -20, 20));
+        rd_vec3 side[2] = {rd_offset_side(&h, 0), rd_offset_side(&h, 1)};
+        cr_assert(v3_dot(v3_sub(side[0], h.p), h.ng) > 0 && v3_dot(v3_sub(side[1], h.p), h.ng) < 0);
+        for (int k = 0; k < 8; k++) {
+            rd_vec3 dir = k == 0 ? v3(NAN, 0, 0) : (k == 1 ? v3(0, 0, 0) : rng_unit(&g));
+            int below = rd_offset_below(&h, dir);
+            cr_assert_eq(below, v3_dot(h.ng, dir) < 0);
+            rd_vec3 o = rd_offset_origin(&h, dir);
+            cr_assert(memcmp(&o, &side[below], sizeof o) == 0, "hit %d dir %d: not side %d's origin", i, k, below);
+        }
+    }
+}
+
 Test(intersect, offset_pushes_to_the_side_of_dir)
 {
     /* Hit on the plane y = 0 at the origin of the plane's frame: the origin
