@@ -16,13 +16,13 @@ static inline double step(double x, int up)
     return x;
 }
 
-rd_vec3 rd_offset_origin(const rd_hit *h, rd_vec3 dir)
+rd_vec3 rd_offset_side(const rd_hit *h, int below)
 {
     rd_vec3 n = h->ng;
     /* Twice the error bound projected on the normal: the true surface lies
      * within perr of p in every component. */
     double d = 2.0 * h->perr * (fabs(n.x) + fabs(n.y) + fabs(n.z));
-    if (v3_dot(n, dir) < 0)
+    if (below)
         d = -d;
     rd_vec3 o = v3_add(h->p, v3_scale(n, d));
     /* Rounding the sum may pull a component back toward the surface: step
@@ -39,3 +39,5 @@ rd_vec3 rd_offset_origin(const rd_hit *h, rd_vec3 dir)
     }
     return v3(c[0], c[1], c[2]);
 }
+
+rd_vec3 rd_offset_origin(const rd_hit *h, rd_vec3 dir) { return rd_offset_side(h, rd_offset_below(h, dir)); }

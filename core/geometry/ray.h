@@ -47,4 +47,12 @@ typedef struct {
  * relative to the hit's error bound, so it scales with the scene. */
 rd_vec3 rd_offset_origin(const rd_hit *h, rd_vec3 dir);
 
+/* The side rd_offset_origin pushes to for `dir`: 1 below the surface (the
+ * side -ng points to), 0 above. The push depends on dir only through this,
+ * so a hit that sends many rays can compute each side's origin once. */
+static inline int rd_offset_below(const rd_hit *h, rd_vec3 dir) { return v3_dot(h->ng, dir) < 0; }
+
+/* rd_offset_origin for every dir of side `below` (rd_offset_below). */
+rd_vec3 rd_offset_side(const rd_hit *h, int below);
+
 #endif

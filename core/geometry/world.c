@@ -546,7 +546,7 @@ int rd_world_any(const rd_world *w, rd_ray r, double tmax) { return rd_world_any
 int rd_world_planes_any(const rd_world *w, rd_ray r, double tmax)
 {
     for (size_t i = 0; i < w->nplanes; i++)
-        if (rd_plane_intersect(&w->planes[i], r, tmax) > 0)
+        if (rd_plane_blocks(&w->planes[i], r, tmax))
             return 1;
     return 0;
 }

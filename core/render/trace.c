@@ -73,11 +73,42 @@ void rd_plan_free(rd_plan *p)
     memset(p, 0, sizeof *p);
 }
 
-/* The shadow ray towards a light sample: 0 when there is none to trace (the
- * light is not blocked), else 1 with the ray and its tmax. */
-static int shadow_ray(const rd_hit *h, const rd_light_sample *ls, rd_ray *sr, double *tmax)
+/* What the shadow rays of one hit share: its origin pushed off the surface
+ * to either side, each side computed when the first ray leaves to it (most
+ * hits send every ray to one side, many send none). */
+typedef struct {
+    const rd_hit *h;
+    unsigned ready; /* bit s: o[s] and pmax hold their values */
+    rd_vec3 o[2];   /* rd_offset_side(h, s) */
+    double pmax;    /* v3_max_abs(h->p) */
+} shadow_from;
+
+static shadow_from shadow_from_hit(const rd_hit *h)
 {
-    sr->o = rd_offset_origin(h, ls->to_light);
+    shadow_from f;
+    f.h = h;
+    f.ready = 0;
+    return f;
+}
+
+static rd_vec3 shadow_origin(shadow_from *f, rd_vec3 dir)
+{
+    int s = rd_offset_below(f->h, dir);
+    if (!(f->ready >> s & 1)) {
+        f->o[s] = rd_offset_side(f->h, s);
+        f->pmax = v3_max_abs(f->h->p);
+        f->ready |= 1u << s;
+    }
+    return f->o[s];
+}
+
+/* The shadow ray towards a light sample: 0 when there is none to trace (the
+ * light is not blocked), else 1 with the ray and its tmax. Left out of line:
+ * forced inline into its two callers it measured no faster. */
+static int shadow_ray(shadow_from *f, const rd_light_sample *ls, rd_ray *sr, double *tmax)
+{
+    const rd_hit *h = f->h;
+    sr->o = shadow_origin(f, ls->to_light);
     if (ls->infinite) {
         sr->d = ls->to_light;
         *tmax = INFINITY;
@@ -91,7 +122,7 @@ static int shadow_ray(const rd_hit *h, const rd_light_sample *ls, rd_ray *sr, do
     /* Stop just short of the light: by the rounding error of the two end
      * points, so a light on a surface is not hidden by it while one a hair
      * inside a closed object still is. Relative, so it scales. */
-    double end = 1.0 - 64 * DBL_EPSILON * (v3_max_abs(h->p) + v3_max_abs(v3_add(h->p, ls->to_light))) / span;
+    double end = 1.0 - 64 * DBL_EPSILON * (f->pmax + v3_max_abs(v3_add(h->p, ls->to_light))) / span;
     if (!(end > 0))
         return 0;
     /* A direction of length about 1 (an exact power-of-two rescaling, with
@@ -121,14 +152,12 @@ static uint32_t *occluder_of(rd_ray_counts *counts, size_t light)
     return light < RD_OCCLUDER_LIGHTS ? &counts->occluder[light] : NULL;
 }
 
-/* Not inlined: it would grow every recursion level's stack frame. */
-__attribute__((noinline)) static int shadowed(const rd_plan *p, const rd_hit *h, const rd_light_sample *ls,
-                                              size_t light, rd_ray_counts *counts)
+static int shadowed(const rd_plan *p, shadow_from *f, const rd_light_sample *ls, size_t light, rd_ray_counts *counts)
 {
     rd_ray sr;
     double tmax;
     counts->shadow++;
-    return shadow_ray(h, ls, &sr, &tmax) && rd_world_any_hint(&p->world, sr, tmax, occluder_of(counts, light));
+    return shadow_ray(f, ls, &sr, &tmax) && rd_world_any_hint(&p->world, sr, tmax, occluder_of(counts, light));
 }
 
 void rd_counts_init(rd_ray_counts *c, double deadline_ms, const atomic_int *cancel)
@@ -187,12 +216,49 @@ static int is_black(rd_rgb c) { return c.x == 0 && c.y == 0 && c.z == 0; }
  * shadow rays are traced before its hits are shaded. */
 enum { VIS_TRACE = -1, VIS_OPEN = 0, VIS_BLOCKED = 1 };
 
+/* The light from the plan's lights reaching hit h (material m, seen from V),
+ * added to *color; 1 when the render must stop. vis as for shade(); from
+ * (NULL: one of its own) holds h's shadow-ray origins. Not inlined into
+ * shade(): the shadow rays' set-up is inlined here, and in shade() its
+ * frame would grow every recursion level's. */
+__attribute__((noinline)) static int direct_light(const rd_plan *p, const rd_material *m, const rd_hit *h, rd_vec3 V,
+                                                  rd_rng *rng, rd_ray_counts *counts, const signed char *vis,
+                                                  shadow_from *from, rd_rgb *color)
+{
+    shadow_from own = shadow_from_hit(h);
+    shadow_from *f = from ? from : &own;
+    for (size_t i = 0; i < p->nlights; i++) {
+        const rd_light_prep *lp = &p->lights[i];
+        for (int k = 0; k < lp->samples; k++) {
+            if (rd_counts_tick(counts))
+                return 1;
+            double ux = 0.5, uy = 0.5;
+            if (lp->type == RD_LIGHT_AREA) {
+                ux = rd_rng_next(rng);
+                uy = rd_rng_next(rng);
+            }
+            rd_light_sample ls;
+            if (!rd_light_sample_at(lp, h->p, k, ux, uy, &ls))
+                continue;
+            /* A light behind the surface contributes 0: no shadow ray. */
+            if (!(-v3_dot(h->n, ls.L) > 0))
+                continue;
+            int known = vis && i < RD_OCCLUDER_LIGHTS ? vis[i] : VIS_TRACE;
+            if (known == VIS_TRACE ? shadowed(p, f, &ls, i, counts) : known == VIS_BLOCKED)
+                continue;
+            *color = saturate(v3_add(*color, v3_mul(ls.color, rd_calc_reflected_light(m, h, ls.L, V))));
+        }
+    }
+    return 0;
+}
+
 /* The colour of r's hit h (its texture coordinates filled in when its
  * material asks for them). vis (NULL: trace every shadow ray here) says, for
  * each of the first RD_OCCLUDER_LIGHTS lights, whether its one sample is
- * blocked, or VIS_TRACE to trace it here. */
+ * blocked, or VIS_TRACE to trace it here; from (may be NULL) holds h's
+ * shadow-ray origins, as far as they are known. */
 static rd_rgb shade(const rd_plan *p, rd_ray r, rd_hit *h, int depth, rd_rng *rng, rd_ray_counts *counts,
-                    const signed char *vis)
+                    const signed char *vis, shadow_from *from)
 {
     const rd_scene *s = p->scene;
     const rd_material *m = &s->materials[h->material];
@@ -207,32 +273,9 @@ static rd_rgb shade(const rd_plan *p, rd_ray r, rd_hit *h, int depth, rd_rng *rn
         textured.kd = rd_texture_sample(&s->textures[m->texture_index], h->u * m->uv_scale, h->v * m->uv_scale);
         m = &textured;
     }
-    rd_vec3 V = v3_neg(r.d);
     rd_rgb color = v3(0, 0, 0);
-    if (!rd_material_is_recursive(m)) {
-        for (size_t i = 0; i < p->nlights; i++) {
-            const rd_light_prep *lp = &p->lights[i];
-            for (int k = 0; k < lp->samples; k++) {
-                if (rd_counts_tick(counts))
-                    return color;
-                double ux = 0.5, uy = 0.5;
-                if (lp->type == RD_LIGHT_AREA) {
-                    ux = rd_rng_next(rng);
-                    uy = rd_rng_next(rng);
-                }
-                rd_light_sample ls;
-                if (!rd_light_sample_at(lp, h->p, k, ux, uy, &ls))
-                    continue;
-                /* A light behind the surface contributes 0: no shadow ray. */
-                if (!(-v3_dot(h->n, ls.L) > 0))
-                    continue;
-                int known = vis && i < RD_OCCLUDER_LIGHTS ? vis[i] : VIS_TRACE;
-                if (known == VIS_TRACE ? shadowed(p, h, &ls, i, counts) : known == VIS_BLOCKED)
-                    continue;
-                color = saturate(v3_add(color, v3_mul(ls.color, rd_calc_reflected_light(m, h, ls.L, V))));
-            }
-        }
-    }
+    if (!rd_material_is_recursive(m) && direct_light(p, m, h, v3_neg(r.d), rng, counts, vis, from, &color))
+        return color;
     color = saturate(v3_add(color, m->ambient));
 
     if (depth >= s->render.max_depth || is_black(m->ks))
@@ -265,7 +308,7 @@ rd_rgb rd_trace(const rd_plan *p, rd_ray r, int depth, rd_rng *rng, rd_ray_count
     rd_hit h;
     if (!rd_world_closest(&p->world, r, INFINITY, &h))
         return p->scene->render.background;
-    return shade(p, r, &h, depth, rng, counts, NULL);
+    return shade(p, r, &h, depth, rng, counts, NULL, NULL);
 }
 
 /* Whether shade() gives hit h direct light from the plan's lights. */
@@ -278,8 +321,8 @@ static int lit_directly(const rd_plan *p, const rd_hit *h)
 /* The shadow rays of light `light` from the packet's hits, traced as one
  * packet; vis[i][light] gets each ray's answer (or VIS_OPEN where shade()
  * will not ask). Counted as shadowed() counts them. */
-static void shadow_packet(const rd_plan *p, const rd_hit *h, unsigned lit, size_t light, rd_ray_counts *counts,
-                          signed char vis[][RD_OCCLUDER_LIGHTS])
+static void shadow_packet(const rd_plan *p, const rd_hit *h, shadow_from *from, unsigned lit, size_t light,
+                          rd_ray_counts *counts, signed char vis[][RD_OCCLUDER_LIGHTS])
 {
     const rd_light_prep *lp = &p->lights[light];
     rd_ray sr[RD_PACKET_MAX];
@@ -292,7 +335,7 @@ static void shadow_packet(const rd_plan *p, const rd_hit *h, unsigned lit, size_
         if (!rd_light_sample_at(lp, h[i].p, 0, 0.5, 0.5, &ls) || !(-v3_dot(h[i].n, ls.L) > 0))
             continue;
         counts->shadow++;
-        if (shadow_ray(&h[i], &ls, &sr[n], &tmax[n]))
+        if (shadow_ray(&from[i], &ls, &sr[n], &tmax[n]))
             who[n++] = i;
     }
     unsigned blocked = rd_world_any_packet(&p->world, sr, tmax, n, occluder_of(counts, light));
@@ -313,6 +356,9 @@ void rd_trace_packet(const rd_plan *p, const rd_ray *r, int n, unsigned how, rd_
     }
     signed char vis[RD_PACKET_MAX][RD_OCCLUDER_LIGHTS];
     memset(vis, VIS_TRACE, sizeof vis);
+    shadow_from from[RD_PACKET_MAX];
+    for (int i = 0; i < n; i++)
+        from[i] = shadow_from_hit(&h[i]);
     if (how & RD_PACKETS_SHADOW) {
         for (unsigned m = found; m; m &= m - 1)
             lit |= (unsigned)lit_directly(p, &h[__builtin_ctz(m)]) << __builtin_ctz(m);
@@ -320,8 +366,9 @@ void rd_trace_packet(const rd_plan *p, const rd_ray *r, int n, unsigned how, rd_
          * in shade()'s order: those stay there. */
         for (size_t i = 0; i < p->nlights && i < RD_OCCLUDER_LIGHTS && lit; i++)
             if (p->lights[i].type != RD_LIGHT_AREA)
-                shadow_packet(p, h, lit, i, counts, vis);
+                shadow_packet(p, h, from, lit, i, counts, vis);
     }
     for (int i = 0; i < n; i++)
-        out[i] = found >> i & 1 ? shade(p, r[i], &h[i], 0, &rng[i], counts, vis[i]) : p->scene->render.background;
+        out[i] =
+            found >> i & 1 ? shade(p, r[i], &h[i], 0, &rng[i], counts, vis[i], &from[i]) : p->scene->render.background;
 }

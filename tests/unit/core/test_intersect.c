@@ -290,6 +290,130 @@ Test(intersect, plane_fill_hit_values)
     assert_vec_near(h.ng, 0, 1, 0, 0);
 }
 
+/* rd_plane_blocks, the shadow rays' plane test, must answer exactly as
+ * rd_plane_intersect(...) > 0 does, for every input: its sign pre-test may
+ * only reject what the division would reject anyway. */
+
+/* Values where a sign test and a quotient can part: signed zeros,
+ * subnormals, the ends of the normal range, infinities, NaN. */
+static const double plane_special[] = {0.0,    -0.0,    0x1p-1074, -0x1p-1074, 0x1p-1060, -0x1p-1060, DBL_MIN, -DBL_MIN,
+                                       1e-300, -1e-300, 0.5,       -0.5,       1.0,       -1.0,       3.0,     -3.0,
+                                       1e300,  -1e300,  DBL_MAX,   -DBL_MAX,   INFINITY,  -INFINITY,  NAN,     -NAN};
+#define PLANE_NSPECIAL (sizeof plane_special / sizeof plane_special[0])
+
+/* A double of any kind: special, of any exponent and sign, or ordinary. */
+static double any_double(test_rng *g)
+{
+    double u = rng_uniform(g);
+    if (u < 0.3)
+        return plane_special[rng_int(g, (int)PLANE_NSPECIAL)];
+    if (u < 0.6)
+        return (rng_uniform(g) < 0.5 ? -1 : 1) * ldexp(1 + rng_uniform(g), rng_int(g, 2100) - 1075);
+    return rng_range(g, -10, 10);
+}
+
+static rd_vec3 any_vec(test_rng *g)
+{
+    double x = any_double(g);
+    double y = any_double(g);
+    double z = any_double(g);
+    return v3(x, y, z);
+}
+
+/* The planes' point, normal and the ray as given (no normalizing), so that
+ * every input of the two tests can be reached. */
+static rd_plane raw_plane(rd_vec3 q, rd_vec3 n)
+{
+    rd_plane pl;
+    memset(&pl, 0, sizeof pl);
+    pl.q = q;
+    pl.n = n;
+    return pl;
+}
+
+static int blocks_as_intersect(const rd_plane *pl, rd_ray r, double tmax, char *why, size_t len)
+{
+    int old = rd_plane_intersect(pl, r, tmax) > 0;
+    int got = rd_plane_blocks(pl, r, tmax);
+    if (old != got)
+        snprintf(why, len, "q=(%a,%a,%a) n=(%a,%a,%a) o=(%a,%a,%a) d=(%a,%a,%a) tmax=%a: intersect says %d, blocks %d",
+                 pl->q.x, pl->q.y, pl->q.z, pl->n.x, pl->n.y, pl->n.z, r.o.x, r.o.y, r.o.z, r.d.x, r.d.y, r.d.z, tmax,
+                 old, got);
+    return old == got;
+}
+
+static const double plane_tmax[] = {INFINITY, DBL_MAX, 2.0, 1.0, 0x1p-1074, 0.0, -1.0, NAN};
+
+Test(intersect, plane_blocks_every_sign_pair)
+{
+    /* n = +x and o = 0, so that num and dn are exactly the chosen values,
+     * signed zeros included (-0 + -0 stays -0). */
+    int hits = 0, misses = 0;
+    char why[400];
+    for (size_t a = 0; a < PLANE_NSPECIAL; a++)
+        for (size_t b = 0; b < PLANE_NSPECIAL; b++)
+            for (size_t c = 0; c < sizeof plane_tmax / sizeof plane_tmax[0]; c++) {
+                double num = plane_special[a], dn = plane_special[b];
+                double zq = copysign(0.0, num), zd = copysign(0.0, dn);
+                rd_plane pl = raw_plane(v3(num, zq, zq), v3(1, 0, 0));
+                rd_ray r = ray_of(v3(0, 0, 0), v3(dn, zd, zd));
+                cr_assert(blocks_as_intersect(&pl, r, plane_tmax[c], why, sizeof why), "%s", why);
+                if (rd_plane_blocks(&pl, r, plane_tmax[c]))
+                    hits++;
+                else
+                    misses++;
+            }
+    cr_assert(hits > 100 && misses > 100, "%d hits, %d misses", hits, misses);
+}
+
+Test(intersect, plane_blocks_edge_cases)
+{
+    rd_plane pl = raw_plane(v3(0, 0, 0), v3(1, 0, 0));
+    /* Tiny quotients of one sign: 2^-1000 / 2^1000 underflows to 0 (no hit),
+     * 2^-1000 / 2^-1000 is 1 (a hit a product of the signs would miss, as
+     * num·dn underflows to 0). */
+    cr_assert_eq(rd_plane_blocks(&pl, ray_of(v3(-0x1p-1000, 0, 0), v3(0x1p1000, 0, 0)), INFINITY), 0);
+    cr_assert_eq(rd_plane_blocks(&pl, ray_of(v3(-0x1p-1000, 0, 0), v3(0x1p-1000, 0, 0)), INFINITY), 1);
+    cr_assert_eq(rd_plane_blocks(&pl, ray_of(v3(0x1p-1074, 0, 0), v3(-0x1p-1074, 0, 0)), 2.0), 1);
+    /* The origin on the plane (num = 0 of either sign) never blocks. */
+    cr_assert_eq(rd_plane_blocks(&pl, ray_of(v3(0, 0, 0), v3(1, 0, 0)), INFINITY), 0);
+    cr_assert_eq(rd_plane_blocks(&pl, ray_of(v3(-0.0, 0, 0), v3(-1, 0, 0)), INFINITY), 0);
+    /* An infinite dn gives t = 0 for any finite num, NaN for infinite. */
+    cr_assert_eq(rd_plane_blocks(&pl, ray_of(v3(-1, 0, 0), v3(INFINITY, 0, 0)), INFINITY), 0);
+    cr_assert_eq(rd_plane_blocks(&pl, ray_of(v3(-INFINITY, 0, 0), v3(INFINITY, 0, 0)), INFINITY), 0);
+    /* Same signs, the division decides against tmax. */
+    cr_assert_eq(rd_plane_blocks(&pl, ray_of(v3(-2, 0, 0), v3(1, 0, 0)), 2.0), 0);
+    cr_assert_eq(rd_plane_blocks(&pl, ray_of(v3(-2, 0, 0), v3(1, 0, 0)), nextafter(2.0, 3)), 1);
+    cr_assert_eq(rd_plane_blocks(&pl, ray_of(v3(2, 0, 0), v3(-1, 0, 0)), INFINITY), 1);
+}
+
+Test(intersect, plane_blocks_as_intersect_random)
+{
+    test_rng g = {77};
+    int hits = 0, rejected = 0;
+    char why[400];
+    for (int i = 0; i < 1000000; i++) {
+        rd_plane pl = raw_plane(any_vec(&g), any_vec(&g));
+        rd_vec3 o = any_vec(&g);
+        rd_ray r = ray_of(o, any_vec(&g));
+        double tmax = rng_uniform(&g) < 0.5 ? INFINITY : any_double(&g);
+        cr_assert(blocks_as_intersect(&pl, r, tmax, why, sizeof why), "case %d: %s", i, why);
+        hits += rd_plane_blocks(&pl, r, tmax);
+        rejected += !rd_plane_blocks(&pl, r, tmax);
+    }
+    /* Ordinary planes and rays from either side, most of them hit or missed
+     * by the signs alone. */
+    for (int i = 0; i < 200000; i++) {
+        rd_plane pl = plane_of(rng_point(&g, -50, 50), rng_unit(&g));
+        rd_vec3 o = rng_point(&g, -50, 50);
+        rd_ray r = ray_of(o, v3_scale(rng_unit(&g), exp(rng_range(&g, -30, 30))));
+        double tmax = rng_uniform(&g) < 0.5 ? INFINITY : exp(rng_range(&g, -30, 30));
+        cr_assert(blocks_as_intersect(&pl, r, tmax, why, sizeof why), "ordinary case %d: %s", i, why);
+        hits += rd_plane_blocks(&pl, r, tmax);
+    }
+    cr_assert(hits > 100000 && rejected > 100000, "%d hits, %d misses of the raw cases", hits, rejected);
+}
+
 /* ======================================================================= */
 /* Triangle, through the world                                             */
 /* ======================================================================= */
@@ -779,6 +903,31 @@ static void plane_offset_at_scale(double scale, uint64_t seed)
 Test(intersect, offset_plane_scale_1e_minus9) { plane_offset_at_scale(1e-9, 11); }
 Test(intersect, offset_plane_scale_1) { plane_offset_at_scale(1, 12); }
 Test(intersect, offset_plane_scale_1e9) { plane_offset_at_scale(1e9, 13); }
+
+/* The tracer computes a hit's two pushed origins once and hands them to all
+ * of its shadow rays: rd_offset_origin must depend on dir only through the
+ * side rd_offset_below gives (a dir along the surface, or NaN, counts as
+ * above), to the bit. */
+Test(intersect, offset_depends_on_dir_only_by_side)
+{
+    test_rng g = {21};
+    for (int i = 0; i < 2000; i++) {
+        rd_hit h;
+        memset(&h, 0, sizeof h);
+        h.p = v3_scale(rng_point(&g, -1, 1), exp(rng_range(&g, -20, 20)));
+        h.ng = rng_unit(&g);
+        h.perr = 1e-15 * exp(rng_range(&g, -20, 20));
+        rd_vec3 side[2] = {rd_offset_side(&h, 0), rd_offset_side(&h, 1)};
+        cr_assert(v3_dot(v3_sub(side[0], h.p), h.ng) > 0 && v3_dot(v3_sub(side[1], h.p), h.ng) < 0);
+        for (int k = 0; k < 8; k++) {
+            rd_vec3 dir = k == 0 ? v3(NAN, 0, 0) : (k == 1 ? v3(0, 0, 0) : rng_unit(&g));
+            int below = rd_offset_below(&h, dir);
+            cr_assert_eq(below, v3_dot(h.ng, dir) < 0);
+            rd_vec3 o = rd_offset_origin(&h, dir);
+            cr_assert(memcmp(&o, &side[below], sizeof o) == 0, "hit %d dir %d: not side %d's origin", i, k, below);
+        }
+    }
+}
 
 Test(intersect, offset_pushes_to_the_side_of_dir)
 {
