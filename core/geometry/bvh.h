@@ -53,12 +53,6 @@ typedef void (*rd_bvh_bounds_fn)(const void *ctx, size_t first, size_t count, rd
 rd_error_code rd_bvh_build_from(rd_bvh *b, size_t n, rd_bvh_bounds_fn fn, const void *ctx, int threads, rd_error *err);
 void rd_bvh_free(rd_bvh *b);
 
-/* The binary nodes (up to width, at least 2 unless node is a leaf) that a
- * node of a wider tree collapsed from b's node `node` has as children: its
- * two, then the largest inner one among them opened, while fewer than
- * width. Their count. */
-int rd_bvh_gather(const rd_bvh *b, uint32_t node, uint32_t *slot, int width);
-
 /* Precomputed for slab tests: 1/d, and for a zero direction component a
  * flag: such a ray is inside that slab for every t when its origin is
  * (faces included), and never otherwise. No 0·∞ = NaN can arise. */

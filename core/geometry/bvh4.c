@@ -5,6 +5,43 @@
 
 #include "rayd/memory.h"
 
+/* The binary children a node takes: the two of its binary node, then the
+ * largest inner one among them opened up, while fewer than four. */
+static int gather(const rd_bvh *b, uint32_t node, uint32_t slot[4])
+{
+    const rd_bvh_node *n = &b->nodes[node];
+    if (n->count) {
+        slot[0] = node;
+        return 1;
+    }
+    int k = 0;
+    slot[k++] = node + 1;
+    slot[k++] = n->offset;
+    while (k < 4) {
+        int best = -1;
+        double best_area = -1;
+        for (int i = 0; i < k; i++) {
+            const rd_bvh_node *c = &b->nodes[slot[i]];
+            if (c->count)
+                continue;
+            double d[3];
+            for (int a = 0; a < 3; a++)
+                d[a] = (double)c->hi[a] - (double)c->lo[a];
+            double area = d[0] * d[1] + d[1] * d[2] + d[2] * d[0];
+            if (area > best_area) {
+                best_area = area;
+                best = i;
+            }
+        }
+        if (best < 0)
+            break;
+        uint32_t opened = slot[best];
+        slot[best] = opened + 1;
+        slot[k++] = b->nodes[opened].offset;
+    }
+    return k;
+}
+
 typedef struct {
     rd_bvh4 *w;
     const rd_bvh *b;
@@ -21,7 +58,7 @@ static uint32_t new_node(collapser *c)
 static int collapse(collapser *c, uint32_t binary, uint32_t into)
 {
     uint32_t slot[4];
-    int k = rd_bvh_gather(c->b, binary, slot, 4);
+    int k = gather(c->b, binary, slot);
     rd_bvh4_node n;
     memset(&n, 0, sizeof n);
     for (int i = 0; i < 4; i++)

@@ -23,7 +23,6 @@ void rd_world_free(rd_world *w)
     free(w->tris);
     rd_bvh_free(&w->bvh);
     rd_bvh4_free(&w->bvh4);
-    rd_bvh8_free(&w->bvh8);
     memset(w, 0, sizeof *w);
 }
 
@@ -155,21 +154,18 @@ rd_error_code rd_world_build_threads(rd_world *w, const rd_scene *s, int threads
         rd_error_code rc = rd_bvh_build_from(&w->bvh, nb, bounds_fn, w, threads, err);
         if (!rc)
             rc = rd_bvh4_build(&w->bvh4, &w->bvh, err);
-        if (!rc)
-            rc = rd_bvh8_build(&w->bvh8, &w->bvh, err);
         if (rc) {
             rd_world_free(w);
             return rc;
         }
-        /* Rays walk the wider trees; of the binary one only the primitive
-         * order is kept. */
+        /* Rays walk the four-wide tree; of the binary one only the
+         * primitive order is kept. */
         free(w->bvh.nodes);
         w->bvh.nodes = NULL;
         w->bvh.nnodes = 0;
-        /* A hint holds a node index in 28 bits (world.h). */
-        if (w->bvh4.nnodes >= (size_t)1 << 27) {
+        if (w->bvh4.nnodes >= (size_t)1 << 30) {
             rd_world_free(w);
-            return rd_error_set(err, RD_ERR_INVALID, 0, 0, "the scene's BVH has more than 2^27 nodes");
+            return rd_error_set(err, RD_ERR_INVALID, 0, 0, "the scene's BVH has more than 2^30 nodes");
         }
         w->avx2 = rd_bvh4_cpu_has_avx2();
         w->avx512 = w->avx2 && rd_bvh4_cpu_has_avx512();
@@ -184,7 +180,7 @@ size_t rd_world_bytes(const rd_world *w)
     return w->nspheres * (sizeof *w->spheres + 2 * sizeof(int32_t)) +
            w->nplanes * (sizeof *w->planes + 2 * sizeof(int32_t)) + w->ntris * sizeof *w->tris +
            w->bvh.nnodes * sizeof *w->bvh.nodes + w->bvh.nprims * sizeof *w->bvh.prims +
-           w->bvh4.nnodes * sizeof *w->bvh4.nodes + w->bvh8.nnodes * sizeof *w->bvh8.nodes;
+           w->bvh4.nnodes * sizeof *w->bvh4.nodes;
 }
 
 /* A node or leaf to visit, with the distance at which the ray enters it. */
@@ -284,124 +280,31 @@ RD_WALK_ANY(any_avx2, RD_NOINLINE_AVX2, rd_bvh4_ray_avx2, rd_bvh4_ray_avx2_make,
 
 static int has_flat(const rd_bvh_ray *br) { return br->flat[0] | br->flat[1] | br->flat[2]; }
 
-/* The eight-wide walks (bvh8.h): inner boxes in float, leaves by the
- * double test, whose entry is the leaf's floor and its place in the
- * closest walk's order. */
-static inline __attribute__((always_inline, target("avx2"))) float float_cut(double cut)
-{
-    return rd_float_out(cut, 1);
-}
-
-RD_NOINLINE_AVX2 static void closest8(const rd_world *w, const rd_ray *r, const rd_bvh_ray *br, rd_best *b)
-{
-    rd_bvh8_ray q;
-    if (!rd_bvh8_ray_make(&w->bvh8, br, &q)) {
-        if (has_flat(br))
-            closest_avx2_flat(w, r, br, b);
-        else
-            closest_avx2(w, r, br, b);
-        return;
-    }
-    rd_tri_lazy tr = rd_tri_lazy_none();
-    visit stack[RD_BVH8_STACK];
-    int sp = 0;
-    stack[sp++] = (visit){0, 0, 0};
-    while (sp > 0) {
-        visit v = stack[--sp];
-        if (v.t > b->cut)
-            continue;
-        if (v.count) {
-            double floor = rd_leaf_floor(v.t);
-            for (uint32_t i = 0; i < v.count; i++)
-                rd_prim_closest(w, w->bvh.prims[v.idx + i], r, &tr, floor, b);
-            continue;
-        }
-        const rd_bvh8_node *n = &w->bvh8.nodes[v.idx];
-        float tn[8];
-        unsigned m = rd_bvh8_test(n, &q, float_cut(b->cut), tn);
-        int base = sp;
-        for (; m; m &= m - 1) {
-            int i = __builtin_ctz(m);
-            visit c = {n->child[i], n->count[i], tn[i]};
-            if (c.count && !rd_bvh8_leaf_hit(n, i, br, b->cut, &c.t))
-                continue;
-            RD_PUSH_NEAREST_ON_TOP(stack, sp, base, c);
-        }
-    }
-}
-
-RD_NOINLINE_AVX2 static int any8(const rd_world *w, const rd_ray *r, const rd_bvh_ray *br, double tmax, uint32_t *last)
-{
-    rd_bvh8_ray q;
-    if (!rd_bvh8_ray_make(&w->bvh8, br, &q))
-        return has_flat(br) ? any_avx2_flat(w, r, br, tmax, last) : any_avx2(w, r, br, tmax, last);
-    rd_tri_lazy tr = rd_tri_lazy_none();
-    if (last && *last && rd_world_hint_blocks(w, r, br, &tr, tmax, *last))
-        return 1;
-    float tmax_f = float_cut(tmax);
-    uint32_t stack[RD_BVH8_STACK];
-    int sp = 0;
-    stack[sp++] = 0;
-    while (sp > 0) {
-        uint32_t node = stack[--sp];
-        const rd_bvh8_node *n = &w->bvh8.nodes[node];
-        float tn[8];
-        for (unsigned m = rd_bvh8_test(n, &q, tmax_f, tn); m; m &= m - 1) {
-            int i = __builtin_ctz(m);
-            double t0;
-            if (!n->count[i]) {
-                stack[sp++] = n->child[i];
-                continue;
-            }
-            if (!rd_bvh8_leaf_hit(n, i, br, tmax, &t0))
-                continue;
-            for (uint32_t k = 0; k < n->count[i]; k++)
-                if (rd_prim_any(w, w->bvh.prims[n->child[i] + k], r, &tr, tmax)) {
-                    if (last)
-                        *last = rd_world_hint8(node, i);
-                    return 1;
-                }
-        }
-    }
-    return 0;
-}
-
 static void bvh_closest(const rd_world *w, const rd_ray *r, rd_best *b)
 {
     rd_bvh_ray br = rd_bvh_ray_make(*r);
-    if (w->avx2)
-        closest8(w, r, &br, b);
-    else
+    if (!w->avx2)
         closest_sse2(w, r, &br, b);
-}
-
-int rd_world_hint_leaf(const rd_world *w, uint32_t hint, rd_bvh_node *leaf)
-{
-    /* A leaf of either tree: the same boxes, the same double test. */
-    uint32_t node = (hint - 1) >> 4;
-    int slot = (int)((hint - 1) >> 1 & 7), eight = (int)((hint - 1) & 1);
-    if (!hint || !w->use_bvh || node >= (eight ? w->bvh8.nnodes : w->bvh4.nnodes) || (!eight && slot > 3))
-        return 0;
-    for (int k = 0; k < 3; k++) {
-        leaf->lo[k] = eight ? w->bvh8.nodes[node].lo[k][slot] : w->bvh4.nodes[node].lo[k][slot];
-        leaf->hi[k] = eight ? w->bvh8.nodes[node].hi[k][slot] : w->bvh4.nodes[node].hi[k][slot];
-    }
-    leaf->count = eight ? w->bvh8.nodes[node].count[slot] : w->bvh4.nodes[node].count[slot];
-    leaf->offset = eight ? w->bvh8.nodes[node].child[slot] : w->bvh4.nodes[node].child[slot];
-    leaf->axis = 0;
-    return leaf->count > 0;
+    else if (has_flat(&br))
+        closest_avx2_flat(w, r, &br, b);
+    else
+        closest_avx2(w, r, &br, b);
 }
 
 int rd_world_hint_blocks(const rd_world *w, const rd_ray *r, const rd_bvh_ray *br, rd_tri_lazy *tr, double tmax,
                          uint32_t hint)
 {
-    rd_bvh_node box;
-    double t0;
-    if (!rd_world_hint_leaf(w, hint, &box) || !rd_bvh_box_hit(&box, br, tmax, &t0))
+    uint32_t node = (hint - 1) >> 2;
+    int slot = (int)((hint - 1) & 3);
+    if (!w->use_bvh || node >= w->bvh4.nnodes)
         return 0;
-    uint32_t first = box.offset, count = box.count;
-    for (uint32_t k = 0; k < count; k++)
-        if (rd_prim_any(w, w->bvh.prims[first + k], r, tr, tmax))
+    const rd_bvh4_node *n = &w->bvh4.nodes[node];
+    double tn[4];
+    /* The SSE2 test accepts exactly what the others accept (bvh4.h). */
+    if (!n->count[slot] || !(rd_bvh4_test_sse2(n, br, tmax, tn) >> slot & 1))
+        return 0;
+    for (uint32_t k = 0; k < n->count[slot]; k++)
+        if (rd_prim_any(w, w->bvh.prims[n->child[slot] + k], r, tr, tmax))
             return 1;
     return 0;
 }
@@ -409,7 +312,9 @@ int rd_world_hint_blocks(const rd_world *w, const rd_ray *r, const rd_bvh_ray *b
 static int bvh_any(const rd_world *w, const rd_ray *r, double tmax, uint32_t *last)
 {
     rd_bvh_ray br = rd_bvh_ray_make(*r);
-    int blocked = w->avx2 ? any8(w, r, &br, tmax, last) : any_sse2(w, r, &br, tmax, last);
+    int blocked = !w->avx2        ? any_sse2(w, r, &br, tmax, last)
+                  : has_flat(&br) ? any_avx2_flat(w, r, &br, tmax, last)
+                                  : any_avx2(w, r, &br, tmax, last);
     /* A ray that reached its light forgets the occluder: in the light, the
      * next ray would test it in vain (world.h). */
     if (!blocked && last)

@@ -13,7 +13,6 @@
 
 #include "bvh.h"
 #include "bvh4.h"
-#include "bvh8.h"
 #include "plane.h"
 #include "rayd/error.h"
 #include "rayd/scene.h"
@@ -44,8 +43,7 @@ typedef struct {
     rd_wtri *tris;
     size_t ntris;
     rd_bvh bvh;   /* over spheres (ids < nspheres) then triangles; only its prims are kept */
-    rd_bvh4 bvh4; /* the same, four children a node: packets, and rays bvh8 cannot take */
-    rd_bvh8 bvh8; /* eight children a node, float boxes: what most rays walk */
+    rd_bvh4 bvh4; /* the same, four children a node: what rays walk */
     int avx2;     /* walk it with the AVX2 box test */
     int avx512;   /* and packets with eight rays to an AVX-512 register */
     int use_bvh;
@@ -94,14 +92,8 @@ int rd_world_any(const rd_world *w, rd_ray r, double tmax);
  * asks for. */
 int rd_world_any_hint(const rd_world *w, rd_ray r, double tmax, uint32_t *last);
 
-/* The hint naming child `slot` of four-wide node `node`, or of eight-wide
- * node `node`: a leaf of either tree (both hold the same leaves). */
-static inline uint32_t rd_world_hint(uint32_t node, int slot) { return (node << 4 | (uint32_t)slot << 1) + 1; }
-static inline uint32_t rd_world_hint8(uint32_t node, int slot) { return (node << 4 | (uint32_t)slot << 1 | 1) + 1; }
-
-/* 1 when hint names a leaf of the world's trees, whose box, first index
- * into bvh.prims (offset) and count it writes to *leaf; else 0. */
-int rd_world_hint_leaf(const rd_world *w, uint32_t hint, rd_bvh_node *leaf);
+/* The hint naming child `slot` of four-wide node `node`. */
+static inline uint32_t rd_world_hint(uint32_t node, int slot) { return (node << 2 | (uint32_t)slot) + 1; }
 
 /* Packets of coherent rays (packet.c): camera rays through neighbouring
  * pixels, or shadow rays from neighbouring hits towards one light. Each

@@ -2,9 +2,7 @@
  * bytes become a world of spheres, triangles and perhaps a plane, then rays;
  * every answer of rd_world_closest (field by field, bit for bit),
  * rd_world_any, rd_world_any_hint and the packet walks, with every node test
- * this CPU runs, must equal the oracle's (tests/oracles/walk_oracle.h), and
- * the float box test of the eight-wide nodes must accept every box the
- * double test accepts, entering no later.
+ * this CPU runs, must equal the oracle's (tests/oracles/walk_oracle.h).
  *
  * Numbers come two ways, chosen by a bit of each: a 16-bit integer over 64
  * (exact, so primitives share corners, edges, planes and box faces, and
@@ -120,29 +118,6 @@ static void check_ray(const rd_world *w, rd_ray r, double tmax, uint32_t *hint)
                      r.d.y, r.d.z, tmax);
 }
 
-/* The float filter itself (bvh8.h): every box of every eight-wide node the
- * double test accepts, it accepts, entering no later. */
-__attribute__((target("avx2"))) static void check_boxes(const rd_world *w, rd_ray r, double tmax)
-{
-    rd_bvh_ray br = rd_bvh_ray_make(r);
-    rd_bvh8_ray q;
-    if (!rd_ray_finite(r) || !rd_bvh8_ray_make(&w->bvh8, &br, &q))
-        return;
-    for (size_t k = 0; k < w->bvh8.nnodes; k++) {
-        const rd_bvh8_node *n = &w->bvh8.nodes[k];
-        float tn[8];
-        unsigned m = rd_bvh8_test(n, &q, rd_float_out(tmax, 1), tn);
-        for (int i = 0; i < 8; i++) {
-            double t0 = NAN;
-            if (n->lo[0][i] == INFINITY
-                    ? (m >> i & 1)
-                    : rd_bvh8_leaf_hit(n, i, &br, tmax, &t0) && (!(m >> i & 1) || (double)tn[i] > t0))
-                rd_fuzz_fail("node %zu box %d: float %u (entry %a), double entry %a", k, i, m >> i & 1, (double)tn[i],
-                             t0);
-        }
-    }
-}
-
 static void check_packet(const rd_world *w, const rd_ray *r, const double *tmax, int n)
 {
     rd_hit h[RD_PACKET_MAX];
@@ -196,11 +171,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         v.avx512 = variant == 0 ? w.avx512 : 0;
         v.avx2 = variant == 2 ? 0 : w.avx2;
         uint32_t hint = 0;
-        for (int i = 0; i < n; i++) {
+        for (int i = 0; i < n; i++)
             check_ray(&v, rays[i], tmax[i], &hint);
-            if (v.avx2 && v.use_bvh)
-                check_boxes(&v, rays[i], tmax[i]);
-        }
         if (n)
             check_packet(&v, rays, tmax, n);
     }
