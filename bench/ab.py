@@ -5,7 +5,9 @@ and scenes/diffuse.cfg and phong.cfg at 1920x1080, one sample, taking
 turns RUNS times, so that a noisy machine weighs on both alike; the table
 gives each one's least and median render time (the statistics' time_ms
 less prepare_ms: loading and the BVH build apart), its Mrays/s at the least,
-and NEW's least over OLD's. Every render of the two must trace the same rays
+NEW's least over OLD's, and the same ratio of the least CPU time of the
+whole process (user + system, loading included), which a busy machine
+disturbs less than wall time. Every render of the two must trace the same rays
 (camera + shadow + secondary), or the run stops.
 
     python3 bench/ab.py OLD NEW [--runs 5] [--threads 1] [--only three,bumpy1m] [--packets]
@@ -53,23 +55,26 @@ def main():
     only = a.only.split(",")
     extra = ["--samples", "1"] + embree.MAX_OBJECTS + (["--packets", "all"] if a.packets else [])
     print("load average %.2f" % os.getloadavg()[0])
-    print("| scene | old least / median ms | new least / median ms | old / new Mrays/s | new / old time |")
-    print("|---|---|---|---|---|")
+    print("| scene | old least / median ms | new least / median ms | old / new Mrays/s | new / old time | new / old CPU |")
+    print("|---|---|---|---|---|---|")
     for name, scene in scenes(a.old, only).items():
         ms = {"old": [], "new": []}
+        cpu = {"old": [], "new": []}
         rays = {}
         for _ in range(a.runs):
             for side in ("old", "new"):
-                _, st = measure.rayd_render(getattr(a, side), scene, "/dev/null", 1920, 1080, a.threads, extra,
+                run, st = measure.rayd_render(getattr(a, side), scene, "/dev/null", 1920, 1080, a.threads, extra,
                                             cwd=ROOT)
                 ms[side].append(st["time_ms"] - st["prepare_ms"])
+                cpu[side].append(run.user_s + run.sys_s)
                 n = measure.rays(st)
                 if rays.setdefault(side, n) != n or rays.get("old", n) != n:
                     raise SystemExit("%s: the builds traced different rays (%s, %d)" % (name, rays, n))
         lo = {k: min(v) for k, v in ms.items()}
-        print("| %s | %.0f / %.0f | %.0f / %.0f | %.2f / %.2f | %.3f |" % (
+        print("| %s | %.0f / %.0f | %.0f / %.0f | %.2f / %.2f | %.3f | %.3f |" % (
             name, lo["old"], statistics.median(ms["old"]), lo["new"], statistics.median(ms["new"]),
-            rays["old"] / lo["old"] / 1e3, rays["new"] / lo["new"] / 1e3, lo["new"] / lo["old"]))
+            rays["old"] / lo["old"] / 1e3, rays["new"] / lo["new"] / 1e3, lo["new"] / lo["old"],
+            min(cpu["new"]) / min(cpu["old"])))
         sys.stdout.flush()
     print("load average %.2f" % os.getloadavg()[0])
 
