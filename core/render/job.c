@@ -334,8 +334,14 @@ static void pixel_add(rd_job *j, const pixel_run *pr, int k, rd_rgb col, rd_job_
     double cv[3] = {finite_or_zero(col.x, &c->nonfinite), finite_or_zero(col.y, &c->nonfinite),
                     finite_or_zero(col.z, &c->nonfinite)};
     uint32_t n = ++j->n[index];
-    for (int ch = 0; ch < 3; ch++)
-        mean[ch] += (cv[ch] - mean[ch]) / n;
+    /* A centre sample is the pixel's first (its tile was just cleared):
+     * 0 + (c - 0)/1 has the bits of c + 0.0, -0 made +0 alike. */
+    if (pr->centre)
+        for (int ch = 0; ch < 3; ch++)
+            mean[ch] = cv[ch] + 0.0;
+    else
+        for (int ch = 0; ch < 3; ch++)
+            mean[ch] += (cv[ch] - mean[ch]) / n;
     if (j->half) {
         uint32_t nh = ++j->nh[2 * index + h];
         float *hm = &j->half[6 * index + 3 * h];
