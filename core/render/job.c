@@ -472,24 +472,19 @@ void rd_job_take_image(rd_job *j, rd_image *out)
 
 void rd_job_rgb8(const rd_job *j, uint8_t *out)
 {
-    size_t npix = (size_t)j->scene->render.width * (size_t)j->scene->render.height;
-    double g = j->scene->render.gamma;
-    for (size_t i = 0; i < npix; i++)
-        for (int ch = 0; ch < 3; ch++)
-            out[3 * i + ch] = rd_display8(j->mean[3 * i + ch], g);
+    rd_image all = {j->scene->render.width, j->scene->render.height, j->mean};
+    rd_image_to_rgb8(&all, j->scene->render.gamma, out);
 }
 
 void rd_job_tile_rgb8(const rd_job *j, int t, uint8_t *out)
 {
     const rd_scene *s = j->scene;
     tile_rect r = rect_of(j, t);
-    double g = s->render.gamma;
-    for (int y = r.y0; y < r.y1; y++)
-        for (int x = r.x0; x < r.x1; x++) {
-            size_t i = (size_t)y * (size_t)s->render.width + (size_t)x;
-            for (int ch = 0; ch < 3; ch++)
-                out[3 * i + ch] = rd_display8(j->mean[3 * i + ch], g);
-        }
+    for (int y = r.y0; y < r.y1; y++) {
+        size_t i = (size_t)y * (size_t)s->render.width + (size_t)r.x0;
+        rd_image row = {r.x1 - r.x0, 1, &j->mean[3 * i]};
+        rd_image_to_rgb8(&row, s->render.gamma, &out[3 * i]);
+    }
 }
 
 double rd_job_error_estimate(const rd_job *j)

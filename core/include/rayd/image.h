@@ -9,6 +9,8 @@
 
 #include <stdint.h>
 
+#include "rayd/vec3.h"
+
 typedef struct {
     int width, height;
     double *rgb; /* linear colour, row-major, 3 per pixel, top row first */
@@ -22,6 +24,13 @@ double rd_display(double c, double gamma);
 
 /* The 8-bit value of one channel: floor(display·255 + 0.5). */
 uint8_t rd_display8(double c, double gamma);
+
+/* rd_display8(c, 1) without the library's floor, a call per channel:
+ * floor of a value in [0.5, 255.5] is its truncation. */
+static inline uint8_t rd_display8_linear(double c)
+{
+    return c == c ? (uint8_t)(rd_clamp01(c) * 255.0 + 0.5) : rd_display8(c, 1);
+}
 
 /* 8-bit RGB, 3 bytes per pixel, rd_display8 of each channel. out holds
  * width·height·3 bytes. */
