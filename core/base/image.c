@@ -31,10 +31,11 @@ uint8_t rd_display8(double c, double gamma) { return (uint8_t)floor(rd_display(c
 enum { CELLS = 4096, TABLE_MIN = 1 << 16 };
 #define GUARD 1e-9
 
-typedef struct {
+struct rd_display_table {
+    double gamma;
     double edge[257]; /* edge[0] = 0, edge[256] = +inf */
     uint8_t start[CELLS];
-} display_table;
+};
 
 static double edge_of(int k, double gamma)
 {
@@ -55,8 +56,9 @@ static double edge_of(int k, double gamma)
     return c;
 }
 
-static void table_make(display_table *t, double gamma)
+static void table_make(rd_display_table *t, double gamma)
 {
+    t->gamma = gamma;
     t->edge[0] = 0;
     for (int k = 1; k < 256; k++)
         t->edge[k] = edge_of(k, gamma);
@@ -70,8 +72,9 @@ static void table_make(display_table *t, double gamma)
     }
 }
 
-static uint8_t table_look(const display_table *t, double c, double gamma)
+static uint8_t table_look(const rd_display_table *t, double c)
 {
+    double gamma = t->gamma;
     if (!(c > 0 && c < 1))
         return rd_display8(c, gamma);
     int k = t->start[(int)(c * CELLS)];
@@ -113,27 +116,33 @@ static void linear8_many(const double *in, size_t n, uint8_t *out)
         out[i] = rd_display8_linear(in[i]);
 }
 
+rd_display_table *rd_display_table_new(double gamma, size_t n)
+{
+    /* Below TABLE_MIN values, making the table costs more than pow does. */
+    if (gamma == 1 || n < TABLE_MIN)
+        return NULL;
+    rd_display_table *t = malloc(sizeof *t);
+    if (t)
+        table_make(t, gamma);
+    return t;
+}
+
+void rd_display8_many(const rd_display_table *t, double gamma, const double *in, size_t n, uint8_t *out)
+{
+    if (gamma == 1)
+        linear8_many(in, n, out);
+    else if (t)
+        for (size_t i = 0; i < n; i++)
+            out[i] = table_look(t, in[i]);
+    else
+        for (size_t i = 0; i < n; i++)
+            out[i] = rd_display8(in[i], gamma);
+}
+
 void rd_image_to_rgb8(const rd_image *img, double gamma, uint8_t *out)
 {
     size_t n = (size_t)img->width * (size_t)img->height * 3;
-    if (gamma == 1) {
-        linear8_many(img->rgb, n, out);
-        return;
-    }
-    /* And pow per channel costs as much again. */
-    if (n < TABLE_MIN) {
-        for (size_t i = 0; i < n; i++)
-            out[i] = rd_display8(img->rgb[i], gamma);
-        return;
-    }
-    display_table *t = malloc(sizeof *t);
-    if (!t) {
-        for (size_t i = 0; i < n; i++)
-            out[i] = rd_display8(img->rgb[i], gamma);
-        return;
-    }
-    table_make(t, gamma);
-    for (size_t i = 0; i < n; i++)
-        out[i] = table_look(t, img->rgb[i], gamma);
+    rd_display_table *t = rd_display_table_new(gamma, n);
+    rd_display8_many(t, gamma, img->rgb, n, out);
     free(t);
 }
