@@ -79,10 +79,13 @@ size_t rd_job_estimate_bytes(const rd_scene *s, const rd_job_options *opt)
         per_pixel += 6 * sizeof(float) + 2 * sizeof(uint32_t);
     if (adaptive)
         per_pixel += 6 * sizeof(float);
-    size_t prims = s->object_count;
-    for (size_t i = 0; i < s->mesh_count; i++)
+    size_t prims = s->object_count, normals = 3 * s->object_count; /* the world's unit normals */
+    for (size_t i = 0; i < s->mesh_count; i++) {
         prims += s->meshes[i].nfaces;
-    return rd_scene_bytes(s) + prims * WORLD_BYTES_PER_PRIM + npix * per_pixel + sizeof(rd_job);
+        normals += s->meshes[i].nnormals;
+    }
+    return rd_scene_bytes(s) + prims * WORLD_BYTES_PER_PRIM + normals * sizeof(rd_vec3) + npix * per_pixel +
+           sizeof(rd_job);
 }
 
 /* The per-pixel arrays the render needs. */
