@@ -21,6 +21,8 @@ void rd_world_free(rd_world *w)
     free(w->plane_mat);
     free(w->plane_obj);
     free(w->tris);
+    free(w->unit_n);
+    free(w->mesh_n);
     rd_bvh_free(&w->bvh);
     rd_bvh4_free(&w->bvh4);
     memset(w, 0, sizeof *w);
@@ -85,6 +87,42 @@ static void fill_faces(void *arg, size_t first, size_t count)
     }
 }
 
+/* Room in unit_n for every normal: the [triangle]s' first, so that where
+ * theirs start fits rd_wtri.face. */
+static rd_error_code alloc_unit_normals(rd_world *w, rd_error *err)
+{
+    const rd_scene *s = w->scene;
+    size_t objects = 0, all;
+    for (size_t i = 0; i < s->object_count; i++)
+        objects += s->objects[i].type == RD_OBJ_TRIANGLE && s->objects[i].has_normals ? 3 : 0;
+    if (objects >= RD_WTRI_NO_NORMALS)
+        return rd_error_set(err, RD_ERR_LIMIT, 0, 0, "more than 2^32 triangle normals");
+    all = objects;
+    for (size_t m = 0; m < s->mesh_count; m++)
+        all += s->meshes[m].nnormals;
+    if (!all)
+        return RD_OK;
+    w->unit_n = rd_big_malloc(all * sizeof *w->unit_n);
+    w->mesh_n = malloc((s->mesh_count + 1) * sizeof *w->mesh_n);
+    if (!w->unit_n || !w->mesh_n)
+        return nomem(w, err);
+    w->mesh_n[0] = objects;
+    for (size_t m = 0; m < s->mesh_count; m++)
+        w->mesh_n[m + 1] = w->mesh_n[m] + s->meshes[m].nnormals;
+    return RD_OK;
+}
+
+static void mesh_unit_normals(rd_world *w)
+{
+    const rd_scene *s = w->scene;
+    for (size_t m = 0; w->unit_n && m < s->mesh_count; m++) {
+        const rd_mesh *mesh = &s->meshes[m];
+        for (size_t i = 0; i < mesh->nnormals; i++)
+            w->unit_n[w->mesh_n[m] + i] = v3_normalize(mesh->normals[i]);
+    }
+    w->nunit_n = w->unit_n ? w->mesh_n[s->mesh_count] : 0;
+}
+
 rd_error_code rd_world_build(rd_world *w, const rd_scene *s, rd_error *err)
 {
     return rd_world_build_threads(w, s, 1, err);
@@ -121,6 +159,9 @@ rd_error_code rd_world_build_threads(rd_world *w, const rd_scene *s, int threads
     w->tris = rd_big_malloc((nt + 1) * sizeof *w->tris);
     if (!w->spheres || !w->sphere_mat || !w->sphere_obj || !w->planes || !w->plane_mat || !w->plane_obj || !w->tris)
         return nomem(w, err);
+    rd_error_code rc = alloc_unit_normals(w, err);
+    if (rc)
+        return rc;
     for (size_t i = 0; i < s->object_count; i++) {
         const rd_object *o = &s->objects[i];
         if (o->type == RD_OBJ_SPHERE) {
@@ -141,17 +182,23 @@ rd_error_code rd_world_build_threads(rd_world *w, const rd_scene *s, int threads
             t->material = o->material;
             t->object = (int32_t)i;
             t->mesh = -1;
-            t->face = 0;
+            t->face = RD_WTRI_NO_NORMALS;
+            if (o->has_normals) {
+                t->face = (uint32_t)w->nunit_n;
+                for (int c = 0; c < 3; c++)
+                    w->unit_n[w->nunit_n++] = v3_normalize(o->n[c]);
+            }
         } else {
             mesh_fill mf = {w, o, (int32_t)i, w->tris + w->ntris};
             rd_parallel_runs(s->meshes[o->mesh].nfaces, FILL_MIN, threads, fill_faces, &mf);
             w->ntris += s->meshes[o->mesh].nfaces;
         }
     }
+    mesh_unit_normals(w);
     size_t nb = w->nspheres + w->ntris;
     if (nb > RD_WORLD_BVH_MIN) {
         double t0 = rd_now_ms();
-        rd_error_code rc = rd_bvh_build_from(&w->bvh, nb, bounds_fn, w, threads, err);
+        rc = rd_bvh_build_from(&w->bvh, nb, bounds_fn, w, threads, err);
         if (!rc)
             rc = rd_bvh4_build(&w->bvh4, &w->bvh, err);
         if (rc) {
@@ -179,6 +226,7 @@ size_t rd_world_bytes(const rd_world *w)
 {
     return w->nspheres * (sizeof *w->spheres + 2 * sizeof(int32_t)) +
            w->nplanes * (sizeof *w->planes + 2 * sizeof(int32_t)) + w->ntris * sizeof *w->tris +
+           w->nunit_n * sizeof *w->unit_n + (w->mesh_n ? (w->scene->mesh_count + 1) * sizeof *w->mesh_n : 0) +
            w->bvh.nnodes * sizeof *w->bvh.nodes + w->bvh.nprims * sizeof *w->bvh.prims +
            w->bvh4.nnodes * sizeof *w->bvh4.nodes;
 }
@@ -330,25 +378,25 @@ static void fill_tri(const rd_world *w, const rd_best *b, rd_hit *h)
     h->ng = v3_normalize(v3_cross(v3_sub(t->v[1], t->v[0]), v3_sub(t->v[2], t->v[0])));
     h->perr = 8 * DBL_EPSILON * fmax(v3_max_abs(t->v[0]), fmax(v3_max_abs(t->v[1]), v3_max_abs(t->v[2])));
     h->n = h->ng;
+    /* Unit normals first, for meshes and [triangle]s alike: the same
+     * triangle shades the same whether written in the scene or loaded from
+     * OBJ. */
     rd_vec3 n0, n1, n2;
     int normals = 0;
     if (t->mesh < 0) {
-        const rd_object *o = &w->scene->objects[t->object];
-        if (o->has_normals) {
-            /* Unit normals first, as for meshes: the same triangle shades
-             * the same whether written in the scene or loaded from OBJ. */
-            n0 = v3_normalize(o->n[0]);
-            n1 = v3_normalize(o->n[1]);
-            n2 = v3_normalize(o->n[2]);
+        if (t->face != RD_WTRI_NO_NORMALS) {
+            n0 = w->unit_n[t->face];
+            n1 = w->unit_n[t->face + 1];
+            n2 = w->unit_n[t->face + 2];
             normals = 1;
         }
     } else {
-        const rd_mesh *m = &w->scene->meshes[t->mesh];
-        const rd_mesh_face *f = &m->faces[t->face];
+        const rd_mesh_face *f = &w->scene->meshes[t->mesh].faces[t->face];
         if (f->n[0] >= 0 && f->n[1] >= 0 && f->n[2] >= 0) {
-            n0 = v3_normalize(m->normals[f->n[0]]);
-            n1 = v3_normalize(m->normals[f->n[1]]);
-            n2 = v3_normalize(m->normals[f->n[2]]);
+            const rd_vec3 *un = w->unit_n + w->mesh_n[t->mesh];
+            n0 = un[f->n[0]];
+            n1 = un[f->n[1]];
+            n2 = un[f->n[2]];
             normals = 1;
         }
     }

@@ -29,8 +29,12 @@ typedef struct {
     int32_t material;
     int32_t object; /* the scene object it came from */
     int32_t mesh;   /* -1 for a [triangle]; else index into scene->meshes */
-    uint32_t face;  /* the mesh face */
+    /* The mesh face; for a [triangle], where its three normals start in
+     * rd_world.unit_n, or RD_WTRI_NO_NORMALS. */
+    uint32_t face;
 } rd_wtri;
+
+#define RD_WTRI_NO_NORMALS UINT32_MAX
 
 typedef struct {
     const rd_scene *scene;
@@ -42,6 +46,15 @@ typedef struct {
     size_t nplanes;
     rd_wtri *tris;
     size_t ntris;
+    /* The shading normals at unit length, normalized once here instead of
+     * on every hit (the same bits: the same function of the same input,
+     * once for a normal that faces share): three per [triangle] that has
+     * them, then every mesh's, mesh m's from unit_n + mesh_n[m] on in its
+     * own order. Both the world's, freed by rd_world_free; NULL when the
+     * scene has none. */
+    rd_vec3 *unit_n;
+    size_t nunit_n;
+    size_t *mesh_n;
     rd_bvh bvh;   /* over spheres (ids < nspheres) then triangles; only its prims are kept */
     rd_bvh4 bvh4; /* the same, four children a node: what rays walk */
     int avx2;     /* walk it with the AVX2 box test */

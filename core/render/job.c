@@ -11,8 +11,9 @@
 
 /* Per-pixel state lives in separate arrays, each allocated only when the
  * render needs it: a fixed one-sample render keeps 28 bytes a pixel (its
- * mean and count), since touching more memory than that made the first
- * write to each page, not the tracing, the cost of a large image.
+ * mean and count), or none of its own when its caller takes only the 8-bit
+ * image (direct), since the kernel clearing the fresh pages, not the
+ * tracing, became the cost of a large image.
  *
  * Samples alternate between two independent half-sets (by the pixel's
  * running count); each half is stratified on its own. The two half-means
@@ -25,8 +26,14 @@ struct rd_job {
     const rd_scene *scene;
     rd_pinhole cam;
     rd_plan plan;
-    double *mean; /* 3 a pixel: linear colour, all samples; always */
-    uint32_t *n;  /* samples a pixel; always */
+    double *mean; /* 3 a pixel: linear colour, all samples; unless direct */
+    uint32_t *n;  /* samples a pixel; unless direct */
+    /* Direct: a one-sample frame written as 8-bit values into the caller's
+     * bytes (rd_job_options.rgb8), with the table of the gamma when one
+     * pays (ours), and how many of each tile's pixels have their sample. */
+    uint8_t *direct;
+    rd_display_table *table8;
+    uint32_t *tile_done;
     float *half;  /* 6 a pixel: linear means of the two half-sets; when estimating */
     uint32_t *nh; /* 2 a pixel: their counts; when estimating */
     float *stat;  /* 6 a pixel: display mean and Welford sum of squares; adaptive only */
@@ -53,19 +60,60 @@ struct rd_job {
  * centroid the builder holds while it works. */
 enum { WORLD_BYTES_PER_PRIM = 512 };
 
+/* Whether the job writes its pixels' 8-bit values straight (struct rd_job):
+ * its one sample a pixel is then the centre sample of a first pass. */
+static int writes_direct(const rd_scene *s, const rd_job_options *opt)
+{
+    return opt && opt->rgb8 && !rd_progress_is_progressive(&opt->progress) && !opt->progress.adaptive &&
+           s->render.samples <= 1 && opt->progress.max_samples <= 1;
+}
+
 size_t rd_job_estimate_bytes(const rd_scene *s, const rd_job_options *opt)
 {
     size_t npix = (size_t)s->render.width * (size_t)s->render.height;
     int progressive = opt && rd_progress_is_progressive(&opt->progress), adaptive = opt && opt->progress.adaptive;
     size_t per_pixel = 3 * sizeof(double) + sizeof(uint32_t) + 3; /* mean, count, 8-bit output */
-    if (progressive || s->render.samples > 1)
+    if (writes_direct(s, opt))
+        per_pixel = 3;
+    else if (progressive || s->render.samples > 1)
         per_pixel += 6 * sizeof(float) + 2 * sizeof(uint32_t);
     if (adaptive)
         per_pixel += 6 * sizeof(float);
-    size_t prims = s->object_count;
-    for (size_t i = 0; i < s->mesh_count; i++)
+    size_t prims = s->object_count, normals = 3 * s->object_count; /* the world's unit normals */
+    for (size_t i = 0; i < s->mesh_count; i++) {
         prims += s->meshes[i].nfaces;
-    return rd_scene_bytes(s) + prims * WORLD_BYTES_PER_PRIM + npix * per_pixel + sizeof(rd_job);
+        normals += s->meshes[i].nnormals;
+    }
+    return rd_scene_bytes(s) + prims * WORLD_BYTES_PER_PRIM + normals * sizeof(rd_vec3) + npix * per_pixel +
+           sizeof(rd_job);
+}
+
+/* The per-pixel arrays the render needs. */
+static rd_error_code alloc_frame(rd_job *j, const rd_job_options *opt, size_t npix)
+{
+    if (writes_direct(j->scene, opt)) {
+        j->direct = opt->rgb8;
+        j->table8 = rd_display_table_new(j->scene->render.gamma, npix * 3);
+        j->tile_done = calloc((size_t)j->tiles_total, sizeof *j->tile_done);
+        return j->tile_done ? RD_OK : RD_ERR_NOMEM;
+    }
+    /* One centre sample a pixel has nothing to estimate from. */
+    int estimating = j->progressive || j->scene->render.samples > 1;
+    /* Not calloc: its pages start as the shared zero page, and the first
+     * read-then-write of a pixel then copies the page and flushes every
+     * CPU's TLB, which serialised the threads. Each tile writes its own
+     * pixels' starting values before its first pass instead. */
+    j->mean = rd_big_malloc(npix * 3 * sizeof *j->mean);
+    j->n = rd_big_malloc(npix * sizeof *j->n);
+    if (estimating) {
+        j->half = rd_big_malloc(npix * 6 * sizeof *j->half);
+        j->nh = rd_big_malloc(npix * 2 * sizeof *j->nh);
+    }
+    if (j->adaptive)
+        j->stat = rd_big_malloc(npix * 6 * sizeof *j->stat);
+    if (!j->mean || !j->n || (estimating && (!j->half || !j->nh)) || (j->adaptive && !j->stat))
+        return RD_ERR_NOMEM;
+    return RD_OK;
 }
 
 rd_error_code rd_job_create(const rd_scene *s, const rd_job_options *opt, rd_job **out, rd_error *err)
@@ -99,24 +147,10 @@ rd_error_code rd_job_create(const rd_scene *s, const rd_job_options *opt, rd_job
     size_t npix = (size_t)s->render.width * (size_t)s->render.height;
     j->tiles_x = (s->render.width + j->tile - 1) / j->tile;
     j->tiles_total = j->tiles_x * ((s->render.height + j->tile - 1) / j->tile);
-    /* One centre sample a pixel has nothing to estimate from. */
-    int estimating = j->progressive || s->render.samples > 1;
-    /* Not calloc: its pages start as the shared zero page, and the first
-     * read-then-write of a pixel then copies the page and flushes every
-     * CPU's TLB, which serialised the threads. Each tile writes its own
-     * pixels' starting values before its first pass instead. */
-    j->mean = rd_big_malloc(npix * 3 * sizeof *j->mean);
-    j->n = rd_big_malloc(npix * sizeof *j->n);
-    if (estimating) {
-        j->half = rd_big_malloc(npix * 6 * sizeof *j->half);
-        j->nh = rd_big_malloc(npix * 2 * sizeof *j->nh);
-    }
-    if (j->adaptive)
-        j->stat = rd_big_malloc(npix * 6 * sizeof *j->stat);
-    if (!j->mean || !j->n || (estimating && (!j->half || !j->nh)) || (j->adaptive && !j->stat)) {
+    rc = alloc_frame(j, opt, npix);
+    if (rc) {
         rd_job_free(j);
-        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory for a %dx%d image", s->render.width,
-                            s->render.height);
+        return rd_error_set(err, rc, 0, 0, "out of memory for a %dx%d image", s->render.width, s->render.height);
     }
     j->plan_ms = rd_now_ms() - t0;
     *out = j;
@@ -130,6 +164,8 @@ void rd_job_free(rd_job *j)
     rd_plan_free(&j->plan);
     free(j->mean);
     free(j->n);
+    free(j->table8);
+    free(j->tile_done);
     free(j->half);
     free(j->nh);
     free(j->stat);
@@ -245,8 +281,12 @@ double rd_job_mean_samples(const rd_job *j)
 {
     size_t npix = (size_t)j->scene->render.width * (size_t)j->scene->render.height;
     double sum = 0;
-    for (size_t i = 0; i < npix; i++)
-        sum += j->n[i];
+    if (j->direct)
+        for (int t = 0; t < j->tiles_total; t++)
+            sum += j->tile_done[t];
+    else
+        for (size_t i = 0; i < npix; i++)
+            sum += j->n[i];
     return sum / (double)npix;
 }
 
@@ -264,14 +304,18 @@ typedef struct {
     int x, y, samples, centre;
     uint64_t index;
     uint32_t first, in_half[2], count[2], pattern_half[2];
+    uint32_t *done; /* direct: the tile's pixels with their sample */
 } pixel_run;
 
-static void pixel_begin(const rd_job *j, int x, int y, pixel_run *pr)
+static uint32_t samples_of(const rd_job *j, uint64_t i) { return j->direct ? 0 : j->n[i]; }
+
+static void pixel_begin(const rd_job *j, int x, int y, uint32_t *done, pixel_run *pr)
 {
     const rd_scene *s = j->scene;
     memset(pr, 0, sizeof *pr);
     pr->x = x;
     pr->y = y;
+    pr->done = done;
     pr->index = (uint64_t)y * (uint64_t)s->render.width + (uint64_t)x;
     int pass = j->pass, samples = j->pass_samples;
     /* Pass 0 keeps the pattern of a plain render; later passes draw new ones. */
@@ -300,7 +344,7 @@ static void pixel_begin(const rd_job *j, int x, int y, pixel_run *pr)
     pr->samples = samples;
     /* Which half-set each of this pass's samples joins, and its index there.
      * A centre sample needs no pattern at all. */
-    pr->first = j->n[pr->index];
+    pr->first = samples_of(j, pr->index);
     if (!pr->centre) {
         /* Samples k = 0, 2, 4, ... join half first & 1: the larger half. */
         pr->count[pr->first & 1] = (uint32_t)(samples + 1) / 2;
@@ -321,7 +365,7 @@ static rd_ray pixel_ray(const rd_job *j, pixel_run *pr, int k, rd_rng *rng)
     /* Only area lights draw random numbers during tracing. */
     *rng = (rd_rng){0};
     if (j->plan.stochastic)
-        *rng = rd_rng_make(j->scene->render.seed, pr->index, (uint64_t)j->n[pr->index]);
+        *rng = rd_rng_make(j->scene->render.seed, pr->index, (uint64_t)samples_of(j, pr->index));
     return rd_pinhole_ray(&j->cam, pr->x + px, pr->y + py);
 }
 
@@ -330,12 +374,30 @@ static void pixel_add(rd_job *j, const pixel_run *pr, int k, rd_rgb col, rd_job_
 {
     uint64_t index = pr->index;
     int h = (int)((pr->first + (uint32_t)k) & 1);
-    double *mean = &j->mean[3 * index];
     double cv[3] = {finite_or_zero(col.x, &c->nonfinite), finite_or_zero(col.y, &c->nonfinite),
                     finite_or_zero(col.z, &c->nonfinite)};
+    if (j->direct) {
+        /* The bytes of the mean pixel_add would keep (below). */
+        double v[3] = {cv[0] + 0.0, cv[1] + 0.0, cv[2] + 0.0}, g = j->scene->render.gamma;
+        uint8_t *out = &j->direct[3 * index];
+        if (g == 1)
+            for (int ch = 0; ch < 3; ch++)
+                out[ch] = rd_display8_linear(v[ch]);
+        else
+            rd_display8_many(j->table8, g, v, 3, out);
+        ++*pr->done;
+        return;
+    }
+    double *mean = &j->mean[3 * index];
     uint32_t n = ++j->n[index];
-    for (int ch = 0; ch < 3; ch++)
-        mean[ch] += (cv[ch] - mean[ch]) / n;
+    /* A centre sample is the pixel's first (its tile was just cleared):
+     * 0 + (c - 0)/1 has the bits of c + 0.0, -0 made +0 alike. */
+    if (pr->centre)
+        for (int ch = 0; ch < 3; ch++)
+            mean[ch] = cv[ch] + 0.0;
+    else
+        for (int ch = 0; ch < 3; ch++)
+            mean[ch] += (cv[ch] - mean[ch]) / n;
     if (j->half) {
         uint32_t nh = ++j->nh[2 * index + h];
         float *hm = &j->half[6 * index + 3 * h];
@@ -354,10 +416,10 @@ static void pixel_add(rd_job *j, const pixel_run *pr, int k, rd_rgb col, rd_job_
     }
 }
 
-static void render_pixel(rd_job *j, int x, int y, rd_job_counts *c, rd_ray_counts *rc)
+static void render_pixel(rd_job *j, int x, int y, uint32_t *done, rd_job_counts *c, rd_ray_counts *rc)
 {
     pixel_run pr;
-    pixel_begin(j, x, y, &pr);
+    pixel_begin(j, x, y, done, &pr);
     for (int k = 0; k < pr.samples; k++) {
         if (rd_counts_tick(rc))
             return;
@@ -374,13 +436,13 @@ static void render_pixel(rd_job *j, int x, int y, rd_job_counts *c, rd_ray_count
  * pixel still gets its samples in order. */
 enum { BLOCK = 4 };
 
-static void render_block(rd_job *j, int x0, int y0, int x1, int y1, rd_job_counts *c, rd_ray_counts *rc)
+static void render_block(rd_job *j, int x0, int y0, int x1, int y1, uint32_t *done, rd_job_counts *c, rd_ray_counts *rc)
 {
     pixel_run pr[RD_PACKET_MAX];
     int n = 0, most = 0;
     for (int y = y0; y < y1; y++)
         for (int x = x0; x < x1; x++) {
-            pixel_begin(j, x, y, &pr[n]);
+            pixel_begin(j, x, y, done, &pr[n]);
             most = pr[n].samples > most ? pr[n].samples : most;
             n++;
         }
@@ -426,7 +488,13 @@ int rd_job_render_tile(rd_job *j, int t, rd_job_counts *c)
     const rd_scene *s = j->scene;
     tile_rect r = rect_of(j, t);
     int x0 = r.x0, y0 = r.y0, x1 = r.x1, y1 = r.y1;
-    if (j->pass == 0)
+    uint32_t *done = j->direct ? &j->tile_done[t] : NULL;
+    if (j->direct) {
+        /* Black where a stop leaves pixels without their sample. */
+        *done = 0;
+        for (int y = y0; y < y1; y++)
+            memset(&j->direct[3 * ((size_t)y * (size_t)s->render.width + (size_t)x0)], 0, 3 * (size_t)(x1 - x0));
+    } else if (j->pass == 0)
         for (int y = y0; y < y1; y++) {
             size_t i = (size_t)y * (size_t)s->render.width + (size_t)x0, w = (size_t)(x1 - x0);
             memset(&j->mean[3 * i], 0, 3 * w * sizeof *j->mean);
@@ -445,11 +513,11 @@ int rd_job_render_tile(rd_job *j, int t, rd_job_counts *c)
          * BLOCK x BLOCK pixels share the walk (world.h). */
         for (int y = y0; y < y1 && !rc.stopped; y += BLOCK)
             for (int x = x0; x < x1 && !rc.stopped; x += BLOCK)
-                render_block(j, x, y, x + BLOCK < x1 ? x + BLOCK : x1, y + BLOCK < y1 ? y + BLOCK : y1, c, &rc);
+                render_block(j, x, y, x + BLOCK < x1 ? x + BLOCK : x1, y + BLOCK < y1 ? y + BLOCK : y1, done, c, &rc);
     } else {
         for (int y = y0; y < y1 && !rc.stopped; y++)
             for (int x = x0; x < x1 && !rc.stopped; x++)
-                render_pixel(j, x, y, c, &rc);
+                render_pixel(j, x, y, done, c, &rc);
     }
     c->shadow += rc.shadow;
     c->secondary += rc.secondary;
@@ -466,24 +534,29 @@ void rd_job_take_image(rd_job *j, rd_image *out)
 
 void rd_job_rgb8(const rd_job *j, uint8_t *out)
 {
-    size_t npix = (size_t)j->scene->render.width * (size_t)j->scene->render.height;
-    double g = j->scene->render.gamma;
-    for (size_t i = 0; i < npix; i++)
-        for (int ch = 0; ch < 3; ch++)
-            out[3 * i + ch] = rd_display8(j->mean[3 * i + ch], g);
+    if (j->direct) {
+        if (out != j->direct)
+            memcpy(out, j->direct, (size_t)j->scene->render.width * (size_t)j->scene->render.height * 3);
+        return;
+    }
+    rd_image all = {j->scene->render.width, j->scene->render.height, j->mean};
+    rd_image_to_rgb8(&all, j->scene->render.gamma, out);
 }
 
 void rd_job_tile_rgb8(const rd_job *j, int t, uint8_t *out)
 {
     const rd_scene *s = j->scene;
     tile_rect r = rect_of(j, t);
-    double g = s->render.gamma;
-    for (int y = r.y0; y < r.y1; y++)
-        for (int x = r.x0; x < r.x1; x++) {
-            size_t i = (size_t)y * (size_t)s->render.width + (size_t)x;
-            for (int ch = 0; ch < 3; ch++)
-                out[3 * i + ch] = rd_display8(j->mean[3 * i + ch], g);
+    for (int y = r.y0; y < r.y1; y++) {
+        size_t i = (size_t)y * (size_t)s->render.width + (size_t)r.x0;
+        if (j->direct) {
+            if (out != j->direct)
+                memcpy(&out[3 * i], &j->direct[3 * i], 3 * (size_t)(r.x1 - r.x0));
+            continue;
         }
+        rd_image row = {r.x1 - r.x0, 1, &j->mean[3 * i]};
+        rd_image_to_rgb8(&row, s->render.gamma, &out[3 * i]);
+    }
 }
 
 double rd_job_error_estimate(const rd_job *j)
@@ -663,7 +736,8 @@ rd_error_code rd_job_tile_state_load(rd_job *j, int t, const void *in, size_t le
     if (t < 0 || t >= j->tiles_total)
         return rd_error_set(err, RD_ERR_INVALID, 0, 0, "tile state: no tile %d (the job has %d)", t, j->tiles_total);
     if (!j->mean)
-        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "tile state: the job's image was taken");
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "tile state: the job %s",
+                            j->direct ? "keeps only 8-bit pixels" : "'s image was taken");
     size_t want = rd_job_tile_state_bytes(j, t);
     if (len != want)
         return rd_error_set(err, RD_ERR_INVALID, 0, 0, "tile %d: a state of %zu bytes, not %zu", t, len, want);
@@ -749,6 +823,10 @@ static rd_error_code check_figures(const rd_job *j, const rd_job_schedule *sc, r
 
 rd_error_code rd_job_schedule_set(rd_job *j, const rd_job_schedule *sc, rd_error *err)
 {
+    /* Its pixels hold 8-bit values, which no later pass could add to. */
+    if (j->direct && sc->pass != 0)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "schedule: pass %d of a job that keeps only 8-bit pixels",
+                            sc->pass);
     rd_error_code rc = check_passes(j, sc, err);
     if (!rc)
         rc = check_figures(j, sc, err);

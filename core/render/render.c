@@ -79,18 +79,22 @@ static void notify_pass(const rd_render_options *opt, const rd_job *job, int pas
     opt->pass(opt->user, pass, samples, pass > 0 ? &st.curve[st.curve_len - 1] : NULL);
 }
 
-rd_error_code rd_render(const rd_scene *s, const rd_render_options *opt_in, rd_image *out, rd_render_stats *stats,
-                        rd_error *err)
+/* The passes of a job on the option's threads, its statistics, and its
+ * image: into *img (unless NULL) or as 8-bit values into rgb8. */
+static rd_error_code run(const rd_scene *s, const rd_render_options *opt_in, rd_image *img, uint8_t *rgb8,
+                         rd_render_stats *stats, rd_error *err)
 {
     double t0 = rd_now_ms();
     rd_render_options opt = {0};
     if (opt_in)
         opt = *opt_in;
-    memset(out, 0, sizeof *out);
     memset(stats, 0, sizeof *stats);
     int threads = opt.threads < 1 ? 1 : opt.threads;
-    rd_job_options jo = {
-        opt.tile, {s->render.samples, opt.time_budget_ms, opt.target_error, opt.adaptive}, opt.threads, opt.packets};
+    rd_job_options jo = {opt.tile,
+                         {s->render.samples, opt.time_budget_ms, opt.target_error, opt.adaptive},
+                         opt.threads,
+                         opt.packets,
+                         rgb8};
     rd_job *job;
     rd_error_code rc = rd_job_create(s, &jo, &job, err);
     if (rc)
@@ -132,9 +136,25 @@ rd_error_code rd_render(const rd_scene *s, const rd_render_options *opt_in, rd_i
         return rd_error_set(err, RD_ERR_CANCELLED, 0, 0, "render cancelled");
     }
     rd_job_stats(job, stats);
-    rd_job_take_image(job, out);
+    if (img)
+        rd_job_take_image(job, img);
+    else
+        rd_job_rgb8(job, rgb8);
     rd_job_free(job);
     stats->threads = used;
     rd_stats_add_counts(stats, &all, rd_now_ms() - t0);
     return RD_OK;
+}
+
+rd_error_code rd_render(const rd_scene *s, const rd_render_options *opt, rd_image *out, rd_render_stats *stats,
+                        rd_error *err)
+{
+    memset(out, 0, sizeof *out);
+    return run(s, opt, out, NULL, stats, err);
+}
+
+rd_error_code rd_render_rgb8(const rd_scene *s, const rd_render_options *opt, uint8_t *out, rd_render_stats *stats,
+                             rd_error *err)
+{
+    return run(s, opt, NULL, out, stats, err);
 }

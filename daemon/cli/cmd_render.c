@@ -298,20 +298,28 @@ static int parse_args(int argc, char **argv, render_args *a)
     return 0;
 }
 
-/* The image as a PNG's bytes. */
-static rd_error_code encode_png(const rd_image *img, double gamma, long level, unsigned char **out, size_t *len,
-                                rd_error *err)
+/* What a render gives: a PNG needs only the 8-bit image, which a
+ * one-sample render writes without a linear one (rd_render_rgb8); EXR and
+ * PFM need the linear image. */
+typedef struct {
+    rd_image img; /* width and height always; rgb for EXR and PFM */
+    uint8_t *rgb8;
+} frame;
+
+static void frame_free(frame *f)
 {
-    uint8_t *rgb = malloc((size_t)img->width * (size_t)img->height * 3);
-    if (!rgb)
-        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
-    rd_image_to_rgb8(img, gamma, rgb);
+    rd_image_free(&f->img);
+    free(f->rgb8);
+    f->rgb8 = NULL;
+}
+
+/* The image as a PNG's bytes. */
+static rd_error_code encode_png(const frame *f, long level, unsigned char **out, size_t *len, rd_error *err)
+{
     rd_png_options po = rd_png_options_default();
     if (level >= 0)
         po.level = (int)level;
-    rd_error_code rc = rd_png_encode(rgb, img->width, img->height, &po, out, len, err);
-    free(rgb);
-    return rc;
+    return rd_png_encode(f->rgb8, f->img.width, f->img.height, &po, out, len, err);
 }
 
 static rd_error_code write_stdout(const unsigned char *data, size_t len, rd_error *err)
@@ -322,27 +330,46 @@ static rd_error_code write_stdout(const unsigned char *data, size_t len, rd_erro
 }
 
 /* The image as OUT says: PNG, EXR or PFM, to the file or stdout. */
-static rd_error_code write_output(const rd_image *img, double gamma, const render_args *a, rd_error *err)
+static rd_error_code write_output(const frame *f, const render_args *a, rd_error *err)
 {
     unsigned char *data = NULL;
     size_t len = 0;
-    rd_error_code rc = a->kind == OUT_EXR   ? rd_exr_encode(img, &data, &len, err)
-                       : a->kind == OUT_PFM ? rd_pfm_encode(img, &data, &len, err)
-                                            : encode_png(img, gamma, a->level, &data, &len, err);
+    rd_error_code rc = a->kind == OUT_EXR   ? rd_exr_encode(&f->img, &data, &len, err)
+                       : a->kind == OUT_PFM ? rd_pfm_encode(&f->img, &data, &len, err)
+                                            : encode_png(f, a->level, &data, &len, err);
     if (!rc)
         rc = strcmp(a->output, "-") == 0 ? write_stdout(data, len, err) : rd_write_file(a->output, data, len, err);
     free(data);
     return rc;
 }
 
+/* The frame OUT's kind needs; on an error it is empty. */
+static rd_error_code render_frame(const rd_scene *scene, const render_args *a, frame *f, rd_render_stats *st,
+                                  rd_error *err)
+{
+    memset(f, 0, sizeof *f);
+    if (a->kind != OUT_PNG)
+        return rd_render(scene, &a->ro, &f->img, st, err);
+    f->rgb8 = malloc((size_t)scene->render.width * (size_t)scene->render.height * 3);
+    if (!f->rgb8)
+        return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory for a %dx%d image", scene->render.width,
+                            scene->render.height);
+    rd_error_code rc = rd_render_rgb8(scene, &a->ro, f->rgb8, st, err);
+    if (rc)
+        frame_free(f);
+    f->img.width = rc ? 0 : scene->render.width;
+    f->img.height = rc ? 0 : scene->render.height;
+    return rc;
+}
+
 /* Renders with the progress a asks for. */
-static rd_error_code render(const rd_scene *scene, render_args *a, rd_image *img, rd_render_stats *st, rd_error *err)
+static rd_error_code render(const rd_scene *scene, render_args *a, frame *f, rd_render_stats *st, rd_error *err)
 {
     rd_progress_settings goal = {scene->render.samples, a->ro.time_budget_ms, a->ro.target_error, a->ro.adaptive};
     rd_progress_bar bar;
     rd_progress_bar_init(&bar, a->bar, &goal, "render");
     rd_progress_bar_attach(&bar, &a->ro);
-    rd_error_code rc = rd_render(scene, &a->ro, img, st, err);
+    rd_error_code rc = render_frame(scene, a, f, st, err);
     rd_progress_bar_end(&bar);
     return rc;
 }
@@ -366,9 +393,9 @@ int rd_cmd_render(int argc, char **argv)
     rd_error_code rc = rd_scene_open(&src, &a.ov, &a.lim, &scene, &warnings, &err);
     if (warnings.count)
         fprintf(stderr, "%s%s", warnings.text, warnings.count > 5 ? "(more warnings not shown)\n" : "");
-    rd_image img;
+    frame f;
     rd_render_stats st;
-    if (!rc && (rc = render(&scene, &a, &img, &st, &err)))
+    if (!rc && (rc = render(&scene, &a, &f, &st, &err)))
         fprintf(stderr, "%s: %s\n", a.scene, err.message);
     else if (rc)
         fprintf(stderr, "%s\n", err.message);
@@ -376,12 +403,12 @@ int rd_cmd_render(int argc, char **argv)
         rd_scene_free(&scene);
         return rd_error_answer_for(rc).exit;
     }
-    rc = write_output(&img, scene.render.gamma, &a, &err);
+    rc = write_output(&f, &a, &err);
     if (a.stats_format & STATS_TEXT)
-        stats_text(&img, &st);
-    if ((a.stats_format & STATS_JSON) && stats_json(&img, &st) && !rc)
+        stats_text(&f.img, &st);
+    if ((a.stats_format & STATS_JSON) && stats_json(&f.img, &st) && !rc)
         rc = rd_error_set(&err, RD_ERR_NOMEM, 0, 0, "out of memory writing the statistics");
-    rd_image_free(&img);
+    frame_free(&f);
     rd_scene_free(&scene);
     if (rc) {
         fprintf(stderr, "rayd render: %s\n", err.message);

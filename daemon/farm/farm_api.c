@@ -68,7 +68,7 @@ static char *committed_json(const rd_store_job_spec *spec)
 static rd_error_code commit(rd_farm *f, const char *text, size_t len, const char *format, const rd_job_params *p,
                             const rd_scene *s, char id[RD_STORE_ID_MAX], char **json, rd_error *err)
 {
-    rd_job_options jo = {f->opt.tile, p->progress, 1, 0};
+    rd_job_options jo = {f->opt.tile, p->progress, 1, 0, NULL};
     size_t need = rd_job_estimate_bytes(s, &jo);
     rd_error_code rc = check_room(f, need, err);
     if (rc)

@@ -113,7 +113,7 @@ static rd_error_code build(rd_farm *f, rd_store *h, farm_ctx *c, rd_error *err)
     rd_store_job_info_free(&info);
     if (!c->have_scene && (rc = read_back(f, h, c, err)))
         return rc;
-    rd_job_options jo = {f->opt.tile, c->params.progress, 1, 0};
+    rd_job_options jo = {f->opt.tile, c->params.progress, 1, 0, NULL};
     size_t need = rd_job_estimate_bytes(&c->scene, &jo);
     pthread_mutex_lock(&f->mu); /* the metrics read it */
     long long more = (long long)need - (long long)c->charged;

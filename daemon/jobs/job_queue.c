@@ -493,7 +493,7 @@ static void end_cancelled(rd_jq *q, rd_jq_job *j)
 
 static rd_job_options core_options(const rd_jq_job *j)
 {
-    rd_job_options jo = {RD_JOB_TILE, j->progress, 1, 0};
+    rd_job_options jo = {RD_JOB_TILE, j->progress, 1, 0, NULL};
     return jo;
 }
 

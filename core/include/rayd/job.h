@@ -49,6 +49,14 @@ typedef struct {
      * another speed (bench/README.md measures it). Only a world with a
      * BVH is walked in packets. */
     unsigned packets;
+    /* Optional (NULL: none): the caller's width·height·3 bytes, which it
+     * frees after the job. A render of one pass of one sample, neither
+     * progressive nor adaptive, then writes each pixel's 8-bit value
+     * straight into them and keeps no linear image and no per-pixel
+     * counts (28 bytes a pixel, fresh pages the kernel must clear): it has
+     * no image to take, no tile state and only a first pass. Other renders
+     * leave the bytes alone until rd_job_rgb8 is asked for them. */
+    uint8_t *rgb8;
 } rd_job_options;
 
 /* The camera rays' closest hits, and the shadow rays towards each point,
@@ -117,10 +125,13 @@ double rd_job_mean_samples(const rd_job *j);
 /* Moves the mean colours out as the image (no copy; free it with
  * rd_image_free). Pixels with no sample yet are black. The job then has no
  * pixels left: it still answers its size, samples, estimate and statistics,
- * but must not render tiles or give bytes (rd_job_rgb8, rd_job_tile_rgb8). */
+ * but must not render tiles or give bytes (rd_job_rgb8, rd_job_tile_rgb8).
+ * A job writing 8-bit pixels straight (rd_job_options.rgb8) gives an
+ * empty image. */
 void rd_job_take_image(rd_job *j, rd_image *out);
 
-/* 8-bit RGB of the image so far, without a linear copy: width·height·3 bytes. */
+/* 8-bit RGB of the image so far, without a linear copy: width·height·3
+ * bytes (rd_image_to_rgb8's). out may be the job's rd_job_options.rgb8. */
 void rd_job_rgb8(const rd_job *j, uint8_t *out);
 
 /* Writes tile t's pixels into out, a whole width·height·3 RGB8 image. */

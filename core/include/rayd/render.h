@@ -1,7 +1,8 @@
 /* Rendering a scene into an image, with statistics. The core's entry point.
  *
  * Ownership: rd_render allocates out->rgb; the caller frees it with
- * rd_image_free. The scene is only read, and may be shared by renders. */
+ * rd_image_free. rd_render_rgb8 writes into the caller's bytes. The scene
+ * is only read, and may be shared by renders. */
 #ifndef RD_RENDER_H
 #define RD_RENDER_H
 
@@ -39,5 +40,13 @@ typedef struct {
  * freed. Any error leaves *out empty. */
 rd_error_code rd_render(const rd_scene *s, const rd_render_options *opt, rd_image *out, rd_render_stats *stats,
                         rd_error *err);
+
+/* rd_render's image as 8-bit RGB (rd_image_to_rgb8's bytes with the scene's
+ * gamma) into out, the caller's width·height·3 bytes, and no linear image:
+ * a render of one sample that is not progressive writes them as it goes
+ * (rd_job_options.rgb8), 3 bytes a pixel instead of 31. On an error out
+ * holds no image. */
+rd_error_code rd_render_rgb8(const rd_scene *s, const rd_render_options *opt, uint8_t *out, rd_render_stats *stats,
+                             rd_error *err);
 
 #endif

@@ -647,6 +647,78 @@ static void check_fill_hit(tri_world_maker make, const char *kind)
 Test(intersect, triangle_fill_hit_values_mesh_face) { check_fill_hit(tri_mesh_world, "mesh face"); }
 Test(intersect, triangle_fill_hit_values_triangle_object) { check_fill_hit(tri_object_world, "[triangle]"); }
 
+/* The shading normal as the hit fill made it on every hit before the world
+ * kept unit normals: each corner's normalized there, then the blend. */
+static rd_vec3 normal_per_hit(const rd_vec3 raw[3], const double *bc, rd_vec3 ng, rd_vec3 d)
+{
+    rd_vec3 n0 = v3_normalize(raw[0]), n1 = v3_normalize(raw[1]), n2 = v3_normalize(raw[2]);
+    rd_vec3 n = v3_normalize(v3_add(v3_add(v3_scale(n0, bc[0]), v3_scale(n1, bc[1])), v3_scale(n2, bc[2])));
+    n = v3_max_abs(n) > 0 ? n : ng;
+    return v3_dot(n, d) > 0 ? v3_neg(n) : n;
+}
+
+/* Rays at points spread over every face of tw's world: each hit's shading
+ * normal has the bits normal_per_hit gives. Returns the hits. */
+static int check_normals_per_hit(const tri_world *tw, const char *what)
+{
+    static const double at[][3] = {{1.0 / 3, 1.0 / 3, 1.0 / 3}, {0.7, 0.2, 0.1}, {0.05, 0.05, 0.9}, {0.1, 0.85, 0.05}};
+    int hits = 0;
+    for (size_t i = 0; i < tw->w.ntris; i++)
+        for (size_t k = 0; k < sizeof at / sizeof *at; k++) {
+            const rd_wtri *t = &tw->w.tris[i];
+            rd_vec3 p =
+                v3_add(v3_add(v3_scale(t->v[0], at[k][0]), v3_scale(t->v[1], at[k][1])), v3_scale(t->v[2], at[k][2]));
+            rd_ray r = ray_of(v3(0, 0, 0), v3_normalize(p));
+            rd_hit h;
+            if (!world_hit(tw, r, INFINITY, &h))
+                continue;
+            const rd_wtri *ht = &tw->w.tris[h.prim];
+            rd_vec3 raw[3];
+            for (int c = 0; c < 3; c++) {
+                const rd_mesh *m = ht->mesh < 0 ? NULL : &tw->s.meshes[ht->mesh];
+                raw[c] = m ? m->normals[m->faces[ht->face].n[c]] : tw->s.objects[ht->object].n[c];
+            }
+            rd_vec3 want = normal_per_hit(raw, h.bary, h.ng, r.d);
+            cr_assert(memcmp(&h.n, &want, sizeof want) == 0,
+                      "%s: face %zu at (%g, %g, %g): (%a, %a, %a), want (%a, %a, %a)", what, (size_t)h.prim, at[k][0],
+                      at[k][1], at[k][2], h.n.x, h.n.y, h.n.z, want.x, want.y, want.z);
+            hits++;
+        }
+    return hits;
+}
+
+/* Normals of every length, each shared by up to six faces of a 4x4 grid of
+ * corners, and [triangle]s' own: the world normalizes each once, and every
+ * face that uses it shades as it did when each hit normalized its own. */
+Test(intersect, unit_normals_made_once_give_the_per_hit_bits)
+{
+    static const double scale[] = {1, 3.7, 1e-200, 1e200, 0.3, 7e-3};
+    rd_vec3 pos[16], nrm[16];
+    uint32_t faces[18][3];
+    for (int y = 0; y < 4; y++)
+        for (int x = 0; x < 4; x++) {
+            int v = 4 * y + x;
+            pos[v] = v3(x - 1.5, y - 1.5, -3 - 0.1 * ((x * y) % 3));
+            nrm[v] = v3_scale(v3(0.3 * (x - 1.5) + 0.01 * v, 0.2 * (y - 1.5), 1), scale[v % 6]);
+        }
+    for (int y = 0, f = 0; y < 3; y++)
+        for (int x = 0; x < 3; x++, f += 2) {
+            uint32_t a = (uint32_t)(4 * y + x);
+            memcpy(faces[f], (uint32_t[3]){a, a + 1, a + 5}, sizeof faces[f]);
+            memcpy(faces[f + 1], (uint32_t[3]){a, a + 5, a + 4}, sizeof faces[f + 1]);
+        }
+    tri_world tw;
+    mesh_world(&tw, pos, 16, (const uint32_t(*)[3])faces, 18, nrm, NULL);
+    cr_assert_eq(tw.w.nunit_n, 16);
+    cr_assert_gt(check_normals_per_hit(&tw, "grid"), 60);
+    tri_world_free(&tw);
+    rd_vec3 own[3] = {v3(1e-300, 0, 1e-300), v3(0, 5, 2), v3(-0.25, 0.125, 3)};
+    tri_object_world(&tw, v3(-1, -1, -2), v3(1, -1, -2.5), v3(0, 1, -2), own, NULL);
+    cr_assert_eq(tw.w.nunit_n, 3);
+    cr_assert_gt(check_normals_per_hit(&tw, "[triangle]"), 3);
+    tri_world_free(&tw);
+}
+
 Test(intersect, triangle_watertight_shared_edge)
 {
     /* Random parallelograms split along a diagonal v0-v2 into two faces of

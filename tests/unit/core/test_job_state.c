@@ -44,7 +44,7 @@ static const mode modes[] = {
 
 static rd_job *make_job(const rd_scene *s, const mode *m)
 {
-    rd_job_options o = {TILE, {s->render.samples, 0, m->target, m->adaptive}, 1, 0};
+    rd_job_options o = {TILE, {s->render.samples, 0, m->target, m->adaptive}, 1, 0, NULL};
     rd_job *j;
     rd_error err = {0};
     rd_error_code rc = rd_job_create(s, &o, &j, &err);
@@ -884,7 +884,7 @@ Test(job_state, end_pass_at_takes_the_callers_clock)
      * in the 990 ms left, one sample does. Then at 2000 ms nothing is left. */
     rd_scene s;
     soft_shadow_scene(&s, 4096);
-    rd_job_options o = {TILE, {4096, 1000, 0, 0}, 1, 0};
+    rd_job_options o = {TILE, {4096, 1000, 0, 0}, 1, 0, NULL};
     rd_job *j;
     rd_error err = {0};
     cr_assert_eq(rd_job_create(&s, &o, &j, &err), RD_OK, "%s", err.message);

@@ -236,6 +236,29 @@ Test(render, image_bytes_are_display8_of_every_channel)
     free(got);
 }
 
+/* Linear images (gamma 1) are converted sixteen values at a time: a NaN in
+ * any lane, and images of every length modulo a block, still give
+ * rd_display8 of each value, the NaN's neighbours included. */
+Test(render, linear_bytes_are_display8_at_every_lane_and_length)
+{
+    enum { W_MAX = 22 }; /* 3w covers every remainder modulo 16 */
+    const double fixed[] = {0,         -0.0,        1,        1 - 1e-16, 1 + 1e-16, -1e-300, 4.9e-324, 0.5 / 255,
+                            1.5 / 255, 254.5 / 255, INFINITY, -INFINITY, 0.5,       2,       -2,       0.25};
+    double v[3 * W_MAX];
+    uint8_t got[3 * W_MAX];
+    for (int nan_at = -1; nan_at < 3 * W_MAX; nan_at++)
+        for (int w = 1; w <= W_MAX; w++) {
+            for (int i = 0; i < 3 * W_MAX; i++)
+                v[i] = i == nan_at ? NAN : fixed[(i * 7) % 16];
+            rd_image img = {w, 1, v};
+            rd_image_to_rgb8(&img, 1.0, got);
+            for (int i = 0; i < 3 * w; i++)
+                if (got[i] != rd_display8(v[i], 1.0))
+                    cr_assert_fail("NaN at %d, %d values: value %d (%.17g) gives %d, rd_display8 %d", nan_at, 3 * w, i,
+                                   v[i], got[i], rd_display8(v[i], 1.0));
+        }
+}
+
 Test(render, exact_background_for_misses)
 {
     /* An empty scene, and a scene whose only sphere is behind the camera:

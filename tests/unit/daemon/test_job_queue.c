@@ -314,7 +314,7 @@ static rd_jq_options options_for_one_and_a_half(void)
     rd_scene_init(&s);
     cr_assert_eq(rd_scene_parse(runaway_scene, strlen(runaway_scene), RD_FMT_CFG, "<t>", NULL, &s, &err), RD_OK);
     s.render.width = s.render.height = 512;
-    rd_job_options jo = {RD_JOB_TILE, {0}, 1, 0};
+    rd_job_options jo = {RD_JOB_TILE, {0}, 1, 0, NULL};
     size_t need = rd_job_estimate_bytes(&s, &jo);
     rd_scene_free(&s);
     o.memory_budget = need + need / 2;

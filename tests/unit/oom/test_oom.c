@@ -466,7 +466,7 @@ static rd_error_code run_job(result *r, rd_error *err)
 {
     /* Two adaptive passes of 2 samples: an unreachable target error runs
      * them to the cap of 4. */
-    rd_job_options jo = {8, {4, 0, 1e-12, 1}, 1, 0};
+    rd_job_options jo = {8, {4, 0, 1e-12, 1}, 1, 0, NULL};
     rd_job *j;
     rd_error_code rc = rd_job_create(&g_scene, &jo, &j, err);
     if (rc)
