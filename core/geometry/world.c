@@ -10,11 +10,13 @@
 
 #include "prim.h"
 #include "rayd/parallel.h"
+#include "sphere4.h"
 #include "triangle.h"
 
 void rd_world_free(rd_world *w)
 {
     free(w->spheres);
+    free(w->sphere4);
     free(w->sphere_mat);
     free(w->sphere_obj);
     free(w->planes);
@@ -218,6 +220,12 @@ rd_error_code rd_world_build_threads(rd_world *w, const rd_scene *s, int threads
         w->avx512 = w->avx2 && rd_bvh4_cpu_has_avx512();
         w->use_bvh = 1;
         w->build_ms = rd_now_ms() - t0;
+    } else if (w->nspheres) {
+        w->avx2 = rd_bvh4_cpu_has_avx2();
+        w->sphere4 = malloc((w->nspheres + 3) / 4 * sizeof *w->sphere4);
+        if (!w->sphere4)
+            return nomem(w, err);
+        rd_sphere4_pack(w->spheres, w->nspheres, w->sphere4);
     }
     return RD_OK;
 }
@@ -228,7 +236,7 @@ size_t rd_world_bytes(const rd_world *w)
            w->nplanes * (sizeof *w->planes + 2 * sizeof(int32_t)) + w->ntris * sizeof *w->tris +
            w->nunit_n * sizeof *w->unit_n + (w->mesh_n ? (w->scene->mesh_count + 1) * sizeof *w->mesh_n : 0) +
            w->bvh.nnodes * sizeof *w->bvh.nodes + w->bvh.nprims * sizeof *w->bvh.prims +
-           w->bvh4.nnodes * sizeof *w->bvh4.nodes;
+           w->bvh4.nnodes * sizeof *w->bvh4.nodes + (w->sphere4 ? (w->nspheres + 3) / 4 * sizeof *w->sphere4 : 0);
 }
 
 /* A node or leaf to visit, with the distance at which the ray enters it. */
@@ -446,6 +454,34 @@ void rd_world_finish_hit(const rd_world *w, rd_ray r, const rd_best *b, rd_hit *
         h->n = v3_neg(h->n);
 }
 
+/* The spheres of a world without a BVH, four at a time, in id order (the
+ * tie order): each lane's root chosen for the limit of its turn, as the
+ * scalar loop would test it. */
+__attribute__((noinline, target("avx2"))) static void spheres4_closest(const rd_world *w, const rd_ray *r, rd_best *b)
+{
+    for (size_t g = 0; g * 4 < w->nspheres; g++) {
+        rd_sphere4_roots q;
+        for (unsigned ok = rd_sphere4_roots_of(&w->sphere4[g], r, &q); ok; ok &= ok - 1) {
+            int lane = __builtin_ctz(ok);
+            uint32_t id = (uint32_t)(g * 4) + (uint32_t)lane;
+            double t = rd_sphere4_pick(&q, lane, b->limit);
+            if (t > 0 && rd_best_takes(b, t, id))
+                rd_best_set(b, t, RD_K_SPHERE, id, id);
+        }
+    }
+}
+
+__attribute__((noinline, target("avx2"))) static int spheres4_any(const rd_world *w, const rd_ray *r, double tmax)
+{
+    for (size_t g = 0; g * 4 < w->nspheres; g++) {
+        rd_sphere4_roots q;
+        for (unsigned ok = rd_sphere4_roots_of(&w->sphere4[g], r, &q); ok; ok &= ok - 1)
+            if (rd_sphere4_pick(&q, __builtin_ctz(ok), tmax) > 0)
+                return 1;
+    }
+    return 0;
+}
+
 int rd_world_closest(const rd_world *w, rd_ray r, double tmax, rd_hit *h)
 {
     if (!rd_ray_finite(r))
@@ -456,8 +492,13 @@ int rd_world_closest(const rd_world *w, rd_ray r, double tmax, rd_hit *h)
         bvh_closest(w, &r, &b);
     } else {
         /* A few primitives: one loop in id order, which is the tie order. */
+        size_t first = 0;
+        if (w->avx2 && w->sphere4) {
+            spheres4_closest(w, &r, &b);
+            first = w->nspheres;
+        }
         rd_tri_lazy tr = rd_tri_lazy_none();
-        for (size_t i = 0; i < w->nspheres + w->ntris; i++)
+        for (size_t i = first; i < w->nspheres + w->ntris; i++)
             rd_prim_closest(w, (uint32_t)i, &r, &tr, 0, &b);
     }
     if (b.kind == RD_K_NONE)
@@ -512,9 +553,14 @@ int rd_world_any_hint(const rd_world *w, rd_ray r, double tmax, uint32_t *last)
         return 1;
     if (w->use_bvh)
         return bvh_any(w, &r, tmax, last);
-    for (size_t i = 0; i < w->nspheres; i++)
-        if (rd_sphere_intersect(&w->spheres[i], r, tmax) > 0)
+    if (w->avx2 && w->sphere4) {
+        if (spheres4_any(w, &r, tmax))
             return 1;
+    } else {
+        for (size_t i = 0; i < w->nspheres; i++)
+            if (rd_sphere_intersect(&w->spheres[i], r, tmax) > 0)
+                return 1;
+    }
     if (!w->ntris)
         return 0;
     /* The ray's part of the triangle test once, not once a triangle. */

@@ -39,6 +39,7 @@ typedef struct {
 typedef struct {
     const rd_scene *scene;
     rd_sphere *spheres;
+    struct rd_sphere4_s *sphere4; /* without a BVH: the spheres in packs of four (sphere4.h), or NULL */
     int32_t *sphere_mat, *sphere_obj;
     size_t nspheres;
     rd_plane *planes;
@@ -57,7 +58,7 @@ typedef struct {
     size_t *mesh_n;
     rd_bvh bvh;   /* over spheres (ids < nspheres) then triangles; only its prims are kept */
     rd_bvh4 bvh4; /* the same, four children a node: what rays walk */
-    int avx2;     /* walk it with the AVX2 box test */
+    int avx2;     /* walk it with the AVX2 box test, test spheres four at a time */
     int avx512;   /* and packets with eight rays to an AVX-512 register */
     int use_bvh;
     rd_vec3 origin;  /* world position of the camera-relative origin */

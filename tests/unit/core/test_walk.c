@@ -41,8 +41,9 @@ static void tri_at(rd_scene *s, test_rng *r, rd_vec3 c, double size, double k)
     add_triangle(s, scaled(a, k), scaled(b, k), scaled(d, k), 0);
 }
 
-enum { W_SOUP, W_TIES, W_GRID, W_FAR, W_SMALL, W_LARGE, W_KINDS };
-static const char *const world_names[W_KINDS] = {"soup", "ties", "grid", "far", "scale 1e-120", "scale 1e120"};
+enum { W_SOUP, W_TIES, W_GRID, W_FAR, W_SMALL, W_LARGE, W_FEW, W_KINDS };
+static const char *const world_names[W_KINDS] = {"soup",         "ties",        "grid",        "far",
+                                                 "scale 1e-120", "scale 1e120", "few (no BVH)"};
 
 static void soup(rd_scene *s, test_rng *r, double k, int ntris, int nspheres)
 {
@@ -95,6 +96,17 @@ static void far_tiny(rd_scene *s, test_rng *r)
     s->camera.eye = v3_add(at, v3(0.01, 0.02, 0.3));
 }
 
+/* Below the BVH's minimum: five spheres (one twice, a tie) and two
+ * triangles, tested in plain loops (spheres four at a time). */
+static void few(rd_scene *s, test_rng *r)
+{
+    for (int i = 0; i < 4; i++)
+        add_sphere(s, rng_point(r, -3, 3), rng_range(r, 0.3, 1.5), 0);
+    add_sphere(s, s->objects[1].center, s->objects[1].radius, 0);
+    tri_at(s, r, v3(0, 0, 0), 2, 1);
+    tri_at(s, r, v3(1, 1, 1), 2, 1);
+}
+
 static void make_world(rd_scene *s, rd_world *w, int kind, uint64_t seed)
 {
     test_rng r = {seed};
@@ -108,12 +120,14 @@ static void make_world(rd_scene *s, rd_world *w, int kind, uint64_t seed)
         ties(s, &r);
     else if (kind == W_GRID)
         grid(s);
+    else if (kind == W_FEW)
+        few(s, &r);
     else
         far_tiny(s, &r);
     s->camera.eye = scaled(s->camera.eye, k);
     rd_error err = {0};
     cr_assert_eq(rd_world_build(w, s, &err), RD_OK, "%s: %s", world_names[kind], err.message);
-    cr_assert(w->use_bvh, "%s has a BVH", world_names[kind]);
+    cr_assert(w->use_bvh == (kind != W_FEW), "%s: a BVH %d", world_names[kind], w->use_bvh);
 }
 
 /* ---- rays ------------------------------------------------------------------------ */
@@ -188,6 +202,8 @@ static rd_ray grazing(const rd_world *w, test_rng *r, rd_vec3 lo, rd_vec3 hi)
 /* On a face of a random node box (float bounds, exactly). */
 static rd_ray from_face(const rd_world *w, test_rng *r)
 {
+    if (!w->bvh4.nnodes)
+        return (rd_ray){rng_point(r, -3, 3), rng_unit(r)};
     const rd_bvh4_node *n = &w->bvh4.nodes[rng_int(r, (int)w->bvh4.nnodes)];
     int c = rng_int(r, 4);
     while (!(n->lo[0][c] <= n->hi[0][c]))
