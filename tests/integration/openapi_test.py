@@ -84,10 +84,6 @@ def response_of(template, method, status):
     return deref(r), ptr
 
 
-def component_response(name):
-    return deref({"$ref": "#/components/responses/" + name}), "#/components/responses/" + name
-
-
 def media_key(content, ctype):
     """The documented media type a Content-Type answers, or None."""
     if ctype in content:
@@ -136,20 +132,26 @@ def validate(template, method, status, headers, body, url):
     what = "%s %s" % (method.upper(), url)
     exercised.add((template, method, status))
     if status == 405:
-        resp, ptr = component_response("MethodNotAllowed")
+        # No operation answers 405 (it is for a method the document does not
+        # list): an Error body with method_not_allowed, X-Request-Id, Allow.
+        check("x-request-id" in headers, "%s: 405 without X-Request-Id" % what)
+        try:
+            data = json.loads(body)
+        except ValueError:
+            data = None
+        check(isinstance(data, dict) and not schema_errors("#/components/schemas/Error", data) and
+              data["error"]["code"] == "method_not_allowed", "%s: the 405's body: %s" % (what, body[:200]))
         documented = {m.upper() for m in DOC["paths"].get(template, {}) if m in METHODS and m != "options"}
         allowed = {m.strip() for m in headers.get("allow", "").split(",") if m.strip()}
         check(allowed and allowed <= documented | {"HEAD", "OPTIONS"},
               "%s: Allow %s, the document lists %s" % (what, sorted(allowed), sorted(documented)))
         check(method.upper() not in documented or method == "options",
               "%s: 405 for a documented method" % what)
-    elif status == 431:
-        resp, ptr = component_response("TooManyArguments")
-    else:
-        resp, ptr = response_of(template, method, status)
-        if not check(resp is not None, "%s: status %d is not documented for %s %s" %
-                     (what, status, method.upper(), template)):
-            return
+        return
+    resp, ptr = response_of(template, method, status)
+    if not check(resp is not None, "%s: status %d is not documented for %s %s" %
+                 (what, status, method.upper(), template)):
+        return
     validate_against(what, resp, ptr, status, headers, body)
 
 
@@ -206,8 +208,38 @@ def check_route_table():
               "%s %s is documented but router.c's %s takes %s" % (m, t, row[0], allowed))
 
 
+def operations():
+    """(path template, method, operation) of every documented operation but OPTIONS."""
+    return [(t, m, op) for t, item in DOC["paths"].items() for m, op in item.items()
+            if m in METHODS and m != "options"]
+
+
+def needs_token(op):
+    """1 when the operation's security (its own, else the document's) asks for the instructor token."""
+    return any("instructorToken" in req for req in op.get("security", DOC.get("security", [])))
+
+
+def check_security_declared():
+    """The instructor token is an HTTP bearer scheme, declared on exactly
+    the operations that document 401 and 403 (the daemon's instructors'
+    routes, daemon/http/routes_batch.c), and nowhere else."""
+    scheme = DOC.get("components", {}).get("securitySchemes", {}).get("instructorToken", {})
+    check(scheme.get("type") == "http" and scheme.get("scheme") == "bearer",
+          "components/securitySchemes/instructorToken is not an HTTP bearer scheme: %r" % scheme)
+    check(DOC.get("security") == [], "the document's default security is %r, not [] (open)" % DOC.get("security"))
+    for t, m, op in operations():
+        answers_401 = "401" in op["responses"] and "403" in op["responses"]
+        check(needs_token(op) == answers_401, "%s %s: %s the instructor token but %s 401 and 403" %
+              (m.upper(), t, "declares" if needs_token(op) else "does not declare",
+               "documents" if answers_401 else "does not document"))
+    for t, item in DOC["paths"].items():
+        if "options" in item:
+            check(not needs_token(item["options"]), "OPTIONS %s declares the instructor token" % t)
+
+
 def check_document():
     check(DOC.get("openapi", "").startswith("3.1."), "openapi is %r" % DOC.get("openapi"))
+    check_security_declared()
     refs = re.findall(r'"\$ref": "([^"]+)"', DOC_BYTES.decode())
     for r in set(refs):
         try:
@@ -424,8 +456,34 @@ def class_batch(tmp):
         for r in rows:
             c.call("get", "/v1/grades/{id}", "/v1/grades/" + r.get("grade_id", "x"), expect=200)
         c.call("get", "/v1/grades/{id}", "/v1/grades/g0000000000000000", expect=404)
+        check_security_answered(c, bid, rows[0].get("grade_id", "x") if rows else "x", auth)
     finally:
         check(d.stop() == 0, "the instructors' daemon did not exit 0")
+
+
+def check_security_answered(c, bid, gid, auth):
+    """On a daemon with --instructor-tokens, every operation: the ones
+    declaring the instructor token answer 401 without one and 403 with a
+    wrong one, and not 401 with the right one; no other answers 401."""
+    values = {"id": bid, "table": "results.json", "file": "diff.png", "material": "phong", "name": "tiny"}
+    for t, m, op in operations():
+        if t.startswith("/v1/grades/") or t.startswith("/v1/grade/code/{id}"):
+            values["id"] = gid
+        elif t.startswith("/v1/jobs/"):
+            values["id"] = "0" * 32
+        else:
+            values["id"] = bid
+        url = re.sub(r"\{([^}]+)\}", lambda g: values[g.group(1)], t)
+        body = b"" if m in ("post", "put") else None
+        status, _, _ = c.call(m, t, url, body=body)
+        if needs_token(op):
+            check(status == 401, "%s %s without a token answered %d, not 401" % (m.upper(), url, status))
+            status, _, _ = c.call(m, t, url, body=body, headers={"Authorization": "Bearer wrong-wrong-wrong-1"})
+            check(status == 403, "%s %s with a wrong token answered %d, not 403" % (m.upper(), url, status))
+            status, _, _ = c.call(m, t, url, body=body, headers=auth)
+            check(status not in (401, 403), "%s %s with the token answered %d" % (m.upper(), url, status))
+        else:
+            check(status != 401, "%s %s answered 401 but declares no security" % (m.upper(), url))
 
 
 def listings(c):
