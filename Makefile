@@ -204,6 +204,7 @@ check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/serve_test.py
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/metrics_test.py
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/openapi_test.py
+	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/client_test.py
 	RAYD=$(BUILD)/rayd sh tests/integration/deploy_test.sh
 	RAYD=$(BUILD)/rayd $(if $(SAN),RAYD_TEST_SLOW=3) RAYD_TEST_STORE=sqlite /usr/bin/python3 tests/integration/store_test.py
 	RAYD=$(BUILD)/rayd $(if $(SAN),RAYD_TEST_SLOW=3) RAYD_TEST_STORE=postgresql /usr/bin/python3 tests/integration/store_test.py

@@ -12,7 +12,13 @@
     validates against the documented JSON Schema ($refs resolved against
     the document's components);
   - a fixed list of (path, method, status) must have been exercised, so a
-    status the test stopped provoking is noticed.
+    status the test stopped provoking is noticed;
+  - the instructor token (securitySchemes/instructorToken) is declared on
+    exactly the operations that answer 401/403 on a daemon with
+    --instructor-tokens;
+  - clients/python/rayd_client.py calls only documented operations, with
+    their operationId, method, path, query parameters, form fields and
+    token, and its records have the fields of their schemas.
 
 Paths that are documented ahead of the code (/readyz, OPTIONS answered 204
 with --cors-origin) are skipped with a note while the daemon answers them
@@ -34,8 +40,11 @@ import time
 
 import jsonschema
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "support"))
+sys.path.insert(0, os.path.join(HERE, "..", "..", "clients", "python"))
 from rayd_http import RAYD, Checks, Daemon, form, form_parts, png, render_png
+import rayd_client
 
 check = Checks("openapi")
 DOC_PATH = "docs/openapi.json"
@@ -235,6 +244,49 @@ def check_security_declared():
     for t, item in DOC["paths"].items():
         if "options" in item:
             check(not needs_token(item["options"]), "OPTIONS %s declares the instructor token" % t)
+
+
+def params_of(template, method, where):
+    """The names of the operation's parameters that are in `where` (query,
+    path), the path item's and its own."""
+    item = DOC["paths"][template]
+    ps = [deref(p) for p in item.get("parameters", []) + item[method].get("parameters", [])]
+    return {p["name"] for p in ps if p.get("in") == where}
+
+
+def check_client():
+    """clients/python/rayd_client.py and the document agree: every
+    operation the client calls is documented under its operationId with
+    the client's method and path, takes the query parameters and form
+    fields the client sends, has the path parameters of its template, and
+    needs the instructor token exactly when the client sends it; every
+    record's fields are its schema's properties."""
+    by_id = {op.get("operationId"): (t, m, op) for t, item in DOC["paths"].items() for m, op in item.items()
+             if m in METHODS}
+    for oid, cop in rayd_client.OPERATIONS.items():
+        if not check(oid in by_id, "the client calls %s, which the document does not have" % oid):
+            continue
+        t, m, op = by_id[oid]
+        check((cop.method, cop.path) == (m.upper(), t), "%s: the client sends %s %s, the document says %s %s" %
+              (oid, cop.method, cop.path, m.upper(), t))
+        extra = set(cop.query) - params_of(t, m, "query")
+        check(not extra, "%s: the client sends query parameters the document does not list: %s" % (oid, extra))
+        check(set(re.findall(r"\{([^}]+)\}", cop.path)) == params_of(t, m, "path"),
+              "%s: the path parameters differ: %s against %s" % (oid, cop.path, params_of(t, m, "path")))
+        if cop.form:
+            media = deref(op.get("requestBody", {})).get("content", {}).get("multipart/form-data", {})
+            props = set(deref(media.get("schema", {})).get("properties", {}))
+            check(set(cop.form) <= props, "%s: the client's form fields %s, the document's %s" %
+                  (oid, sorted(cop.form), sorted(props)))
+        check(cop.token == needs_token(op), "%s: the client %s the token, the document %s it" %
+              (oid, "sends" if cop.token else "does not send", "asks for" if needs_token(op) else "does not ask for"))
+    for rec in rayd_client.RECORDS:
+        props = set(DOC["components"]["schemas"].get(rec.SCHEMA, {}).get("properties", {}))
+        check(props and set(rec.FIELDS) == props, "the client's %s fields %s are not the schema's %s" %
+              (rec.__name__, sorted(set(rec.FIELDS) ^ props), rec.SCHEMA))
+    names = {p["name"] for p in DOC["paths"]["/v1/render"]["post"]["parameters"] for p in [deref(p)]}
+    check(set(rayd_client.OVERRIDES) == names, "the client's overrides %s, POST /v1/render's %s" %
+          (sorted(rayd_client.OVERRIDES), sorted(names)))
 
 
 def check_document():
@@ -648,6 +700,7 @@ def assignments_dir(tmp):
 def main():
     check_document()
     check_route_table()
+    check_client()
     tmp = tempfile.mkdtemp(prefix="rayd-openapi-")
     flags = ["--threads", "2", "--max-body-bytes", str(MAX_BODY), "--limit-pixels", "100000",
              "--job-timeout-ms", "1500", "--drain-ms", "20000", "--assignments", assignments_dir(tmp)]
