@@ -621,6 +621,34 @@ def small_limits(tmp):
         check(d.stop() == 0, "the small daemon did not exit 0")
 
 
+def per_client(tmp):
+    """--max-per-ip behind a trusted proxy: a client with a request open
+    gets 429 too_many_requests on any route, OPTIONS included."""
+    d = Daemon(tmp, ["--threads", "1", "--trust-proxy", "127.0.0.1", "--max-per-ip", "1",
+                     "--job-timeout-ms", "20000", "--drain-ms", "100"])
+    who = {"X-Forwarded-For": "192.0.2.7"}
+    try:
+        c = Client(d)
+
+        def runaway():
+            try:
+                d.request("POST", "/v1/render", body=RUNAWAY.encode(), headers=dict(CFG, **who))
+            except OSError:
+                pass
+        t = threading.Thread(target=runaway, daemon=True)
+        t.start()
+        for _ in range(200):
+            if b"rayd_jobs_running 1" in d.request("GET", "/metrics")[2]:
+                break
+            time.sleep(0.05)
+        c.call("get", "/healthz", headers=who, expect=429)
+        c.call("options", "/healthz", headers=who, expect=429)
+        c.call("post", "/v1/jobs", "/v1/jobs", SCENE.encode(), dict(CFG, **who), 429)
+        c.call("get", "/healthz", headers={"X-Forwarded-For": "192.0.2.8"}, expect=200)
+    finally:
+        check(d.stop() == 0, "the per-client daemon did not exit 0")
+
+
 def draining(d, c):
     """SIGTERM while a synchronous render runs: new work gets 503 draining
     until it ends (a stored job would not hold the daemon: it resumes)."""
@@ -651,14 +679,14 @@ def draining(d, c):
 # What the test must have provoked: a status it stops provoking fails it.
 REQUIRED = {
     ("/v1/render", "post"): {200, 400, 413, 415, 422, 503},
-    ("/v1/jobs", "post"): {202, 400, 413, 415, 422, 503},
     ("/v1/jobs/{id}", "get"): {200, 404}, ("/v1/jobs/{id}", "delete"): {200, 404},
     ("/v1/jobs/{id}/image", "get"): {200, 404, 409},
     ("/v1/grade", "post"): {200, 400, 404, 413, 415, 422, 503},
     ("/v1/assignments", "get"): {200}, ("/v1/assignments/{name}", "get"): {200, 404},
     ("/v1/assignments/{name}/scene", "get"): {200, 404}, ("/v1/grades/{id}/{file}", "get"): {200, 404},
     ("/v1/scenes", "get"): {200}, ("/v1/scenes/{name}", "get"): {200, 404},
-    ("/healthz", "get"): {200, 431}, ("/healthz", "post"): {405}, ("/metrics", "get"): {200},
+    ("/healthz", "get"): {200, 429, 431}, ("/healthz", "options"): {204, 429}, ("/healthz", "post"): {405},
+    ("/v1/jobs", "post"): {202, 400, 413, 415, 422, 429, 503}, ("/metrics", "get"): {200},
     ("/metrics", "post"): {405}, ("/v1/jobs", "get"): {405}, ("/v1/jobs/{id}/image", "delete"): {405},
     ("/openapi.json", "get"): {200},
     ("/", "get"): {200}, ("/index.html", "get"): {200},
@@ -718,11 +746,12 @@ def main():
     finally:
         rc = d.stop()
         check(rc == 0, "the daemon exited %d after SIGTERM" % rc)
-    for sub in ("small", "cors", "class"):
+    for sub in ("small", "cors", "class", "per_client"):
         os.makedirs(os.path.join(tmp, sub))
     small_limits(os.path.join(tmp, "small"))
     cors(os.path.join(tmp, "cors"))
     class_batch(os.path.join(tmp, "class"))
+    per_client(os.path.join(tmp, "per_client"))
     check_coverage()
     if not check.failed:
         shutil.rmtree(tmp, ignore_errors=True)
