@@ -15,7 +15,8 @@ static inline rd_vec3 rd_ray_at(rd_ray r, double t) { return v3_add(r.o, v3_scal
 
 /* 1 when every component of r is finite. No primitive is hit by any other
  * ray, and a box test of one (NaN everywhere) accepts every box, the empty
- * slots of a node too: the walks turn such rays away first. */
+ * slots of a node too: the walks turn such rays away first (the plain
+ * loops of a world without a BVH need not). */
 static inline int rd_ray_finite(rd_ray r)
 {
     double z =

@@ -336,8 +336,12 @@ RD_WALK_ANY(any_avx2, RD_NOINLINE_AVX2, rd_bvh4_ray_avx2, rd_bvh4_ray_avx2_make,
 
 static int has_flat(const rd_bvh_ray *br) { return br->flat[0] | br->flat[1] | br->flat[2]; }
 
+/* Only the walks need rays turned away (rd_ray_finite): the plain loops'
+ * tests already hit nothing with them. */
 static void bvh_closest(const rd_world *w, const rd_ray *r, rd_best *b)
 {
+    if (!rd_ray_finite(*r))
+        return;
     rd_bvh_ray br = rd_bvh_ray_make(*r);
     if (!w->avx2)
         closest_sse2(w, r, &br, b);
@@ -367,6 +371,8 @@ int rd_world_hint_blocks(const rd_world *w, const rd_ray *r, const rd_bvh_ray *b
 
 static int bvh_any(const rd_world *w, const rd_ray *r, double tmax, uint32_t *last)
 {
+    if (!rd_ray_finite(*r))
+        return 0;
     rd_bvh_ray br = rd_bvh_ray_make(*r);
     int blocked = !w->avx2        ? any_sse2(w, r, &br, tmax, last)
                   : has_flat(&br) ? any_avx2_flat(w, r, &br, tmax, last)
@@ -484,8 +490,6 @@ __attribute__((noinline, target("avx2"))) static int spheres4_any(const rd_world
 
 int rd_world_closest(const rd_world *w, rd_ray r, double tmax, rd_hit *h)
 {
-    if (!rd_ray_finite(r))
-        return 0;
     rd_best b = rd_best_make(tmax);
     rd_world_planes_closest(w, r, &b);
     if (w->use_bvh) {
@@ -547,8 +551,6 @@ int rd_world_planes_any(const rd_world *w, rd_ray r, double tmax)
 
 int rd_world_any_hint(const rd_world *w, rd_ray r, double tmax, uint32_t *last)
 {
-    if (!rd_ray_finite(r))
-        return 0;
     if (rd_world_planes_any(w, r, tmax))
         return 1;
     if (w->use_bvh)
