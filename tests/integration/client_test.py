@@ -31,16 +31,12 @@ import tempfile
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "support"))
 sys.path.insert(0, os.path.join(HERE, "..", "..", "clients", "python"))
-from rayd_http import Checks, Daemon, cli_render, decode_png, png
+from rayd_http import RUNAWAY_SCENE, TINY_SCENE, Checks, Daemon, cli_render, decode_png, png, tiny_assignments
 from rayd_client import Batch, Client, CodeGrade, GradeRow, Job, RaydError, Render, Verdict
 
 check = Checks("client")
 TOKEN = "client-test-instructor-token-01"
-SCENE = ("[render]\nwidth = 16\nheight = 12\n[light]\ntype = point\nposition = 0 5 5\ncolor = 1 1 1\n"
-         "[material m]\ntype = diffuse\nkd = 0.5 0.5 0.5\n[sphere]\ncenter = 0 0 0\nradius = 1\nmaterial = m\n")
-RUNAWAY = ("[render]\nwidth = 4\nheight = 1\nsamples = 65536\n[camera]\neye = 0 2 6\ntarget = 0 0.5 0\n"
-           "[light]\ntype = area\ncorner = -1 6 -1\nedge1 = 2 0 0\nedge2 = 0 0 2\nsamples = 64\ncolor = 1 1 1\n"
-           "[material m]\ntype = diffuse\nkd = 0.7 0.7 0.7\n[sphere]\ncenter = 0 0.8 0\nradius = 0.8\nmaterial = m\n")
+SCENE, RUNAWAY = TINY_SCENE, RUNAWAY_SCENE
 
 
 def raises(fn, status, code=None):
@@ -184,16 +180,6 @@ def listings(c):
     check(c.ready().get("status") == "ready", "ready")
 
 
-def assignments_dir(tmp):
-    path = os.path.join(tmp, "assignments")
-    os.makedirs(path)
-    with open(os.path.join(path, "tiny.cfg"), "w") as f:
-        f.write(SCENE)
-    with open(os.path.join(path, "tiny.grade"), "w") as f:
-        f.write("title = a tiny sphere\n")
-    return path
-
-
 def main():
     tmp = tempfile.mkdtemp(prefix="rayd-client-")
     tokens = os.path.join(tmp, "tokens")
@@ -202,7 +188,7 @@ def main():
     scene_path = os.path.join(tmp, "small.cfg")
     with open(scene_path, "w") as f:
         f.write(SCENE)
-    d = Daemon(tmp, ["--threads", "2", "--assignments", assignments_dir(tmp), "--instructor-tokens", tokens,
+    d = Daemon(tmp, ["--threads", "2", "--assignments", tiny_assignments(tmp), "--instructor-tokens", tokens,
                      "--scenes", "scenes", "--job-timeout-ms", "20000"])
     try:
         base = "http://127.0.0.1:%d" % d.port

@@ -35,7 +35,6 @@ import shutil
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 
 import jsonschema
@@ -43,7 +42,8 @@ import jsonschema
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "support"))
 sys.path.insert(0, os.path.join(HERE, "..", "..", "clients", "python"))
-from rayd_http import RAYD, Checks, Daemon, form, form_parts, png, render_png
+from rayd_http import (RAYD, RUNAWAY_SCENE, TINY_SCENE, Checks, Daemon, form, form_parts, png, render_png, start_runaway,
+                       tiny_assignments)
 import rayd_client
 
 check = Checks("openapi")
@@ -313,13 +313,7 @@ def check_document():
 
 # ---- requests ---------------------------------------------------------
 
-SCENE = ("[render]\nwidth = 16\nheight = 12\n[light]\ntype = point\nposition = 0 5 5\ncolor = 1 1 1\n"
-         "[material m]\ntype = diffuse\nkd = 0.5 0.5 0.5\n[sphere]\ncenter = 0 0 0\nradius = 1\nmaterial = m\n")
-# One pixel takes minutes: 65536 samples under a 64x64-sample area light.
-RUNAWAY = ("[render]\nwidth = 4\nheight = 1\nsamples = 65536\n[camera]\neye = 0 2 6\ntarget = 0 0.5 0\n"
-           "[light]\ntype = area\ncorner = -1 6 -1\nedge1 = 2 0 0\nedge2 = 0 0 2\nsamples = 64\ncolor = 1 1 1\n"
-           "[material m]\ntype = diffuse\nkd = 0.7 0.7 0.7\n[sphere]\ncenter = 0 0.8 0\nradius = 0.8\nmaterial = m\n"
-           "[plane]\npoint = 0 0 0\nnormal = 0 1 0\nmaterial = m\n")
+SCENE, RUNAWAY = TINY_SCENE, RUNAWAY_SCENE
 CFG = {"Content-Type": "text/x-rayd-cfg"}
 MAX_BODY = 65536
 
@@ -469,7 +463,7 @@ def class_batch(tmp):
     with open(scene_path, "w") as f:
         f.write(SCENE)
     good = render_png(scene_path, os.path.join(tmp, "small.png"))
-    d = Daemon(tmp, ["--threads", "2", "--assignments", assignments_dir(tmp), "--instructor-tokens", tokens])
+    d = Daemon(tmp, ["--threads", "2", "--assignments", tiny_assignments(tmp, broken=True), "--instructor-tokens", tokens])
     try:
         c = Client(d)
         B = "/v1/grade/batch"
@@ -630,17 +624,7 @@ def per_client(tmp):
     try:
         c = Client(d)
 
-        def runaway():
-            try:
-                d.request("POST", "/v1/render", body=RUNAWAY.encode(), headers=dict(CFG, **who))
-            except OSError:
-                pass
-        t = threading.Thread(target=runaway, daemon=True)
-        t.start()
-        for _ in range(200):
-            if b"rayd_jobs_running 1" in d.request("GET", "/metrics")[2]:
-                break
-            time.sleep(0.05)
+        start_runaway(d, dict(CFG, **who))
         c.call("get", "/healthz", headers=who, expect=429)
         c.call("options", "/healthz", headers=who, expect=429)
         c.call("post", "/v1/jobs", "/v1/jobs", SCENE.encode(), dict(CFG, **who), 429)
@@ -652,17 +636,7 @@ def per_client(tmp):
 def draining(d, c):
     """SIGTERM while a synchronous render runs: new work gets 503 draining
     until it ends (a stored job would not hold the daemon: it resumes)."""
-    def runaway():
-        try:
-            d.request("POST", "/v1/render", body=RUNAWAY.encode(), headers=CFG)
-        except OSError:
-            pass
-    t = threading.Thread(target=runaway, daemon=True)
-    t.start()
-    for _ in range(200):
-        if b"rayd_jobs_running 1" in d.request("GET", "/metrics")[2]:
-            break
-        time.sleep(0.05)
+    start_runaway(d, CFG)
     d.terminate()
     time.sleep(0.3)
     c.call("post", "/v1/render", "/v1/render", SCENE.encode(), CFG, 503)
@@ -710,28 +684,13 @@ def check_coverage():
                       "%s %s was never requested" % (m.upper(), template))
 
 
-def assignments_dir(tmp):
-    """A tiny assignment (a quick reference) and a broken one."""
-    path = os.path.join(tmp, "assignments")
-    os.makedirs(path)
-    with open(os.path.join(path, "tiny.cfg"), "w") as f:
-        f.write(SCENE)
-    with open(os.path.join(path, "tiny.grade"), "w") as f:
-        f.write("title = a tiny sphere\n")
-    with open(os.path.join(path, "broken.cfg"), "w") as f:
-        f.write(SCENE)
-    with open(os.path.join(path, "broken.grade"), "w") as f:
-        f.write("title = broken\nfail = three\n")
-    return path
-
-
 def main():
     check_document()
     check_route_table()
     check_client()
     tmp = tempfile.mkdtemp(prefix="rayd-openapi-")
     flags = ["--threads", "2", "--max-body-bytes", str(MAX_BODY), "--limit-pixels", "100000",
-             "--job-timeout-ms", "1500", "--drain-ms", "20000", "--assignments", assignments_dir(tmp)]
+             "--job-timeout-ms", "1500", "--drain-ms", "20000", "--assignments", tiny_assignments(tmp, broken=True)]
     d = Daemon(tmp, flags)
     try:
         c = Client(d)

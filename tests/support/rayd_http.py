@@ -9,6 +9,7 @@ import socket
 import struct
 import subprocess
 import sys
+import threading
 import time
 import uuid
 import zlib
@@ -312,3 +313,43 @@ def decode_png(data):
         if opaque:
             out = bytearray(b"".join(out[i:i + 3 * size] for i in range(0, len(out), 4 * size)))
     return w, h, bytes(out)
+
+
+# A 16x12 diffuse sphere under one point light: a quick render.
+TINY_SCENE = ("[render]\nwidth = 16\nheight = 12\n[light]\ntype = point\nposition = 0 5 5\ncolor = 1 1 1\n"
+              "[material m]\ntype = diffuse\nkd = 0.5 0.5 0.5\n[sphere]\ncenter = 0 0 0\nradius = 1\nmaterial = m\n")
+# One pixel takes minutes: 65536 samples under a 64x64-sample area light.
+RUNAWAY_SCENE = ("[render]\nwidth = 4\nheight = 1\nsamples = 65536\n[camera]\neye = 0 2 6\ntarget = 0 0.5 0\n"
+                 "[light]\ntype = area\ncorner = -1 6 -1\nedge1 = 2 0 0\nedge2 = 0 0 2\nsamples = 64\ncolor = 1 1 1\n"
+                 "[material m]\ntype = diffuse\nkd = 0.7 0.7 0.7\n[sphere]\ncenter = 0 0.8 0\nradius = 0.8\n"
+                 "material = m\n[plane]\npoint = 0 0 0\nnormal = 0 1 0\nmaterial = m\n")
+
+
+def tiny_assignments(tmp, broken=False):
+    """tmp/assignments with `tiny` (TINY_SCENE, a quick reference) and, when
+    asked, `broken` (a .grade file that does not read)."""
+    path = os.path.join(tmp, "assignments")
+    os.makedirs(path)
+    files = {"tiny.cfg": TINY_SCENE, "tiny.grade": "title = a tiny sphere\n"}
+    if broken:
+        files.update({"broken.cfg": TINY_SCENE, "broken.grade": "title = broken\nfail = three\n"})
+    for name, text in files.items():
+        with open(os.path.join(path, name), "w") as f:
+            f.write(text)
+    return path
+
+
+def start_runaway(d, headers, timeout=10):
+    """POST /v1/render of RUNAWAY_SCENE on a thread, returned once the daemon
+    counts it running (or after timeout s)."""
+    def post():
+        try:
+            d.request("POST", "/v1/render", body=RUNAWAY_SCENE.encode(), headers=headers)
+        except OSError:
+            pass
+    t = threading.Thread(target=post, daemon=True)
+    t.start()
+    t0 = time.time()
+    while time.time() - t0 < timeout and b"rayd_jobs_running 1" not in d.request("GET", "/metrics")[2]:
+        time.sleep(0.05)
+    return t
