@@ -1,5 +1,6 @@
 #include "codegrade.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -68,6 +69,23 @@ static int kind_of(const rd_scene *s)
             if (s->materials[i].type == kinds[k].type && k > best)
                 best = k;
     return best;
+}
+
+/* The scene's graded materials must lie in the domain the assignment
+ * states: the image's calls are judged like the configurations, and code
+ * right for every n the text allows must pass both. */
+static rd_error_code check_domain(const rd_scene *s, rd_material_type t, rd_shininess_domain d, const char *assignment,
+                                  rd_error *err)
+{
+    for (size_t i = 0; d == RD_SHININESS_NATURAL && i < s->material_count; i++) {
+        double n = s->materials[i].shininess;
+        if (s->materials[i].type == t && (n < 1 || n != floor(n)))
+            return rd_error_set(err, RD_ERR_INVALID, 0, 0,
+                                "the assignment %s states a natural shininess, but its scene's material %s has "
+                                "shininess %g",
+                                assignment, s->materials[i].name ? s->materials[i].name : "(unnamed)", n);
+    }
+    return RD_OK;
 }
 
 static int has_suffix(const char *s, const char *suffix)
@@ -152,7 +170,9 @@ static rd_error_code prepare(const rd_codegrade_config *cfg, const rd_codegrade_
     if (!out->grade.reference &&
         (rc = rd_grade_render_reference(&cfg->grader, &p->scene, cfg->threads, &out->grade, err)))
         return rc;
-    if ((rc = rd_code_cases(kinds[p->kind].type, &out->cases, &out->ncases, err)))
+    rd_material_type t = kinds[p->kind].type;
+    if ((rc = check_domain(&p->scene, t, out->grade.shininess, out->assignment, err)) ||
+        (rc = rd_code_cases(t, out->grade.shininess, &out->cases, &out->ncases, err)))
         return rc;
     if (add_cases(p, out))
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
@@ -379,6 +399,9 @@ static rd_error_code evaluate(const rd_sandbox_result *res, prepared *p, rd_code
     return rc;
 }
 
+/* Whether the source defines the class: "class NAME" or "struct NAME"
+ * followed by ':' or '{', or "NAME::" (a .cpp's definitions); comments
+ * and strings are not told apart, which a failed compile tolerates. */
 rd_error_code rd_codegrade_run(const rd_codegrade_config *cfg, const rd_codegrade_input *in, rd_codegrade_result *out,
                                rd_error *err)
 {
