@@ -168,12 +168,14 @@ static rd_error_code prepare(const rd_codegrade_config *cfg, const rd_codegrade_
                             out->assignment);
     out->material = kinds[p->kind].word;
     out->class_name = kinds[p->kind].cls;
+    rd_material_type t = kinds[p->kind].type;
+    /* before the reference, whose render moves the stage on */
+    if ((rc = check_domain(&p->scene, t, out->grade.shininess, out->assignment, err)))
+        return rc;
     if (!out->grade.reference &&
         (rc = rd_grade_render_reference(&cfg->grader, &p->scene, cfg->threads, &out->grade, err)))
         return rc;
-    rd_material_type t = kinds[p->kind].type;
-    if ((rc = check_domain(&p->scene, t, out->grade.shininess, out->assignment, err)) ||
-        (rc = rd_code_cases(t, out->grade.shininess, &out->cases, &out->ncases, err)))
+    if ((rc = rd_code_cases(t, out->grade.shininess, &out->cases, &out->ncases, err)))
         return rc;
     if (add_cases(p, out))
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");

@@ -403,6 +403,15 @@ def bad_uploads(d):
     check(st == 404, "an unknown assignment is 404 (%d)" % st)
     st, _, v = post_code(d, "mirror_only", "PhongMaterial.h", b"int x;")
     check(st == 422, "an assignment with no material a student writes is 422 (%d, %s)" % (st, v))
+    st, _, v = post_code(d, "phong_off_domain", "PhongMaterial.h", read(STUDENTS + "/phong_ok.h"))
+    err = v.get("error") or {}
+    check(st == 422 and err.get("code") == "bad_assignment" and "shininess 7.5" in err.get("message", ""),
+          "a scene outside the shininess its .grade states is bad_assignment (%d, %s)" % (st, err))
+    st, _, v = post_code(d, "phong_bad_domain", "PhongMaterial.h", read(STUDENTS + "/phong_ok.h"))
+    err = v.get("error") or {}
+    check(st == 422 and err.get("code") == "bad_assignment" and "phong_bad_domain.grade:1:13" in
+          err.get("message", "") and "natural or real" in err.get("message", ""),
+          "a shininess that is neither natural nor real is a .grade error with its place (%d, %s)" % (st, err))
     body, ct = form_parts([("assignment", None, b"phong")])
     st, _, _ = d.request("POST", "/v1/grade/code", body=body, headers={"Content-Type": ct})
     check(st == 400, "no source file is 400 (%d)" % st)
@@ -562,6 +571,16 @@ def assignments(tmp):
     shutil.copy(os.path.join(path, "phong.cfg"), os.path.join(path, "phong_any_n.cfg"))
     with open(os.path.join(path, "phong_any_n.grade"), "w") as f:
         f.write("title = Phong for any n\nshininess = real\n")
+    # a scene whose shininess its .grade's domain excludes, and a domain that is none
+    with open(os.path.join(path, "phong.cfg")) as f:
+        phong = f.read()
+    with open(os.path.join(path, "phong_off_domain.cfg"), "w") as f:
+        f.write(phong.replace("shininess = 10\n", "shininess = 7.5\n"))
+    with open(os.path.join(path, "phong_off_domain.grade"), "w") as f:
+        f.write("shininess = natural\n")
+    shutil.copy(os.path.join(path, "phong.cfg"), os.path.join(path, "phong_bad_domain.cfg"))
+    with open(os.path.join(path, "phong_bad_domain.grade"), "w") as f:
+        f.write("shininess = whole\n")
     with open(os.path.join(path, "mirror_only.cfg"), "w") as f:
         f.write(RENDER_PROBE.decode().replace("type = diffuse", "type = perfect_specular"))
     return path
