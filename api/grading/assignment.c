@@ -64,6 +64,13 @@ static rd_error_code parse_grade(const char *path, const char *text, rd_assignme
             snprintf(a->title, sizeof a->title, "%s", v);
             continue;
         }
+        if (strcmp(k, "shininess") == 0) {
+            if (strcmp(v, "natural") != 0 && strcmp(v, "real") != 0)
+                return rd_error_set(err, RD_ERR_SYNTAX, line, col,
+                                    "%s:%d:%d: shininess: expected natural or real, got '%.40s'", path, line, col, v);
+            a->shininess = strcmp(v, "natural") == 0 ? RD_SHININESS_NATURAL : RD_SHININESS_REAL;
+            continue;
+        }
         double x = strtod(v, &end);
         if (!*v || *end)
             return rd_error_set(err, RD_ERR_SYNTAX, line, col, "%s:%d:%d: %s: expected a number, got '%.40s'", path,
@@ -88,8 +95,8 @@ static rd_error_code parse_grade(const char *path, const char *text, rd_assignme
         else
             return rd_error_set(
                 err, RD_ERR_SYNTAX, line, 1,
-                "%s:%d:1: unknown key '%.40s' (title, fail, fail_fraction, hard_fail, hard_fail_pixels)", path, line,
-                k);
+                "%s:%d:1: unknown key '%.40s' (title, fail, fail_fraction, hard_fail, hard_fail_pixels, shininess)",
+                path, line, k);
     }
     return RD_OK;
 }

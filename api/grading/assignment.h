@@ -6,8 +6,13 @@
  *     fail_fraction = 0.001
  *     hard_fail = 48
  *     hard_fail_pixels = 16
+ *     shininess = natural
  *
- * Keys left out keep the calibrated defaults (rd_grade_thresholds_default). */
+ * Keys left out keep the calibrated defaults (rd_grade_thresholds_default).
+ * shininess is the domain the assignment's text gives the Phong exponent n
+ * (the course's handout: a natural number); a student's code is called on
+ * configurations inside it only (code_cases.h), since code that is right
+ * for every n the text allows must pass. */
 #ifndef RD_ASSIGNMENT_H
 #define RD_ASSIGNMENT_H
 
@@ -16,11 +21,16 @@
 #include "grade.h"
 #include "rayd/error.h"
 
+/* The shininess an assignment allows: any positive number, or only the
+ * natural numbers 1, 2, 3... */
+typedef enum { RD_SHININESS_REAL, RD_SHININESS_NATURAL } rd_shininess_domain;
+
 typedef struct {
     char name[64];
     char title[160];
     char scene_path[512];
     rd_grade_thresholds thresholds;
+    rd_shininess_domain shininess;
     /* rd_assignment_list only: why it cannot be graded ("phong.grade:3:1:
      * ..."), naming files by their names in the folder, never by path;
      * "" when it can. */

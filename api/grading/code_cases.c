@@ -22,12 +22,21 @@ static const char *const group_words[] = {
 const char *rd_code_group_name(rd_code_group g) { return (unsigned)g < RD_CODE_GROUPS ? group_names[g] : "?"; }
 const char *rd_code_group_words(rd_code_group g) { return (unsigned)g < RD_CODE_GROUPS ? group_words[g] : "?"; }
 
+/* A shininess of the domain: a natural-number assignment gets the nearest
+ * natural number, so that its sets keep their spread (1, 8, 32, 101: odd
+ * and even) and code that is right only for whole n (a loop power) is
+ * judged where the assignment's text says n lies. */
+static double in_domain(double shininess, rd_shininess_domain d)
+{
+    return d == RD_SHININESS_NATURAL ? fmax(1, round(shininess)) : shininess;
+}
+
 /* Five parameter sets per type, coloured so that channels differ, with
- * ambient never 0 (a student adding it shows). Shininess 7.5 is
- * fractional (pow of a negative cosine is NaN there), 1 and 101 odd;
- * the stiff sets go to 1e6 and to roughness 0.02. */
+ * ambient never 0 (a student adding it shows). Shininess 0.5 and 7.5 are
+ * fractional where the domain allows (pow of a negative cosine is NaN
+ * there), 1 and 101 odd; the stiff sets go to 1e6 and to roughness 0.02. */
 #define SETS 5
-static rd_material material(rd_material_type t, int set, int stiff)
+static rd_material material(rd_material_type t, rd_shininess_domain d, int set, int stiff)
 {
     static const double kd[SETS][3] = {
         {0.8, 0.4, 0.2}, {0.2, 0.6, 0.9}, {0.5, 0.5, 0.5}, {0.9, 0.1, 0.3}, {0.05, 0.3, 0.1}};
@@ -43,7 +52,7 @@ static rd_material material(rd_material_type t, int set, int stiff)
     m.kd = v3(kd[set][0], kd[set][1], kd[set][2]);
     m.ks = v3(ks[set][0], ks[set][1], ks[set][2]);
     m.ambient = v3(0.07, 0.05, 0.03);
-    m.shininess = stiff ? stiff_shininess[set] : shininess[set];
+    m.shininess = in_domain(stiff ? stiff_shininess[set] : shininess[set], d);
     m.roughness = stiff ? stiff_roughness[set] : roughness[set];
     return m;
 }
@@ -53,6 +62,7 @@ typedef struct {
     size_t n, cap;
     uint64_t seed;
     rd_material_type type;
+    rd_shininess_domain domain;
 } list;
 
 static double uniform(list *l) { return (double)(rd_mix64(++l->seed) >> 11) * 0x1p-53; }
@@ -78,7 +88,7 @@ static int add(list *l, rd_code_group g, int stiff, rd_vec3 n, rd_vec3 L, rd_vec
         return -1;
     rd_code_case *c = &l->v[l->n];
     memset(c, 0, sizeof *c);
-    c->m = material(l->type, (int)(l->n % SETS), stiff);
+    c->m = material(l->type, l->domain, (int)(l->n % SETS), stiff);
     c->n = n;
     c->L = L;
     c->V = V;
@@ -147,20 +157,21 @@ static int lobes(list *l)
             double t = e * M_PI / 180;
             if (add(l, RD_CODE_LOBE, 0, v3(0, 1, 0), L, v3(sin(t), cos(t), 0), e))
                 return -1;
-            l->v[l->n - 1].m = material(l->type, 3, 0);
+            l->v[l->n - 1].m = material(l->type, l->domain, 3, 0);
             l->v[l->n - 1].incidence_deg = in;
         }
     }
     return 0;
 }
 
-rd_error_code rd_code_cases(rd_material_type type, rd_code_case **cases, size_t *n, rd_error *err)
+rd_error_code rd_code_cases(rd_material_type type, rd_shininess_domain shininess, rd_code_case **cases, size_t *n,
+                            rd_error *err)
 {
     *cases = NULL;
     *n = 0;
     if (type != RD_MAT_DIFFUSE && type != RD_MAT_PHONG && type != RD_MAT_BLINN_PHONG && type != RD_MAT_COOK_TORRANCE)
         return rd_error_set(err, RD_ERR_UNSUPPORTED, 0, 0, "no configurations for this material type");
-    list l = {NULL, 0, 0, 0x636f646563617365ull, type};
+    list l = {NULL, 0, 0, 0x636f646563617365ull, type, shininess};
     int bad = random_cases(&l, RD_CODE_GENERAL, 1500, 0.05, 1, 0.05, 1) ||
               random_cases(&l, RD_CODE_BACK_LIT, 300, -1, -0.02, 0.05, 1) ||
               random_cases(&l, RD_CODE_GRAZING, 200, 1e-4, 0.03, 0.05, 1) || aimed_cases(&l, RD_CODE_MIRROR, 200, 0) ||

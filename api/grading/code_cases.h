@@ -8,6 +8,7 @@
 
 #include <stddef.h>
 
+#include "assignment.h"
 #include "rayd/error.h"
 #include "rayd/scene.h"
 
@@ -40,9 +41,11 @@ typedef struct {
 } rd_code_case;
 
 /* The configurations of a material type: diffuse, phong, blinn_phong or
- * cook_torrance (RD_ERR_UNSUPPORTED for any other). *cases is malloc'ed
- * (the caller frees it); RD_ERR_NOMEM. */
-rd_error_code rd_code_cases(rd_material_type type, rd_code_case **cases, size_t *n, rd_error *err);
+ * cook_torrance (RD_ERR_UNSUPPORTED for any other), their shininess drawn
+ * from the assignment's domain. *cases is malloc'ed (the caller frees it);
+ * RD_ERR_NOMEM. */
+rd_error_code rd_code_cases(rd_material_type type, rd_shininess_domain shininess, rd_code_case **cases, size_t *n,
+                            rd_error *err);
 
 /* "general", "back_lit", ...; and what the group is, in words. */
 const char *rd_code_group_name(rd_code_group g);

@@ -102,11 +102,25 @@ static rd_rgb v_half_sum(const rd_code_case *c)
     return lit(c, fmax(incidence(c), 0), pow(fmax(nh, 0), c->m.shininess));
 }
 
+static rd_rgb with(const rd_code_case *c, rd_material m) { return rd_reflected_light(&m, c->n, c->L, c->V); }
+
+/* Neither clamp: the diffuse cosine and the highlight's both as they come. */
+static rd_rgb v_no_max(const rd_code_case *c) { return lit(c, incidence(c), pow(highlight_cos(c, 1), c->m.shininess)); }
+
+/* A power that is right for whole n only: s *= cos in a loop of i < n
+ * (ceil) or of (int)n (floor) steps. */
+static rd_rgb whole_power(const rd_code_case *c, double (*whole)(double))
+{
+    rd_material m = c->m;
+    m.shininess = whole(m.shininess);
+    return with(c, m);
+}
+static rd_rgb v_power_ceil(const rd_code_case *c) { return whole_power(c, ceil); }
+static rd_rgb v_power_floor(const rd_code_case *c) { return whole_power(c, floor); }
+
 static rd_rgb v_light_reversed(const rd_code_case *c) { return rd_reflected_light(&c->m, c->n, v3_neg(c->L), c->V); }
 static rd_rgb v_ambient(const rd_code_case *c) { return v3_add(expected(c), c->m.ambient); }
 static rd_rgb v_pi(const rd_code_case *c) { return v3_scale(expected(c), 1 / M_PI); }
-
-static rd_rgb with(const rd_code_case *c, rd_material m) { return rd_reflected_light(&m, c->n, c->L, c->V); }
 
 static rd_rgb v_other_model(const rd_code_case *c)
 {
@@ -160,6 +174,10 @@ static const mistake mistakes[] = {
      "Light from behind the surface gives negative light: clamp the cosine, max(-N·L, 0), and return black when the "
      "light is behind the surface.",
      v_missing_max, DIF | LOBES},
+    {"missing_max",
+     "Neither cosine is clamped: light from behind the surface gives negative light, and a negative highlight cosine "
+     "a negative or NaN highlight. Return black when -N·L <= 0, and use pow(max(cos, 0), shininess).",
+     v_no_max, LOBES},
     {"back_lit_not_black",
      "With the light behind the surface the result must be black, but yours keeps a highlight: return vec3(0) when "
      "-N·L <= 0, before the specular term.",
@@ -198,6 +216,16 @@ static const mistake mistakes[] = {
      "The highlight's cosine is not clamped: where it is negative, pow() gives negative light or NaN. Use "
      "pow(max(cos, 0), shininess).",
      v_no_spec_clamp, LOBES},
+    {"integer_power",
+     "The highlight's power is right only for a whole shininess: cos multiplied by itself in a loop is cos^ceil(n) "
+     "(or cos^floor(n)) at a fractional n such as 0.5 or 7.5, which this assignment allows. Use pow(max(cos, 0), "
+     "shininess).",
+     v_power_ceil, LOBES},
+    {"integer_power",
+     "The highlight's power is right only for a whole shininess: (int)shininess steps of a loop give "
+     "cos^floor(n) at a fractional n such as 0.5 or 7.5, which this assignment allows. Use pow(max(cos, 0), "
+     "shininess).",
+     v_power_floor, LOBES},
     {"kd_missing", "The diffuse term k_d cos(alpha) is missing: only the highlight is there.", v_no_kd, LOBES | COO},
     {"ks_missing", "The specular term is missing: only the diffuse light is there.", v_no_ks, LOBES | COO},
 };
@@ -296,19 +324,33 @@ static int best_mistake(const rd_code_case *c, const rd_code_value *v, const uns
     return best;
 }
 
+/* What can give NaN in the type's own formula: a student of Phong has no
+ * half vector to divide by zero. */
+static const char *not_finite_words(rd_material_type t)
+{
+    if (t == RD_MAT_DIFFUSE)
+        return "It returned NaN or infinity: a division by zero, sqrt of a negative number, or normalize() of a zero "
+               "vector. Guard those cases.";
+    if (t == RD_MAT_PHONG)
+        return "It returned NaN or infinity: a division by zero, pow or sqrt of a negative number, or normalize() of "
+               "a zero vector. Guard those cases.";
+    return "It returned NaN or infinity: a division by zero, sqrt or pow of a negative number, or normalize() of a "
+           "zero vector (for example a half vector when the eye looks straight back at the light). Guard those "
+           "cases.";
+}
+
 static void explain(const rd_code_case *c, const rd_code_value *v, unsigned char *state, size_t n, rd_code_report *r)
 {
-    rd_code_cause found[RD_CODE_MAX_CAUSES];
-    int nfound = 0;
     size_t count, example;
     int k;
-    while (nfound < RD_CODE_MAX_CAUSES && (k = best_mistake(c, v, state, n, &count, &example)) >= 0) {
-        found[nfound++] = (rd_code_cause){mistakes[k].cause, mistakes[k].words, count, example};
+    /* The mistakes first: each names what the student wrote, where a NaN
+     * left unexplained only names a symptom, so it comes after them */
+    while (r->ncauses < RD_CODE_MAX_CAUSES && (k = best_mistake(c, v, state, n, &count, &example)) >= 0) {
+        add_cause(r, mistakes[k].cause, mistakes[k].words, count, example);
         for (size_t i = 0; i < n; i++)
             if (state[i] == OPEN && explains(&mistakes[k], &c[i], &v[i]))
                 state[i] = EXPLAINED;
     }
-    /* NaN first: it blackens pixels wherever it happens */
     size_t nan = 0, nan_first = 0, other = 0, other_first = 0;
     for (size_t i = 0; i < n; i++) {
         if (state[i] != OPEN)
@@ -318,13 +360,8 @@ static void explain(const rd_code_case *c, const rd_code_value *v, unsigned char
         else if (v3_is_finite(v[i].got) && !other++)
             other_first = i;
     }
-    add_cause(r, "not_finite",
-              "It returned NaN or infinity: a division by zero, sqrt or pow of a negative number, or normalize() of "
-              "a zero vector (for example a half vector when the eye looks straight back at the light). Guard "
-              "those cases.",
-              nan, nan_first);
-    for (int i = 0; i < nfound; i++)
-        add_cause(r, found[i].cause, found[i].words, found[i].count, found[i].example);
+    if (n)
+        add_cause(r, "not_finite", not_finite_words(c[0].m.type), nan, nan_first);
     add_cause(r, "wrong_value",
               "Wrong values that none of the usual mistakes explains: compare yours with the expected value in the "
               "example, and see which group of configurations fails.",

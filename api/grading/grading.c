@@ -29,6 +29,7 @@ static rd_error_code open_scene(const rd_grader *g, const rd_grade_input *in, rd
         snprintf(o->assignment, sizeof o->assignment, "%s", a.name);
         snprintf(o->title, sizeof o->title, "%s", a.title);
         o->thresholds = a.thresholds;
+        o->shininess = a.shininess;
         /* Named within the folder: a grade's answer shows no server path. */
         char name[80];
         snprintf(name, sizeof name, "%s.cfg", a.name);

@@ -23,6 +23,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "assignment.h"
 #include "grade.h"
 #include "rayd/error.h"
 #include "rayd/scene.h"
@@ -69,8 +70,9 @@ typedef struct {
     char assignment[64]; /* "" for a given scene */
     char title[160];
     rd_grade_thresholds thresholds;
-    char key[17];               /* the reference's */
-    uint8_t *reference, *image; /* 8-bit RGB, width x height */
+    rd_shininess_domain shininess; /* the assignment's (REAL for a given scene) */
+    char key[17];                  /* the reference's */
+    uint8_t *reference, *image;    /* 8-bit RGB, width x height */
     int width, height;
     int reference_cached;   /* the cache had it */
     rd_grade_result result; /* after rd_grade_finish */

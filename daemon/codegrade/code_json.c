@@ -30,11 +30,27 @@ static cJSON *diag_json(const rd_code_diag *d)
     return o;
 }
 
+/* compile.causes: what the student reads before the compiler's words,
+ * shaped like function.causes. */
+static int add_compile_causes(cJSON *o, const rd_code_compile *c)
+{
+    cJSON *a = cJSON_AddArrayToObject(o, "causes");
+    if (!a || !c->cause)
+        return a != NULL;
+    cJSON *e = cJSON_CreateObject();
+    if (!e || !cJSON_AddStringToObject(e, "cause", c->cause) || !cJSON_AddStringToObject(e, "words", c->words) ||
+        !cJSON_AddItemToArray(a, e)) {
+        cJSON_Delete(e);
+        return 0;
+    }
+    return 1;
+}
+
 static int add_compile(cJSON *root, const rd_code_compile *c)
 {
     cJSON *o = cJSON_AddObjectToObject(root, "compile");
     cJSON *d = o ? cJSON_AddArrayToObject(o, "diagnostics") : NULL;
-    if (!d || !cJSON_AddBoolToObject(o, "ok", c->result == RD_COMPILE_OK) ||
+    if (!d || !add_compile_causes(o, c) || !cJSON_AddBoolToObject(o, "ok", c->result == RD_COMPILE_OK) ||
         !cJSON_AddStringToObject(o, "result", compile_word(c->result)) || !cJSON_AddNumberToObject(o, "ms", c->ms) ||
         !cJSON_AddStringToObject(o, "messages", c->messages ? c->messages : ""))
         return 0;

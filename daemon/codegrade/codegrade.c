@@ -1,5 +1,7 @@
 #include "codegrade.h"
 
+#include <ctype.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -68,6 +70,23 @@ static int kind_of(const rd_scene *s)
             if (s->materials[i].type == kinds[k].type && k > best)
                 best = k;
     return best;
+}
+
+/* The scene's graded materials must lie in the domain the assignment
+ * states: the image's calls are judged like the configurations, and code
+ * right for every n the text allows must pass both. */
+static rd_error_code check_domain(const rd_scene *s, rd_material_type t, rd_shininess_domain d, const char *assignment,
+                                  rd_error *err)
+{
+    for (size_t i = 0; d == RD_SHININESS_NATURAL && i < s->material_count; i++) {
+        double n = s->materials[i].shininess;
+        if (s->materials[i].type == t && (n < 1 || n != floor(n)))
+            return rd_error_set(err, RD_ERR_INVALID, 0, 0,
+                                "the assignment %s states a natural shininess, but its scene's material %s has "
+                                "shininess %g",
+                                assignment, s->materials[i].name ? s->materials[i].name : "(unnamed)", n);
+    }
+    return RD_OK;
 }
 
 static int has_suffix(const char *s, const char *suffix)
@@ -149,10 +168,14 @@ static rd_error_code prepare(const rd_codegrade_config *cfg, const rd_codegrade_
                             out->assignment);
     out->material = kinds[p->kind].word;
     out->class_name = kinds[p->kind].cls;
+    rd_material_type t = kinds[p->kind].type;
+    /* before the reference, whose render moves the stage on */
+    if ((rc = check_domain(&p->scene, t, out->grade.shininess, out->assignment, err)))
+        return rc;
     if (!out->grade.reference &&
         (rc = rd_grade_render_reference(&cfg->grader, &p->scene, cfg->threads, &out->grade, err)))
         return rc;
-    if ((rc = rd_code_cases(kinds[p->kind].type, &out->cases, &out->ncases, err)))
+    if ((rc = rd_code_cases(t, out->grade.shininess, &out->cases, &out->ncases, err)))
         return rc;
     if (add_cases(p, out))
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
@@ -379,6 +402,54 @@ static rd_error_code evaluate(const rd_sandbox_result *res, prepared *p, rd_code
     return rc;
 }
 
+static int ident_char(char c) { return c == '_' || isalnum((unsigned char)c); }
+
+static int is_space(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r'; }
+
+/* The class is defined at src[i] (a whole word there). */
+static int defined_at(const char *src, size_t len, size_t i, size_t n)
+{
+    size_t a = i + n, b = i;
+    if ((i && ident_char(src[i - 1])) || (a < len && ident_char(src[a])))
+        return 0;
+    while (a < len && is_space(src[a]))
+        a++;
+    if (a + 1 < len && src[a] == ':' && src[a + 1] == ':')
+        return 1;
+    while (b && is_space(src[b - 1]))
+        b--;
+    int keyword = (b >= 5 && memcmp(src + b - 5, "class", 5) == 0) || (b >= 6 && memcmp(src + b - 6, "struct", 6) == 0);
+    return keyword && b < i && a < len && (src[a] == ':' || src[a] == '{');
+}
+
+/* Whether the source defines the class: "class NAME" or "struct NAME"
+ * followed by ':' or '{', or "NAME::" (a .cpp's definitions); comments
+ * and strings are not told apart, which a failed compile tolerates. */
+static int defines_class(const char *src, size_t len, const char *cls)
+{
+    size_t n = strlen(cls);
+    for (size_t i = 0; i + n <= len; i++)
+        if (src[i] == cls[0] && memcmp(src + i, cls, n) == 0 && defined_at(src, len, i, n))
+            return 1;
+    return 0;
+}
+
+/* A compile that failed because the file is another assignment's: the
+ * adapter's errors about the missing class would hide that. */
+static void name_wrong_class(const rd_codegrade_input *in, rd_codegrade_result *out)
+{
+    if (!out->class_name || defines_class(in->source, in->len, out->class_name))
+        return;
+    for (size_t k = 0; k < NKINDS; k++)
+        if (kinds[k].cls != out->class_name && defines_class(in->source, in->len, kinds[k].cls)) {
+            out->compile.cause = "wrong_class";
+            snprintf(out->compile.words, sizeof out->compile.words,
+                     "this file defines %s; %s expects %s (upload %s.h, or grade this file with a %s assignment)",
+                     kinds[k].cls, out->assignment, out->class_name, out->class_name, kinds[k].word);
+            return;
+        }
+}
+
 rd_error_code rd_codegrade_run(const rd_codegrade_config *cfg, const rd_codegrade_input *in, rd_codegrade_result *out,
                                rd_error *err)
 {
@@ -401,6 +472,8 @@ rd_error_code rd_codegrade_run(const rd_codegrade_config *cfg, const rd_codegrad
         out->sandbox_ms = res.ms;
         rc = evaluate(&res, &p, out, err);
     }
+    if (!rc && out->compile.result == RD_COMPILE_FAILED)
+        name_wrong_class(in, out);
     rd_sandbox_result_free(&res);
     rd_scene_free(&p.scene);
     free(p.q);

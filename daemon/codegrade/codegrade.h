@@ -79,6 +79,11 @@ typedef struct {
     char *messages; /* the compiler's output, paths shortened */
     rd_code_diag *diags;
     int ndiags;
+    /* Why it failed in the student's terms, before the compiler's words:
+     * "wrong_class" when the file defines another material's class than
+     * the assignment's (NULL for none), and its words. */
+    const char *cause;
+    char words[240];
 } rd_code_compile;
 
 typedef struct {
@@ -123,6 +128,12 @@ size_t rd_codegrade_memory_bytes(const rd_codegrade_config *cfg, size_t source_l
 /* The result as a cJSON tree without the image's verdict (the caller adds
  * it as "image"); NULL when out of memory. */
 cJSON *rd_codegrade_json(const rd_codegrade_result *r);
+
+/* The answer's summary for a person (rayd grade --code without --json):
+ * the verdict, then each cause with its words and one example, read off
+ * the JSON of rd_codegrade_json (code_summary.c). The
+ * caller frees the text; NULL when out of memory. */
+char *rd_codegrade_summary(const cJSON *answer);
 
 /* The course's class for a material type ("PhongMaterial"), NULL if none. */
 const char *rd_codegrade_class(rd_material_type t);

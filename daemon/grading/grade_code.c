@@ -210,7 +210,10 @@ static int add_compile_error(code_task *t, cJSON *root)
     if (c->result == RD_COMPILE_TIME_LIMIT)
         snprintf(msg, sizeof msg, "the compiler ran past --code-compile-seconds (%.0f s)",
                  t->g->code.compile_ms / 1000);
-    else if (d)
+    else if (c->cause) { /* the student's reason, not the adapter's line */
+        snprintf(msg, sizeof msg, "the code does not compile: %s", c->words);
+        d = NULL;
+    } else if (d)
         snprintf(msg, sizeof msg, "the code does not compile: %s:%d:%d: %s", d->file, d->line, d->column, d->message);
     else
         snprintf(msg, sizeof msg, "the code does not compile (see compile.messages)");

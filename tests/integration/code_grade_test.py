@@ -33,9 +33,11 @@ MISTAKES = {
     "phong_missing_max": "missing_max", "phong_reflect_sign": "reflect_sign", "phong_blinn": "blinn_not_phong",
     "phong_light_reversed": "light_reversed", "phong_ambient_inside": "ambient_inside",
     "phong_shininess_half": "shininess_wrong", "phong_no_spec_clamp": "no_specular_clamp",
-    "phong_kd_missing": "kd_missing", "phong_nan": "not_finite",
+    "phong_kd_missing": "kd_missing", "phong_nan": "half_vector_sign", "phong_no_max": "missing_max",
 }
-PASSING = ["diffuse_ok", "diffuse_ok_float", "phong_ok", "phong_ok_float", "blinn_phong_ok", "cook_torrance_ok"]
+# phong_loop_power: s *= cos in a loop, right for the natural n that phong.grade states.
+PASSING = ["diffuse_ok", "diffuse_ok_float", "phong_ok", "phong_ok_float", "phong_loop_power", "blinn_phong_ok",
+           "cook_torrance_ok"]
 RENDER_PROBE = b"""[render]
 width = 16
 height = 12
@@ -88,35 +90,72 @@ def read(path):
         return f.read()
 
 
+def cli(*args, timeout=300):
+    return subprocess.run([RAYD, "grade"] + list(args), capture_output=True, timeout=timeout)
+
+
 def cli_checks(tmp):
     t0 = time.time()
-    p = subprocess.run([RAYD, "grade", "--assignment", "phong", "--code", STUDENTS + "/phong_ok.h", "--diff",
-                        os.path.join(tmp, "diff.png")], capture_output=True, timeout=300)
+    p = cli("--assignment", "phong", "--code", STUDENTS + "/phong_ok.h", "--json", "--diff",
+            os.path.join(tmp, "diff.png"))
     ms = (time.time() - t0) * 1e3
     v = json.loads(p.stdout or b"{}")
     check(p.returncode == 0 and v.get("pass") is True, "the CLI passes phong_ok (exit %d, %s)" %
           (p.returncode, p.stderr[-300:]))
     check(os.path.getsize(os.path.join(tmp, "diff.png")) > 0, "the CLI writes --diff")
-    p = subprocess.run([RAYD, "grade", "--assignment", "phong", "--code", STUDENTS + "/phong_missing_max.h"],
-                       capture_output=True, timeout=300)
+    p = cli("--assignment", "phong", "--code", STUDENTS + "/phong_missing_max.h", "--json")
     v = json.loads(p.stdout or b"{}")
     check(p.returncode == 4 and first_cause(v) == "missing_max", "the CLI fails phong_missing_max with exit 4 "
           "and names missing_max (exit %d, cause %s)" % (p.returncode, first_cause(v)))
     bad = os.path.join(tmp, "PhongMaterial.h")
     with open(bad, "wb") as f:
         f.write(read(STUDENTS + "/phong_ok.h").replace(b"return diffuse + specular;", b"return diffuse +;"))
-    p = subprocess.run([RAYD, "grade", "--assignment", "phong", "--code", bad], capture_output=True, timeout=300)
+    p = cli("--assignment", "phong", "--code", bad, "--json")
     v = json.loads(p.stdout or b"{}")
     check(p.returncode == 2 and (v.get("compile") or {}).get("ok") is False and b"does not compile" in p.stderr,
           "the CLI: a compile error is exit 2 with the messages (%d)" % p.returncode)
-    p = subprocess.run([RAYD, "grade", "--assignment", "nope", "--code", STUDENTS + "/phong_ok.h"],
-                       capture_output=True, timeout=60)
+    p = cli("--assignment", "nope", "--code", STUDENTS + "/phong_ok.h", timeout=60)
     check(p.returncode == 1 and b"nope" in p.stderr, "the CLI: no such assignment is exit 1 (%d)" % p.returncode)
-    p = subprocess.run([RAYD, "grade", "--assignment", "phong", "--code", STUDENTS + "/phong_ok.h", "--bwrap",
-                        "/nonexistent/bwrap"], capture_output=True, timeout=60)
+    p = cli("--assignment", "phong", "--code", STUDENTS + "/phong_ok.h", "--bwrap", "/nonexistent/bwrap", timeout=60)
     check(p.returncode == 3 and b"sandbox" in p.stderr, "the CLI without a sandbox is exit 3 with why (%d, %s)" %
           (p.returncode, p.stderr[-200:]))
+    cli_summaries(bad)
     return ms
+
+
+def not_json(text):
+    try:
+        json.loads(text)
+        return False
+    except ValueError:
+        return True
+
+
+def cli_summaries(syntax_error):
+    """Without --json the CLI prints a summary a student reads: the verdict
+    first, each cause with its words and one example, the first compiler
+    error; the same exit statuses as with --json."""
+    p = cli("--assignment", "phong", "--code", STUDENTS + "/phong_missing_max.h")
+    out = p.stdout.decode()
+    lines = out.splitlines()
+    check(p.returncode == 4 and not_json(out) and len(lines) <= 8 and lines and "fails: 300 of" in lines[0],
+          "the CLI's summary of a failing grade starts with the verdict (exit %d): %s" % (p.returncode, out[:300]))
+    check(len(lines) > 2 and lines[1].startswith("  missing_max, 300 configurations: Light from behind") and
+          lines[2].startswith("    for example (back_lit): N (") and "expected (0, 0, 0), got (-" in lines[2],
+          "the summary gives the cause, its words and one example: %s" % out[:400])
+    p = cli("--assignment", "phong", "--code", STUDENTS + "/phong_ok.h")
+    out = p.stdout.decode()
+    check(p.returncode == 0 and out.count("\n") == 1 and out.startswith("phong (PhongMaterial): pass: 3223 of 3223"),
+          "a passing grade's summary is one line (exit %d): %s" % (p.returncode, out[:300]))
+    p = cli("--assignment", "phong", "--code", syntax_error)
+    out = p.stdout.decode()
+    check(p.returncode == 2 and "does not compile" in out and "the compiler: PhongMaterial.h:" in out,
+          "a compile error's summary names the first error (exit %d): %s" % (p.returncode, out[:300]))
+    p = cli("--assignment", "diffuse", "--code", STUDENTS + "/diffuse_wrong_class.h")
+    out = p.stdout.decode()
+    check(p.returncode == 2 and "this file defines PhongMaterial; diffuse expects DiffuseMaterial" in out and
+          "adapter.cpp" not in out, "PhongMaterial.h graded as diffuse says it is the wrong class (exit %d): %s" %
+          (p.returncode, out[:300]))
 
 
 def students(d):
@@ -134,6 +173,16 @@ def students(d):
                   "%s fails naming %s (%d, got %s)" % (name, MISTAKES[name], st, first_cause(v)))
             words = ((v.get("function") or {}).get("causes") or [{}])[0].get("words", "")
             check(len(words) > 20, "%s: the cause has words for the student" % name)
+            if name == "phong_no_max":
+                told = " ".join(c.get("words", "") for c in (v.get("function") or {}).get("causes") or [])
+                check("half vector" not in told and "wrong_value" not in json.dumps(v["function"]["causes"]),
+                      "no max anywhere is told of its clamps, not of a half vector: %s" % told[:300])
+    st, _, v = post_code(d, "phong_any_n", "PhongMaterial.h", read(STUDENTS + "/phong_loop_power.h"))
+    causes = (v.get("function") or {}).get("causes") or [{}]
+    check(st == 200 and v.get("pass") is False and [c.get("cause") for c in causes] == ["integer_power"] and
+          causes[0]["example"]["material"]["shininess"] % 1 != 0,
+          "a loop power where the assignment allows any n fails naming integer_power at a fractional n (%d, %s)" %
+          (st, [c.get("cause") for c in causes]))
     st, _, v = post_code(d, "phong", "PhongMaterial.c", read(STUDENTS + "/phong_ok.cpp"))
     check(st == 200 and v.get("pass") is True, "a .c upload passes (%d, %s)" % (st, v.get("compile")))
     st, _, v = post_code(d, "phong", "PhongMaterial.cpp", read(STUDENTS + "/phong_ok.cpp"))
@@ -151,6 +200,22 @@ def students(d):
     check(st == 200 and h.get("content-type") == "image/svg+xml" and b.startswith(b"<svg") and b"NaN" not in b,
           "the lobe plot is served (%d)" % st)
     return times
+
+
+def wrong_class(d):
+    """PhongMaterial.h uploaded to diffuse: 422, said in the student's terms
+    first, not with the adapter's errors about the class it lacks."""
+    st, _, v = post_code(d, "diffuse", "PhongMaterial.h", read(STUDENTS + "/diffuse_wrong_class.h"))
+    c = v.get("compile") or {}
+    err = v.get("error") or {}
+    check(st == 422 and err.get("code") == "compile_error" and
+          "this file defines PhongMaterial; diffuse expects DiffuseMaterial" in err.get("message", "") and
+          "line" not in err, "the wrong class is the error's message (%d, %s)" % (st, err))
+    check([x.get("cause") for x in c.get("causes", [])] == ["wrong_class"],
+          "compile.causes names wrong_class: %s" % c.get("causes"))
+    st, _, v = post_code(d, "phong", "PhongMaterial.h", read(STUDENTS + "/phong_ok.h").replace(b"+ specular;", b"+;"))
+    check(st == 422 and (v.get("compile") or {}).get("causes") == [], "a syntax error has no compile cause: %s" %
+          (v.get("compile") or {}).get("causes"))
 
 
 def compile_error(d):
@@ -338,6 +403,15 @@ def bad_uploads(d):
     check(st == 404, "an unknown assignment is 404 (%d)" % st)
     st, _, v = post_code(d, "mirror_only", "PhongMaterial.h", b"int x;")
     check(st == 422, "an assignment with no material a student writes is 422 (%d, %s)" % (st, v))
+    st, _, v = post_code(d, "phong_off_domain", "PhongMaterial.h", read(STUDENTS + "/phong_ok.h"))
+    err = v.get("error") or {}
+    check(st == 422 and err.get("code") == "bad_assignment" and "shininess 7.5" in err.get("message", ""),
+          "a scene outside the shininess its .grade states is bad_assignment (%d, %s)" % (st, err))
+    st, _, v = post_code(d, "phong_bad_domain", "PhongMaterial.h", read(STUDENTS + "/phong_ok.h"))
+    err = v.get("error") or {}
+    check(st == 422 and err.get("code") == "bad_assignment" and "phong_bad_domain.grade:1:13" in
+          err.get("message", "") and "natural or real" in err.get("message", ""),
+          "a shininess that is neither natural nor real is a .grade error with its place (%d, %s)" % (st, err))
     body, ct = form_parts([("assignment", None, b"phong")])
     st, _, _ = d.request("POST", "/v1/grade/code", body=body, headers={"Content-Type": ct})
     check(st == 400, "no source file is 400 (%d)" % st)
@@ -489,9 +563,24 @@ def no_sandbox(tmp):
 
 
 def assignments(tmp):
-    """The bundled assignments, and one with no material a student writes."""
+    """The bundled assignments, one with no material a student writes, and
+    phong allowing a fractional shininess."""
     path = os.path.join(tmp, "assignments")
     shutil.copytree("scenes/assignments", path)
+    # phong's scene where any positive shininess is allowed, as blinn_phong's
+    shutil.copy(os.path.join(path, "phong.cfg"), os.path.join(path, "phong_any_n.cfg"))
+    with open(os.path.join(path, "phong_any_n.grade"), "w") as f:
+        f.write("title = Phong for any n\nshininess = real\n")
+    # a scene whose shininess its .grade's domain excludes, and a domain that is none
+    with open(os.path.join(path, "phong.cfg")) as f:
+        phong = f.read()
+    with open(os.path.join(path, "phong_off_domain.cfg"), "w") as f:
+        f.write(phong.replace("shininess = 10\n", "shininess = 7.5\n"))
+    with open(os.path.join(path, "phong_off_domain.grade"), "w") as f:
+        f.write("shininess = natural\n")
+    shutil.copy(os.path.join(path, "phong.cfg"), os.path.join(path, "phong_bad_domain.cfg"))
+    with open(os.path.join(path, "phong_bad_domain.grade"), "w") as f:
+        f.write("shininess = whole\n")
     with open(os.path.join(path, "mirror_only.cfg"), "w") as f:
         f.write(RENDER_PROBE.decode().replace("type = diffuse", "type = perfect_specular"))
     return path
@@ -508,6 +597,7 @@ def main():
             times = students(d)
             descriptors(d)
             compile_error(d)
+            wrong_class(d)
             the_daemons_files(d, tmp)
             records(d)
             bad_uploads(d)

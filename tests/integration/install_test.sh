@@ -43,7 +43,7 @@ cd "$T/elsewhere" || exit 1
 rc=$?
 [ "$rc" -eq 0 ] && grep -q '"pass":[[:space:]]*true' grade.out && ok ||
     bad "the installed rayd grades against its own assignments (exit $rc): $(cat err)"
-"$rayd" grade --assignment phong --code "$root/tests/codegrade/students/phong_ok.h" >code.out 2>err
+"$rayd" grade --assignment phong --code "$root/tests/codegrade/students/phong_ok.h" --json >code.out 2>err
 rc=$?
 [ "$rc" -eq 0 ] && grep -q '"pass":[[:space:]]*true' code.out && ok ||
     bad "the installed rayd grades code with its own course and evaluator (exit $rc): $(cat err) $(head -c 300 code.out)"
@@ -84,7 +84,7 @@ fi
 # (RestrictNamespaces=yes, ~@privileged) this was exit 3.
 make --no-print-directory -s -C "$root" build/unit-filter >"$T/uf.log" 2>&1 || bad "build/unit-filter: $(cat "$T/uf.log")"
 "$root/build/unit-filter" "$prefix/lib/systemd/system/rayd@.service" "$rayd" grade --assignment phong \
-    --code "$root/tests/codegrade/students/phong_ok.h" >"$T/unit_grade.json" 2>"$T/unit_grade.err"
+    --code "$root/tests/codegrade/students/phong_ok.h" --json >"$T/unit_grade.json" 2>"$T/unit_grade.err"
 rc=$?
 [ "$rc" -eq 0 ] && grep -Eq "\"pass\":[[:space:]]*true" "$T/unit_grade.json" && ok ||
     bad "rayd grade --code under the unit's restrictions (exit $rc): $(cat "$T/unit_grade.err")"

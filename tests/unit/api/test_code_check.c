@@ -15,25 +15,34 @@
 
 typedef rd_rgb (*student_fn)(const rd_code_case *c);
 
-static rd_code_case *cases_of(rd_material_type t, size_t *n)
+static rd_code_case *cases_in(rd_material_type t, rd_shininess_domain d, size_t *n)
 {
     rd_code_case *c = NULL;
     rd_error err = {0};
-    cr_assert_eq(rd_code_cases(t, &c, n, &err), RD_OK, "%s", err.message);
+    cr_assert_eq(rd_code_cases(t, d, &c, n, &err), RD_OK, "%s", err.message);
     cr_assert_gt(*n, 2800, "several thousand configurations (%zu)", *n);
     return c;
 }
 
-/* The student's values for every configuration, and the report. */
-static rd_code_report grade(rd_material_type t, student_fn f, rd_code_case **cases, rd_code_value **values, size_t *n)
+/* Any positive shininess: the widest domain, the most mistakes seen. */
+static rd_code_case *cases_of(rd_material_type t, size_t *n) { return cases_in(t, RD_SHININESS_REAL, n); }
+
+/* The student's values for every configuration of the domain, and the report. */
+static rd_code_report grade_in(rd_material_type t, rd_shininess_domain d, student_fn f, rd_code_case **cases,
+                               rd_code_value **values, size_t *n)
 {
-    *cases = cases_of(t, n);
+    *cases = cases_in(t, d, n);
     *values = calloc(*n, sizeof **values);
     for (size_t i = 0; i < *n; i++)
         (*values)[i] = (rd_code_value){f(&(*cases)[i]), RD_CODE_RETURNED};
     rd_code_report r;
     rd_code_check(*cases, *values, *n, &r);
     return r;
+}
+
+static rd_code_report grade(rd_material_type t, student_fn f, rd_code_case **cases, rd_code_value **values, size_t *n)
+{
+    return grade_in(t, RD_SHININESS_REAL, f, cases, values, n);
 }
 
 static const char *first_cause(rd_material_type t, student_fn f)
@@ -118,6 +127,23 @@ static rd_rgb p_kd_missing(const rd_code_case *c)
 }
 static rd_rgb p_ks_missing(const rd_code_case *c) { return cos_in(c) <= 0 ? v3(0, 0, 0) : lit(c, cos_in(c), 0); }
 
+/* No clamp at all: -N·L and R·V as they come. */
+static rd_rgb p_no_max(const rd_code_case *c)
+{
+    return lit(c, cos_in(c), pow(v3_dot(mirror(c), c->V), c->m.shininess));
+}
+
+/* for (int i = 0; i < shininess; i++) s *= cosGamma; right for whole n only. */
+static rd_rgb p_loop_power(const rd_code_case *c)
+{
+    if (cos_in(c) <= 0)
+        return v3(0, 0, 0);
+    double g = fmax(v3_dot(mirror(c), c->V), 0), s = 1;
+    for (int i = 0; i < c->m.shininess; i++)
+        s *= g;
+    return lit(c, cos_in(c), s);
+}
+
 /* H = normalize(L + V): 0/0 when the eye looks back at the light. */
 static rd_rgb p_nan(const rd_code_case *c)
 {
@@ -181,20 +207,14 @@ Test(code_check, each_usual_mistake_is_named)
         student_fn f;
         const char *cause;
     } m[] = {
-        {RD_MAT_DIFFUSE, d_missing_max, "missing_max"},
-        {RD_MAT_DIFFUSE, d_light_reversed, "light_reversed"},
-        {RD_MAT_DIFFUSE, d_ambient, "ambient_inside"},
-        {RD_MAT_DIFFUSE, d_pi, "divided_by_pi"},
-        {RD_MAT_PHONG, p_missing_max, "missing_max"},
-        {RD_MAT_PHONG, p_reflect_sign, "reflect_sign"},
-        {RD_MAT_PHONG, p_blinn, "blinn_not_phong"},
-        {RD_MAT_PHONG, p_half, "shininess_wrong"},
-        {RD_MAT_PHONG, p_no_clamp, "no_specular_clamp"},
-        {RD_MAT_PHONG, p_kd_missing, "kd_missing"},
-        {RD_MAT_PHONG, p_nan, "not_finite"},
-        {RD_MAT_PHONG, d_ambient, "ambient_inside"},
-        {RD_MAT_COOK_TORRANCE, d_ambient, "ambient_inside"},
-        {RD_MAT_BLINN_PHONG, d_pi, "divided_by_pi"},
+        {RD_MAT_DIFFUSE, d_missing_max, "missing_max"},      {RD_MAT_DIFFUSE, d_light_reversed, "light_reversed"},
+        {RD_MAT_DIFFUSE, d_ambient, "ambient_inside"},       {RD_MAT_DIFFUSE, d_pi, "divided_by_pi"},
+        {RD_MAT_PHONG, p_missing_max, "missing_max"},        {RD_MAT_PHONG, p_reflect_sign, "reflect_sign"},
+        {RD_MAT_PHONG, p_blinn, "blinn_not_phong"},          {RD_MAT_PHONG, p_half, "shininess_wrong"},
+        {RD_MAT_PHONG, p_no_clamp, "no_specular_clamp"},     {RD_MAT_PHONG, p_kd_missing, "kd_missing"},
+        {RD_MAT_PHONG, p_nan, "half_vector_sign"},           {RD_MAT_PHONG, p_no_max, "missing_max"},
+        {RD_MAT_PHONG, p_loop_power, "integer_power"},       {RD_MAT_PHONG, d_ambient, "ambient_inside"},
+        {RD_MAT_COOK_TORRANCE, d_ambient, "ambient_inside"}, {RD_MAT_BLINN_PHONG, d_pi, "divided_by_pi"},
         {RD_MAT_PHONG, p_ks_missing, "ks_missing"},
     };
     for (size_t i = 0; i < sizeof m / sizeof *m; i++) {
@@ -204,16 +224,59 @@ Test(code_check, each_usual_mistake_is_named)
 }
 
 /* H = normalize(L + V): NaN where the eye looks back at the light, and the
- * wrong half vector everywhere else; both are named, the NaN first. */
-Test(code_check, a_half_vector_of_the_wrong_sign_is_named_after_its_nan)
+ * wrong half vector everywhere else; both are named, the half vector the
+ * student wrote first, its NaN after. */
+Test(code_check, a_half_vector_of_the_wrong_sign_is_named_before_its_nan)
 {
     rd_code_case *c;
     rd_code_value *v;
     size_t n;
     rd_code_report r = grade(RD_MAT_PHONG, p_nan, &c, &v, &n);
     cr_assert_geq(r.ncauses, 2);
-    cr_assert_str_eq(r.causes[0].cause, "not_finite");
-    cr_assert_str_eq(r.causes[1].cause, "half_vector_sign");
+    cr_assert_str_eq(r.causes[0].cause, "half_vector_sign");
+    cr_assert_str_eq(r.causes[1].cause, "not_finite");
+    free(c);
+    free(v);
+}
+
+/* No max anywhere gives NaN at a fractional n (pow of a negative cosine):
+ * the causes speak of the clamps the student left out, never of a half
+ * vector the student does not have. */
+Test(code_check, no_max_anywhere_is_named_by_its_clamps_first)
+{
+    rd_code_case *c;
+    rd_code_value *v;
+    size_t n;
+    rd_code_report r = grade(RD_MAT_PHONG, p_no_max, &c, &v, &n);
+    cr_assert_gt(r.not_finite, 0, "fractional shininess makes NaN here");
+    cr_assert_str_eq(r.causes[0].cause, "missing_max");
+    for (int i = 0; i < r.ncauses; i++) {
+        cr_expect_null(strstr(r.causes[i].words, "half vector"), "%s speaks of a half vector", r.causes[i].cause);
+        cr_expect_str_neq(r.causes[i].cause, "wrong_value", "%zu values unexplained", r.causes[i].count);
+    }
+    free(c);
+    free(v);
+}
+
+/* The course's n is natural: a loop power is right there, and where an
+ * assignment allows any n its failures have a name of their own. */
+Test(code_check, a_loop_power_passes_natural_shininess_and_is_named_outside_it)
+{
+    rd_code_case *c;
+    rd_code_value *v;
+    size_t n;
+    rd_code_report r = grade_in(RD_MAT_PHONG, RD_SHININESS_NATURAL, p_loop_power, &c, &v, &n);
+    for (size_t i = 0; i < n; i++)
+        cr_assert(c[i].m.shininess >= 1 && c[i].m.shininess == floor(c[i].m.shininess), "case %zu: shininess %g", i,
+                  c[i].m.shininess);
+    cr_assert(r.pass, "%zu fail (first cause %s)", r.failed, r.ncauses ? r.causes[0].cause : "-");
+    free(c);
+    free(v);
+    r = grade(RD_MAT_PHONG, p_loop_power, &c, &v, &n);
+    cr_assert_eq(r.ncauses, 1, "one cause (first %s)", r.causes[0].cause);
+    cr_assert_str_eq(r.causes[0].cause, "integer_power");
+    cr_assert_eq(r.causes[0].count, r.failed);
+    cr_assert_neq(c[r.causes[0].example].m.shininess, floor(c[r.causes[0].example].m.shininess));
     free(c);
     free(v);
 }
@@ -300,7 +363,7 @@ Test(code_check, the_configurations_are_fixed_unit_and_grouped)
     rd_code_case *none = NULL;
     size_t nn = 1;
     rd_error err = {0};
-    cr_assert_eq(rd_code_cases(RD_MAT_PERFECT_SPECULAR, &none, &nn, &err), RD_ERR_UNSUPPORTED);
+    cr_assert_eq(rd_code_cases(RD_MAT_PERFECT_SPECULAR, RD_SHININESS_REAL, &none, &nn, &err), RD_ERR_UNSUPPORTED);
     cr_assert(none == NULL && nn == 0);
 }
 
