@@ -2,6 +2,7 @@
 #include <string.h>
 
 #include "cli.h"
+#include "suggest.h"
 #include "version.h"
 
 static const char help[] = "usage: rayd COMMAND [options]\n"
@@ -47,6 +48,16 @@ int main(int argc, char **argv)
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
         if (strcmp(argv[1], commands[i].name) == 0)
             return commands[i].run(argc - 1, argv + 1);
-    fprintf(stderr, "rayd: unknown command '%s'\n\n%s", argv[1], help);
+    /* The scene reader's did-you-mean, over the same table that runs the
+     * commands, so a new command is suggested without a second list. */
+    rd_suggestion sg;
+    rd_suggest_init(&sg);
+    size_t len = strlen(argv[1]);
+    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
+        rd_suggest_offer(&sg, argv[1], len, commands[i].name);
+    rd_suggest_offer(&sg, argv[1], len, "version");
+    char hint[300];
+    rd_suggest_hint(&sg, len, hint, sizeof hint);
+    fprintf(stderr, "rayd: unknown command '%s'%s\n\n%s", argv[1], hint, help);
     return RD_EXIT_USAGE;
 }

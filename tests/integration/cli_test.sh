@@ -319,11 +319,12 @@ if [ "$(id -u)" -ne 0 ]; then
 fi
 [ -z "$(ls "$T/ro")" ] && [ -z "$(ls "$T" | grep '\.tmp')" ] && ok || bad "a failed output left files: $(ls "$T" "$T/ro")"
 
-# .pfm and .exr hold the linear image: the PNG is exactly its clamp, gamma
-# and rounding (rd_display8), and the EXR's floats are the PFM's.
+# .pfm and .exr hold the linear image (no --gamma: refused for them): the
+# PNG is exactly its clamp, gamma and rounding (rd_display8), and the EXR's
+# floats are the PFM's.
 "$RAYD" render scenes/area_light.cfg -o "$T/h.png" --width 24 --height 18 --samples 8 --gamma 2.2 2>/dev/null
-"$RAYD" render scenes/area_light.cfg -o "$T/h.pfm" --width 24 --height 18 --samples 8 --gamma 2.2 2>/dev/null
-"$RAYD" render scenes/area_light.cfg -o "$T/h.exr" --width 24 --height 18 --samples 8 --gamma 2.2 2>/dev/null
+"$RAYD" render scenes/area_light.cfg -o "$T/h.pfm" --width 24 --height 18 --samples 8 2>/dev/null
+"$RAYD" render scenes/area_light.cfg -o "$T/h.exr" --width 24 --height 18 --samples 8 2>/dev/null
 /usr/bin/python3 - "$T/h.pfm" "$T/h.png" "$T/h.exr" <<'PY' && ok || bad "the PFM is not the PNG's linear image"
 import math, struct, sys, zlib
 pfm = open(sys.argv[1], "rb").read()
@@ -378,6 +379,33 @@ if [ "${ms:-0}" -gt 1300 ]; then
         grep -q "\[####################\] 100% pass 1 tiles 130/130 spp 128.0 err 0.0" "$T/err" && ok ||
         bad "--progress bar: $(cat -v "$T/err")"
 fi
+
+# A misspelt command or assignment is told the name it missed (the scene
+# reader's did-you-mean); an unknown one far from any lists them.
+"$RAYD" render scenes/phong.cfg -o "$T/dym.png" --width 8 --height 8 2>/dev/null
+echo '// not graded' >"$T/dym.h"
+expect_exit 1 "misspelt command" -- "$RAYD" rendr scenes/phong.cfg -o "$T/x.png"
+grep -q "unknown command 'rendr'; did you mean 'render'?" "$T/err" && ok || bad "rayd rendr: $(head -3 "$T/err")"
+expect_exit 1 "misspelt assignment" -- "$RAYD" grade --assignments scenes/assignments --assignment phongg \
+    --image "$T/dym.png"
+grep -q "no assignment named 'phongg'; did you mean 'phong'?" "$T/err" && ok || bad "--assignment phongg: $(cat "$T/err")"
+expect_exit 1 "misspelt code assignment" -- "$RAYD" grade --assignments scenes/assignments --assignment difuse \
+    --code "$T/dym.h"
+grep -q "no assignment named 'difuse'; did you mean 'diffuse'?" "$T/err" && ok || bad "--code --assignment difuse: $(cat "$T/err")"
+expect_exit 1 "unknown assignment" -- "$RAYD" grade --assignments scenes/assignments --assignment zzzzzzzz \
+    --image "$T/dym.png"
+grep -q "no assignment named 'zzzzzzzz' (there are: .*phong" "$T/err" && ok || bad "--assignment zzzzzzzz: $(cat "$T/err")"
+
+# --gamma with a linear output would change nothing in the file: refused
+# before rendering, whichever way it is given.
+for out in x.exr x.pfm; do
+    expect_exit 1 "--gamma with $out" -- "$RAYD" render scenes/phong.cfg -o "$T/$out" --gamma 2.2 --width 8 --height 8
+    grep -q -- "--gamma: an* .* holds the linear image" "$T/err" && [ ! -e "$T/$out" ] && ok || bad "--gamma -o $out: $(cat "$T/err")"
+    expect_exit 1 "--set render.gamma with $out" -- "$RAYD" render scenes/phong.cfg -o "$T/$out" \
+        --set render.gamma=2.2 --width 8 --height 8
+done
+expect_exit 0 "--gamma with a PNG" -- "$RAYD" render scenes/phong.cfg -o "$T/g.png" --gamma 2.2 --width 8 --height 8
+expect_exit 0 "an EXR without --gamma" -- "$RAYD" render scenes/phong.cfg -o "$T/g.exr" --width 8 --height 8
 
 # The README's grading example, as written: render the assignment's scene,
 # then grade it.
