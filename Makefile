@@ -193,6 +193,7 @@ $(BUILD)/unit-tests: $(TEST_OBJ) $(JOBS_OBJ) $(STORE_OBJ) $(SANDBOX_OBJ) $(ERROR
 check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
 	RAYD=$(BUILD)/rayd LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan.supp $(BUILD)/unit-tests --jobs 2
 	RAYD=$(BUILD)/rayd sh tests/integration/cli_test.sh
+	RUN_MAKEFLAGS="CC=$(CC) BUILD=$(BUILD)$(if $(SAN), SAN=$(SAN))" sh tests/integration/make_run_test.sh
 	RAYD=$(BUILD)/rayd sh tests/integration/grade_cli_test.sh
 	RAYD=$(BUILD)/rayd sh tests/integration/formats_test.sh
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/schema_test.py
@@ -268,9 +269,13 @@ stability: deps
 fuzz: deps
 	@sh tests/fuzz/run.sh $(FUZZ_SECONDS)
 
-# Starts the service on 127.0.0.1:8080 with the bundled scenes; Ctrl-C stops it.
+# Starts the service on 127.0.0.1:8080 with the bundled scenes; Ctrl-C stops
+# it. make run PORT=8081 takes another port; RAYD_LISTEN=HOST:PORT make run
+# another address, which the daemon reads itself (a --listen here would win
+# over it). PORT, when given, wins over RAYD_LISTEN.
+PORT_GIVEN := $(filter command line environment,$(origin PORT))
 run: all $(GENERATED)
-	$(BUILD)/rayd serve --listen 127.0.0.1:8080 --scenes scenes
+	$(BUILD)/rayd serve $(if $(PORT_GIVEN)$(if $(RAYD_LISTEN),,1),--listen 127.0.0.1:$(or $(PORT),8080)) --scenes scenes
 
 # make install [PREFIX=/usr/local] [DESTDIR=]: the binary (its data folder
 # compiled in as $(PREFIX)/share/rayd), the scenes and assignments, the man

@@ -950,9 +950,15 @@ rd_server *rd_server_start(const rd_server_options *opt, rd_error *err)
         return NULL;
     }
     s->reaper_on = 1;
+    errno = 0;
     if (!start_mhd(s, &la)) {
+        /* bind's errno, before the teardown's calls replace it: "Address
+         * already in use" is the usual cause, and the user's way out is
+         * another port. */
+        int why = errno;
         free_server(s);
-        rd_error_set(err, RD_ERR_IO, 0, 0, "cannot listen on %s port %u", opt->listen_host, (unsigned)opt->port);
+        rd_error_set(err, RD_ERR_IO, 0, 0, "cannot listen on %s port %u%s%s (--listen or RAYD_LISTEN picks another)",
+                     opt->listen_host, (unsigned)opt->port, why ? ": " : "", why ? strerror(why) : "");
         return NULL;
     }
     const union MHD_DaemonInfo *info = MHD_get_daemon_info(s->mhd, MHD_DAEMON_INFO_BIND_PORT);
