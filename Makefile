@@ -295,7 +295,7 @@ $(INSTALL_BUILD)/prefix.stamp: FORCE
 	@echo '$(DATADIR)' | cmp -s - $@ || echo '$(DATADIR)' > $@
 
 $(INSTALL_BUILD)/version.o: api/util/version.c $(INSTALL_BUILD)/prefix.stamp $(BUILD)/gen/version.stamp
-	@$(CC) $(CPPFLAGS) $(INC_api_util) -DRD_VERSION=\"$(VERSION)\" -DRD_DATA_DIR=\"$(DATADIR)\" \
+	@$(CC) $(CPPFLAGS) $(INC_api_util) -DRD_VERSION=\"$(VERSION)\" -DRD_DATA_DIR=\"$(DATADIR)\" -DRD_INSTALLED=1 \
 	    -DRD_EVAL_PATH=\"$(LIBEXECDIR)/rayd-eval\" $(filter-out -MMD -MP,$(CFLAGS)) -c $< -o $@
 
 # The installed binary differs from build/rayd only in its data folder.

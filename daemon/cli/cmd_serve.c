@@ -127,11 +127,36 @@ static const serve_flag flags[] = {
 #undef A
 enum { NFLAGS = sizeof flags / sizeof flags[0] };
 
+/* An installed rayd's store when --data-dir is not given: the service's
+ * state folder (systemd's StateDirectory= sets STATE_DIRECTORY, a
+ * colon-separated list whose first is this unit's), else the user's
+ * ($XDG_STATE_HOME/rayd, which the XDG base directory rules take only when
+ * absolute, else ~/.local/state/rayd). Grade records are the students':
+ * they must not land in whatever folder the daemon happened to start in.
+ * build/rayd keeps var/ of the folder it runs in (make run: the tree's).
+ * A static buffer: read once, at start. */
+static const char *default_data_dir(void)
+{
+    static char dir[PATH_MAX];
+    if (!rd_installed())
+        return "var";
+    const char *state = getenv("STATE_DIRECTORY"), *xdg = getenv("XDG_STATE_HOME"), *home = getenv("HOME");
+    int n = -1;
+    if (state && state[0] == '/')
+        n = snprintf(dir, sizeof dir, "%.*s", (int)strcspn(state, ":"), state);
+    else if (xdg && xdg[0] == '/')
+        n = snprintf(dir, sizeof dir, "%s/rayd", xdg);
+    else if (home && home[0] == '/')
+        n = snprintf(dir, sizeof dir, "%s/.local/state/rayd", home);
+    return n > 0 && (size_t)n < sizeof dir ? dir : "var";
+}
+
 static serve_args defaults(void)
 {
     serve_args a;
     memset(&a, 0, sizeof a);
     a.o = rd_server_options_default();
+    a.o.data_dir = default_data_dir();
     snprintf(a.host, sizeof a.host, "%s", a.o.listen_host);
     a.drain_ms = 10000;
     return a;
@@ -201,7 +226,12 @@ static void print_help(void)
         const serve_flag *f = &flags[i];
         char head[64], dflt[600], env[64], line[1200];
         snprintf(head, sizeof head, "--%s %s", f->name, f->arg);
-        if (f->dflt)
+        /* The store's default in words: the man page is made from this
+         * text, and the path of whoever ran help2man is no one's default. */
+        if (f->offset == offsetof(serve_args, o.data_dir) && rd_installed())
+            snprintf(dflt, sizeof dflt, "%s",
+                     "$STATE_DIRECTORY under systemd, else $XDG_STATE_HOME/rayd, else ~/.local/state/rayd");
+        else if (f->dflt)
             snprintf(dflt, sizeof dflt, "%s", f->dflt);
         else
             default_text(f, &a, dflt, sizeof dflt);

@@ -48,7 +48,9 @@ rc=$?
 [ "$rc" -eq 0 ] && grep -q '"pass":[[:space:]]*true' code.out && ok ||
     bad "the installed rayd grades code with its own course and evaluator (exit $rc): $(cat err) $(head -c 300 code.out)"
 
-"$rayd" serve --listen 127.0.0.1:0 --port-file "$T/port" 2>"$T/serve.log" &
+# Without --data-dir the store goes to the user's state folder, not ./var
+# of the folder the daemon starts in.
+XDG_STATE_HOME="$T/state" "$rayd" serve --listen 127.0.0.1:0 --port-file "$T/port" 2>"$T/serve.log" &
 daemon=$!
 i=0
 while [ ! -s "$T/port" ] && [ $i -lt 100 ]; do sleep 0.1; i=$((i + 1)); done
@@ -62,6 +64,29 @@ grep -q "$prefix/share/rayd/scenes" "$T/serve.log" && ok || bad "the start-up li
 kill "$daemon"
 wait "$daemon" && ok || bad "the installed daemon stops on SIGTERM with 0"
 daemon=""
+[ -f "$T/state/rayd/rayd.sqlite3" ] && [ ! -e var ] && ok ||
+    bad "the installed daemon's store is not in \$XDG_STATE_HOME/rayd: $(ls "$T/state/rayd" . 2>&1 | tr '\n' ' ')"
+grep -q "jobs stored in sqlite in $T/state/rayd " "$T/serve.log" && ok ||
+    bad "the start-up line does not say where the store is: $(cat "$T/serve.log")"
+
+# Under systemd's StateDirectory= (STATE_DIRECTORY, which wins), and with
+# neither variable (~/.local/state/rayd).
+for how in "STATE_DIRECTORY=$T/lib/rayd/8080" "XDG_STATE_HOME= HOME=$T/home"; do
+    rm -f "$T/port"
+    # shellcheck disable=SC2086
+    env XDG_STATE_HOME="$T/state2" $how "$rayd" serve --listen 127.0.0.1:0 --port-file "$T/port" 2>"$T/serve2.log" &
+    daemon=$!
+    i=0
+    while [ ! -s "$T/port" ] && [ $i -lt 100 ]; do sleep 0.1; i=$((i + 1)); done
+    kill "$daemon"
+    wait "$daemon"
+    daemon=""
+    case $how in STATE*) want=$T/lib/rayd/8080 ;; *) want=$T/home/.local/state/rayd ;; esac
+    [ -f "$want/rayd.sqlite3" ] && [ ! -e var ] && [ ! -e "$T/state2" ] && ok ||
+        bad "with $how the store is not in $want: $(cat "$T/serve2.log")"
+done
+"$rayd" serve --help | tr -s ' \n' '  ' | grep -q -- "--data-dir DIR .*(default \$STATE_DIRECTORY under systemd, else" && ok ||
+    bad "serve --help does not give the store's default: $("$rayd" serve --help | grep -A2 -- --data-dir)"
 
 # The man page says what --help says.
 man=$prefix/share/man/man1/rayd.1
