@@ -83,8 +83,9 @@ static const serve_flag flags[] = {
     {"daemon-id", "ID", "this daemon's name in the store's leases, unique among daemons sharing a store",
      "HOSTNAME:PORT", K_STRING, A(o.daemon_id), 0, 0, 0},
     {"instructor-tokens", "FILE",
-     "instructors' bearer tokens, one a line: they open grade records, exports and batches (off: 404)", "off", K_STRING,
-     A(o.instructor_tokens), 0, 0, 0},
+     "instructors' bearer tokens, one a line: they open grade records, exports and batches (off: 404); SIGHUP "
+     "reads the file again",
+     "off", K_STRING, A(o.instructor_tokens), 0, 0, 0},
     {"grade-ttl", "N", "seconds grade records are kept", NULL, K_DOUBLE, A(o.grade_ttl_ms), 1, 1ull << 34, 1e3},
     {"max-batch-images", "N", "images in one grading batch", NULL, K_SIZE, A(o.max_batch_images), 1, 100000, 0},
     {"max-batch-bytes", "N", "a grading batch's form or archive; each image at most --max-body-bytes", NULL, K_SIZE,
@@ -217,7 +218,7 @@ static void print_help(void)
           "to /v1/render for a PNG, or to /v1/jobs for a job to poll. SIGTERM or SIGINT\n"
           "stops it gracefully: no new work, running renders finish (up to --drain-ms),\n"
           "the rest are cancelled, every client gets an answer, exit 0. SIGHUP reopens\n"
-          "the log file and reads the assignments again.\n\n"
+          "the log file and reads the instructor tokens and the assignments again.\n\n"
           "Every option can also be given as an environment variable, named after it\n"
           "(--threads: RAYD_THREADS); an option on the command line wins. --opt=VALUE\n"
           "and --opt VALUE are the same.\n\n",
@@ -440,9 +441,9 @@ static void log_listening(rd_log *log, const serve_args *a, const rd_server *srv
     rd_log_event(log, "info", msg, fields);
 }
 
-/* Until SIGTERM or SIGINT; SIGHUP reopens the log and re-reads the
+/* Until SIGTERM or SIGINT; SIGHUP reopens the log and re-reads the tokens and the
  * assignments. Returns the stopping signal. */
-static int wait_for_stop(rd_log *log, const sigset_t *set, const char *assignments)
+static int wait_for_stop(rd_log *log, const sigset_t *set, const char *assignments, rd_server *srv, const char *tokens)
 {
     for (;;) {
         int sig = 0;
@@ -453,6 +454,14 @@ static int wait_for_stop(rd_log *log, const sigset_t *set, const char *assignmen
         if (rd_log_reopen(log, &err))
             rd_log_msg(log, "error", "SIGHUP: %s", err.message);
         rd_log_msg(log, "info", "SIGHUP: log reopened");
+        /* Before the assignments' line, which the log's readers (and the
+         * tests) take as the end of the reload. */
+        int n = rd_server_reload_tokens(srv, &err);
+        if (n >= 0)
+            rd_log_msg(log, "info", "SIGHUP: instructor tokens read again from %s: %d token%s", tokens, n,
+                       n == 1 ? "" : "s");
+        else if (n == -2)
+            rd_log_msg(log, "error", "SIGHUP: %s; the tokens read before stay", err.message);
         log_assignments(log, assignments, "SIGHUP: reloaded");
     }
 }
@@ -481,7 +490,7 @@ static int serve(serve_args *args, rd_log *log)
     sigaddset(&set, SIGTERM);
     sigaddset(&set, SIGINT);
     sigaddset(&set, SIGHUP);
-    int sig = wait_for_stop(log, &set, o.assignments_dir);
+    int sig = wait_for_stop(log, &set, o.assignments_dir, srv, o.instructor_tokens);
     rd_log_msg(log, "info", "%s: draining (up to %.0f ms), then stopping", sig == SIGINT ? "SIGINT" : "SIGTERM",
                args->drain_ms);
     rd_server_stop(srv, args->drain_ms);
