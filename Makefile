@@ -289,6 +289,8 @@ MANDIR   = $(PREFIX)/share/man/man1
 DOCDIR   = $(PREFIX)/share/doc/rayd
 UNITDIR  = $(PREFIX)/lib/systemd/system
 INSTALL_BUILD := $(BUILD)/install
+# The documentation the man page's SEE ALSO names, installed beside README.md.
+DOCS := $(sort $(wildcard docs/*.md)) docs/openapi.json docs/scene.schema.json
 
 $(INSTALL_BUILD)/prefix.stamp: FORCE
 	@mkdir -p $(dir $@)
@@ -303,8 +305,10 @@ $(INSTALL_BUILD)/rayd: $(DAEMON_OBJ) $(BUILD)/librayd.a $(INSTALL_BUILD)/version
 	@echo "  LD  $@"
 	@$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(INSTALL_BUILD)/version.o $(BUILD)/librayd.a $(PKG_LIBS)
 
-$(INSTALL_BUILD)/rayd.1: $(INSTALL_BUILD)/rayd docs/man/commands.sh docs/man/rayd.h2m
-	@sh docs/man/commands.sh $(INSTALL_BUILD)/rayd | sed 's|@DATADIR@|$(DATADIR)|g' > $(INSTALL_BUILD)/rayd.h2m
+$(INSTALL_BUILD)/rayd.1: $(INSTALL_BUILD)/rayd docs/man/commands.sh docs/man/rayd.h2m $(INSTALL_BUILD)/prefix.stamp
+	@sh docs/man/commands.sh $(INSTALL_BUILD)/rayd | \
+	    sed -e 's|@DATADIR@|$(DATADIR)|g' -e 's|@LIBEXECDIR@|$(LIBEXECDIR)|g' -e 's|@DOCDIR@|$(DOCDIR)|g' \
+	    > $(INSTALL_BUILD)/rayd.h2m
 	@help2man --no-info --no-discard-stderr --section 1 --include $(INSTALL_BUILD)/rayd.h2m \
 	    --output $@ $(INSTALL_BUILD)/rayd
 
@@ -321,7 +325,7 @@ install: deps $(GENERATED)
 	    install -D -m 0644 "$$f" "$(DESTDIR)$(DATADIR)/course/$$f" || exit 1; done
 	install -m 0644 $(INSTALL_BUILD)/rayd.1 $(DESTDIR)$(MANDIR)/rayd.1
 	install -m 0644 $(INSTALL_BUILD)/rayd@.service $(DESTDIR)$(UNITDIR)/rayd@.service
-	install -m 0644 LICENSE README.md $(DESTDIR)$(DOCDIR)/
+	install -m 0644 LICENSE README.md $(DOCS) $(DESTDIR)$(DOCDIR)/
 	find scenes -type f ! -name '*.py' | while read -r f; do \
 	    install -D -m 0644 "$$f" "$(DESTDIR)$(DATADIR)/$$f" || exit 1; done
 

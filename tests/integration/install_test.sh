@@ -96,6 +96,20 @@ done
 if command -v man >/dev/null 2>&1; then
     MANWIDTH=100 man -l "$man" 2>/dev/null | grep -q -- "--memory-budget" && ok || bad "man -l rayd.1 does not show serve's flags"
 fi
+# grade --code's own help, the code grader's files, every exit status, and
+# a SEE ALSO that names installed files, each of them there.
+for want in '^\.SS "rayd grade --code"' 'usage: rayd grade --assignment NAME --code FILE' \
+    "$prefix/share/rayd/course/" "$prefix/libexec/rayd/rayd.*eval" '^\.B 4$' 'the sandbox cannot start here' \
+    "$prefix/share/doc/rayd/" 'XDG_STATE_HOME'; do
+    grep -q -- "$want" "$man" && ok || bad "the man page lacks $want"
+done
+grep -q "docs/ of the source" "$man" && bad "the man page points to the source's docs/, which is not installed" || ok
+see_also=$(sed -n '/^\.SH "SEE ALSO"/,$p' "$man")
+for f in README.md "$root"/docs/*.md openapi.json scene.schema.json; do
+    f=${f##*/}
+    [ -f "$prefix/share/doc/rayd/$f" ] && ok || bad "make install did not install share/doc/rayd/$f"
+    printf '%s' "$see_also" | sed 's/\\-/-/g' | grep -qF "$f" && ok || bad "SEE ALSO does not name $f"
+done
 grep -q "ExecStart=$prefix/bin/rayd serve" "$prefix/lib/systemd/system/rayd@.service" && ok ||
     bad "the unit runs the installed binary"
 if command -v systemd-analyze >/dev/null 2>&1; then
