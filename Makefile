@@ -279,8 +279,8 @@ run: all $(GENERATED)
 
 # make install [PREFIX=/usr/local] [DESTDIR=]: the binary (its data folder
 # compiled in as $(PREFIX)/share/rayd), the scenes and assignments, the man
-# page (help2man, from the commands' own --help), the systemd unit, the
-# licence. make uninstall removes exactly those.
+# page (help2man, from the commands' own --help), the docs, bash and zsh
+# completion (docs/completion/gen.sh), the systemd unit, the licence. make uninstall removes exactly those.
 PREFIX  ?= /usr/local
 BINDIR   = $(PREFIX)/bin
 DATADIR  = $(PREFIX)/share/rayd
@@ -288,6 +288,8 @@ LIBEXECDIR = $(PREFIX)/libexec/rayd
 MANDIR   = $(PREFIX)/share/man/man1
 DOCDIR   = $(PREFIX)/share/doc/rayd
 UNITDIR  = $(PREFIX)/lib/systemd/system
+BASHCOMPDIR = $(PREFIX)/share/bash-completion/completions
+ZSHCOMPDIR  = $(PREFIX)/share/zsh/site-functions
 INSTALL_BUILD := $(BUILD)/install
 # The documentation the man page's SEE ALSO names, installed beside README.md.
 DOCS := $(sort $(wildcard docs/*.md)) docs/openapi.json docs/scene.schema.json
@@ -312,13 +314,22 @@ $(INSTALL_BUILD)/rayd.1: $(INSTALL_BUILD)/rayd docs/man/commands.sh docs/man/ray
 	@help2man --no-info --no-discard-stderr --section 1 --include $(INSTALL_BUILD)/rayd.h2m \
 	    --output $@ $(INSTALL_BUILD)/rayd
 
+# Shell completion, from the installed binary's own --help and limits.
+$(INSTALL_BUILD)/rayd.bash: $(INSTALL_BUILD)/rayd docs/completion/gen.sh
+	@sh docs/completion/gen.sh $(INSTALL_BUILD)/rayd bash > $@
+$(INSTALL_BUILD)/_rayd: $(INSTALL_BUILD)/rayd docs/completion/gen.sh
+	@sh docs/completion/gen.sh $(INSTALL_BUILD)/rayd zsh > $@
+
 $(INSTALL_BUILD)/rayd@.service: deploy/systemd/rayd@.service.in $(INSTALL_BUILD)/prefix.stamp
 	@sed 's|@BINDIR@|$(BINDIR)|g' $< > $@
 
 install: deps $(GENERATED)
 	@$(MAKE) --no-print-directory $(INSTALL_BUILD)/rayd $(INSTALL_BUILD)/rayd.1 $(INSTALL_BUILD)/rayd@.service \
-	    $(BUILD)/rayd-eval
-	install -d $(DESTDIR)$(BINDIR) $(DESTDIR)$(DATADIR) $(DESTDIR)$(MANDIR) $(DESTDIR)$(DOCDIR) $(DESTDIR)$(UNITDIR)
+	    $(INSTALL_BUILD)/rayd.bash $(INSTALL_BUILD)/_rayd $(BUILD)/rayd-eval
+	install -d $(DESTDIR)$(BINDIR) $(DESTDIR)$(DATADIR) $(DESTDIR)$(MANDIR) $(DESTDIR)$(DOCDIR) $(DESTDIR)$(UNITDIR) \
+	    $(DESTDIR)$(BASHCOMPDIR) $(DESTDIR)$(ZSHCOMPDIR)
+	install -m 0644 $(INSTALL_BUILD)/rayd.bash $(DESTDIR)$(BASHCOMPDIR)/rayd
+	install -m 0644 $(INSTALL_BUILD)/_rayd $(DESTDIR)$(ZSHCOMPDIR)/_rayd
 	install -m 0755 $(INSTALL_BUILD)/rayd $(DESTDIR)$(BINDIR)/rayd
 	install -D -m 0755 $(BUILD)/rayd-eval $(DESTDIR)$(LIBEXECDIR)/rayd-eval
 	cd daemon/codegrade/course && find . -type f | while read -r f; do \
@@ -330,7 +341,8 @@ install: deps $(GENERATED)
 	    install -D -m 0644 "$$f" "$(DESTDIR)$(DATADIR)/$$f" || exit 1; done
 
 uninstall:
-	rm -f $(DESTDIR)$(BINDIR)/rayd $(DESTDIR)$(MANDIR)/rayd.1 $(DESTDIR)$(UNITDIR)/rayd@.service
+	rm -f $(DESTDIR)$(BINDIR)/rayd $(DESTDIR)$(MANDIR)/rayd.1 $(DESTDIR)$(UNITDIR)/rayd@.service \
+	    $(DESTDIR)$(BASHCOMPDIR)/rayd $(DESTDIR)$(ZSHCOMPDIR)/_rayd
 	rm -rf $(DESTDIR)$(LIBEXECDIR)
 	rm -rf $(DESTDIR)$(DATADIR) $(DESTDIR)$(DOCDIR)
 

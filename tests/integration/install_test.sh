@@ -146,6 +146,28 @@ grep -q "/opt/rayd-test/share/rayd/scenes/assignments" err && ok || bad "rayd gr
 "$staged" grade --assignment phong --image phong.png --assignments "$stage/opt/rayd-test/share/rayd/scenes/assignments" \
     >/dev/null 2>err && ok || bad "--assignments overrides the data folder: $(cat err)"
 
+# Completion, generated from the installed binary: every command of its
+# --help, each command's flags (grade's --code ones and the limits too).
+comp=$prefix/share/bash-completion/completions/rayd
+[ -f "$comp" ] && [ -f "$prefix/share/zsh/site-functions/_rayd" ] && ok || bad "make install did not install the completion"
+complete_words() { # words...: what bash completes for the last one
+    bash -c '. "$1"; shift; COMP_WORDS=("$@"); COMP_CWORD=$(($# - 1)); _rayd; printf "%s\n" "${COMPREPLY[@]}"' _ "$comp" "$@"
+}
+for c in $("$rayd" --help | sed -n '/^Commands:/,/^$/s/^  \([a-z][a-z-]*\) .*/\1/p'); do
+    complete_words rayd "" | grep -qx "$c" && ok || bad "bash completion lacks the command $c"
+done
+complete_words rayd rend | grep -qx render && ok || bad "bash: rayd rend<TAB>: $(complete_words rayd rend)"
+complete_words rayd render --gam | grep -qx -- --gamma && ok || bad "bash: render --gam<TAB>"
+complete_words rayd grade --code-e | grep -qx -- --code-eval && ok || bad "bash: grade --code-e<TAB>"
+complete_words rayd serve --instructor | grep -qx -- --instructor-tokens && ok || bad "bash: serve --instructor<TAB>"
+complete_words rayd converge --limit-obj | grep -qx -- --limit-objects && ok || bad "bash: converge --limit-obj<TAB>"
+complete_words rayd serve --limit | grep -qx -- --limit && bad "bash completes the help's --limit-... placeholder" || ok
+if command -v zsh >/dev/null 2>&1; then
+    zsh -n "$prefix/share/zsh/site-functions/_rayd" && ok || bad "_rayd is not zsh"
+else
+    echo "install: zsh is not installed here, _rayd's syntax was not checked"
+fi
+
 # uninstall leaves nothing.
 cd "$root" || exit 1
 make --no-print-directory -s uninstall PREFIX="$prefix" >/dev/null 2>&1
