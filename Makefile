@@ -195,6 +195,7 @@ check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
 	RAYD=$(BUILD)/rayd sh tests/integration/cli_test.sh
 	RUN_MAKEFLAGS="CC=$(CC) BUILD=$(BUILD)$(if $(SAN), SAN=$(SAN))" sh tests/integration/make_run_test.sh
 	RAYD=$(BUILD)/rayd sh tests/integration/grade_cli_test.sh
+	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/docs_commands_test.py
 	RAYD=$(BUILD)/rayd sh tests/integration/formats_test.sh
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/schema_test.py
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/grade_parity_test.py
