@@ -24,10 +24,12 @@ free_port() {
     /usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'
 }
 
-# start LOG ENV... -- make args: make run in a session of its own.
+# start LOG ENV... make ARGS...: make run in a session of its own, its
+# store in the test's folder (RAYD_DATA_DIR), not the tree's var/ that a
+# developer's own make run keeps.
 start() {
     log=$1; shift
-    setsid env "$@" >"$log" 2>&1 &
+    setsid env RAYD_DATA_DIR="$T/var" "$@" >"$log" 2>&1 &
     group=$!
 }
 
@@ -71,7 +73,7 @@ holder=$!
 i=0
 while [ ! -e "$T/held" ] && [ $i -lt 100 ]; do sleep 0.1; i=$((i + 1)); done
 # shellcheck disable=SC2086
-make --no-print-directory run ${RUN_MAKEFLAGS:-} PORT="$p" >"$T/busy.log" 2>&1
+RAYD_DATA_DIR="$T/var" make --no-print-directory run ${RUN_MAKEFLAGS:-} PORT="$p" >"$T/busy.log" 2>&1
 rc=$?
 kill "$holder" 2>/dev/null
 wait "$holder" 2>/dev/null
