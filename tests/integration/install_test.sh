@@ -162,10 +162,23 @@ complete_words rayd grade --code-e | grep -qx -- --code-eval && ok || bad "bash:
 complete_words rayd serve --instructor | grep -qx -- --instructor-tokens && ok || bad "bash: serve --instructor<TAB>"
 complete_words rayd converge --limit-obj | grep -qx -- --limit-objects && ok || bad "bash: converge --limit-obj<TAB>"
 complete_words rayd serve --limit | grep -qx -- --limit && bad "bash completes the help's --limit-... placeholder" || ok
+# zsh: _rayd under stand-ins for compsys's compadd and _files, which print
+# what they are given (compadd's own matching against PREFIX is zsh's).
+zcomp=$prefix/share/zsh/site-functions/_rayd
+zsh_words() { # CURRENT words...: what _rayd offers
+    zsh -fc 'compadd() { if [[ $1 == -a ]]; then print -l -- ${(P)2}; else [[ $1 == -- ]] && shift; print -l -- "$@"; fi }
+        _files() { print FILES }
+        f=$1 CURRENT=$2; shift 2; words=("$@"); PREFIX=${words[CURRENT]}
+        source "$f"' _ "$zcomp" "$@"
+}
 if command -v zsh >/dev/null 2>&1; then
-    zsh -n "$prefix/share/zsh/site-functions/_rayd" && ok || bad "_rayd is not zsh"
+    zsh -n "$zcomp" && ok || bad "_rayd is not zsh"
+    zsh_words 2 rayd re | grep -qx render && ok || bad "zsh: rayd re<TAB>: $(zsh_words 2 rayd re 2>&1 | head -3)"
+    zsh_words 3 rayd render --gam | grep -qx -- --gamma && ok || bad "zsh: render --gam<TAB>"
+    zsh_words 3 rayd grade --code-e | grep -qx -- --code-eval && ok || bad "zsh: grade --code-e<TAB>"
+    zsh_words 3 rayd render sc | grep -qx FILES && ok || bad "zsh: a file argument does not complete files"
 else
-    echo "install: zsh is not installed here, _rayd's syntax was not checked"
+    bad "no zsh to check _rayd with (make deps installs it)"
 fi
 
 # uninstall leaves nothing.
