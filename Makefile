@@ -281,7 +281,9 @@ run: all $(GENERATED)
 # make install [PREFIX=/usr/local] [DESTDIR=]: the binary (its data folder
 # compiled in as $(PREFIX)/share/rayd), the scenes and assignments, the man
 # page (help2man, from the commands' own --help), the docs, bash and zsh
-# completion (docs/completion/gen.sh), the systemd unit, the licence. make uninstall removes exactly those.
+# completion (docs/completion/gen.sh; where bash-completion and Debian's zsh
+# look under /usr/local and /usr), the systemd unit, the licence. make
+# uninstall removes exactly those.
 PREFIX  ?= /usr/local
 BINDIR   = $(PREFIX)/bin
 DATADIR  = $(PREFIX)/share/rayd
