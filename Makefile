@@ -197,7 +197,9 @@ $(BUILD)/unit-tests: $(TEST_OBJ) $(JOBS_OBJ) $(STORE_OBJ) $(SANDBOX_OBJ) $(ERROR
 check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
 	RAYD=$(BUILD)/rayd LSAN_OPTIONS=suppressions=$(CURDIR)/tests/lsan.supp $(BUILD)/unit-tests --jobs 2
 	RAYD=$(BUILD)/rayd sh tests/integration/cli_test.sh
+	RUN_MAKEFLAGS="CC=$(CC) BUILD=$(BUILD)$(if $(SAN), SAN=$(SAN))" sh tests/integration/make_run_test.sh
 	RAYD=$(BUILD)/rayd sh tests/integration/grade_cli_test.sh
+	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/docs_commands_test.py
 	RAYD=$(BUILD)/rayd sh tests/integration/formats_test.sh
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/schema_test.py
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/grade_parity_test.py
@@ -275,14 +277,20 @@ stability: deps
 fuzz: deps
 	@sh tests/fuzz/run.sh $(FUZZ_SECONDS)
 
-# Starts the service on 127.0.0.1:8080 with the bundled scenes; Ctrl-C stops it.
+# Starts the service on 127.0.0.1:8080 with the bundled scenes; Ctrl-C stops
+# it. make run PORT=8081 takes another port; RAYD_LISTEN=HOST:PORT make run
+# another address, which the daemon reads itself (a --listen here would win
+# over it). PORT, when given, wins over RAYD_LISTEN.
+PORT_GIVEN := $(filter command line environment,$(origin PORT))
 run: all $(GENERATED)
-	$(BUILD)/rayd serve --listen 127.0.0.1:8080 --scenes scenes
+	$(BUILD)/rayd serve $(if $(PORT_GIVEN)$(if $(RAYD_LISTEN),,1),--listen 127.0.0.1:$(or $(PORT),8080)) --scenes scenes
 
 # make install [PREFIX=/usr/local] [DESTDIR=]: the binary (its data folder
 # compiled in as $(PREFIX)/share/rayd), the scenes and assignments, the man
-# page (help2man, from the commands' own --help), the systemd unit, the
-# licence. make uninstall removes exactly those.
+# page (help2man, from the commands' own --help), the docs, bash and zsh
+# completion (docs/completion/gen.sh; where bash-completion and Debian's zsh
+# look under /usr/local and /usr), the systemd unit, the licence. make
+# uninstall removes exactly those.
 PREFIX  ?= /usr/local
 BINDIR   = $(PREFIX)/bin
 DATADIR  = $(PREFIX)/share/rayd
@@ -290,14 +298,18 @@ LIBEXECDIR = $(PREFIX)/libexec/rayd
 MANDIR   = $(PREFIX)/share/man/man1
 DOCDIR   = $(PREFIX)/share/doc/rayd
 UNITDIR  = $(PREFIX)/lib/systemd/system
+BASHCOMPDIR = $(PREFIX)/share/bash-completion/completions
+ZSHCOMPDIR  = $(PREFIX)/share/zsh/site-functions
 INSTALL_BUILD := $(BUILD)/install
+# The documentation the man page's SEE ALSO names, installed beside README.md.
+DOCS := $(sort $(wildcard docs/*.md)) docs/openapi.json docs/scene.schema.json
 
 $(INSTALL_BUILD)/prefix.stamp: FORCE
 	@mkdir -p $(dir $@)
 	@echo '$(DATADIR)' | cmp -s - $@ || echo '$(DATADIR)' > $@
 
 $(INSTALL_BUILD)/version.o: api/util/version.c $(INSTALL_BUILD)/prefix.stamp $(BUILD)/gen/version.stamp
-	@$(CC) $(CPPFLAGS) $(INC_api_util) -DRD_VERSION=\"$(VERSION)\" -DRD_DATA_DIR=\"$(DATADIR)\" \
+	@$(CC) $(CPPFLAGS) $(INC_api_util) -DRD_VERSION=\"$(VERSION)\" -DRD_DATA_DIR=\"$(DATADIR)\" -DRD_INSTALLED=1 \
 	    -DRD_EVAL_PATH=\"$(LIBEXECDIR)/rayd-eval\" $(filter-out -MMD -MP,$(CFLAGS)) -c $< -o $@
 
 # The installed binary differs from build/rayd only in its data folder.
@@ -305,30 +317,42 @@ $(INSTALL_BUILD)/rayd: $(DAEMON_OBJ) $(BUILD)/librayd.a $(INSTALL_BUILD)/version
 	@echo "  LD  $@"
 	@$(CC) $(LDFLAGS) -o $@ $(DAEMON_OBJ) $(INSTALL_BUILD)/version.o $(BUILD)/librayd.a $(PKG_LIBS)
 
-$(INSTALL_BUILD)/rayd.1: $(INSTALL_BUILD)/rayd docs/man/commands.sh docs/man/rayd.h2m
-	@sh docs/man/commands.sh $(INSTALL_BUILD)/rayd | sed 's|@DATADIR@|$(DATADIR)|g' > $(INSTALL_BUILD)/rayd.h2m
+$(INSTALL_BUILD)/rayd.1: $(INSTALL_BUILD)/rayd docs/man/commands.sh docs/man/rayd.h2m $(INSTALL_BUILD)/prefix.stamp
+	@sh docs/man/commands.sh $(INSTALL_BUILD)/rayd | \
+	    sed -e 's|@DATADIR@|$(DATADIR)|g' -e 's|@LIBEXECDIR@|$(LIBEXECDIR)|g' -e 's|@DOCDIR@|$(DOCDIR)|g' \
+	    > $(INSTALL_BUILD)/rayd.h2m
 	@help2man --no-info --no-discard-stderr --section 1 --include $(INSTALL_BUILD)/rayd.h2m \
 	    --output $@ $(INSTALL_BUILD)/rayd
+
+# Shell completion, from the installed binary's own --help and limits.
+$(INSTALL_BUILD)/rayd.bash: $(INSTALL_BUILD)/rayd docs/completion/gen.sh
+	@sh docs/completion/gen.sh $(INSTALL_BUILD)/rayd bash > $@
+$(INSTALL_BUILD)/_rayd: $(INSTALL_BUILD)/rayd docs/completion/gen.sh
+	@sh docs/completion/gen.sh $(INSTALL_BUILD)/rayd zsh > $@
 
 $(INSTALL_BUILD)/rayd@.service: deploy/systemd/rayd@.service.in $(INSTALL_BUILD)/prefix.stamp
 	@sed 's|@BINDIR@|$(BINDIR)|g' $< > $@
 
 install: deps $(GENERATED)
 	@$(MAKE) --no-print-directory $(INSTALL_BUILD)/rayd $(INSTALL_BUILD)/rayd.1 $(INSTALL_BUILD)/rayd@.service \
-	    $(BUILD)/rayd-eval
-	install -d $(DESTDIR)$(BINDIR) $(DESTDIR)$(DATADIR) $(DESTDIR)$(MANDIR) $(DESTDIR)$(DOCDIR) $(DESTDIR)$(UNITDIR)
+	    $(INSTALL_BUILD)/rayd.bash $(INSTALL_BUILD)/_rayd $(BUILD)/rayd-eval
+	install -d $(DESTDIR)$(BINDIR) $(DESTDIR)$(DATADIR) $(DESTDIR)$(MANDIR) $(DESTDIR)$(DOCDIR) $(DESTDIR)$(UNITDIR) \
+	    $(DESTDIR)$(BASHCOMPDIR) $(DESTDIR)$(ZSHCOMPDIR)
+	install -m 0644 $(INSTALL_BUILD)/rayd.bash $(DESTDIR)$(BASHCOMPDIR)/rayd
+	install -m 0644 $(INSTALL_BUILD)/_rayd $(DESTDIR)$(ZSHCOMPDIR)/_rayd
 	install -m 0755 $(INSTALL_BUILD)/rayd $(DESTDIR)$(BINDIR)/rayd
 	install -D -m 0755 $(BUILD)/rayd-eval $(DESTDIR)$(LIBEXECDIR)/rayd-eval
 	cd daemon/codegrade/course && find . -type f | while read -r f; do \
 	    install -D -m 0644 "$$f" "$(DESTDIR)$(DATADIR)/course/$$f" || exit 1; done
 	install -m 0644 $(INSTALL_BUILD)/rayd.1 $(DESTDIR)$(MANDIR)/rayd.1
 	install -m 0644 $(INSTALL_BUILD)/rayd@.service $(DESTDIR)$(UNITDIR)/rayd@.service
-	install -m 0644 LICENSE README.md $(DESTDIR)$(DOCDIR)/
+	install -m 0644 LICENSE README.md $(DOCS) $(DESTDIR)$(DOCDIR)/
 	find scenes -type f ! -name '*.py' | while read -r f; do \
 	    install -D -m 0644 "$$f" "$(DESTDIR)$(DATADIR)/$$f" || exit 1; done
 
 uninstall:
-	rm -f $(DESTDIR)$(BINDIR)/rayd $(DESTDIR)$(MANDIR)/rayd.1 $(DESTDIR)$(UNITDIR)/rayd@.service
+	rm -f $(DESTDIR)$(BINDIR)/rayd $(DESTDIR)$(MANDIR)/rayd.1 $(DESTDIR)$(UNITDIR)/rayd@.service \
+	    $(DESTDIR)$(BASHCOMPDIR)/rayd $(DESTDIR)$(ZSHCOMPDIR)/_rayd
 	rm -rf $(DESTDIR)$(LIBEXECDIR)
 	rm -rf $(DESTDIR)$(DATADIR) $(DESTDIR)$(DOCDIR)
 

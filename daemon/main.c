@@ -2,6 +2,7 @@
 #include <string.h>
 
 #include "cli.h"
+#include "suggest.h"
 #include "version.h"
 
 static const char help[] = "usage: rayd COMMAND [options]\n"
@@ -13,6 +14,8 @@ static const char help[] = "usage: rayd COMMAND [options]\n"
                            "  render SCENE -o OUT.png   render a .cfg or .json scene to PNG\n"
                            "  serve [--listen H:P]      run the HTTP render service\n"
                            "  grade --assignment A --image P   grade a student's image against the reference\n"
+                           "        (--dir D or several --image for a class, --csv for its table, --code F for\n"
+                           "        a student's calcReflectedLight: 'rayd grade --code --help')\n"
                            "  converge SCENE            error against samples and time, with a plot\n"
                            "  convert IN OUT            turn a cfg scene into JSON or back\n"
                            "  compare A.png B.png       how two images differ (RMSE, PSNR, pixels), as JSON\n"
@@ -47,6 +50,16 @@ int main(int argc, char **argv)
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
         if (strcmp(argv[1], commands[i].name) == 0)
             return commands[i].run(argc - 1, argv + 1);
-    fprintf(stderr, "rayd: unknown command '%s'\n\n%s", argv[1], help);
+    /* The scene reader's did-you-mean, over the same table that runs the
+     * commands, so a new command is suggested without a second list. */
+    rd_suggestion sg;
+    rd_suggest_init(&sg);
+    size_t len = strlen(argv[1]);
+    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
+        rd_suggest_offer(&sg, argv[1], len, commands[i].name);
+    rd_suggest_offer(&sg, argv[1], len, "version");
+    char hint[300];
+    rd_suggest_hint(&sg, len, hint, sizeof hint);
+    fprintf(stderr, "rayd: unknown command '%s'%s\n\n%s", argv[1], hint, help);
     return RD_EXIT_USAGE;
 }

@@ -5,6 +5,8 @@
 #
 # bubblewrap and g++ are the code grader's sandbox and compiler, libseccomp-dev the
 # system-call filter of its sandbox (docs/grading.md).
+# zsh is for tests/integration/install_test.sh (the zsh completion that
+# make install installs).
 # nginx is for tests/integration/deploy_test.sh (deploy/nginx/rayd.conf in
 # front of two daemons); Debian 12's `nginx` package is the server itself
 # (nginx-light there is only nginx plus the echo module).
@@ -24,7 +26,7 @@
 set -eu
 pkgs="gcc clang clang-format libclang-rt-dev make pkg-config libc6-dev libpng-dev zlib1g-dev libcjson-dev
  libmicrohttpd-dev libopenexr-dev libcriterion-dev libcurl4-openssl-dev curl python3 python3-jsonschema chromium help2man
- libsqlite3-dev libpq-dev postgresql sqlite3 nginx libarchive-dev bubblewrap libseccomp-dev g++"
+ libsqlite3-dev libpq-dev postgresql sqlite3 nginx libarchive-dev bubblewrap libseccomp-dev g++ zsh"
 [ "${1:-}" = bench ] && pkgs="$pkgs povray wrk hey git libembree-dev"
 missing=""
 for p in $pkgs; do

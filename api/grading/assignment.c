@@ -12,6 +12,7 @@
 #include "file_io.h"
 #include "rayd/memory.h"
 #include "scene_load.h"
+#include "suggest.h"
 
 static int name_ok(const char *n)
 {
@@ -101,11 +102,57 @@ static rd_error_code parse_grade(const char *path, const char *text, rd_assignme
     return RD_OK;
 }
 
+/* The not-found message, with the scene reader's did-you-mean over the
+ * folder's NAME.cfg files, so a typo ("phongg") is told the name it missed;
+ * without a close one, the names themselves (as many as fit), so the user
+ * need not know where the folder is to find them. */
+static rd_error_code not_found(const char *dir, const char *name, rd_error *err)
+{
+    /* rd_suggestion keeps a pointer to its best candidate, and readdir's
+     * names do not outlive the next call: the best is copied here. */
+    rd_suggestion sg;
+    rd_suggest_init(&sg);
+    char best[64] = "";
+    char all[160] = "";
+    size_t used = 0;
+    DIR *d = opendir(dir);
+    struct dirent *e;
+    while (d && (e = readdir(d))) {
+        size_t len = strlen(e->d_name);
+        if (len < 5 || len - 4 >= 64 || strcmp(e->d_name + len - 4, ".cfg") != 0)
+            continue;
+        char n[64];
+        memcpy(n, e->d_name, len - 4);
+        n[len - 4] = 0;
+        if (!name_ok(n))
+            continue;
+        rd_suggestion probe;
+        rd_suggest_init(&probe);
+        rd_suggest_offer(&probe, name, strlen(name), n);
+        if (probe.dist < sg.dist) {
+            memcpy(best, n, len - 3);
+            sg.best = best;
+            sg.dist = probe.dist;
+        }
+        if (used < sizeof all - 1) {
+            int w = snprintf(all + used, sizeof all - used, "%s%s", used ? ", " : "", n);
+            used = w < 0 || (size_t)w >= sizeof all - used ? sizeof all - 1 : used + (size_t)w;
+        }
+    }
+    if (d)
+        closedir(d);
+    char hint[300];
+    rd_suggest_hint(&sg, strlen(name), hint, sizeof hint);
+    if (hint[0] || !all[0])
+        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "no assignment named '%.60s'%s", name, hint);
+    return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "no assignment named '%.60s' (there are: %s)", name, all);
+}
+
 rd_error_code rd_assignment_load(const char *dir, const char *name, rd_assignment *a, rd_error *err)
 {
     memset(a, 0, sizeof *a);
     if (!name_ok(name))
-        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "no assignment named '%.60s'", name);
+        return not_found(dir, name, err);
     snprintf(a->name, sizeof a->name, "%s", name);
     snprintf(a->title, sizeof a->title, "%s", name);
     a->thresholds = rd_grade_thresholds_default();
@@ -114,7 +161,7 @@ rd_error_code rd_assignment_load(const char *dir, const char *name, rd_assignmen
     char file[80], real[PATH_MAX];
     snprintf(file, sizeof file, "%s.cfg", name);
     if (rd_path_inside(dir, file, real, err) != RD_OK || access(real, R_OK) != 0)
-        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "no assignment named '%s'", name);
+        return not_found(dir, name, err);
     if ((size_t)snprintf(a->scene_path, sizeof a->scene_path, "%s/%s", dir, file) >= sizeof a->scene_path)
         return rd_error_set(err, RD_ERR_IO, 0, 0, "%s: the assignments folder's path is too long", dir);
     char gpath[PATH_MAX];

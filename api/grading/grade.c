@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "compare.h"
 #include "png_read.h"
 #include "scene_limits.h"
 
@@ -54,7 +55,7 @@ rd_error_code rd_grade_compare(const uint8_t *ref, const uint8_t *img, int w, in
         memcpy(out->got, img, 3);
     }
     out->rmse = sqrt(sq / (3.0 * (double)npix));
-    out->psnr_db = out->rmse > 0 ? 20 * log10(1.0 / out->rmse) : 99;
+    out->psnr_db = rd_psnr_db_reported(out->rmse);
     out->mean_abs = sum / (double)npix;
     out->failed_fraction = (double)out->failed_pixels / (double)npix;
     out->has_box = x1 >= 0;

@@ -212,8 +212,12 @@ static int add_int_array(cJSON *o, const char *name, const int *v, int n)
     return a != NULL;
 }
 
+/* null when no pixel differs: a perfect grade has no worst pixel, and (0, 0)
+ * would read as one. */
 static int add_worst(cJSON *root, const rd_grade_result *r)
 {
+    if (r->max_abs == 0)
+        return cJSON_AddNullToObject(root, "worst") != NULL;
     cJSON *w = cJSON_AddObjectToObject(root, "worst");
     int e[3] = {r->expected[0], r->expected[1], r->expected[2]}, g[3] = {r->got[0], r->got[1], r->got[2]};
     return w && add_number(w, "x", r->worst_x) && add_number(w, "y", r->worst_y) &&

@@ -40,6 +40,14 @@ void rd_compare_rgb8(const uint8_t *a, const uint8_t *b, size_t pixels, rd_compa
     out->mean_b = (double)sum_b / n / 255.0;
 }
 
+double rd_psnr_db_reported(double rmse)
+{
+    if (!(rmse > 0))
+        return RD_PSNR_CAP_DB;
+    double db = -20.0 * log10(rmse);
+    return db < RD_PSNR_CAP_DB ? db : RD_PSNR_CAP_DB;
+}
+
 double rd_compare_display_rmse(const rd_image *img, const double *ref, double gamma)
 {
     size_t n = (size_t)img->width * (size_t)img->height * 3;

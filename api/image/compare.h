@@ -23,6 +23,14 @@ typedef struct {
     double mean_a, mean_b;          /* each image's mean channel value, 0..1 */
 } rd_compare_result;
 
+/* The PSNR that rayd prints, in grade and compare alike: 20·log10(1 /
+ * rmse) in dB, at most RD_PSNR_CAP_DB, which identical images (rmse 0)
+ * get. JSON has no infinity, and a capped number keeps CSV columns
+ * sortable; no two 8-bit images that differ reach it unless they differ in
+ * a few channels of a large image, where PSNR says nothing anyway. */
+#define RD_PSNR_CAP_DB 99.0
+double rd_psnr_db_reported(double rmse);
+
 /* Compares a and b, each pixels·3 bytes (R, G, B per pixel). With no pixels
  * every figure is 0 and psnr_db is +infinity, as for identical images. */
 void rd_compare_rgb8(const uint8_t *a, const uint8_t *b, size_t pixels, rd_compare_result *out);

@@ -20,4 +20,9 @@ const char *rd_default_assignments_dir(void);
 const char *rd_default_course_dir(void);
 const char *rd_default_eval_path(void);
 
+/* Whether this is an installed rayd (make install) rather than build/rayd:
+ * an installed one keeps its state in the user's or the service's state
+ * folder, not in the folder it was started from. */
+int rd_installed(void);
+
 #endif

@@ -20,7 +20,8 @@ static const char compare_help[] = "usage: rayd compare A.png B.png [--limit-pix
                                    "  width, height, pixels\n"
                                    "  rmse              root-mean-square difference over every pixel and channel,\n"
                                    "                    in 0..1 (1 = 255 levels, the units of error_estimate)\n"
-                                   "  psnr              20·log10(1/rmse) in dB; null when the images are identical\n"
+                                   "  psnr_db           20·log10(1/rmse) in dB, at most 99, which identical images\n"
+                                   "                    get (as in rayd grade)\n"
                                    "  identical         true when every channel of every pixel is equal\n"
                                    "  max_diff          the largest channel difference, 0..255\n"
                                    "  differing_pixels  pixels that differ in any channel\n"
@@ -71,8 +72,8 @@ static char *result_json(int w, int h, const rd_compare_result *r)
     ok = ok && cJSON_AddNumberToObject(o, "height", h);
     ok = ok && cJSON_AddNumberToObject(o, "pixels", (double)r->pixels);
     ok = ok && cJSON_AddNumberToObject(o, "rmse", r->rmse);
-    /* JSON has no infinity: identical images have no PSNR, and say so. */
-    ok = ok && (isinf(r->psnr_db) ? cJSON_AddNullToObject(o, "psnr") : cJSON_AddNumberToObject(o, "psnr", r->psnr_db));
+    /* The name and the number rayd grade reports (99 for identical images). */
+    ok = ok && cJSON_AddNumberToObject(o, "psnr_db", rd_psnr_db_reported(r->rmse));
     ok = ok && cJSON_AddBoolToObject(o, "identical", r->differing_pixels == 0);
     ok = ok && cJSON_AddNumberToObject(o, "max_diff", r->max_diff);
     ok = ok && cJSON_AddNumberToObject(o, "differing_pixels", (double)r->differing_pixels);

@@ -26,7 +26,8 @@ static const char render_help[] = "usage: rayd render SCENE -o OUT [options]\n"
                                   "  .pfm  portable float map, the linear image: little-endian, bottom row first\n"
                                   "  -     the PNG on stdout (the statistics stay on stderr)\n"
                                   "  /dev/null, a FIFO: the PNG, written into it in place\n"
-                                  "Any other name is refused before rendering, and an output that cannot be\n"
+                                  "Any other name is refused before rendering, and so is --gamma with .exr or\n"
+                                  ".pfm (gamma does not change the linear image); an output that cannot be\n"
                                   "written (missing folder, no permission) too; a file is replaced only once\n"
                                   "it is whole.\n"
                                   "\n"
@@ -291,6 +292,12 @@ static int parse_args(int argc, char **argv, render_args *a)
         return usage_error("%s", "missing -o OUT (a .png, .exr or .pfm file, or -)");
     if ((rc = out_kind_of(a->output, &a->kind)))
         return rc;
+    /* EXR and PFM hold the linear image, before gamma: a --gamma there would
+     * change nothing in the file, and a user who asked for it expects it to. */
+    if (a->kind != OUT_PNG && rd_override_given(&a->ov, "gamma"))
+        return usage_error("--gamma: %s holds the linear image, which gamma does not change; drop --gamma, or "
+                           "write a .png",
+                           a->kind == OUT_EXR ? "an .exr file" : "a .pfm file");
     if (strcmp(a->output, "-") == 0 && isatty(STDOUT_FILENO))
         return usage_error("%s", "-o -: stdout is a terminal; redirect it to a file or a program");
     a->scene = argv[optind];

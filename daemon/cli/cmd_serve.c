@@ -83,8 +83,9 @@ static const serve_flag flags[] = {
     {"daemon-id", "ID", "this daemon's name in the store's leases, unique among daemons sharing a store",
      "HOSTNAME:PORT", K_STRING, A(o.daemon_id), 0, 0, 0},
     {"instructor-tokens", "FILE",
-     "instructors' bearer tokens, one a line: they open grade records, exports and batches (off: 404)", "off", K_STRING,
-     A(o.instructor_tokens), 0, 0, 0},
+     "instructors' bearer tokens, one a line: they open grade records, exports and batches (off: 404); SIGHUP "
+     "reads the file again",
+     "off", K_STRING, A(o.instructor_tokens), 0, 0, 0},
     {"grade-ttl", "N", "seconds grade records are kept", NULL, K_DOUBLE, A(o.grade_ttl_ms), 1, 1ull << 34, 1e3},
     {"max-batch-images", "N", "images in one grading batch", NULL, K_SIZE, A(o.max_batch_images), 1, 100000, 0},
     {"max-batch-bytes", "N", "a grading batch's form or archive; each image at most --max-body-bytes", NULL, K_SIZE,
@@ -127,11 +128,36 @@ static const serve_flag flags[] = {
 #undef A
 enum { NFLAGS = sizeof flags / sizeof flags[0] };
 
+/* An installed rayd's store when --data-dir is not given: the service's
+ * state folder (systemd's StateDirectory= sets STATE_DIRECTORY, a
+ * colon-separated list whose first is this unit's), else the user's
+ * ($XDG_STATE_HOME/rayd, which the XDG base directory rules take only when
+ * absolute, else ~/.local/state/rayd). Grade records are the students':
+ * they must not land in whatever folder the daemon happened to start in.
+ * build/rayd keeps var/ of the folder it runs in (make run: the tree's).
+ * A static buffer: read once, at start. */
+static const char *default_data_dir(void)
+{
+    static char dir[PATH_MAX];
+    if (!rd_installed())
+        return "var";
+    const char *state = getenv("STATE_DIRECTORY"), *xdg = getenv("XDG_STATE_HOME"), *home = getenv("HOME");
+    int n = -1;
+    if (state && state[0] == '/')
+        n = snprintf(dir, sizeof dir, "%.*s", (int)strcspn(state, ":"), state);
+    else if (xdg && xdg[0] == '/')
+        n = snprintf(dir, sizeof dir, "%s/rayd", xdg);
+    else if (home && home[0] == '/')
+        n = snprintf(dir, sizeof dir, "%s/.local/state/rayd", home);
+    return n > 0 && (size_t)n < sizeof dir ? dir : "var";
+}
+
 static serve_args defaults(void)
 {
     serve_args a;
     memset(&a, 0, sizeof a);
     a.o = rd_server_options_default();
+    a.o.data_dir = default_data_dir();
     snprintf(a.host, sizeof a.host, "%s", a.o.listen_host);
     a.drain_ms = 10000;
     return a;
@@ -192,7 +218,7 @@ static void print_help(void)
           "to /v1/render for a PNG, or to /v1/jobs for a job to poll. SIGTERM or SIGINT\n"
           "stops it gracefully: no new work, running renders finish (up to --drain-ms),\n"
           "the rest are cancelled, every client gets an answer, exit 0. SIGHUP reopens\n"
-          "the log file and reads the assignments again.\n\n"
+          "the log file and reads the instructor tokens and the assignments again.\n\n"
           "Every option can also be given as an environment variable, named after it\n"
           "(--threads: RAYD_THREADS); an option on the command line wins. --opt=VALUE\n"
           "and --opt VALUE are the same.\n\n",
@@ -201,7 +227,12 @@ static void print_help(void)
         const serve_flag *f = &flags[i];
         char head[64], dflt[600], env[64], line[1200];
         snprintf(head, sizeof head, "--%s %s", f->name, f->arg);
-        if (f->dflt)
+        /* The store's default in words: the man page is made from this
+         * text, and the path of whoever ran help2man is no one's default. */
+        if (f->offset == offsetof(serve_args, o.data_dir) && rd_installed())
+            snprintf(dflt, sizeof dflt, "%s",
+                     "$STATE_DIRECTORY under systemd, else $XDG_STATE_HOME/rayd, else ~/.local/state/rayd");
+        else if (f->dflt)
             snprintf(dflt, sizeof dflt, "%s", f->dflt);
         else
             default_text(f, &a, dflt, sizeof dflt);
@@ -410,9 +441,9 @@ static void log_listening(rd_log *log, const serve_args *a, const rd_server *srv
     rd_log_event(log, "info", msg, fields);
 }
 
-/* Until SIGTERM or SIGINT; SIGHUP reopens the log and re-reads the
+/* Until SIGTERM or SIGINT; SIGHUP reopens the log and re-reads the tokens and the
  * assignments. Returns the stopping signal. */
-static int wait_for_stop(rd_log *log, const sigset_t *set, const char *assignments)
+static int wait_for_stop(rd_log *log, const sigset_t *set, const char *assignments, rd_server *srv, const char *tokens)
 {
     for (;;) {
         int sig = 0;
@@ -423,6 +454,14 @@ static int wait_for_stop(rd_log *log, const sigset_t *set, const char *assignmen
         if (rd_log_reopen(log, &err))
             rd_log_msg(log, "error", "SIGHUP: %s", err.message);
         rd_log_msg(log, "info", "SIGHUP: log reopened");
+        /* Before the assignments' line, which the log's readers (and the
+         * tests) take as the end of the reload. */
+        int n = rd_server_reload_tokens(srv, &err);
+        if (n >= 0)
+            rd_log_msg(log, "info", "SIGHUP: instructor tokens read again from %s: %d token%s", tokens, n,
+                       n == 1 ? "" : "s");
+        else if (n == -2)
+            rd_log_msg(log, "error", "SIGHUP: %s; the tokens read before stay", err.message);
         log_assignments(log, assignments, "SIGHUP: reloaded");
     }
 }
@@ -451,7 +490,7 @@ static int serve(serve_args *args, rd_log *log)
     sigaddset(&set, SIGTERM);
     sigaddset(&set, SIGINT);
     sigaddset(&set, SIGHUP);
-    int sig = wait_for_stop(log, &set, o.assignments_dir);
+    int sig = wait_for_stop(log, &set, o.assignments_dir, srv, o.instructor_tokens);
     rd_log_msg(log, "info", "%s: draining (up to %.0f ms), then stopping", sig == SIGINT ? "SIGINT" : "SIGTERM",
                args->drain_ms);
     rd_server_stop(srv, args->drain_ms);

@@ -74,6 +74,8 @@ rd_auth *rd_auth_load(const char *path, rd_error *err)
 
 void rd_auth_free(rd_auth *a) { free(a); }
 
+int rd_auth_count(const rd_auth *a) { return a->n; }
+
 /* 0 when equal. Reads all of want (its length is the file's, not the
  * request's), and got up to want's length plus its own end. */
 static unsigned differ(const char *want, const char *got, size_t got_len)

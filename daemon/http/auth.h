@@ -21,6 +21,9 @@ rd_auth *rd_auth_load(const char *path, rd_error *err);
 
 void rd_auth_free(rd_auth *a);
 
+/* How many tokens a holds (for the log). */
+int rd_auth_count(const rd_auth *a);
+
 typedef enum { RD_AUTH_OK, RD_AUTH_MISSING, RD_AUTH_WRONG } rd_auth_result;
 
 /* authorization: the request's Authorization header (NULL when absent).

@@ -22,6 +22,9 @@ struct rd_server {
     rd_jq *jobs;
     rd_farm *farm; /* the stored jobs; NULL until it has started */
     rd_auth *auth; /* --instructor-tokens; NULL: the instructors' routes are off */
+    /* Guards auth: SIGHUP replaces it (rd_server_reload_tokens) while
+     * request threads check tokens against it. */
+    pthread_mutex_t auth_mu;
     char daemon_id[RD_STORE_ID_MAX];
     atomic_int draining;
     uint16_t port;

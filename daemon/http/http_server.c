@@ -740,6 +740,7 @@ static void free_server(rd_server *s)
     rd_farm_free(s->farm);
     rd_access_free(s->access);
     rd_auth_free(s->auth);
+    pthread_mutex_destroy(&s->auth_mu);
     rd_metrics_free(s->metrics);
     pthread_mutex_destroy(&s->conn_mu);
     pthread_cond_destroy(&s->conn_cv);
@@ -923,6 +924,25 @@ static rd_error_code start_grading(rd_server *s, rd_error *err)
     return RD_OK;
 }
 
+int rd_server_reload_tokens(rd_server *s, rd_error *err)
+{
+    if (!s->opt.instructor_tokens)
+        return -1;
+    /* A file that became unreadable or bad keeps the tokens read before:
+     * a typo while revoking one token must not lock every instructor out,
+     * and the caller logs why. */
+    rd_auth *fresh = rd_auth_load(s->opt.instructor_tokens, err);
+    if (!fresh)
+        return -2;
+    pthread_mutex_lock(&s->auth_mu);
+    rd_auth *old = s->auth;
+    s->auth = fresh;
+    pthread_mutex_unlock(&s->auth_mu);
+    int n = rd_auth_count(fresh);
+    rd_auth_free(old);
+    return n;
+}
+
 rd_server *rd_server_start(const rd_server_options *opt, rd_error *err)
 {
     rd_listen_addr la;
@@ -936,6 +956,7 @@ rd_server *rd_server_start(const rd_server_options *opt, rd_error *err)
     s->opt = *opt;
     pthread_mutex_init(&s->conn_mu, NULL);
     pthread_cond_init(&s->conn_cv, NULL);
+    pthread_mutex_init(&s->auth_mu, NULL);
     if (opt->instructor_tokens && !(s->auth = rd_auth_load(opt->instructor_tokens, err))) {
         free(s);
         return NULL;
@@ -950,9 +971,15 @@ rd_server *rd_server_start(const rd_server_options *opt, rd_error *err)
         return NULL;
     }
     s->reaper_on = 1;
+    errno = 0;
     if (!start_mhd(s, &la)) {
+        /* bind's errno, before the teardown's calls replace it: "Address
+         * already in use" is the usual cause, and the user's way out is
+         * another port. */
+        int why = errno;
         free_server(s);
-        rd_error_set(err, RD_ERR_IO, 0, 0, "cannot listen on %s port %u", opt->listen_host, (unsigned)opt->port);
+        rd_error_set(err, RD_ERR_IO, 0, 0, "cannot listen on %s port %u%s%s (--listen or RAYD_LISTEN picks another)",
+                     opt->listen_host, (unsigned)opt->port, why ? ": " : "", why ? strerror(why) : "");
         return NULL;
     }
     const union MHD_DaemonInfo *info = MHD_get_daemon_info(s->mhd, MHD_DAEMON_INFO_BIND_PORT);

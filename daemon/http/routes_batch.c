@@ -128,14 +128,17 @@ static const rd_form_field fields[] = {
  * request may go on, else the answer was queued (*ret). */
 int rd_require_instructor(rd_req *r, enum MHD_Result *ret)
 {
+    const char *h = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_AUTHORIZATION);
+    /* Under auth_mu: SIGHUP may replace the tokens meanwhile. */
+    pthread_mutex_lock(&r->srv->auth_mu);
     const rd_auth *a = r->srv->auth;
+    rd_auth_result res = a ? rd_auth_check(a, h) : RD_AUTH_MISSING;
+    pthread_mutex_unlock(&r->srv->auth_mu);
     if (!a) {
         *ret = rd_reply_error(r, 404, "not_found", NULL,
                               "no such route (grade records need the server's --instructor-tokens)");
         return 1;
     }
-    const char *h = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_AUTHORIZATION);
-    rd_auth_result res = rd_auth_check(a, h);
     if (res == RD_AUTH_OK)
         return 0;
     if (res == RD_AUTH_MISSING)

@@ -82,6 +82,13 @@ uint16_t rd_server_port(const rd_server *s);
 /* Its name in the job store's leases (--daemon-id, or HOSTNAME:PORT). */
 const char *rd_server_daemon_id(const rd_server *s);
 
+/* Reads --instructor-tokens again (SIGHUP): the file's tokens replace
+ * those in use, for the next request. Returns how many it holds; -1 when
+ * the server has no --instructor-tokens (the instructors' routes stay off);
+ * -2 with err set when the file cannot be read or is bad, the tokens in use
+ * then staying. */
+int rd_server_reload_tokens(rd_server *s, rd_error *err);
+
 /* Graceful stop: refuse new work (503), let running jobs finish for up to
  * drain_ms, cancel the rest, answer every waiting client, stop. */
 void rd_server_stop(rd_server *s, double drain_ms);

@@ -6,11 +6,9 @@ set -eu
 rayd=$1
 cat "$(dirname "$0")/rayd.h2m"
 echo "[COMMANDS]"
-# "grade --code" is a command of its own with its own page (its summary
-# and --json), so it gets its own section.
+# "grade --code" has a --help of its own (the code grader's options).
 for cmd in render serve grade "grade --code" converge convert compare limits schema; do
     printf '.SS "rayd %s"\n.nf\n' "$cmd"
-    # $cmd unquoted: "grade --code" is the command and its option
     # shellcheck disable=SC2086
     if [ "$cmd" = limits ]; then "$rayd" limits; elif [ "$cmd" = schema ]; then echo "rayd schema prints the JSON Schema of JSON scenes."; else "$rayd" $cmd --help; fi |
         sed -e 's/\\/\\e/g' -e 's/^\./\\\&./' -e "s/^'/\\\\\\&'/"

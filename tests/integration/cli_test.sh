@@ -182,12 +182,12 @@ cmpjson() {  # file expression: the python expression over o must hold
     /usr/bin/python3 -c 'import json, sys; o = json.load(open(sys.argv[1])); sys.exit(0 if eval(sys.argv[2]) else 1)' "$1" "$2"
 }
 expect_exit 0 "compare --help" -- "$RAYD" compare --help
-grep -q "psnr" "$T/out" && ok || bad "compare --help does not explain psnr"
+grep -q "psnr_db" "$T/out" && ok || bad "compare --help does not explain psnr_db"
 expect_exit 0 "compare identical" -- "$RAYD" compare "$T/a.png" "$T/c.png"
-cmpjson "$T/out" 'o["identical"] is True and o["psnr"] is None and o["rmse"] == 0 and o["max_diff"] == 0 and o["differing_pixels"] == 0 and (o["width"], o["height"]) == (40, 30)' &&
+cmpjson "$T/out" 'o["identical"] is True and o["psnr_db"] == 99 and "psnr" not in o and o["rmse"] == 0 and o["max_diff"] == 0 and o["differing_pixels"] == 0 and (o["width"], o["height"]) == (40, 30)' &&
     ok || bad "compare of identical images: $(cat "$T/out")"
 expect_exit 0 "compare different" -- "$RAYD" compare "$T/a.png" "$T/b.png"
-cmpjson "$T/out" 'o["identical"] is False and 0 < o["rmse"] < 1 and o["psnr"] > 0 and 0 < o["max_diff"] <= 255 and 0 < o["differing_pixels"] <= 1200' &&
+cmpjson "$T/out" 'o["identical"] is False and 0 < o["rmse"] < 1 and 0 < o["psnr_db"] < 99 and 0 < o["max_diff"] <= 255 and 0 < o["differing_pixels"] <= 1200' &&
     ok || bad "compare of different images: $(cat "$T/out")"
 # A PNG written by hand (grey, 2x2, one pixel 51 levels off): exact values.
 /usr/bin/python3 - "$T" <<'PY'
@@ -204,7 +204,7 @@ png(d + "/g1.png", 0, [[100, 100], [100, 100]])
 png(d + "/g2.png", 2, [[100, 100, 100, 100, 151, 100], [100, 100, 100, 100, 100, 100]])
 PY
 expect_exit 0 "compare grey with RGB" -- "$RAYD" compare "$T/g1.png" "$T/g2.png"
-cmpjson "$T/out" 'abs(o["rmse"] - 51 / (255 * 12 ** 0.5)) < 1e-15 and abs(o["psnr"] - 24.771212547196626) < 1e-9 and o["max_diff"] == 51 and o["differing_pixels"] == 1 and o["differing_pixels_over_1"] == 1' &&
+cmpjson "$T/out" 'abs(o["rmse"] - 51 / (255 * 12 ** 0.5)) < 1e-15 and abs(o["psnr_db"] - 24.771212547196626) < 1e-9 and o["max_diff"] == 51 and o["differing_pixels"] == 1 and o["differing_pixels_over_1"] == 1' &&
     ok || bad "compare of the 2x2 pair: $(cat "$T/out")"
 expect_exit 1 "compare one image" -- "$RAYD" compare "$T/a.png"
 expect_exit 1 "compare three images" -- "$RAYD" compare "$T/a.png" "$T/b.png" "$T/c.png"
@@ -319,11 +319,12 @@ if [ "$(id -u)" -ne 0 ]; then
 fi
 [ -z "$(ls "$T/ro")" ] && [ -z "$(ls "$T" | grep '\.tmp')" ] && ok || bad "a failed output left files: $(ls "$T" "$T/ro")"
 
-# .pfm and .exr hold the linear image: the PNG is exactly its clamp, gamma
-# and rounding (rd_display8), and the EXR's floats are the PFM's.
+# .pfm and .exr hold the linear image (no --gamma: refused for them): the
+# PNG is exactly its clamp, gamma and rounding (rd_display8), and the EXR's
+# floats are the PFM's.
 "$RAYD" render scenes/area_light.cfg -o "$T/h.png" --width 24 --height 18 --samples 8 --gamma 2.2 2>/dev/null
-"$RAYD" render scenes/area_light.cfg -o "$T/h.pfm" --width 24 --height 18 --samples 8 --gamma 2.2 2>/dev/null
-"$RAYD" render scenes/area_light.cfg -o "$T/h.exr" --width 24 --height 18 --samples 8 --gamma 2.2 2>/dev/null
+"$RAYD" render scenes/area_light.cfg -o "$T/h.pfm" --width 24 --height 18 --samples 8 2>/dev/null
+"$RAYD" render scenes/area_light.cfg -o "$T/h.exr" --width 24 --height 18 --samples 8 2>/dev/null
 /usr/bin/python3 - "$T/h.pfm" "$T/h.png" "$T/h.exr" <<'PY' && ok || bad "the PFM is not the PNG's linear image"
 import math, struct, sys, zlib
 pfm = open(sys.argv[1], "rb").read()
@@ -379,6 +380,33 @@ if [ "${ms:-0}" -gt 1300 ]; then
         bad "--progress bar: $(cat -v "$T/err")"
 fi
 
+# A misspelt command or assignment is told the name it missed (the scene
+# reader's did-you-mean); an unknown one far from any lists them.
+"$RAYD" render scenes/phong.cfg -o "$T/dym.png" --width 8 --height 8 2>/dev/null
+echo '// not graded' >"$T/dym.h"
+expect_exit 1 "misspelt command" -- "$RAYD" rendr scenes/phong.cfg -o "$T/x.png"
+grep -q "unknown command 'rendr'; did you mean 'render'?" "$T/err" && ok || bad "rayd rendr: $(head -3 "$T/err")"
+expect_exit 1 "misspelt assignment" -- "$RAYD" grade --assignments scenes/assignments --assignment phongg \
+    --image "$T/dym.png"
+grep -q "no assignment named 'phongg'; did you mean 'phong'?" "$T/err" && ok || bad "--assignment phongg: $(cat "$T/err")"
+expect_exit 1 "misspelt code assignment" -- "$RAYD" grade --assignments scenes/assignments --assignment difuse \
+    --code "$T/dym.h"
+grep -q "no assignment named 'difuse'; did you mean 'diffuse'?" "$T/err" && ok || bad "--code --assignment difuse: $(cat "$T/err")"
+expect_exit 1 "unknown assignment" -- "$RAYD" grade --assignments scenes/assignments --assignment zzzzzzzz \
+    --image "$T/dym.png"
+grep -q "no assignment named 'zzzzzzzz' (there are: .*phong" "$T/err" && ok || bad "--assignment zzzzzzzz: $(cat "$T/err")"
+
+# --gamma with a linear output would change nothing in the file: refused
+# before rendering, whichever way it is given.
+for out in x.exr x.pfm; do
+    expect_exit 1 "--gamma with $out" -- "$RAYD" render scenes/phong.cfg -o "$T/$out" --gamma 2.2 --width 8 --height 8
+    grep -q -- "--gamma: an* .* holds the linear image" "$T/err" && [ ! -e "$T/$out" ] && ok || bad "--gamma -o $out: $(cat "$T/err")"
+    expect_exit 1 "--set render.gamma with $out" -- "$RAYD" render scenes/phong.cfg -o "$T/$out" \
+        --set render.gamma=2.2 --width 8 --height 8
+done
+expect_exit 0 "--gamma with a PNG" -- "$RAYD" render scenes/phong.cfg -o "$T/g.png" --gamma 2.2 --width 8 --height 8
+expect_exit 0 "an EXR without --gamma" -- "$RAYD" render scenes/phong.cfg -o "$T/g.exr" --width 8 --height 8
+
 # The README's grading example, as written: render the assignment's scene,
 # then grade it.
 case $RAYD in /*) bin=$RAYD ;; *) bin=$PWD/$RAYD ;; esac
@@ -386,6 +414,15 @@ case $RAYD in /*) bin=$RAYD ;; *) bin=$PWD/$RAYD ;; esac
     "$bin" grade --assignments "$OLDPWD/scenes/assignments" --assignment phong --image my_phong.png --diff where.png >grade.json)
 [ $? -eq 0 ] && cmpjson "$T/grade.json" 'o["pass"] is True' && png_is "$T/where.png" 320 240 && ok ||
     bad "the README's grade example: $(cat "$T/grade.json")"
+
+# A perfect grade and a compare of the same two images agree on PSNR, and
+# the grade names no worst pixel (there is none).
+"$RAYD" compare "$T/my_phong.png" "$T/my_phong.png" >"$T/same.json" 2>/dev/null
+/usr/bin/python3 -c 'import json, sys
+g, c = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
+sys.exit(0 if g["metrics"]["psnr_db"] == c.get("psnr_db") == 99 and g["metrics"]["max_abs"] == 0 and g["worst"] is None else 1)' \
+    "$T/grade.json" "$T/same.json" && ok ||
+    bad "a perfect grade against compare: grade $(tr -d ' \n\t' <"$T/grade.json" | head -c 400) compare $(cat "$T/same.json")"
 
 echo "cli: $pass passed, $fail failed"
 [ "$fail" -eq 0 ]

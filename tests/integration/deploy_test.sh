@@ -131,6 +131,32 @@ fi
 "$NGINX" -t -p "$T" -e "$T/error.log" -c "$T/nginx.conf" >"$T/nginx-t" 2>&1 && ok || bad "nginx -t rejects the conf: $(cat "$T/nginx-t")"
 grep -q '\[warn\]\|\[emerg\]' "$T/nginx-t" && bad "nginx -t warns: $(cat "$T/nginx-t")" || ok
 
+# The file as shipped, not a byte changed (its ports, listen 80 included:
+# nginx -t binds nothing), inside the smallest main file that includes it
+# from http {} as /etc/nginx/nginx.conf includes conf.d/*.conf. It is a
+# conf.d file, not a main one: nginx -t -c rayd.conf alone says "upstream"
+# is not allowed there, which the file's first lines say.
+mkdir "$T/shipped"
+cat >"$T/shipped/nginx.conf" <<EOF
+$user_line
+worker_processes 1;
+pid $T/shipped/nginx.pid;
+error_log $T/shipped/error.log;
+events { worker_connections 64; }
+http {
+    client_body_temp_path $T/shipped/client_body;
+    proxy_temp_path $T/shipped/proxy;
+    fastcgi_temp_path $T/shipped/fastcgi;
+    uwsgi_temp_path $T/shipped/uwsgi;
+    scgi_temp_path $T/shipped/scgi;
+    access_log off;
+    include $(pwd)/deploy/nginx/rayd.conf;
+}
+EOF
+"$NGINX" -t -p "$T/shipped" -e "$T/shipped/error.log" -c "$T/shipped/nginx.conf" >"$T/nginx-t" 2>&1 && ok ||
+    bad "nginx -t rejects deploy/nginx/rayd.conf as shipped: $(cat "$T/nginx-t")"
+grep -q '\[warn\]\|\[emerg\]' "$T/nginx-t" && bad "nginx -t warns about the shipped file: $(cat "$T/nginx-t")" || ok
+
 "$NGINX" -p "$T" -e "$T/error.log" -c "$T/nginx.conf" 2>"$T/nginx.stderr" &
 ngx=$!
 url="http://127.0.0.1:$listen"

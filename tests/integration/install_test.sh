@@ -48,7 +48,9 @@ rc=$?
 [ "$rc" -eq 0 ] && grep -q '"pass":[[:space:]]*true' code.out && ok ||
     bad "the installed rayd grades code with its own course and evaluator (exit $rc): $(cat err) $(head -c 300 code.out)"
 
-"$rayd" serve --listen 127.0.0.1:0 --port-file "$T/port" 2>"$T/serve.log" &
+# Without --data-dir the store goes to the user's state folder, not ./var
+# of the folder the daemon starts in.
+XDG_STATE_HOME="$T/state" "$rayd" serve --listen 127.0.0.1:0 --port-file "$T/port" 2>"$T/serve.log" &
 daemon=$!
 i=0
 while [ ! -s "$T/port" ] && [ $i -lt 100 ]; do sleep 0.1; i=$((i + 1)); done
@@ -62,6 +64,29 @@ grep -q "$prefix/share/rayd/scenes" "$T/serve.log" && ok || bad "the start-up li
 kill "$daemon"
 wait "$daemon" && ok || bad "the installed daemon stops on SIGTERM with 0"
 daemon=""
+[ -f "$T/state/rayd/rayd.sqlite3" ] && [ ! -e var ] && ok ||
+    bad "the installed daemon's store is not in \$XDG_STATE_HOME/rayd: $(ls "$T/state/rayd" . 2>&1 | tr '\n' ' ')"
+grep -q "jobs stored in sqlite in $T/state/rayd " "$T/serve.log" && ok ||
+    bad "the start-up line does not say where the store is: $(cat "$T/serve.log")"
+
+# Under systemd's StateDirectory= (STATE_DIRECTORY, which wins), and with
+# neither variable (~/.local/state/rayd).
+for how in "STATE_DIRECTORY=$T/lib/rayd/8080" "XDG_STATE_HOME= HOME=$T/home"; do
+    rm -f "$T/port"
+    # shellcheck disable=SC2086
+    env XDG_STATE_HOME="$T/state2" $how "$rayd" serve --listen 127.0.0.1:0 --port-file "$T/port" 2>"$T/serve2.log" &
+    daemon=$!
+    i=0
+    while [ ! -s "$T/port" ] && [ $i -lt 100 ]; do sleep 0.1; i=$((i + 1)); done
+    kill "$daemon"
+    wait "$daemon"
+    daemon=""
+    case $how in STATE*) want=$T/lib/rayd/8080 ;; *) want=$T/home/.local/state/rayd ;; esac
+    [ -f "$want/rayd.sqlite3" ] && [ ! -e var ] && [ ! -e "$T/state2" ] && ok ||
+        bad "with $how the store is not in $want: $(cat "$T/serve2.log")"
+done
+"$rayd" serve --help | tr -s ' \n' '  ' | grep -q -- "--data-dir DIR .*(default \$STATE_DIRECTORY under systemd, else" && ok ||
+    bad "serve --help does not give the store's default: $("$rayd" serve --help | grep -A2 -- --data-dir)"
 
 # The man page says what --help says.
 man=$prefix/share/man/man1/rayd.1
@@ -71,6 +96,20 @@ done
 if command -v man >/dev/null 2>&1; then
     MANWIDTH=100 man -l "$man" 2>/dev/null | grep -q -- "--memory-budget" && ok || bad "man -l rayd.1 does not show serve's flags"
 fi
+# grade --code's own help, the code grader's files, every exit status, and
+# a SEE ALSO that names installed files, each of them there.
+for want in '^\.SS "rayd grade --code"' 'usage: rayd grade --assignment NAME --code FILE' \
+    "$prefix/share/rayd/course/" "$prefix/libexec/rayd/rayd.*eval" '^\.B 4$' 'the sandbox cannot start here' \
+    "$prefix/share/doc/rayd/" 'XDG_STATE_HOME'; do
+    grep -q -- "$want" "$man" && ok || bad "the man page lacks $want"
+done
+grep -q "docs/ of the source" "$man" && bad "the man page points to the source's docs/, which is not installed" || ok
+see_also=$(sed -n '/^\.SH "SEE ALSO"/,$p' "$man")
+for f in README.md "$root"/docs/*.md openapi.json scene.schema.json; do
+    f=${f##*/}
+    [ -f "$prefix/share/doc/rayd/$f" ] && ok || bad "make install did not install share/doc/rayd/$f"
+    printf '%s' "$see_also" | sed 's/\\-/-/g' | grep -qF "$f" && ok || bad "SEE ALSO does not name $f"
+done
 grep -q "ExecStart=$prefix/bin/rayd serve" "$prefix/lib/systemd/system/rayd@.service" && ok ||
     bad "the unit runs the installed binary"
 if command -v systemd-analyze >/dev/null 2>&1; then
@@ -106,6 +145,41 @@ rc=$?
 grep -q "/opt/rayd-test/share/rayd/scenes/assignments" err && ok || bad "rayd grade names the folder it searched: $(cat err)"
 "$staged" grade --assignment phong --image phong.png --assignments "$stage/opt/rayd-test/share/rayd/scenes/assignments" \
     >/dev/null 2>err && ok || bad "--assignments overrides the data folder: $(cat err)"
+
+# Completion, generated from the installed binary: every command of its
+# --help, each command's flags (grade's --code ones and the limits too).
+comp=$prefix/share/bash-completion/completions/rayd
+[ -f "$comp" ] && [ -f "$prefix/share/zsh/site-functions/_rayd" ] && ok || bad "make install did not install the completion"
+complete_words() { # words...: what bash completes for the last one
+    bash -c '. "$1"; shift; COMP_WORDS=("$@"); COMP_CWORD=$(($# - 1)); _rayd; printf "%s\n" "${COMPREPLY[@]}"' _ "$comp" "$@"
+}
+for c in $("$rayd" --help | sed -n '/^Commands:/,/^$/s/^  \([a-z][a-z-]*\) .*/\1/p'); do
+    complete_words rayd "" | grep -qx "$c" && ok || bad "bash completion lacks the command $c"
+done
+complete_words rayd rend | grep -qx render && ok || bad "bash: rayd rend<TAB>: $(complete_words rayd rend)"
+complete_words rayd render --gam | grep -qx -- --gamma && ok || bad "bash: render --gam<TAB>"
+complete_words rayd grade --code-e | grep -qx -- --code-eval && ok || bad "bash: grade --code-e<TAB>"
+complete_words rayd serve --instructor | grep -qx -- --instructor-tokens && ok || bad "bash: serve --instructor<TAB>"
+complete_words rayd converge --limit-obj | grep -qx -- --limit-objects && ok || bad "bash: converge --limit-obj<TAB>"
+complete_words rayd serve --limit | grep -qx -- --limit && bad "bash completes the help's --limit-... placeholder" || ok
+# zsh: _rayd under stand-ins for compsys's compadd and _files, which print
+# what they are given (compadd's own matching against PREFIX is zsh's).
+zcomp=$prefix/share/zsh/site-functions/_rayd
+zsh_words() { # CURRENT words...: what _rayd offers
+    zsh -fc 'compadd() { if [[ $1 == -a ]]; then print -l -- ${(P)2}; else [[ $1 == -- ]] && shift; print -l -- "$@"; fi }
+        _files() { print FILES }
+        f=$1 CURRENT=$2; shift 2; words=("$@"); PREFIX=${words[CURRENT]}
+        source "$f"' _ "$zcomp" "$@"
+}
+if command -v zsh >/dev/null 2>&1; then
+    zsh -n "$zcomp" && ok || bad "_rayd is not zsh"
+    zsh_words 2 rayd re | grep -qx render && ok || bad "zsh: rayd re<TAB>: $(zsh_words 2 rayd re 2>&1 | head -3)"
+    zsh_words 3 rayd render --gam | grep -qx -- --gamma && ok || bad "zsh: render --gam<TAB>"
+    zsh_words 3 rayd grade --code-e | grep -qx -- --code-eval && ok || bad "zsh: grade --code-e<TAB>"
+    zsh_words 3 rayd render sc | grep -qx FILES && ok || bad "zsh: a file argument does not complete files"
+else
+    bad "no zsh to check _rayd with (make deps installs it)"
+fi
 
 # uninstall leaves nothing.
 cd "$root" || exit 1

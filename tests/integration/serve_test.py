@@ -300,8 +300,47 @@ def test_sighup():
     shutil.rmtree(tmp)
 
 
+def test_sighup_tokens():
+    """SIGHUP reads --instructor-tokens again: a token taken out of the file
+    stops working, a new one works, without a restart. A file that became
+    bad keeps the tokens read before, and the log says why."""
+    tmp = tempfile.mkdtemp()
+    tokens = os.path.join(tmp, "tokens")
+    old_tok, new_tok = "old-token-0123456789abcdef", "new-token-0123456789abcdef"
+    with open(tokens, "w") as f:
+        f.write(old_tok + "\n")
+    d = Daemon(["--instructor-tokens", tokens])
+
+    def status(tok):
+        return d.request("GET", "/v1/grades", headers={"Authorization": "Bearer " + tok})[0]
+
+    def hup(count):
+        d.send(signal.SIGHUP)
+        deadline = time.time() + 5
+        while d.text().count("SIGHUP: reloaded") < count and time.time() < deadline:
+            time.sleep(0.02)
+
+    t(status(old_tok) == 200 and status(new_tok) == 403, "before SIGHUP the file's token is the one taken")
+    with open(tokens + ".tmp", "w") as f:
+        f.write("# rotated\n" + new_tok + "\n")
+    os.rename(tokens + ".tmp", tokens)
+    hup(1)
+    t(status(new_tok) == 200, "after SIGHUP the new token is taken: %d" % status(new_tok))
+    t(status(old_tok) == 403, "after SIGHUP the removed token is refused: %d" % status(old_tok))
+    t(re.search(r"SIGHUP: instructor tokens read again from \S+tokens: 1 token", d.text()) is not None,
+      "SIGHUP logs the tokens' reload: " + d.text()[-400:])
+    with open(tokens, "w") as f:
+        f.write("short\n")
+    hup(2)
+    t(status(new_tok) == 200, "a bad file on SIGHUP keeps the tokens read before")
+    t(re.search(r"SIGHUP: .*tokens:1: a token is 16 to 256 .*the tokens read before stay", d.text()) is not None,
+      "a bad file on SIGHUP is logged with its line: " + d.text()[-400:])
+    d.stop()
+    shutil.rmtree(tmp)
+
+
 for test in [test_listen_forms, test_options_and_environment, test_start_checks, test_readyz, test_json_log,
-             test_library_messages_in_json, test_text_log_and_proxy, test_per_client_limit, test_caching_headers, test_cors, test_sighup]:
+             test_library_messages_in_json, test_text_log_and_proxy, test_per_client_limit, test_caching_headers, test_cors, test_sighup, test_sighup_tokens]:
     try:
         test()
     except Exception as e:  # one broken feature must not hide the others' results

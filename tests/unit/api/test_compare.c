@@ -112,3 +112,12 @@ Test(compare, large_image_exact)
     free(a);
     free(b);
 }
+
+/* What grade and compare print: capped at 99 dB, which identical images get. */
+Test(compare, reported_psnr_is_capped_at_99_db_for_identical_images)
+{
+    cr_assert_eq(rd_psnr_db_reported(0), RD_PSNR_CAP_DB);
+    cr_assert_eq(RD_PSNR_CAP_DB, 99.0);
+    assert_near(rd_psnr_db_reported(0.2 / sqrt(12.0)), 24.771212547196626, 1e-12);
+    cr_assert_eq(rd_psnr_db_reported(1e-9), 99.0, "a tiny difference is not reported above identical images");
+}

@@ -164,6 +164,7 @@ Test(grading, verdict_json_has_every_field)
     cr_assert(cJSON_IsNull(cJSON_GetObjectItem(v, "failed_box")));
     cr_assert(cJSON_IsTrue(cJSON_GetObjectItem(v, "pass")));
     cr_assert_eq(number(v, "metrics", "psnr_db"), 99);
+    cr_assert(cJSON_IsNull(cJSON_GetObjectItem(v, "worst")), "no pixel differs: no worst pixel, not (0, 0)");
     cJSON_Delete(v);
     free(ref);
     free(img);
