@@ -135,7 +135,7 @@ def stats_record(stats):
 
 
 def compare(rayd, a, b, cwd=None):
-    """`rayd compare A B`: its JSON (rmse, psnr, max_diff, differing_pixels, ...)."""
+    """`rayd compare A B`: its JSON (rmse, psnr_db, max_diff, differing_pixels, ...)."""
     r = run([rayd, "compare", a, b], cwd=cwd, what="rayd compare")
     return json.loads(r.stdout)
 
