@@ -20,7 +20,14 @@ double rd_display(double c, double gamma)
     return gamma == 1 ? c : pow(c, 1.0 / gamma);
 }
 
-uint8_t rd_display8(double c, double gamma) { return (uint8_t)floor(rd_display(c, gamma) * 255.0 + 0.5); }
+uint8_t rd_display8(double c, double gamma)
+{
+    /* NaN has no display value, and converting it to an integer is
+     * undefined: black, the byte x86 gave it. */
+    if (c != c)
+        return 0;
+    return (uint8_t)floor(rd_display(c, gamma) * 255.0 + 0.5);
+}
 
 /* rd_display8 is a staircase in c: 0 up to edge[1], k from edge[k] on.
  * Each edge is found by bisecting the doubles of [0, 1] (ordered as their

@@ -23,7 +23,7 @@ void rd_image_free(rd_image *img);
 /* Display value of one channel: clamp to [0,1], then ^(1/gamma). */
 double rd_display(double c, double gamma);
 
-/* The 8-bit value of one channel: floor(display·255 + 0.5). */
+/* The 8-bit value of one channel: floor(display·255 + 0.5); 0 for NaN. */
 uint8_t rd_display8(double c, double gamma);
 
 /* rd_display8(c, 1) without the library's floor, a call per channel:
