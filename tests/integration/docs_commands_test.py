@@ -21,7 +21,9 @@ import shutil
 import subprocess
 import sys
 import tempfile
-import time
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+from rayd_http import Daemon  # noqa: E402
 
 ROOT = os.getcwd()
 RAYD = os.path.abspath(os.environ.get("RAYD", "build/rayd"))
@@ -45,27 +47,14 @@ def command_lines(path):
     return out
 
 
-def start_daemon(tmp):
-    port_file = os.path.join(tmp, "port")
-    log = open(os.path.join(tmp, "daemon.log"), "wb")
-    proc = subprocess.Popen([RAYD, "serve", "--listen", "127.0.0.1:0", "--port-file", port_file, "--data-dir",
-                             os.path.join(tmp, "var"), "--scenes", os.path.join(ROOT, "scenes"), "--threads", "2"],
-                            stdout=log, stderr=log, stdin=subprocess.DEVNULL)
-    for _ in range(1500):
-        if os.path.exists(port_file) and open(port_file).read().strip():
-            return proc, int(open(port_file).read())
-        if proc.poll() is not None:
-            break
-        time.sleep(0.02)
-    proc.kill()
-    proc.wait()
-    sys.exit("docs commands: the daemon did not start: " + open(os.path.join(tmp, "daemon.log")).read()[-500:])
-
-
 def main():
     files = ["README.md"] + sorted(glob.glob("docs/*.md"))
     tmp = tempfile.mkdtemp(prefix="rayd-docs-test-")
-    proc, port = start_daemon(tmp)
+    try:
+        daemon = Daemon(tmp, ["--scenes", os.path.join(ROOT, "scenes"), "--threads", "2"])
+    except RuntimeError as e:
+        sys.exit("docs commands: %s" % e)
+    port = daemon.port
     passed, failed, skipped = 0, 0, []
     try:
         for path in files:
@@ -97,8 +86,8 @@ def main():
                     failed += 1
                     print("FAIL: %s exit %s: %s\n    %s" % (where, rc, text, err.strip()[-400:].replace("\n", "\n    ")))
     finally:
-        proc.terminate()
-        proc.wait()
+        daemon.proc.terminate()
+        daemon.proc.wait()
     for where, why in skipped:
         print("not run: %s: %s" % (where, why))
     print("docs commands: %d passed, %d failed, %d not run (each named above)" % (passed, failed, len(skipped)))
