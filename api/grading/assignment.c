@@ -72,6 +72,13 @@ static rd_error_code parse_grade(const char *path, const char *text, rd_assignme
             a->shininess = strcmp(v, "natural") == 0 ? RD_SHININESS_NATURAL : RD_SHININESS_REAL;
             continue;
         }
+        char why[160];
+        int term = rd_term_key(&a->term, k, v, why, sizeof why);
+        if (term < 0)
+            return rd_error_set(err, RD_ERR_SYNTAX, line, col, "%s:%d:%d: %s: %s, got '%.40s'", path, line, col, k, why,
+                                v);
+        if (term > 0)
+            continue;
         double x = strtod(v, &end);
         if (!*v || *end)
             return rd_error_set(err, RD_ERR_SYNTAX, line, col, "%s:%d:%d: %s: expected a number, got '%.40s'", path,
@@ -96,7 +103,8 @@ static rd_error_code parse_grade(const char *path, const char *text, rd_assignme
         else
             return rd_error_set(
                 err, RD_ERR_SYNTAX, line, 1,
-                "%s:%d:1: unknown key '%.40s' (title, fail, fail_fraction, hard_fail, hard_fail_pixels, shininess)",
+                "%s:%d:1: unknown key '%.40s' (title, fail, fail_fraction, hard_fail, hard_fail_pixels, shininess, "
+                "release, due, late_days, late_penalty, points, credit, image_credit, counts)",
                 path, line, k);
     }
     return RD_OK;
@@ -156,6 +164,7 @@ rd_error_code rd_assignment_load(const char *dir, const char *name, rd_assignmen
     snprintf(a->name, sizeof a->name, "%s", name);
     snprintf(a->title, sizeof a->title, "%s", name);
     a->thresholds = rd_grade_thresholds_default();
+    a->term = rd_term_default();
     /* Both files must really lie in the folder: a link out of it is no
      * assignment (the scene route would otherwise serve any file). */
     char file[80], real[PATH_MAX];

@@ -8,6 +8,8 @@
  *     hard_fail_pixels = 16
  *     shininess = natural
  *
+ * and the term's keys (term.h: release, due, late_days, late_penalty,
+ * points, credit, image_credit, counts).
  * Keys left out keep the calibrated defaults (rd_grade_thresholds_default).
  * shininess is the domain the assignment's text gives the Phong exponent n
  * (the course's handout: a natural number); a student's code is called on
@@ -20,6 +22,7 @@
 
 #include "grade.h"
 #include "rayd/error.h"
+#include "term.h"
 
 /* The shininess an assignment allows: any positive number, or only the
  * natural numbers 1, 2, 3... */
@@ -31,6 +34,7 @@ typedef struct {
     char scene_path[512];
     rd_grade_thresholds thresholds;
     rd_shininess_domain shininess;
+    rd_term term; /* term.h: the schedule, points, credit and which grade counts */
     /* rd_assignment_list only: why it cannot be graded ("phong.grade:3:1:
      * ..."), naming files by their names in the folder, never by path;
      * "" when it can. */

@@ -3,25 +3,10 @@
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
-#include <time.h>
 
 #include "number_text.h"
+#include "time_text.h"
 #include "utf8.h"
-
-void rd_grade_time_text(long long ms, char *buf, size_t size)
-{
-    /* Floor division, so that a time before 1970 keeps 0..999 ms. */
-    long long sec = ms >= 0 ? ms / 1000 : -((-ms + 999) / 1000);
-    int milli = (int)(ms - sec * 1000);
-    time_t t = (time_t)sec;
-    struct tm tm;
-    if (!gmtime_r(&t, &tm)) {
-        snprintf(buf, size, "%s", "");
-        return;
-    }
-    snprintf(buf, size, "%04d-%02d-%02dT%02d:%02d:%02d.%03dZ", tm.tm_year + 1900, tm.tm_mon + 1, tm.tm_mday, tm.tm_hour,
-             tm.tm_min, tm.tm_sec, milli);
-}
 
 static rd_error_code start_row(rd_grade_row *row, const char *student, const char *assignment, long long graded_at_ms,
                                rd_error *err)
@@ -41,6 +26,8 @@ static rd_error_code start_row(rd_grade_row *row, const char *student, const cha
     memcpy(row->student, student, n + 1);
     snprintf(row->assignment, sizeof row->assignment, "%s", assignment);
     row->graded_at_ms = graded_at_ms;
+    row->counts = row->late = -1;
+    row->score = row->points = NAN;
     return RD_OK;
 }
 
@@ -132,14 +119,33 @@ static void number_cell(rd_strbuf *b, double v)
 
 void rd_grade_csv_header(rd_strbuf *b)
 {
-    rd_strbuf_printf(b, "student,assignment,pass,failed_fraction,max_abs,psnr_db,ssim,graded_at,error\r\n");
+    rd_strbuf_printf(b, "student,assignment,pass,failed_fraction,max_abs,psnr_db,ssim,graded_at,grade_id,url,kind,"
+                        "counts,submitted_at,late,score,points,error\r\n");
+}
+
+static const char *tristate(int v) { return v < 0 ? "" : v ? "true" : "false"; }
+
+/* grade_id to points, each followed by its comma. */
+static void record_cells(rd_strbuf *b, const rd_grade_row *row)
+{
+    char at[40] = "";
+    if (row->submitted_at_ms > 0)
+        rd_time_text(row->submitted_at_ms, at, sizeof at);
+    cell(b, row->grade_id, 1);
+    rd_strbuf_printf(b, ",");
+    cell(b, row->url, 1);
+    rd_strbuf_printf(b, ",%s,%s,%s,%s,", row->kind, tristate(row->counts), at, tristate(row->late));
+    number_cell(b, row->score);
+    rd_strbuf_printf(b, ",");
+    number_cell(b, row->points);
+    rd_strbuf_printf(b, ",");
 }
 
 void rd_grade_csv_row(rd_strbuf *b, const rd_grade_row *row)
 {
     int error = rd_grade_row_is_error(row);
     char at[40];
-    rd_grade_time_text(row->graded_at_ms, at, sizeof at);
+    rd_time_text(row->graded_at_ms, at, sizeof at);
     cell(b, row->student, 1);
     rd_strbuf_printf(b, ",");
     cell(b, row->assignment, 1);
@@ -154,6 +160,7 @@ void rd_grade_csv_row(rd_strbuf *b, const rd_grade_row *row)
         rd_strbuf_printf(b, ",,,");
     }
     rd_strbuf_printf(b, ",%s,", at);
+    record_cells(b, row);
     cell(b, row->error, 1);
     rd_strbuf_printf(b, "\r\n");
 }
@@ -170,11 +177,33 @@ static int add_number(cJSON *o, const char *key, double v)
     return cJSON_AddRawToObject(o, key, t) != NULL;
 }
 
+static int text_or_null(cJSON *o, const char *key, const char *text)
+{
+    return (*text ? cJSON_AddStringToObject(o, key, text) : cJSON_AddNullToObject(o, key)) != NULL;
+}
+
+static int bool_or_null(cJSON *o, const char *key, int v)
+{
+    return (v < 0 ? cJSON_AddNullToObject(o, key) : cJSON_AddBoolToObject(o, key, v)) != NULL;
+}
+
+/* The record's keys of the row. */
+static int record_json(cJSON *o, const rd_grade_row *row)
+{
+    char at[40] = "";
+    if (row->submitted_at_ms > 0)
+        rd_time_text(row->submitted_at_ms, at, sizeof at);
+    return text_or_null(o, "grade_id", row->grade_id) && text_or_null(o, "url", row->url) &&
+           text_or_null(o, "kind", row->kind) && bool_or_null(o, "counts", row->counts) &&
+           text_or_null(o, "submitted_at", at) && bool_or_null(o, "late", row->late) &&
+           add_number(o, "score", row->score) && add_number(o, "points", row->points);
+}
+
 cJSON *rd_grade_row_json(const rd_grade_row *row)
 {
     int error = rd_grade_row_is_error(row);
     char at[40];
-    rd_grade_time_text(row->graded_at_ms, at, sizeof at);
+    rd_time_text(row->graded_at_ms, at, sizeof at);
     cJSON *o = cJSON_CreateObject();
     int ok = o && cJSON_AddStringToObject(o, "student", row->student);
     ok = ok && (row->assignment[0] ? cJSON_AddStringToObject(o, "assignment", row->assignment)
@@ -187,7 +216,7 @@ cJSON *rd_grade_row_json(const rd_grade_row *row)
         ok = ok && add_number(o, "failed_fraction", row->failed_fraction) && add_number(o, "max_abs", row->max_abs) &&
              add_number(o, "psnr_db", row->psnr_db) && add_number(o, "ssim", row->ssim);
     }
-    ok = ok && cJSON_AddStringToObject(o, "graded_at", at);
+    ok = ok && cJSON_AddStringToObject(o, "graded_at", at) && record_json(o, row);
     ok = ok && (error ? cJSON_AddStringToObject(o, "error", row->error) : cJSON_AddNullToObject(o, "error"));
     if (!ok) {
         cJSON_Delete(o);

@@ -9,10 +9,11 @@
  *
  * CSV (RFC 4180): the header
  *
- *     student,assignment,pass,failed_fraction,max_abs,psnr_db,ssim,graded_at,error
+ *     student,assignment,pass,failed_fraction,max_abs,psnr_db,ssim,graded_at,
+ *     grade_id,url,kind,counts,submitted_at,late,score,points,error
  *
- * then one line per row, every line ending in CRLF and holding all nine
- * cells. pass is true or false; graded_at is RFC 3339 in UTC with
+ * (one line) then one line per row, every line ending in CRLF and holding
+ * all seventeen cells; error stays the last. pass is true or false; graded_at is RFC 3339 in UTC with
  * milliseconds (2024-05-01T09:30:00.123Z); error is empty for a graded row,
  * and the four metrics are empty for an error row. A cell holding a comma
  * or a semicolon (the separator of many locales' spreadsheets), a double
@@ -49,10 +50,17 @@ typedef struct {
     double psnr_db, ssim;
     long long graded_at_ms; /* Unix time in milliseconds */
     char error[512];        /* "" for a graded row */
+    /* A record's (the daemon's tables: docs/grading.md, "A term"). A row
+     * that is no record (rayd grade's) leaves them unknown, as the row's
+     * making sets them: empty cells, JSON null. */
+    char grade_id[40];         /* "" */
+    char url[300];             /* the verdict's address; "" */
+    char kind[8];              /* "image" or "code"; "" */
+    int counts;                /* 1, 0; -1 */
+    long long submitted_at_ms; /* 0 */
+    int late;                  /* 1, 0; -1 */
+    double score, points;      /* NAN */
 } rd_grade_row;
-
-/* ms as RFC 3339 UTC with milliseconds, into buf (>= 32 bytes). */
-void rd_grade_time_text(long long ms, char *buf, size_t size);
 
 /* A graded row of student for assignment ("" or NULL: a given scene) from
  * a comparison's result. RD_ERR_INVALID when student is empty, longer than
@@ -79,8 +87,9 @@ void rd_grade_csv_row(rd_strbuf *b, const rd_grade_row *row);
 
 /* The row as an object with the CSV's keys: student, assignment (null for
  * a given scene), pass, failed_fraction, max_abs, psnr_db, ssim (null in
- * an error row), graded_at (the RFC 3339 text), error (null in a graded
- * row). The caller deletes it; NULL when out of memory. */
+ * an error row), graded_at (the RFC 3339 text), the record's keys (null
+ * when unknown), error (null in a graded row). The caller deletes it; NULL
+ * when out of memory. */
 cJSON *rd_grade_row_json(const rd_grade_row *row);
 
 #endif

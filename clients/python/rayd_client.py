@@ -134,19 +134,19 @@ class Job(Record):
 class Verdict(Record):
     SCHEMA = "Verdict"
     FIELDS = ("assignment", "title", "pass", "width", "height", "metrics", "thresholds", "worst", "failed_box",
-              "reference_cached", "id", "diff_url", "reference_url", "image_url")
+              "reference_cached", "id", "diff_url", "reference_url", "image_url", "record")
 
 
 class CodeGrade(Record):
     SCHEMA = "CodeGrade"
     FIELDS = ("id", "student", "assignment", "material", "class", "pass", "compile", "function", "image",
-              "shading_calls", "lobe_url", "diff_url", "output", "note", "ms", "sandbox_ms")
+              "shading_calls", "lobe_url", "diff_url", "output", "note", "ms", "sandbox_ms", "record")
 
 
 class GradeRow(Record):
     SCHEMA = "GradeRow"
     FIELDS = ("student", "assignment", "pass", "failed_fraction", "max_abs", "psnr_db", "ssim", "graded_at", "error",
-              "grade_id")
+              "grade_id", "url", "kind", "counts", "submitted_at", "late", "score", "points")
 
 
 class Batch(Record):

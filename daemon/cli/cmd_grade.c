@@ -8,6 +8,7 @@
 #include <strings.h>
 #include <unistd.h>
 
+#include "assignment.h"
 #include "cli.h"
 #include "file_io.h"
 #include "grade_table.h"
@@ -289,6 +290,22 @@ static void print_row(const rd_grade_row *row)
     fflush(stdout);
 }
 
+/* A row's score of the assignment's points (docs/grading.md, "A term").
+ * The command grades what its user collected: on time, whatever the
+ * assignment's due time. A scene's rows have none. */
+static void score_row(const rd_grader *g, const char *assignment, rd_grade_row *row)
+{
+    rd_assignment a;
+    rd_error err = {0};
+    if (!assignment || rd_assignment_load(g->assignments_dir, assignment, &a, &err))
+        return;
+    rd_term_outcome o = {
+        .graded = !rd_grade_row_is_error(row), .pass = row->pass, .failed_fraction = row->failed_fraction};
+    snprintf(row->kind, sizeof row->kind, "image");
+    row->points = a.term.points;
+    row->score = rd_term_score(&a.term, &o);
+}
+
 /* Grades one student of the class into row. RD_OK with the row made
  * (graded or an error row), else an error of the whole run, with *status. */
 static rd_error_code grade_student(const rd_grader *g, const rd_grade_input *class_in, const student_image *s,
@@ -301,6 +318,7 @@ static rd_error_code grade_student(const rd_grader *g, const rd_grade_input *cla
         rd_read_file(s->path, RD_GRADE_MAX_PNG_BYTES, "the largest PNG graded, 1 GiB", &png, &in.png_len, &err);
     if (rc) {
         rd_grade_row_error(row, s->student, class_in->assignment, err.message, rd_wall_ms(), NULL);
+        score_row(g, class_in->assignment, row);
         return RD_OK;
     }
     in.png = (const unsigned char *)png;
@@ -325,6 +343,8 @@ static rd_error_code grade_student(const rd_grader *g, const rd_grade_input *cla
         *status = run_error(g, class_in, &out, rc, &err);
     }
     rd_grade_output_free(&out);
+    if (rc == RD_OK)
+        score_row(g, class_in->assignment, row);
     return rc;
 }
 

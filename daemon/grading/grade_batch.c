@@ -99,8 +99,9 @@ static void grade_image(grade_batch *b, size_t i)
     if (!rc && rd_grade_finish(&o))
         rc = rd_error_set(&err, RD_ERR_NOMEM, 0, 0, "out of memory comparing the images");
     char *verdict = NULL;
+    grading_sub sub = {.student = im->student, .batch_id = b->id};
     if (!rc)
-        rc = grading_one(b->g, &o, im->student, b->id, id, &verdict, &err);
+        rc = grading_one(b->g, &o, &sub, id, &verdict, &err);
     if (rc)
         grading_error_record(b->g, b->assignment, im->student, b->id, err.message, id);
     free(verdict);
@@ -346,7 +347,7 @@ rd_error_code rd_grading_batch_text(rd_grading *g, const char *id, rd_grading_ba
     size_t n = 0;
     if ((rc = rd_store_grades_list(g->store, &f, &rows, &n, err)))
         return rc;
-    char *t = grading_rows_text(rows, n, form == RD_BATCH_ROWS_CSV);
+    char *t = grading_rows_text(g, rows, n, form == RD_BATCH_ROWS_CSV);
     rd_store_grades_free(rows, n);
     if (t && form == RD_BATCH_STATUS) {
         char *status = status_text(&b, t);

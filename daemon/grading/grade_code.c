@@ -11,6 +11,7 @@
 #include "code_frames.h"
 #include "code_lobe.h"
 #include "grading_internal.h"
+#include "rayd/clock.h"
 #include "sandbox.h"
 
 rd_error_code grading_code_init(rd_grading *g, rd_error *err)
@@ -119,6 +120,7 @@ typedef struct {
     size_t code_len;
     char filename[80], assignment[80], student[256];
     char client[64];        /* who holds the slot */
+    long long submitted_ms; /* when the request came */
     const atomic_int *stop; /* the job's: a hang-up or DELETE ends the sandbox */
     rd_codegrade_result res;
     int counted;         /* holds a slot until its sandbox has run */
@@ -158,6 +160,15 @@ static rd_error_code prepare(void *arg, rd_scene *s, int *render, rd_error *err)
     return rc;
 }
 
+/* The grade as its record's term sees it: code, with the share of its
+ * configurations that are right (its partial credit). */
+static grading_sub submission(const code_task *t)
+{
+    const rd_code_report *r = &t->res.report;
+    double share = r->configurations ? (double)(r->configurations - r->failed) / (double)r->configurations : 0;
+    return (grading_sub){.student = t->student, .submitted_ms = t->submitted_ms, .code = 1, .share = share};
+}
+
 /* The image's verdict as the grades keep it (with its id and addresses)
  * in place of the bare one; the record follows in finish. A grade whose
  * code made no image is recorded as an error, so that the instructors see
@@ -181,8 +192,10 @@ static int add_ids(code_task *t, cJSON *root, rd_error *err)
     } else {
         if (!cJSON_AddNullToObject(root, "diff_url"))
             return 0;
-        grading_error_record(t->g, t->res.assignment, t->student, NULL,
-                             t->res.compile.result != 0 ? "the code did not compile" : "the code made no image", t->id);
+        grading_sub sub = submission(t);
+        grading_error_record_sub(t->g, t->res.assignment, &sub,
+                                 t->res.compile.result != 0 ? "the code did not compile" : "the code made no image",
+                                 t->id);
     }
     char url[96];
     snprintf(url, sizeof url, "/v1/grade/code/%s/lobe.svg", t->id);
@@ -233,8 +246,9 @@ static rd_error_code finish(void *arg, const uint8_t *rgb, int w, int h, rd_erro
     t->json = ok ? cJSON_PrintUnformatted(root) : NULL;
     cJSON_Delete(root);
     /* the record's pass is the whole grade's, its verdict this answer */
+    grading_sub sub = submission(t);
     if (t->json && t->res.image_graded)
-        grading_record(t->g, &t->res.grade, t->id, t->student, NULL, t->res.pass, t->json, t->diff, t->diff_len);
+        grading_record(t->g, &t->res.grade, t->id, &sub, t->res.pass, &t->json, t->diff, t->diff_len);
     return t->json ? RD_OK : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
 }
 
@@ -265,6 +279,7 @@ rd_error_code rd_grading_code_task(rd_grading *g, rd_grading_code *in, rd_jq_tas
     t->code_len = in->code_len;
     in->code = NULL;
     snprintf(t->client, sizeof t->client, "%s", in->client ? in->client : "");
+    t->submitted_ms = rd_wall_ms();
     snprintf(t->filename, sizeof t->filename, "%s", in->filename ? in->filename : "");
     snprintf(t->assignment, sizeof t->assignment, "%s", in->assignment ? in->assignment : "");
     snprintf(t->student, sizeof t->student, "%s", in->student ? in->student : "");

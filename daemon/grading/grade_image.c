@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "grading_internal.h"
+#include "rayd/clock.h"
 
 typedef struct {
     rd_grading *g;
@@ -15,6 +16,7 @@ typedef struct {
     size_t scene_len;
     char assignment[80];
     char student[256];
+    long long submitted_ms; /* when the request came, not when it was graded */
     rd_grade_output out;
     char *json; /* the verdict */
 } image_task;
@@ -57,7 +59,8 @@ static rd_error_code finish(void *arg, const uint8_t *rgb, int w, int h, rd_erro
     if (rd_grade_finish(o))
         return rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory comparing the images");
     char id[RD_CAP_MAX];
-    return grading_one(t->g, o, t->student, NULL, id, &t->json, err);
+    grading_sub sub = {.student = t->student, .submitted_ms = t->submitted_ms};
+    return grading_one(t->g, o, &sub, id, &t->json, err);
 }
 
 static void free_task(void *arg)
@@ -89,6 +92,7 @@ rd_error_code rd_grading_image_task(rd_grading *g, rd_grading_image *in, rd_jq_t
     in->image = in->scene = NULL;
     snprintf(t->assignment, sizeof t->assignment, "%s", in->assignment ? in->assignment : "");
     snprintf(t->student, sizeof t->student, "%s", in->student ? in->student : "");
+    t->submitted_ms = rd_wall_ms();
     *task = (rd_jq_task){prepare, finish, free_task, t, t->image_len + t->scene_len, NULL};
     return RD_OK;
 }

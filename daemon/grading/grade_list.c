@@ -9,13 +9,27 @@
 #include "grade_table.h"
 #include "grading_internal.h"
 #include "strbuf.h"
+#include "time_text.h"
 
 /* A listing gives at most this many records, oldest first from `since`:
  * a longer history is read in pages by moving since on. */
 enum { GRADES_LISTED = 10000 };
 
+/* The record's own columns of its row (grade_table.h). */
+static void record_columns(const rd_store_grade *g, int counts, rd_grade_row *row)
+{
+    snprintf(row->grade_id, sizeof row->grade_id, "%s", g->id);
+    snprintf(row->url, sizeof row->url, "/v1/grades/%s", g->id);
+    snprintf(row->kind, sizeof row->kind, "%s", g->kind ? g->kind : "image");
+    row->counts = counts;
+    row->submitted_at_ms = g->submitted_ms > 0 ? g->submitted_ms : g->graded_ms;
+    row->late = g->late_ms > 0;
+    row->score = g->score;
+    row->points = g->points;
+}
+
 /* A record as a table row. 0 when it cannot be one. */
-static int row_of(const rd_store_grade *g, rd_grade_row *row)
+static int row_of(const rd_store_grade *g, int counts, rd_grade_row *row)
 {
     rd_error err = {0};
     /* A grade sent without a student still has a row. */
@@ -29,37 +43,42 @@ static int row_of(const rd_store_grade *g, rd_grade_row *row)
     res.ssim = g->ssim;
     rd_error_code rc = g->error ? rd_grade_row_error(row, student, g->assignment, g->error, g->graded_ms, &err)
                                 : rd_grade_row_from_result(row, student, g->assignment, &res, g->graded_ms, &err);
+    if (rc == RD_OK)
+        record_columns(g, counts, row);
     return rc == RD_OK;
 }
 
-static cJSON *row_json(const rd_store_grade *g)
+/* By student, then assignment, then submission: one student's rows
+ * together, as a gradebook reads them, and each student's submissions of
+ * an assignment in a run (grading_mark_counts). */
+static int by_student(const void *x, const void *y)
 {
-    rd_grade_row row;
-    cJSON *o = row_of(g, &row) ? rd_grade_row_json(&row) : NULL;
-    if (o)
-        cJSON_AddStringToObject(o, "grade_id", g->id);
-    return o;
+    const rd_store_grade *a = x, *b = y;
+    int c = strcmp(a->student ? a->student : "", b->student ? b->student : "");
+    if (!c)
+        c = strcmp(a->assignment, b->assignment);
+    if (!c)
+        c = (a->submitted_ms > b->submitted_ms) - (a->submitted_ms < b->submitted_ms);
+    return c ? c : strcmp(a->id, b->id);
 }
 
-static void row_csv(rd_strbuf *b, const rd_store_grade *g)
+static char *rows_csv(const rd_store_grade *grades, size_t n, const int *counts)
 {
+    rd_strbuf b = {0};
+    rd_grade_csv_header(&b);
     rd_grade_row row;
-    if (row_of(g, &row))
-        rd_grade_csv_row(b, &row);
+    for (size_t i = 0; i < n; i++)
+        if (row_of(&grades[i], counts[i], &row))
+            rd_grade_csv_row(&b, &row);
+    return rd_strbuf_take(&b, NULL);
 }
 
-char *grading_rows_text(const rd_store_grade *grades, size_t n, int csv)
+static char *rows_json(const rd_store_grade *grades, size_t n, const int *counts)
 {
-    if (csv) {
-        rd_strbuf b = {0};
-        rd_grade_csv_header(&b);
-        for (size_t i = 0; i < n; i++)
-            row_csv(&b, &grades[i]);
-        return rd_strbuf_take(&b, NULL);
-    }
     cJSON *a = cJSON_CreateArray();
+    rd_grade_row row;
     for (size_t i = 0; a && i < n; i++) {
-        cJSON *o = row_json(&grades[i]);
+        cJSON *o = row_of(&grades[i], counts[i], &row) ? rd_grade_row_json(&row) : NULL;
         if (o)
             cJSON_AddItemToArray(a, o);
     }
@@ -68,20 +87,20 @@ char *grading_rows_text(const rd_store_grade *grades, size_t n, int csv)
     return t;
 }
 
-/* Days from 1970-01-01 to y-m-d (proleptic Gregorian; Hinnant's
- * days_from_civil), so no time zone is involved. */
-static long long days_from_civil(long long y, unsigned m, unsigned d)
+char *grading_rows_text(rd_grading *g, rd_store_grade *grades, size_t n, int csv)
 {
-    y -= m <= 2;
-    long long era = (y >= 0 ? y : y - 399) / 400;
-    unsigned yoe = (unsigned)(y - era * 400);
-    unsigned doy = (153 * (m + (m > 2 ? -3 : 9)) + 2) / 5 + d - 1;
-    unsigned doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
-    return era * 146097 + (long long)doe - 719468;
+    int *counts = calloc(n ? n : 1, sizeof *counts);
+    if (!counts)
+        return NULL;
+    qsort(grades, n, sizeof *grades, by_student);
+    grading_mark_counts(g, grades, n, counts);
+    char *t = csv ? rows_csv(grades, n, counts) : rows_json(grades, n, counts);
+    free(counts);
+    return t;
 }
 
-/* since: Unix milliseconds, or a UTC date as 2026-12-01 or
- * 2026-12-01T09:30:00Z. -1 when it is neither. */
+/* since: Unix milliseconds, or a UTC time (time_text.h). -1 when it is
+ * neither. */
 static long long since_ms(const char *v)
 {
     if (!v || !*v)
@@ -90,21 +109,7 @@ static long long since_ms(const char *v)
     long long ms = strtoll(v, &end, 10);
     if (!*end && ms >= 0)
         return ms;
-    int y, mo, d, h = 0, mi = 0, sec = 0, n = 0;
-    if (sscanf(v, "%4d-%2d-%2d%n", &y, &mo, &d, &n) != 3 || n != 10)
-        return -1;
-    const char *p = v + n;
-    if (*p == 'T') {
-        int k = 0;
-        if (sscanf(p, "T%2d:%2d:%2d%n", &h, &mi, &sec, &k) != 3 || k != 9)
-            return -1;
-        p += k;
-        if (*p == 'Z')
-            p++;
-    }
-    if (*p || mo < 1 || mo > 12 || d < 1 || d > 31 || h > 23 || mi > 59 || sec > 60 || y < 1970)
-        return -1;
-    return ((days_from_civil(y, (unsigned)mo, (unsigned)d) * 24 + h) * 60 + mi) * 60000LL + sec * 1000LL;
+    return rd_time_parse(v);
 }
 
 /* {"grades": rows}, the rows as written: cJSON would print their numbers
@@ -132,7 +137,7 @@ rd_error_code rd_grading_list(rd_grading *g, const rd_grading_filter *f, char **
     rd_error_code rc = rd_store_grades_list(g->store, &sf, &rows, &n, err);
     if (rc)
         return rc;
-    char *t = grading_rows_text(rows, n, f->csv);
+    char *t = grading_rows_text(g, rows, n, f->csv);
     rd_store_grades_free(rows, n);
     if (t && !f->csv)
         t = wrapped(t);

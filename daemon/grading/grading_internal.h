@@ -5,8 +5,11 @@
 #include <pthread.h>
 #include <stdatomic.h>
 
+#include <cJSON.h>
+
 #include "codegrade.h"
 #include "grading_service.h"
+#include "term.h"
 
 enum { GRADES_KEPT = 256, LOBES_KEPT = 128 };
 
@@ -59,27 +62,68 @@ struct rd_grading {
 rd_error_code grading_keep(rd_grading *g, const rd_grade_output *o, const char *student, char id[RD_CAP_MAX],
                            char **verdict, unsigned char **diff, size_t *diff_len, rd_error *err);
 
+/* Who handed a grade in, how and when: what its record's term needs. */
+typedef struct {
+    const char *student;
+    const char *batch_id;   /* a batch's: judged on time (its instructor collected it) */
+    long long submitted_ms; /* when the request came; 0: now */
+    int code;               /* a code grade */
+    double share;           /* code: its configurations right, of all */
+} grading_sub;
+
 /* A grade's record (an assignment's only): kept until --grade-ttl, expired
  * here about once a minute. A record the store refuses becomes an error
- * row saying why; what still fails is logged. */
-void grading_record(rd_grading *g, const rd_grade_output *o, const char *id, const char *student, const char *batch_id,
-                    int pass, const char *verdict, const unsigned char *diff, size_t diff_len);
+ * row saying why; what still fails is logged. *verdict (malloc'ed) is
+ * replaced by one with the record object (grade_term.c) when it can be. */
+void grading_record(rd_grading *g, const rd_grade_output *o, const char *id, const grading_sub *sub, int pass,
+                    char **verdict, const unsigned char *diff, size_t diff_len);
 
 /* grading_keep then grading_record, with the image's own pass. */
-rd_error_code grading_one(rd_grading *g, const rd_grade_output *o, const char *student, const char *batch_id,
-                          char id[RD_CAP_MAX], char **verdict, rd_error *err);
+rd_error_code grading_one(rd_grading *g, const rd_grade_output *o, const grading_sub *sub, char id[RD_CAP_MAX],
+                          char **verdict, rd_error *err);
 
 /* The record of a student whose image could not be graded; its id in id
  * ("" when none could be made). */
 void grading_error_record(rd_grading *g, const char *assignment, const char *student, const char *batch_id,
                           const char *message, char id[RD_CAP_MAX]);
 
+/* The same for a submission, of its kind and time. */
+void grading_error_record_sub(rd_grading *g, const char *assignment, const grading_sub *sub, const char *message,
+                              char id[RD_CAP_MAX]);
+
+/* grade_term.c. The term of an assignment's .grade (the default when it
+ * does not load). */
+rd_term grading_term_of(rd_grading *g, const char *assignment);
+
+/* Sets rec's kind, submission time, lateness, score and points (rec's
+ * assignment, error and failed_fraction set). */
+void grading_term_fields(rd_grading *g, rd_store_grade *rec, const grading_sub *sub, int pass);
+
+/* The record object of an answer: student, assignment, kind,
+ * submitted_at, due_at, late, late_days, closed, counts (null when -1),
+ * score, points. NULL when out of memory. */
+cJSON *grading_record_json(const rd_store_grade *rec, const rd_term *t, int counts);
+
+/* verdict (taken over) with its "record" set to that object: a new text,
+ * or verdict itself when it cannot be made. */
+char *grading_with_record(char *verdict, const rd_store_grade *rec, const rd_term *t, int counts);
+
+/* Whether rec is the one of its student's records of its assignment that
+ * counts: 1, 0, or -1 when the store cannot say. */
+int grading_counts(rd_grading *g, const rd_store_grade *rec, const rd_term *t);
+
+/* counts[i] for rows where each student's records of an assignment are
+ * together (sorted by student, then assignment): 1 for the record
+ * of each student and assignment that counts, else 0. */
+void grading_mark_counts(rd_grading *g, rd_store_grade *rows, size_t n, int *counts);
+
 /* grade_batch.c: ends the batches a killed daemon of this id left running. */
 void grading_batches_end_restarted(rd_grading *g);
 
 /* grade_list.c: the records as rows, a JSON array or CSV (malloc'ed; NULL
- * when out of memory). */
-char *grading_rows_text(const rd_store_grade *grades, size_t n, int csv);
+ * when out of memory), sorted by student (grades is sorted in place), each
+ * saying whether it counts. */
+char *grading_rows_text(rd_grading *g, rd_store_grade *grades, size_t n, int csv);
 
 /* grade_code.c: the code grader's state set up (the sandbox probed, which
  * logs when it does not start), and freed. RD_ERR_NOMEM. */

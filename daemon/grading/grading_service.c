@@ -264,25 +264,29 @@ static void put_record(rd_grading *g, const rd_store_grade *rec, const unsigned 
 
 /* Grades of a given scene rather than an assignment are not records: they
  * belong to no course. */
-void grading_record(rd_grading *g, const rd_grade_output *o, const char *id, const char *student, const char *batch_id,
-                    int pass, const char *verdict, const unsigned char *diff, size_t diff_len)
+void grading_record(rd_grading *g, const rd_grade_output *o, const char *id, const grading_sub *sub, int pass,
+                    char **verdict, const unsigned char *diff, size_t diff_len)
 {
     if (!o->assignment[0])
         return;
     char key[96];
     snprintf(key, sizeof key, "%s/%s", o->key, rd_renderer_id());
     rd_store_grade rec = {.id = id,
-                          .batch_id = batch_id,
+                          .batch_id = sub->batch_id,
                           .assignment = o->assignment,
-                          .student = student ? student : "",
+                          .student = sub->student ? sub->student : "",
                           .pass = pass,
                           .failed_fraction = o->result.failed_fraction,
                           .max_abs = o->result.max_abs,
                           .psnr_db = o->result.psnr_db,
                           .ssim = o->result.ssim,
-                          .verdict = verdict,
                           .reference_key = key,
                           .graded_ms = rd_wall_ms()};
+    grading_term_fields(g, &rec, sub, pass);
+    rd_term t = grading_term_of(g, o->assignment);
+    /* Which counts is known once it is stored; the answer says so then. */
+    *verdict = grading_with_record(*verdict, &rec, &t, -1);
+    rec.verdict = *verdict;
     put_record(g, &rec, diff, diff_len);
     rd_error err = {0};
     long long now = rd_wall_ms(), last = atomic_load(&g->last_expire_ms);
@@ -290,33 +294,41 @@ void grading_record(rd_grading *g, const rd_grade_output *o, const char *id, con
         rd_store_grades_expire(g->store, (int64_t)g->opt.ttl_ms, NULL, &err);
 }
 
-rd_error_code grading_one(rd_grading *g, const rd_grade_output *o, const char *student, const char *batch_id,
-                          char id[RD_CAP_MAX], char **verdict, rd_error *err)
+rd_error_code grading_one(rd_grading *g, const rd_grade_output *o, const grading_sub *sub, char id[RD_CAP_MAX],
+                          char **verdict, rd_error *err)
 {
     unsigned char *diff;
     size_t diff_len;
-    rd_error_code rc = grading_keep(g, o, student, id, verdict, &diff, &diff_len, err);
+    rd_error_code rc = grading_keep(g, o, sub->student, id, verdict, &diff, &diff_len, err);
     if (!rc)
-        grading_record(g, o, id, student, batch_id, o->result.pass, *verdict, diff, diff_len);
+        grading_record(g, o, id, sub, o->result.pass, verdict, diff, diff_len);
     free(diff);
     return rc;
+}
+
+void grading_error_record_sub(rd_grading *g, const char *assignment, const grading_sub *sub, const char *message,
+                              char id[RD_CAP_MAX])
+{
+    rd_error made = {0};
+    if (rd_cap_new(id, 'g', &made)) {
+        rd_log_msg(g->opt.log, "warning", "a grade of %s was not recorded: %s", sub->student, made.message);
+        return;
+    }
+    rd_store_grade rec = {.id = id,
+                          .batch_id = sub->batch_id,
+                          .assignment = assignment,
+                          .student = sub->student ? sub->student : "",
+                          .graded_ms = rd_wall_ms(),
+                          .error = message && *message ? message : "not graded"};
+    grading_term_fields(g, &rec, sub, 0);
+    put_record(g, &rec, NULL, 0);
 }
 
 void grading_error_record(rd_grading *g, const char *assignment, const char *student, const char *batch_id,
                           const char *message, char id[RD_CAP_MAX])
 {
-    rd_error made = {0};
-    if (rd_cap_new(id, 'g', &made)) {
-        rd_log_msg(g->opt.log, "warning", "a grade of %s was not recorded: %s", student, made.message);
-        return;
-    }
-    rd_store_grade rec = {.id = id,
-                          .batch_id = batch_id,
-                          .assignment = assignment,
-                          .student = student ? student : "",
-                          .graded_ms = rd_wall_ms(),
-                          .error = message && *message ? message : "not graded"};
-    put_record(g, &rec, NULL, 0);
+    grading_sub sub = {.student = student, .batch_id = batch_id};
+    grading_error_record_sub(g, assignment, &sub, message, id);
 }
 
 /* An error row's verdict: what the record says of it. */
@@ -342,6 +354,12 @@ rd_error_code rd_grading_verdict(rd_grading *g, const char *id, char **json, rd_
     if (rc)
         return rc;
     *json = rec.verdict ? strdup(rec.verdict) : rec.error ? error_verdict(id, &rec) : NULL;
+    /* The record as it stands now: a later submission may have taken its
+     * place as the one that counts. */
+    if (*json) {
+        rd_term t = grading_term_of(g, rec.assignment);
+        *json = grading_with_record(*json, &rec, &t, grading_counts(g, &rec, &t));
+    }
     rd_store_grade_free(&rec);
     return *json ? RD_OK : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
 }

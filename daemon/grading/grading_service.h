@@ -92,6 +92,13 @@ typedef struct {
     rd_grade_stage stage;
 } rd_grading_answer;
 
+/* Whether a student's own submission to assignment is taken now (its
+ * .grade's release, due and late_days; docs/grading.md, "A term"): NULL,
+ * or the answer's code ("not_released", "closed") with a sentence for the
+ * student in why[size]. An assignment that does not load is not refused
+ * here: grading it says what is wrong. */
+const char *rd_grading_window_refusal(rd_grading *g, const char *assignment, char *why, size_t size);
+
 /* One image graded against an assignment (assignment set) or a scene given
  * as text (scene, scene_len). Takes image and scene over. */
 typedef struct {

@@ -92,6 +92,10 @@ enum MHD_Result rd_route_code(rd_req *r, const char *rest)
         return rd_reply_error(r, 400, "parse_error", NULL, "the form has no 'source' file (the student's .h or .cpp)");
     if (!f->assignment[0])
         return rd_reply_error(r, 400, "parse_error", NULL, "the form has no 'assignment'");
+    char why[300];
+    const char *refused = rd_grading_window_refusal(g, f->assignment, why, sizeof why);
+    if (refused)
+        return rd_reply_error(r, 403, refused, NULL, why);
     return submit(r, g, f);
 }
 

@@ -86,6 +86,10 @@ enum MHD_Result rd_route_grade(rd_req *r, const char *rest)
     /* Its record could not hold it: refused before it is graded. */
     if (rd_utf8_invalid_at(g->student, strlen(g->student)) != strlen(g->student))
         return rd_reply_error(r, 400, "parse_error", NULL, "the 'student' field is not UTF-8 text");
+    char why[300];
+    const char *refused = g->assignment[0] ? rd_grading_window_refusal(grading, g->assignment, why, sizeof why) : NULL;
+    if (refused)
+        return rd_reply_error(r, 403, refused, NULL, why);
     rd_grading_image in = {(char *)g->image.data, g->image.len,  (char *)g->scene.data,
                            g->scene.len,          g->assignment, g->student};
     g->image.data = g->scene.data = NULL;

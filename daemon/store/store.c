@@ -212,6 +212,21 @@ static rd_error_code check_metrics(const rd_store_grade *g, rd_error *err)
     return RD_OK;
 }
 
+/* The term's fields: a known kind, a lateness, a score within its points
+ * or neither. */
+static rd_error_code check_term(const rd_store_grade *g, rd_error *err)
+{
+    if (g->kind && strcmp(g->kind, "image") != 0 && strcmp(g->kind, "code") != 0)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: grade %s: kind is image or code", g->id);
+    if (g->late_ms < 0)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: grade %s: late by %lld ms", g->id,
+                            (long long)g->late_ms);
+    int scored = isfinite(g->points) && g->points > 0;
+    if (scored ? !(g->score >= 0 && g->score <= g->points) : !(isnan(g->points) || g->points == 0))
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: grade %s: a score is within its points (> 0)", g->id);
+    return RD_OK;
+}
+
 /* A graded grade has its metrics, verdict and reference; one that could
  * not be graded has its message instead, did not pass and has no diff. */
 static rd_error_code check_grade(const rd_store *s, const rd_store_grade *g, const unsigned char *diff, size_t len,
@@ -229,6 +244,8 @@ static rd_error_code check_grade(const rd_store *s, const rd_store_grade *g, con
     if (!c && g->graded_ms < 0)
         c = rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: grade %s graded at %lld ms", g->id,
                          (long long)g->graded_ms);
+    if (!c)
+        c = check_term(g, err);
     if (!c)
         c = check_text(s, "the verdict", g->verdict, err);
     if (!c)
@@ -558,6 +575,9 @@ rd_error_code rd_store_grade_put(rd_store *s, const rd_store_grade *g, const uns
     rd_store_grade n = *g;
     n.student = g->student ? g->student : "";
     n.pass = g->error ? 0 : g->pass != 0;
+    n.kind = g->kind ? g->kind : "image";
+    n.submitted_ms = g->submitted_ms <= 0 ? g->graded_ms : g->submitted_ms;
+    n.closed = g->closed != 0;
     LOCKED(s, rd_store_op_grade_put(s, &n, diff_png, len, err));
 }
 
@@ -571,7 +591,7 @@ rd_error_code rd_store_grade_get(rd_store *s, const char *id, rd_store_grade *ou
 void rd_store_grade_free(rd_store_grade *g)
 {
     const char **texts[] = {&g->id,      &g->batch_id,      &g->assignment, &g->student,
-                            &g->verdict, &g->reference_key, &g->error};
+                            &g->verdict, &g->reference_key, &g->error,      &g->kind};
     for (size_t i = 0; i < sizeof texts / sizeof texts[0]; i++) {
         free((void *)*texts[i]);
         *texts[i] = NULL;

@@ -384,6 +384,16 @@ typedef struct {
     const char *reference_key; /* the reference's identity (scene and core hashes); required unless error is set */
     int64_t graded_ms;         /* when it was graded (the caller's clock), >= 0 */
     const char *error;         /* NULL: graded; else why the image could not be graded (not "") */
+    /* The term (migration 6; docs/grading.md, "A term"). A record from
+     * before it reads as an image submitted when graded, on time, with
+     * score and points NAN. */
+    const char *kind;     /* "image" or "code"; NULL is "image" */
+    int64_t submitted_ms; /* when it was submitted; <= 0: graded_ms */
+    int64_t late_ms;      /* how long after its due time, >= 0 */
+    int closed;           /* submitted after the late window: it never counts */
+    /* The score of the assignment's points: 0 <= score <= points, points
+     * > 0; points 0 (or NAN) is no score, read back as both NAN. */
+    double score, points;
 } rd_store_grade;
 
 /* Frees what g holds (not g itself) and sets its pointers to NULL. */

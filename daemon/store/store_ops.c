@@ -972,7 +972,7 @@ rd_error_code rd_store_op_tiles_get(rd_store *s, const char *id, int index, rd_s
 /* The columns a grade is read from, in this order. */
 #define GRADE_COLUMNS                                                                                                  \
     "id, batch_id, assignment, student, pass, failed_fraction, max_abs, psnr_db, ssim, verdict, reference_key, "       \
-    "graded_ms, error"
+    "graded_ms, error, kind, submitted_ms, late_ms, closed, score, points"
 
 static const char *grade_image_name(rd_store_grade_image_kind kind)
 {
@@ -1028,11 +1028,14 @@ static rd_error_code count_grade(rd_store *s, const rd_store_grade *g, rd_error 
 
 static rd_error_code insert_grade(rd_store *s, const rd_store_grade *g, rd_error *err)
 {
-    int graded = !g->error;
-    return run(s, NULL, err, "INSERT INTO grades (" GRADE_COLUMNS ") VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-               "ttttiddddttIt", g->id, g->batch_id, g->assignment, g->student, g->pass,
+    int graded = !g->error, scored = isfinite(g->points) && g->points > 0;
+    return run(s, NULL, err,
+               "INSERT INTO grades (" GRADE_COLUMNS
+               ") VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+               "ttttiddddttIttIIidd", g->id, g->batch_id, g->assignment, g->student, g->pass,
                graded ? &g->failed_fraction : NULL, graded ? &g->max_abs : NULL, graded ? &g->psnr_db : NULL,
-               graded ? &g->ssim : NULL, g->verdict, g->reference_key, g->graded_ms, g->error);
+               graded ? &g->ssim : NULL, g->verdict, g->reference_key, g->graded_ms, g->error, g->kind, g->submitted_ms,
+               g->late_ms, g->closed, scored ? &g->score : NULL, scored ? &g->points : NULL);
 }
 
 rd_error_code rd_store_op_grade_put(rd_store *s, const rd_store_grade *g, const unsigned char *diff, size_t len,
@@ -1067,6 +1070,12 @@ static rd_error_code grade_row(const stmt *q, rd_store_grade *g, rd_error *err)
     g->psnr_db = col_metric(q, 7);
     g->ssim = col_metric(q, 8);
     g->graded_ms = col_int(q, 11);
+    /* A record from before version 6 has no submission time: its grading's. */
+    g->submitted_ms = is_null(q, 14) ? g->graded_ms : col_int(q, 14);
+    g->late_ms = col_int(q, 15);
+    g->closed = (int)col_int(q, 16);
+    g->score = col_metric(q, 17);
+    g->points = col_metric(q, 18);
     int ok = 1;
     g->id = col_dup(q, 0, &ok);
     g->batch_id = col_dup(q, 1, &ok);
@@ -1075,6 +1084,7 @@ static rd_error_code grade_row(const stmt *q, rd_store_grade *g, rd_error *err)
     g->verdict = col_dup(q, 9, &ok);
     g->reference_key = col_dup(q, 10, &ok);
     g->error = col_dup(q, 12, &ok);
+    g->kind = col_dup(q, 13, &ok);
     if (ok)
         return RD_OK;
     rd_store_grade_free(g);

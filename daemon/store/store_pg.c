@@ -37,8 +37,8 @@
 /* The types values are sent as (the server's pg_type OIDs, fixed). */
 enum { OID_BYTEA = 17, OID_INT8 = 20, OID_TEXT = 25, OID_FLOAT8 = 701 };
 
-/* The most values one statement binds. */
-#define VALUES_MAX 16
+/* The most values one statement binds: a grade's insert has 19. */
+#define VALUES_MAX 24
 
 typedef struct {
     rd_store base;

@@ -25,7 +25,8 @@ import subprocess  # noqa: E402
 check = Checks("grade batch")
 TOKEN = "class-token-0123456789abcdef"
 AUTH = {"Authorization": "Bearer " + TOKEN}
-COLUMNS = ["student", "assignment", "pass", "failed_fraction", "max_abs", "psnr_db", "ssim", "graded_at", "error"]
+COLUMNS = ["student", "assignment", "pass", "failed_fraction", "max_abs", "psnr_db", "ssim", "graded_at", "grade_id",
+           "url", "kind", "counts", "submitted_at", "late", "score", "points", "error"]
 
 
 def render(scene_text, out):
@@ -120,7 +121,7 @@ def image_batch(d, images):
     csv_by = {r[0]: r for r in rows[1:]}
     for s, r in by.items():
         c = csv_by.get(s, [])
-        check(len(c) == 9 and c[2] == ("true" if r["pass"] else "false") and c[1] == "phong",
+        check(len(c) == len(COLUMNS) and c[2] == ("true" if r["pass"] else "false") and c[1] == "phong",
               "results.csv's row of %s: %r (JSON %r)" % (s, c, r))
     st, _, rj = d.request("GET", "/v1/grade/batch/%s/results.json" % o.get("id"), headers=AUTH)
     check(st == 200 and json.loads(rj) == done.get("results"), "results.json is not the batch's rows")

@@ -13,10 +13,13 @@
 #include "grading.h"
 #include "rayd/clock.h"
 #include "strbuf.h"
+#include "time_text.h"
 
 /* 2024-05-01T09:30:00.123Z */
 #define AT_MS 1714555800123LL
 #define AT_TEXT "2024-05-01T09:30:00.123Z"
+/* The record's eight cells of a row that is no record, each with its comma. */
+#define NO_RECORD ",,,,,,,,"
 
 static char *csv_of(const rd_grade_row *row)
 {
@@ -99,7 +102,8 @@ Test(grade_table, header_names_the_columns_in_order)
     rd_strbuf b = {0};
     rd_grade_csv_header(&b);
     char *t = rd_strbuf_take(&b, NULL);
-    cr_assert_str_eq(t, "student,assignment,pass,failed_fraction,max_abs,psnr_db,ssim,graded_at,error\r\n");
+    cr_assert_str_eq(t, "student,assignment,pass,failed_fraction,max_abs,psnr_db,ssim,graded_at,grade_id,url,kind,"
+                        "counts,submitted_at,late,score,points,error\r\n");
     free(t);
 }
 
@@ -111,15 +115,16 @@ Test(grade_table, a_row_from_a_known_result)
     cr_assert_eq(rd_grade_row_from_result(&row, "alice", "phong", &r, AT_MS, &err), RD_OK, "%s", err.message);
     cr_assert_not(rd_grade_row_is_error(&row));
     char *t = csv_of(&row);
-    cr_assert_str_eq(t, "alice,phong,false,0.3333333333333333,57,38.2,0.30000000000000004," AT_TEXT ",\r\n");
-    char *f[12];
-    int n = read_record(t, f, 12);
-    cr_assert_eq(n, 9, "%d fields in %s", n, t);
+    cr_assert_str_eq(t,
+                     "alice,phong,false,0.3333333333333333,57,38.2,0.30000000000000004," AT_TEXT "," NO_RECORD "\r\n");
+    char *f[20];
+    int n = read_record(t, f, 20);
+    cr_assert_eq(n, 17, "%d fields in %s", n, t);
     /* Every number reads back to the double it was. */
     cr_assert(strtod(f[3], NULL) == r.failed_fraction, "%s", f[3]);
     cr_assert(strtod(f[5], NULL) == r.psnr_db, "%s", f[5]);
     cr_assert(strtod(f[6], NULL) == r.ssim, "%s", f[6]);
-    cr_assert_str_eq(f[8], "", "a graded row has no error");
+    cr_assert_str_eq(f[16], "", "a graded row has no error");
     free_fields(f, n);
     free(t);
 
@@ -132,7 +137,7 @@ Test(grade_table, a_row_from_a_known_result)
     o.result.ssim = 1;
     cr_assert_eq(rd_grade_row_from_output(&row, "bob", &o, AT_MS, &err), RD_OK);
     t = csv_of(&row);
-    cr_assert_str_eq(t, "bob,diffuse,true,0,0,99,1," AT_TEXT ",\r\n");
+    cr_assert_str_eq(t, "bob,diffuse,true,0,0,99,1," AT_TEXT "," NO_RECORD "\r\n");
     free(t);
 
     /* A given scene: no assignment, an empty cell. */
@@ -153,7 +158,8 @@ Test(grade_table, an_error_row_has_no_metrics_and_says_why)
     cr_assert_not(row.pass);
     char *t = csv_of(&row);
     /* Quoted: it holds a ';'. */
-    cr_assert_str_eq(t, "dave,phong,false,,,,," AT_TEXT ",\"the image is 96x72; the assignment renders 320x240\"\r\n");
+    cr_assert_str_eq(t, "dave,phong,false,,,,," AT_TEXT "," NO_RECORD
+                        "\"the image is 96x72; the assignment renders 320x240\"\r\n");
     free(t);
     /* No message still makes an error row. */
     cr_assert_eq(rd_grade_row_error(&row, "dave", "phong", "", AT_MS, &err), RD_OK);
@@ -184,9 +190,9 @@ Test(grade_table, ids_with_commas_quotes_and_newlines_are_quoted)
         cr_assert_eq(rd_grade_row_from_result(&row, cases[i].id, "phong", &r, AT_MS, &err), RD_OK, "%s", err.message);
         char *t = csv_of(&row);
         cr_assert(strncmp(t, cases[i].cell, strlen(cases[i].cell)) == 0, "'%s' written %s", cases[i].id, t);
-        char *f[12];
-        int n = read_record(t, f, 12);
-        cr_assert_eq(n, 9, "'%s': %d fields in %s", cases[i].id, n, t);
+        char *f[20];
+        int n = read_record(t, f, 20);
+        cr_assert_eq(n, 17, "'%s': %d fields in %s", cases[i].id, n, t);
         cr_assert_str_eq(f[0], cases[i].id);
         cr_assert_str_eq(f[1], "phong");
         free_fields(f, n);
@@ -217,9 +223,9 @@ Test(grade_table, formulas_are_not_left_to_run)
         rd_grade_row row;
         cr_assert_eq(rd_grade_row_from_result(&row, cases[i].id, "phong", &r, AT_MS, NULL), RD_OK);
         char *t = csv_of(&row);
-        char *f[12];
-        int n = read_record(t, f, 12);
-        cr_assert_eq(n, 9, "'%s': %d fields in %s", cases[i].id, n, t);
+        char *f[20];
+        int n = read_record(t, f, 20);
+        cr_assert_eq(n, 17, "'%s': %d fields in %s", cases[i].id, n, t);
         cr_assert_str_eq(f[0], cases[i].read_back, "'%s' written %s", cases[i].id, t);
         cr_assert_str_eq(f[6], "-0.25", "a negative number is written as a number: %s", t);
         free_fields(f, n);
@@ -233,7 +239,7 @@ Test(grade_table, formulas_are_not_left_to_run)
     rd_grade_row row;
     cr_assert_eq(rd_grade_row_error(&row, "eve", "phong", "-rf: cannot open", AT_MS, NULL), RD_OK);
     char *t = csv_of(&row);
-    cr_assert(strstr(t, "," AT_TEXT ",'-rf: cannot open\r\n"), "%s", t);
+    cr_assert(strstr(t, "," AT_TEXT "," NO_RECORD "'-rf: cannot open\r\n"), "%s", t);
     free(t);
 }
 
@@ -258,9 +264,9 @@ Test(grade_table, semicolons_are_quoted_and_what_follows_a_separator_is_guarded)
         cr_assert_eq(rd_grade_row_from_result(&row, cases[i].id, "phong", &r, AT_MS, NULL), RD_OK);
         char *t = csv_of(&row);
         cr_assert_eq(t[0], '"', "'%s' is not quoted: %s", cases[i].id, t);
-        char *f[12];
-        int n = read_record(t, f, 12);
-        cr_assert_eq(n, 9, "'%s': %d fields in %s", cases[i].id, n, t);
+        char *f[20];
+        int n = read_record(t, f, 20);
+        cr_assert_eq(n, 17, "'%s': %d fields in %s", cases[i].id, n, t);
         cr_assert_str_eq(f[0], cases[i].read_back, "'%s' written %s", cases[i].id, t);
         free_fields(f, n);
         /* Split at both separators, quotes ignored. */
@@ -277,8 +283,9 @@ Test(grade_table, semicolons_are_quoted_and_what_follows_a_separator_is_guarded)
 
 Test(grade_table, json_row_has_the_csv_keys)
 {
-    static const char *const keys[] = {"student", "assignment", "pass", "failed_fraction", "max_abs", "psnr_db",
-                                       "ssim",    "graded_at",  "error"};
+    static const char *const keys[] = {
+        "student", "assignment", "pass",   "failed_fraction", "max_abs", "psnr_db", "ssim",   "graded_at", "grade_id",
+        "url",     "kind",       "counts", "submitted_at",    "late",    "score",   "points", "error"};
     rd_grade_result r = known_result();
     rd_grade_row row;
     cr_assert_eq(rd_grade_row_from_result(&row, "alice", "phong", &r, AT_MS, NULL), RD_OK);
@@ -290,8 +297,8 @@ Test(grade_table, json_row_has_the_csv_keys)
     cJSON_Delete(made);
     cJSON *j = cJSON_Parse(text);
     cr_assert(j, "%s", text);
-    cr_assert_eq(cJSON_GetArraySize(j), 9, "%s", text);
-    for (int i = 0; i < 9; i++)
+    cr_assert_eq(cJSON_GetArraySize(j), 17, "%s", text);
+    for (int i = 0; i < 17; i++)
         cr_assert(cJSON_GetObjectItem(j, keys[i]), "no %s", keys[i]);
     cr_assert_str_eq(cJSON_GetObjectItem(j, "student")->valuestring, "alice");
     cr_assert_str_eq(cJSON_GetObjectItem(j, "assignment")->valuestring, "phong");
@@ -310,7 +317,7 @@ Test(grade_table, json_row_has_the_csv_keys)
     cr_assert_eq(rd_grade_row_error(&row, "dave", NULL, "the image is not a PNG file", AT_MS, NULL), RD_OK);
     j = rd_grade_row_json(&row);
     cr_assert(j);
-    cr_assert_eq(cJSON_GetArraySize(j), 9);
+    cr_assert_eq(cJSON_GetArraySize(j), 17);
     cr_assert(cJSON_IsNull(cJSON_GetObjectItem(j, "assignment")));
     cr_assert(cJSON_IsFalse(cJSON_GetObjectItem(j, "pass")));
     for (int i = 3; i < 7; i++)
@@ -360,14 +367,46 @@ Test(grade_table, an_error_message_is_kept_utf8)
 Test(grade_table, graded_at_is_rfc3339_utc)
 {
     char buf[40];
-    rd_grade_time_text(AT_MS, buf, sizeof buf);
+    rd_time_text(AT_MS, buf, sizeof buf);
     cr_assert_str_eq(buf, AT_TEXT);
-    rd_grade_time_text(0, buf, sizeof buf);
+    rd_time_text(0, buf, sizeof buf);
     cr_assert_str_eq(buf, "1970-01-01T00:00:00.000Z");
-    rd_grade_time_text(-1, buf, sizeof buf);
+    rd_time_text(-1, buf, sizeof buf);
     cr_assert_str_eq(buf, "1969-12-31T23:59:59.999Z");
     /* time() may read a coarser clock than clock_gettime: a second either side. */
     long long before = (long long)time(NULL) * 1000, now = rd_wall_ms(), after = (long long)time(NULL) * 1000;
     cr_assert(now >= before - 1000 && now < after + 2000, "%lld ms is not between %lld and %lld", now, before - 1000,
               after + 1999);
+}
+
+Test(grade_table, a_record_fills_its_columns)
+{
+    rd_grade_result r = known_result();
+    rd_grade_row row;
+    cr_assert_eq(rd_grade_row_from_result(&row, "alice", "phong", &r, AT_MS, NULL), RD_OK);
+    snprintf(row.grade_id, sizeof row.grade_id, "g0123");
+    snprintf(row.url, sizeof row.url, "/v1/grades/g0123");
+    snprintf(row.kind, sizeof row.kind, "code");
+    row.counts = 1;
+    row.late = 0;
+    row.submitted_at_ms = AT_MS - 1000;
+    row.score = 7.5;
+    row.points = 10;
+    char *t = csv_of(&row);
+    cr_assert(strstr(t, "," AT_TEXT ",g0123,/v1/grades/g0123,code,true,2024-05-01T09:29:59.123Z,false,7.5,10,\r\n"),
+              "%s", t);
+    free(t);
+    cJSON *made = rd_grade_row_json(&row);
+    cr_assert(made);
+    t = cJSON_PrintUnformatted(made); /* its numbers are raw text until printed */
+    cJSON_Delete(made);
+    cJSON *j = cJSON_Parse(t);
+    free(t);
+    cr_assert(j);
+    cr_assert_str_eq(cJSON_GetObjectItem(j, "kind")->valuestring, "code");
+    cr_assert(cJSON_IsTrue(cJSON_GetObjectItem(j, "counts")));
+    cr_assert(cJSON_IsFalse(cJSON_GetObjectItem(j, "late")));
+    cr_assert(cJSON_GetObjectItem(j, "score")->valuedouble == 7.5);
+    cr_assert_str_eq(cJSON_GetObjectItem(j, "submitted_at")->valuestring, "2024-05-01T09:29:59.123Z");
+    cJSON_Delete(j);
 }
