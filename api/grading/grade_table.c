@@ -26,7 +26,7 @@ static rd_error_code start_row(rd_grade_row *row, const char *student, const cha
     memcpy(row->student, student, n + 1);
     snprintf(row->assignment, sizeof row->assignment, "%s", assignment);
     row->graded_at_ms = graded_at_ms;
-    row->counts = row->late = -1;
+    row->counts = row->late = row->on_roster = -1;
     row->score = row->points = NAN;
     return RD_OK;
 }
@@ -108,6 +108,8 @@ static void cell(rd_strbuf *b, const char *s, int text)
         rd_strbuf_printf(b, "\"");
 }
 
+void rd_grade_csv_cell(rd_strbuf *b, const char *text) { cell(b, text, 1); }
+
 static void number_cell(rd_strbuf *b, double v)
 {
     if (!isfinite(v))
@@ -120,7 +122,7 @@ static void number_cell(rd_strbuf *b, double v)
 void rd_grade_csv_header(rd_strbuf *b)
 {
     rd_strbuf_printf(b, "student,assignment,pass,failed_fraction,max_abs,psnr_db,ssim,graded_at,grade_id,url,kind,"
-                        "counts,submitted_at,late,score,points,error\r\n");
+                        "counts,submitted_at,late,score,points,on_roster,error\r\n");
 }
 
 static const char *tristate(int v) { return v < 0 ? "" : v ? "true" : "false"; }
@@ -138,14 +140,15 @@ static void record_cells(rd_strbuf *b, const rd_grade_row *row)
     number_cell(b, row->score);
     rd_strbuf_printf(b, ",");
     number_cell(b, row->points);
-    rd_strbuf_printf(b, ",");
+    rd_strbuf_printf(b, ",%s,", tristate(row->on_roster));
 }
 
 void rd_grade_csv_row(rd_strbuf *b, const rd_grade_row *row)
 {
     int error = rd_grade_row_is_error(row);
-    char at[40];
-    rd_time_text(row->graded_at_ms, at, sizeof at);
+    char at[40] = "";
+    if (row->graded_at_ms)
+        rd_time_text(row->graded_at_ms, at, sizeof at);
     cell(b, row->student, 1);
     rd_strbuf_printf(b, ",");
     cell(b, row->assignment, 1);
@@ -196,14 +199,16 @@ static int record_json(cJSON *o, const rd_grade_row *row)
     return text_or_null(o, "grade_id", row->grade_id) && text_or_null(o, "url", row->url) &&
            text_or_null(o, "kind", row->kind) && bool_or_null(o, "counts", row->counts) &&
            text_or_null(o, "submitted_at", at) && bool_or_null(o, "late", row->late) &&
-           add_number(o, "score", row->score) && add_number(o, "points", row->points);
+           add_number(o, "score", row->score) && add_number(o, "points", row->points) &&
+           bool_or_null(o, "on_roster", row->on_roster);
 }
 
 cJSON *rd_grade_row_json(const rd_grade_row *row)
 {
     int error = rd_grade_row_is_error(row);
-    char at[40];
-    rd_time_text(row->graded_at_ms, at, sizeof at);
+    char at[40] = "";
+    if (row->graded_at_ms)
+        rd_time_text(row->graded_at_ms, at, sizeof at);
     cJSON *o = cJSON_CreateObject();
     int ok = o && cJSON_AddStringToObject(o, "student", row->student);
     ok = ok && (row->assignment[0] ? cJSON_AddStringToObject(o, "assignment", row->assignment)
@@ -216,7 +221,7 @@ cJSON *rd_grade_row_json(const rd_grade_row *row)
         ok = ok && add_number(o, "failed_fraction", row->failed_fraction) && add_number(o, "max_abs", row->max_abs) &&
              add_number(o, "psnr_db", row->psnr_db) && add_number(o, "ssim", row->ssim);
     }
-    ok = ok && cJSON_AddStringToObject(o, "graded_at", at) && record_json(o, row);
+    ok = ok && text_or_null(o, "graded_at", at) && record_json(o, row);
     ok = ok && (error ? cJSON_AddStringToObject(o, "error", row->error) : cJSON_AddNullToObject(o, "error"));
     if (!ok) {
         cJSON_Delete(o);

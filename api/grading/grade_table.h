@@ -10,11 +10,13 @@
  * CSV (RFC 4180): the header
  *
  *     student,assignment,pass,failed_fraction,max_abs,psnr_db,ssim,graded_at,
- *     grade_id,url,kind,counts,submitted_at,late,score,points,error
+ *     grade_id,url,kind,counts,submitted_at,late,score,points,on_roster,error
  *
  * (one line) then one line per row, every line ending in CRLF and holding
- * all seventeen cells; error stays the last. pass is true or false; graded_at is RFC 3339 in UTC with
- * milliseconds (2024-05-01T09:30:00.123Z); error is empty for a graded row,
+ * all eighteen cells; error stays the last. pass is true or false;
+ * graded_at is RFC 3339 in UTC with milliseconds
+ * (2024-05-01T09:30:00.123Z), empty (JSON null) for a row graded at 0 ms:
+ * a student of the roster without a submission; error is empty for a graded row,
  * and the four metrics are empty for an error row. A cell holding a comma
  * or a semicolon (the separator of many locales' spreadsheets), a double
  * quote, CR or LF is quoted, its quotes doubled. A text cell (student,
@@ -60,6 +62,7 @@ typedef struct {
     long long submitted_at_ms; /* 0 */
     int late;                  /* 1, 0; -1 */
     double score, points;      /* NAN */
+    int on_roster;             /* 1, 0; -1 (no roster) */
 } rd_grade_row;
 
 /* A graded row of student for assignment ("" or NULL: a given scene) from
@@ -84,6 +87,11 @@ int rd_grade_row_is_error(const rd_grade_row *row);
 /* Appends the CSV header line, and one row's line. */
 void rd_grade_csv_header(rd_strbuf *b);
 void rd_grade_csv_row(rd_strbuf *b, const rd_grade_row *row);
+
+/* One text cell as the table writes it: quoted when it holds a separator,
+ * a quote, CR or LF, and guarded against formulas; for other tables of
+ * the same rules (the gradebook). */
+void rd_grade_csv_cell(rd_strbuf *b, const char *text);
 
 /* The row as an object with the CSV's keys: student, assignment (null for
  * a given scene), pass, failed_fraction, max_abs, psnr_db, ssim (null in

@@ -28,7 +28,8 @@ the instructor token is needed, so the two cannot drift apart):
   skeleton(material), lobe(id)     GET /v1/grade/code/...    -> str (the header, the SVG)
   grade_batch(assignment, images=|archive=)   POST /v1/grade/batch (token) -> Batch
   batch(id), wait_batch(id), batch_table(id, "csv"|"json")   GET /v1/grade/batch/{id}[/{table}] (token)
-  grades(assignment=, student=, since=)       GET /v1/grades (token) -> [GradeRow]; grades_csv(...) -> str
+  grades(assignment=, student=, since=)       GET /v1/grades (token) -> [GradeRow]; grades_csv(..., excel=) -> str
+  gradebook(format, excel=False)              GET /v1/gradebook (token) -> str: Moodle's or Canvas's CSV
   assignments(), scenes(), scene(name), assignment_scene(name), health(), ready()
 
 The records (Job, Verdict, CodeGrade, Batch, GradeRow) are dicts of the
@@ -81,8 +82,9 @@ OPERATIONS = {
     "gradeBatch": Operation("POST", "/v1/grade/batch", form=("assignment", "student", "image", "archive"),
                             token=True),
     "getGradeBatch": Operation("GET", "/v1/grade/batch/{id}", token=True),
-    "getGradeBatchTable": Operation("GET", "/v1/grade/batch/{id}/{table}", token=True),
-    "listGrades": Operation("GET", "/v1/grades", ("assignment", "student", "since"), token=True),
+    "getGradeBatchTable": Operation("GET", "/v1/grade/batch/{id}/{table}", ("excel",), token=True),
+    "listGrades": Operation("GET", "/v1/grades", ("assignment", "student", "since", "excel"), token=True),
+    "getGradebook": Operation("GET", "/v1/gradebook", ("format", "excel"), token=True),
     "listAssignments": Operation("GET", "/v1/assignments"),
     "getAssignmentSceneFile": Operation("GET", "/v1/assignments/{name}/scene"),
     "listScenes": Operation("GET", "/v1/scenes"),
@@ -146,7 +148,7 @@ class CodeGrade(Record):
 class GradeRow(Record):
     SCHEMA = "GradeRow"
     FIELDS = ("student", "assignment", "pass", "failed_fraction", "max_abs", "psnr_db", "ssim", "graded_at", "error",
-              "grade_id", "url", "kind", "counts", "submitted_at", "late", "score", "points")
+              "grade_id", "url", "kind", "counts", "submitted_at", "late", "score", "points", "on_roster")
 
 
 class Batch(Record):
@@ -385,10 +387,15 @@ class Client:
         data = self._json("listGrades", query={"assignment": assignment, "student": student, "since": since})
         return [GradeRow(r) for r in data.get("grades", [])]
 
-    def grades_csv(self, assignment=None, student=None, since=None):
-        """GET /v1/grades with Accept: text/csv: the records as CSV."""
-        return self._call("listGrades", query={"assignment": assignment, "student": student, "since": since},
-                          headers={"Accept": "text/csv"})[2].decode("utf-8")
+    def grades_csv(self, assignment=None, student=None, since=None, excel=False):
+        """GET /v1/grades with Accept: text/csv: the records as CSV (excel: with the byte order mark first)."""
+        query = {"assignment": assignment, "student": student, "since": since, "excel": "1" if excel else None}
+        return self._call("listGrades", query=query, headers={"Accept": "text/csv"})[2].decode("utf-8")
+
+    def gradebook(self, format, excel=False):
+        """GET /v1/gradebook?format=moodle|canvas: the scores that count, as the LMS's import reads them."""
+        query = {"format": format, "excel": "1" if excel else None}
+        return self._call("getGradebook", query=query)[2].decode("utf-8")
 
     # ---- what the daemon offers -----------------------------------------
     def assignments(self):

@@ -86,6 +86,10 @@ static const serve_flag flags[] = {
      "instructors' bearer tokens, one a line: they open grade records, exports and batches (off: 404); SIGHUP "
      "reads the file again",
      "off", K_STRING, A(o.instructor_tokens), 0, 0, 0},
+    {"roster", "FILE",
+     "the class's roster, CSV with a header naming student (and name, email): the tables list who has not "
+     "submitted, and the gradebook has a row for each; read again for every table",
+     "none", K_STRING, A(o.roster), 0, 0, 0},
     {"grade-ttl", "N", "seconds grade records are kept", NULL, K_DOUBLE, A(o.grade_ttl_ms), 1, 1ull << 34, 1e3},
     {"max-batch-images", "N", "images in one grading batch", NULL, K_SIZE, A(o.max_batch_images), 1, 100000, 0},
     {"max-batch-bytes", "N", "a grading batch's form or archive; each image at most --max-body-bytes", NULL, K_SIZE,

@@ -347,7 +347,7 @@ rd_error_code rd_grading_batch_text(rd_grading *g, const char *id, rd_grading_ba
     size_t n = 0;
     if ((rc = rd_store_grades_list(g->store, &f, &rows, &n, err)))
         return rc;
-    char *t = grading_rows_text(g, rows, n, form == RD_BATCH_ROWS_CSV);
+    char *t = grading_rows_text(g, rows, n, form == RD_BATCH_ROWS_CSV, b.assignment);
     rd_store_grades_free(rows, n);
     if (t && form == RD_BATCH_STATUS) {
         char *status = status_text(&b, t);

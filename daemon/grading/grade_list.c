@@ -8,6 +8,7 @@
 
 #include "grade_table.h"
 #include "grading_internal.h"
+#include "roster.h"
 #include "strbuf.h"
 #include "time_text.h"
 
@@ -62,23 +63,20 @@ static int by_student(const void *x, const void *y)
     return c ? c : strcmp(a->id, b->id);
 }
 
-static char *rows_csv(const rd_store_grade *grades, size_t n, const int *counts)
+static char *rows_csv(const rd_grade_row *rows, size_t n)
 {
     rd_strbuf b = {0};
     rd_grade_csv_header(&b);
-    rd_grade_row row;
     for (size_t i = 0; i < n; i++)
-        if (row_of(&grades[i], counts[i], &row))
-            rd_grade_csv_row(&b, &row);
+        rd_grade_csv_row(&b, &rows[i]);
     return rd_strbuf_take(&b, NULL);
 }
 
-static char *rows_json(const rd_store_grade *grades, size_t n, const int *counts)
+static char *rows_json(const rd_grade_row *rows, size_t n)
 {
     cJSON *a = cJSON_CreateArray();
-    rd_grade_row row;
     for (size_t i = 0; a && i < n; i++) {
-        cJSON *o = row_of(&grades[i], counts[i], &row) ? rd_grade_row_json(&row) : NULL;
+        cJSON *o = rd_grade_row_json(&rows[i]);
         if (o)
             cJSON_AddItemToArray(a, o);
     }
@@ -87,15 +85,109 @@ static char *rows_json(const rd_store_grade *grades, size_t n, const int *counts
     return t;
 }
 
-char *grading_rows_text(rd_grading *g, rd_store_grade *grades, size_t n, int csv)
+rd_store_grade *grading_sort_rows(rd_store_grade *rows, size_t n)
 {
+    if (n)
+        qsort(rows, n, sizeof *rows, by_student);
+    return rows;
+}
+
+/* The roster's students without a record of assignment (grades sorted by
+ * student), as rows saying so after the k rows made: a table shows who has
+ * not handed in. Returns the rows now made. */
+static size_t no_submissions(const rd_roster *roster, const char *assignment, const rd_store_grade *grades, size_t n,
+                             rd_grade_row *rows, size_t k)
+{
+    for (size_t i = 0, j = 0; assignment && *assignment && i < roster->n; i++) {
+        const char *s = roster->e[i].student;
+        while (j < n && strcmp(grades[j].student, s) < 0)
+            j++;
+        int has = 0;
+        for (size_t m = j; m < n && strcmp(grades[m].student, s) == 0; m++)
+            has |= strcmp(grades[m].assignment, assignment) == 0;
+        if (has || rd_grade_row_error(&rows[k], s, assignment, "no submission", 0, NULL))
+            continue;
+        rows[k++].on_roster = 1;
+    }
+    return k;
+}
+
+/* By student, then assignment; qsort is not stable, so a record's place
+ * among its student's records is its submission order (index) */
+typedef struct {
+    const rd_grade_row *row;
+    size_t index;
+} placed;
+
+static int by_row(const void *x, const void *y)
+{
+    const placed *a = x, *b = y;
+    int c = strcmp(a->row->student, b->row->student);
+    if (!c)
+        c = strcmp(a->row->assignment, b->row->assignment);
+    return c ? c : (a->index > b->index) - (a->index < b->index);
+}
+
+/* rows in table order (the "no submission" rows among the others). */
+static rd_grade_row *in_order(rd_grade_row *rows, size_t n)
+{
+    placed *p = malloc((n ? n : 1) * sizeof *p);
+    rd_grade_row *out = malloc((n ? n : 1) * sizeof *out);
+    for (size_t i = 0; p && out && i < n; i++)
+        p[i] = (placed){&rows[i], i};
+    if (p && out) {
+        qsort(p, n, sizeof *p, by_row);
+        for (size_t i = 0; i < n; i++)
+            out[i] = *p[i].row;
+    }
+    free(p);
+    free(rows);
+    if (!p)
+        free(out);
+    return p ? out : NULL;
+}
+
+/* The records as rows, on the roster or not, with the roster's students
+ * who have none of assignment's. *made counts them. */
+static rd_grade_row *table_rows(rd_grading *g, rd_store_grade *grades, size_t n, const char *assignment, size_t *made)
+{
+    rd_roster roster = {0};
+    rd_error err = {0};
+    /* A roster that no longer reads leaves the table as it is without one. */
+    if (g->opt.roster && rd_roster_load(g->opt.roster, &roster, &err))
+        rd_log_msg(g->opt.log, "warning", "--roster: %s", err.message);
     int *counts = calloc(n ? n : 1, sizeof *counts);
-    if (!counts)
-        return NULL;
-    qsort(grades, n, sizeof *grades, by_student);
-    grading_mark_counts(g, grades, n, counts);
-    char *t = csv ? rows_csv(grades, n, counts) : rows_json(grades, n, counts);
+    rd_grade_row *rows = calloc(n + roster.n + 1, sizeof *rows);
+    size_t k = 0;
+    if (counts && rows) {
+        grading_sort_rows(grades, n);
+        grading_mark_counts(g, grades, n, counts);
+        for (size_t i = 0; i < n; i++)
+            if (row_of(&grades[i], counts[i], &rows[k])) {
+                rows[k].on_roster = roster.e ? rd_roster_find(&roster, rows[k].student) != NULL : -1;
+                k++;
+            }
+        size_t all = no_submissions(&roster, assignment, grades, n, rows, k);
+        if (all > k)
+            rows = in_order(rows, all);
+        k = all;
+    }
+    if (!counts) {
+        free(rows);
+        rows = NULL;
+    }
     free(counts);
+    rd_roster_free(&roster);
+    *made = k;
+    return rows;
+}
+
+char *grading_rows_text(rd_grading *g, rd_store_grade *grades, size_t n, int csv, const char *assignment)
+{
+    size_t made = 0;
+    rd_grade_row *rows = table_rows(g, grades, n, assignment, &made);
+    char *t = !rows ? NULL : csv ? rows_csv(rows, made) : rows_json(rows, made);
+    free(rows);
     return t;
 }
 
@@ -137,7 +229,7 @@ rd_error_code rd_grading_list(rd_grading *g, const rd_grading_filter *f, char **
     rd_error_code rc = rd_store_grades_list(g->store, &sf, &rows, &n, err);
     if (rc)
         return rc;
-    char *t = grading_rows_text(g, rows, n, f->csv);
+    char *t = grading_rows_text(g, rows, n, f->csv, f->assignment);
     rd_store_grades_free(rows, n);
     if (t && !f->csv)
         t = wrapped(t);

@@ -122,8 +122,14 @@ void grading_batches_end_restarted(rd_grading *g);
 
 /* grade_list.c: the records as rows, a JSON array or CSV (malloc'ed; NULL
  * when out of memory), sorted by student (grades is sorted in place), each
- * saying whether it counts. */
-char *grading_rows_text(rd_grading *g, rd_store_grade *grades, size_t n, int csv);
+ * saying whether it counts and, with --roster, whether its student is on
+ * it; the roster's students without a record of assignment (NULL or "":
+ * none asked) get a "no submission" row. */
+char *grading_rows_text(rd_grading *g, rd_store_grade *grades, size_t n, int csv, const char *assignment);
+
+/* rows sorted in place by student, then assignment, then submission time
+ * (then id); rows itself. */
+rd_store_grade *grading_sort_rows(rd_store_grade *rows, size_t n);
 
 /* grade_code.c: the code grader's state set up (the sandbox probed, which
  * logs when it does not start), and freed. RD_ERR_NOMEM. */

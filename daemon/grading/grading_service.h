@@ -47,6 +47,7 @@ typedef struct {
     const char *daemon_id; /* names the batches this daemon grades */
     int workers;           /* render threads: a batch is graded in as many slices */
     const char *assignments_dir;
+    const char *roster;     /* the class's roster file (roster.h), read for every table; NULL: none */
     const char *scenes_dir; /* where an uploaded scene's files resolve */
     const char *cache_dir;  /* references on disk; NULL: memory only */
     size_t cache_bytes;     /* --grade-cache-bytes */
@@ -160,6 +161,17 @@ typedef struct {
 } rd_grading_filter;
 
 rd_error_code rd_grading_list(rd_grading *g, const rd_grading_filter *f, char **text, rd_error *err);
+
+/* The gradebook (docs/grading.md, "The gradebook"): one row per student
+ * (the roster's, else every student with a record), one column per
+ * assignment that loads, each cell the score of the student's record that
+ * counts (empty: none), as CSV in the columns an LMS imports. */
+typedef enum { RD_GRADEBOOK_MOODLE, RD_GRADEBOOK_CANVAS } rd_gradebook_format;
+
+/* RD_ERR_LIMIT when the records are more than one answer holds (10000);
+ * RD_ERR_SYNTAX when the roster no longer reads (err says where); the
+ * store's errors. */
+rd_error_code rd_grading_gradebook(rd_grading *g, rd_gradebook_format f, char **csv, rd_error *err);
 
 /* A batch's images. student is UTF-8; error (a static text, or NULL) says
  * why the image is not graded but becomes an error row (a name that was

@@ -201,6 +201,8 @@ enum MHD_Result rd_route_grade_resumed(rd_req *r);
  * record's verdict), /v1/grades/{id}/{diff,reference,image}.png */
 enum MHD_Result rd_route_grade_files(rd_req *r, const char *rest);
 enum MHD_Result rd_route_grades_list(rd_req *r);
+/* GET /v1/gradebook?format=moodle|canvas: the gradebook (instructors). */
+enum MHD_Result rd_route_gradebook(rd_req *r, const char *rest);
 /* POST /v1/grade/batch, GET /v1/grade/batch/{id}[/results.csv|.json] */
 enum MHD_Result rd_route_batch_begin(rd_req *r);
 enum MHD_Result rd_route_batch_data(rd_req *r, const char *data, size_t size);

@@ -18,6 +18,7 @@
 #include "access.h"
 #include "codegrade.h"
 #include "http_internal.h"
+#include "roster.h"
 #include "log.h"
 #include "metrics.h"
 #include "rayd/clock.h"
@@ -892,6 +893,19 @@ static rd_error_code start_farm(rd_server *s, rd_error *err)
     return RD_OK;
 }
 
+/* A roster that does not read stops the start, with its line and column:
+ * it is read again for every table, and a typo should not wait for one. */
+static int roster_ok(const char *path, rd_error *err)
+{
+    rd_roster r;
+    if (!path)
+        return 1;
+    if (rd_roster_load(path, &r, err))
+        return 0;
+    rd_roster_free(&r);
+    return 1;
+}
+
 /* After the farm, on the same store: the grading service. */
 static rd_error_code start_grading(rd_server *s, rd_error *err)
 {
@@ -902,6 +916,7 @@ static rd_error_code start_grading(rd_server *s, rd_error *err)
                              .daemon_id = s->daemon_id,
                              .workers = o->jobs.workers,
                              .assignments_dir = o->assignments_dir,
+                             .roster = o->roster,
                              .scenes_dir = o->scenes_dir,
                              .cache_dir = o->cache_dir,
                              .cache_bytes = o->grade_cache_bytes,
@@ -957,7 +972,9 @@ rd_server *rd_server_start(const rd_server_options *opt, rd_error *err)
     pthread_mutex_init(&s->conn_mu, NULL);
     pthread_cond_init(&s->conn_cv, NULL);
     pthread_mutex_init(&s->auth_mu, NULL);
-    if (opt->instructor_tokens && !(s->auth = rd_auth_load(opt->instructor_tokens, err))) {
+    if ((opt->instructor_tokens && !(s->auth = rd_auth_load(opt->instructor_tokens, err))) ||
+        !roster_ok(opt->roster, err)) {
+        rd_auth_free(s->auth);
         free(s);
         return NULL;
     }

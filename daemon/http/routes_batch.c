@@ -450,3 +450,31 @@ enum MHD_Result rd_route_grades_list(rd_req *r)
         return reply_csv(r, text);
     return rd_reply_json(r, 200, text);
 }
+
+/* GET /v1/gradebook: the scores that count, for an LMS's import. */
+enum MHD_Result rd_route_gradebook(rd_req *r, const char *rest)
+{
+    (void)rest;
+    enum MHD_Result ret;
+    if (rd_require_instructor(r, &ret))
+        return ret;
+    rd_grading *g = rd_server_grading(r->srv);
+    if (!g)
+        return rd_reply_starting(r);
+    const char *format = MHD_lookup_connection_value(r->conn, MHD_GET_ARGUMENT_KIND, "format");
+    int canvas = format && strcmp(format, "canvas") == 0;
+    if (!format || (!canvas && strcmp(format, "moodle") != 0))
+        return rd_reply_error(r, 400, "parse_error", NULL, "query parameter format: expected moodle or canvas");
+    rd_error err = {0};
+    char *text = NULL;
+    rd_error_code rc = rd_grading_gradebook(g, canvas ? RD_GRADEBOOK_CANVAS : RD_GRADEBOOK_MOODLE, &text, &err);
+    /* The roster is the server's file, not the request's: as a broken
+     * assignment is. */
+    if (rc == RD_ERR_SYNTAX || rc == RD_ERR_IO)
+        return rd_reply_error(r, 422, "bad_roster", &err, NULL);
+    if (rc == RD_ERR_LIMIT)
+        return rd_reply_error(r, 413, "too_large", &err, NULL);
+    if (rc)
+        return rd_reply_failed(r, &err);
+    return reply_csv(r, text);
+}

@@ -41,6 +41,7 @@ typedef struct {
     int store_tile;
     /* Grading a class (docs/grading.md). */
     const char *instructor_tokens; /* the tokens' file; NULL: the instructors' routes are off (404) */
+    const char *roster;            /* the class's roster (api/grading/roster.h); NULL: none */
     double grade_ttl_ms;           /* grade records are kept this long */
     size_t max_batch_images;       /* images of one batch */
     size_t max_batch_bytes;        /* a batch's form (or archive) */

@@ -8,6 +8,7 @@
 #   obj          the OBJ mesh reader, alone and through a scene's [mesh]
 #   png          the PNG decoder and the grade upload decoder
 #   grade_file   the .grade assignment file reader
+#   roster       the roster reader (--roster's CSV)
 #   form         POST /v1/grade multipart forms, through the real daemon
 #   query        POST /v1/render query parameters, through the real daemon
 #   archive      the upload archive reader (zip, tar, tar.gz)
@@ -49,7 +50,7 @@ die() {
     exit 2
 }
 
-ALL_TARGETS="cfg json obj png grade_file form query archive frames walk"
+ALL_TARGETS="cfg json obj png grade_file roster form query archive frames walk"
 # The targets that run the daemon in-process.
 HTTP_TARGETS="form query"
 # The targets that take some of the daemon's objects: the code grader's.

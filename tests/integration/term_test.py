@@ -150,10 +150,192 @@ def listing(d, cid):
     st, h, out = d.request("GET", "/v1/grades", headers=dict(AUTH, Accept="text/csv"))
     check(st == 200 and not out.startswith(b"\xef\xbb\xbf"), "plain CSV has no byte order mark")
     table = list(csv.reader(io.StringIO(out.decode())))
-    check(table[0][-1] == "error" and "score" in table[0] and len(table) == 10 and all(len(r) == 17 for r in table),
-          "CSV: header and 17 cells a row: %s" % table[:2])
+    check(table[0][-1] == "error" and "score" in table[0] and len(table) == 10 and all(len(r) == 18 for r in table),
+          "CSV: header and 18 cells a row: %s" % table[:2])
     st, h, bom = d.request("GET", "/v1/grades?excel=1", headers=dict(AUTH, Accept="text/csv"))
     check(st == 200 and bom == b"\xef\xbb\xbf" + out, "?excel=1: the byte order mark, then the same CSV")
+
+
+# ---- a whole term: a roster of 30, three assignments, the gradebook ----
+
+ROSTER = [("s%02d" % i, "Student %02d" % i, "s%02d@example.org" % i) for i in range(1, 28)] + [
+    ("yamada", "山田太郎", "yamada@example.jp"), ("obrien", "O'Brien, Pat", ""), ("eq", "=HYPERLINK(1)", "eq@x")]
+
+
+def roster_file(tmp):
+    path = os.path.join(tmp, "roster.csv")
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f, lineterminator="\r\n")
+        w.writerow(["email", "student", "name"])
+        for student, name, email in ROSTER:
+            w.writerow([email, student, name])
+    return path
+
+
+def term_assignments(tmp):
+    path = os.path.join(tmp, "term")
+    os.makedirs(path)
+    grades = {
+        "a1": "points = 10\ndue = %s\nlate_days = 3\nlate_penalty = 0.1\n" % utc(-30 * 3600),
+        "a2": "points = 5\ncredit = partial\nimage_credit = 0.5:0.6 1:0.2\ndue = %s\n" % utc(3 * DAY),
+        "a3": "points = 20\ncounts = best\n",
+    }
+    for name, text in grades.items():
+        with open(os.path.join(path, name + ".cfg"), "w") as f:
+            f.write(TINY_SCENE)
+        with open(os.path.join(path, name + ".grade"), "w") as f:
+            f.write(text)
+    return path
+
+
+def post_batch(d, assignment, images):
+    parts = [("assignment", None, assignment.encode())] + [("image", s + ".png", b) for s, b in images]
+    body, ctype = form_parts(parts)
+    st, _, out = d.request("POST", "/v1/grade/batch", body, dict(AUTH, **{"Content-Type": ctype}))
+    bid = json.loads(out).get("id", "x") if st == 202 else "x"
+    for _ in range(2400):
+        st, _, out = d.request("GET", "/v1/grade/batch/" + bid, headers=AUTH)
+        if st != 200 or json.loads(out).get("status") != "running":
+            break
+        time.sleep(0.05)
+    return bid
+
+
+def term_submissions(d, right, wrong):
+    """a1 (late window open, 30 h after due): s01-s20 submit, s01-s05 twice
+    (wrong, then right); a2 by the instructor's batch: 28 images, two of
+    students not on the roster; a3: s01-s10, best of wrong then right then
+    wrong."""
+    for i in range(1, 21):
+        if i <= 5:
+            grade(d, "a1", "s%02d" % i, wrong)
+        grade(d, "a1", "s%02d" % i, right if i % 4 else wrong)
+    images = [("s%02d" % i, right if i % 3 else wrong) for i in range(1, 27)] + [("ghost", right), ("zed", wrong)]
+    bid = post_batch(d, "a2", images)
+    for i in range(1, 11):
+        for image in (wrong, right, wrong):
+            grade(d, "a3", "s%02d" % i, image)
+    return bid
+
+
+def expected(d):
+    """{(student, assignment): score} of the records that count, from the JSON rows."""
+    st, _, out = d.request("GET", "/v1/grades", headers=AUTH)
+    rows = json.loads(out)["grades"] if st == 200 else []
+    return {(r["student"], r["assignment"]): r["score"] for r in rows if r["counts"]}, rows
+
+
+def check_tables(d, bid, rows):
+    a1 = json.loads(d.request("GET", "/v1/grades?assignment=a1", headers=AUTH)[2])["grades"]
+    none = sorted(r["student"] for r in a1 if r["error"] == "no submission")
+    check(none == sorted(s for s, _, _ in ROSTER if not (s.startswith("s") and 1 <= int(s[1:]) <= 20)),
+          "a1: the roster's students without a submission: %s" % none)
+    check(all(r["on_roster"] is True for r in a1), "a1: everyone is on the roster")
+    check(all(r["graded_at"] is None and r["grade_id"] is None for r in a1 if r["error"] == "no submission"),
+          "a no-submission row has no time and no id")
+    late = [r for r in a1 if r["grade_id"]]
+    check(len(late) == 25 and all(r["late"] for r in late), "a1's 25 records are all late: %d" % len(late))
+    st, _, out = d.request("GET", "/v1/grade/batch/%s/results.json" % bid, headers=AUTH)
+    b = json.loads(out) if st == 200 else []
+    off = sorted(r["student"] for r in b if r["on_roster"] is False)
+    check(off == ["ghost", "zed"], "the batch flags the files not on the roster: %s" % off)
+    missing = sorted(r["student"] for r in b if r["error"] == "no submission")
+    check(missing == ["eq", "obrien", "s27", "yamada"], "the batch's missing students: %s" % missing)
+    check(all(not r["late"] for r in b if r["grade_id"]), "a batch's rows are on time")
+
+
+def moodle_rules(text, points):
+    """Moodle's CSV grade import (grade/import/csv): the identifier column
+    mapped to ID number must be non-empty in every line with data; a grade
+    cell is empty or '-' (no grade) or a number; a new grade item per other
+    column, named by its header."""
+    table = list(csv.reader(io.StringIO(text)))
+    head, body = table[0], [r for r in table[1:] if len(r) > 1]
+    problems = []
+    if head[:3] != ["ID number", "Email address", "Full name"]:
+        problems.append("identity columns %s" % head[:3])
+    for r in body:
+        if len(r) != len(head) or not r[0].strip():
+            problems.append("a line Moodle cannot map: %s" % r)
+        for name, v in zip(head[3:], r[3:]):
+            if v.strip() not in ("", "-"):
+                try:
+                    if not 0 <= float(v) <= points[name]:
+                        problems.append("%s=%s outside 0..%s" % (name, v, points[name]))
+                except ValueError:
+                    problems.append("%s=%r is not a number" % (name, v))
+    return head, body, problems
+
+
+def canvas_rules(text, points):
+    """Canvas's GradebookImporter: header Student, ID, SIS User ID, SIS
+    Login ID, Section, then assignments; a 'Points Possible' line; a
+    student found by SIS User ID or SIS Login ID; a cell empty, '-' or a
+    number (a decimal comma also read)."""
+    table = list(csv.reader(io.StringIO(text)))
+    head, problems = table[0], []
+    if not ("Student" in head[0] and "ID" in head[1] and head[2] == "SIS User ID" and head[3] == "SIS Login ID"
+            and "Section" in head[4]):
+        problems.append("header %s" % head[:5])
+    pp = [r for r in table[1:] if r and "Points Possible" in r[0]]
+    if len(pp) != 1 or [float(v) for v in pp[0][5:]] != [points[a] for a in head[5:]]:
+        problems.append("Points Possible line %s" % pp)
+    body = [r for r in table[1:] if r and "Points Possible" not in r[0]]
+    for r in body:
+        if len(r) != len(head) or not (r[2].strip() or r[3].strip()):
+            problems.append("a student Canvas cannot find: %s" % r)
+        for v in r[5:]:
+            if v.strip() not in ("", "-"):
+                try:
+                    float(v.replace(",", "."))
+                except ValueError:
+                    problems.append("%r is not a number" % v)
+    return head, body, problems
+
+
+def check_gradebooks(d, scores):
+    points = {"a1": 10, "a2": 5, "a3": 20}
+    st, h, text = d.request("GET", "/v1/gradebook?format=moodle", headers=AUTH)
+    check(st == 200 and h.get("content-type", "").startswith("text/csv"), "moodle: %d" % st)
+    head, body, problems = moodle_rules(text.decode(), points)
+    check(not problems, "moodle's rules: %s" % problems[:3])
+    check(head[3:] == ["a1", "a2", "a3"] and len(body) == 30, "moodle: %s, %d lines" % (head, len(body)))
+    roster = {s: (n, e) for s, n, e in ROSTER}
+    for r in body:
+        student = r[0][1:] if r[0].startswith("'") else r[0]
+        check(student in roster and r[1] == roster[student][1], "moodle identity: %s" % r[:3])
+        for a, v in zip(head[3:], r[3:]):
+            want = scores.get((student, a))
+            check((v == "" and want is None) or (want is not None and float(v) == round(want, 2)),
+                  "moodle %s %s: %r, the record that counts has %r" % (student, a, v, want))
+    guarded = [r for r in body if r[0] == "eq"]
+    check(guarded and guarded[0][2] == "'=HYPERLINK(1)", "a formula name is guarded: %s" % guarded)
+    st, _, text = d.request("GET", "/v1/gradebook?format=canvas", headers=AUTH)
+    head, body, problems = canvas_rules(text.decode(), points)
+    check(st == 200 and not problems, "canvas's rules: %d %s" % (st, problems[:3]))
+    check(len(body) == 30 and all(r[2] in roster for r in body), "canvas: 30 students by SIS User ID")
+    yamada = [r for r in body if r[2] == "yamada"]
+    check(yamada and yamada[0][0] == "山田太郎" and yamada[0][3] == "yamada@example.jp", "canvas: %s" % yamada)
+    cells = {(r[2], a): v for r in body for a, v in zip(head[5:], r[5:])}
+    check(all((v == "") == (scores.get(k) is None) for k, v in cells.items()), "canvas: a cell for each counting record")
+    st, _, _ = d.request("GET", "/v1/gradebook?format=excel", headers=AUTH)
+    check(st == 400, "an unknown format: %d" % st)
+    st, _, _ = d.request("GET", "/v1/gradebook?format=moodle")
+    check(st == 401, "the gradebook without a token: %d" % st)
+
+
+def whole_term(tmp, store_flags, right, wrong):
+    folder = term_assignments(tmp)
+    flags = store_flags + ["--assignments", folder, "--instructor-tokens", os.path.join(tmp, "tokens"),
+                           "--roster", roster_file(tmp), "--threads", "2"]
+    with Daemon(tmp, flags) as d:
+        t0 = time.time()
+        bid = term_submissions(d, right, wrong)
+        scores, rows = expected(d)
+        check(len(rows) == 25 + 28 + 30, "the term's records: %d" % len(rows))
+        check_tables(d, bid, rows)
+        check_gradebooks(d, scores)
+        print("term: a whole term (roster 30, 3 assignments, %d records) in %.1f s" % (len(rows), time.time() - t0))
 
 
 def main():
@@ -174,6 +356,11 @@ def main():
             records(d, ids)
             cid = code(d)
             listing(d, cid)
+        # a term of its own: a store of its own, without the records above
+        whole = os.path.join(tmp, "whole")
+        os.makedirs(whole)
+        shutil.copy(tokens, os.path.join(whole, "tokens"))
+        whole_term(whole, stored_jobs.store(whole, kept, closers).flags, right, wrong)
     except stored_jobs.Abort as e:
         check(False, str(e))
     finally:
