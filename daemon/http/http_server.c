@@ -18,10 +18,10 @@
 #include "access.h"
 #include "codegrade.h"
 #include "http_internal.h"
-#include "roster.h"
 #include "log.h"
 #include "metrics.h"
 #include "rayd/clock.h"
+#include "roster.h"
 #include "timed_wait.h"
 #include "version.h"
 
