@@ -122,7 +122,7 @@ static void number_cell(rd_strbuf *b, double v)
 void rd_grade_csv_header(rd_strbuf *b)
 {
     rd_strbuf_printf(b, "student,assignment,pass,failed_fraction,max_abs,psnr_db,ssim,graded_at,grade_id,url,kind,"
-                        "counts,submitted_at,late,score,points,on_roster,error\r\n");
+                        "counts,submitted_at,late,score,points,on_roster,regrade_of,error\r\n");
 }
 
 static const char *tristate(int v) { return v < 0 ? "" : v ? "true" : "false"; }
@@ -141,6 +141,8 @@ static void record_cells(rd_strbuf *b, const rd_grade_row *row)
     rd_strbuf_printf(b, ",");
     number_cell(b, row->points);
     rd_strbuf_printf(b, ",%s,", tristate(row->on_roster));
+    cell(b, row->regrade_of, 1);
+    rd_strbuf_printf(b, ",");
 }
 
 void rd_grade_csv_row(rd_strbuf *b, const rd_grade_row *row)
@@ -200,7 +202,7 @@ static int record_json(cJSON *o, const rd_grade_row *row)
            text_or_null(o, "kind", row->kind) && bool_or_null(o, "counts", row->counts) &&
            text_or_null(o, "submitted_at", at) && bool_or_null(o, "late", row->late) &&
            add_number(o, "score", row->score) && add_number(o, "points", row->points) &&
-           bool_or_null(o, "on_roster", row->on_roster);
+           bool_or_null(o, "on_roster", row->on_roster) && text_or_null(o, "regrade_of", row->regrade_of);
 }
 
 cJSON *rd_grade_row_json(const rd_grade_row *row)

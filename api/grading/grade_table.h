@@ -10,10 +10,11 @@
  * CSV (RFC 4180): the header
  *
  *     student,assignment,pass,failed_fraction,max_abs,psnr_db,ssim,graded_at,
- *     grade_id,url,kind,counts,submitted_at,late,score,points,on_roster,error
+ *     grade_id,url,kind,counts,submitted_at,late,score,points,on_roster,
+ *     regrade_of,error
  *
  * (one line) then one line per row, every line ending in CRLF and holding
- * all eighteen cells; error stays the last. pass is true or false;
+ * all nineteen cells; error stays the last. pass is true or false;
  * graded_at is RFC 3339 in UTC with milliseconds
  * (2024-05-01T09:30:00.123Z), empty (JSON null) for a row graded at 0 ms:
  * a student of the roster without a submission; error is empty for a graded row,
@@ -63,6 +64,7 @@ typedef struct {
     int late;                  /* 1, 0; -1 */
     double score, points;      /* NAN */
     int on_roster;             /* 1, 0; -1 (no roster) */
+    char regrade_of[40];       /* the record this one regrades; "" */
 } rd_grade_row;
 
 /* A graded row of student for assignment ("" or NULL: a given scene) from

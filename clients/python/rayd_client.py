@@ -30,6 +30,7 @@ the instructor token is needed, so the two cannot drift apart):
   batch(id), wait_batch(id), batch_table(id, "csv"|"json")   GET /v1/grade/batch/{id}[/{table}] (token)
   grades(assignment=, student=, since=)       GET /v1/grades (token) -> [GradeRow]; grades_csv(..., excel=) -> str
   gradebook(format, excel=False)              GET /v1/gradebook (token) -> str: Moodle's or Canvas's CSV
+  regrade(assignment)                         POST /v1/grade/regrade (token) -> Batch
   assignments(), scenes(), scene(name), assignment_scene(name), health(), ready()
 
 The records (Job, Verdict, CodeGrade, Batch, GradeRow) are dicts of the
@@ -85,6 +86,7 @@ OPERATIONS = {
     "getGradeBatchTable": Operation("GET", "/v1/grade/batch/{id}/{table}", ("excel",), token=True),
     "listGrades": Operation("GET", "/v1/grades", ("assignment", "student", "since", "excel"), token=True),
     "getGradebook": Operation("GET", "/v1/gradebook", ("format", "excel"), token=True),
+    "regradeAssignment": Operation("POST", "/v1/grade/regrade", ("assignment",), token=True),
     "listAssignments": Operation("GET", "/v1/assignments"),
     "getAssignmentSceneFile": Operation("GET", "/v1/assignments/{name}/scene"),
     "listScenes": Operation("GET", "/v1/scenes"),
@@ -148,7 +150,7 @@ class CodeGrade(Record):
 class GradeRow(Record):
     SCHEMA = "GradeRow"
     FIELDS = ("student", "assignment", "pass", "failed_fraction", "max_abs", "psnr_db", "ssim", "graded_at", "error",
-              "grade_id", "url", "kind", "counts", "submitted_at", "late", "score", "points", "on_roster")
+              "grade_id", "url", "kind", "counts", "submitted_at", "late", "score", "points", "on_roster", "regrade_of")
 
 
 class Batch(Record):
@@ -358,6 +360,10 @@ class Client:
                 parts.append(("image", "%s.png" % student, png))
         body, ct = _multipart(parts)
         return Batch(self._json("gradeBatch", body=body, content_type=ct))
+
+    def regrade(self, assignment):
+        """POST /v1/grade/regrade: the assignment's image records graded again; the Batch, running."""
+        return Batch(self._json("regradeAssignment", query={"assignment": assignment}))
 
     def batch(self, batch_id):
         """GET /v1/grade/batch/{id}: its status and the rows so far."""

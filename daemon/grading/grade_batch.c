@@ -81,8 +81,12 @@ static void grade_image(grade_batch *b, size_t i)
 {
     rd_grade_batch_image *im = &b->images[i];
     char id[RD_CAP_MAX];
+    grading_sub sub = {.student = im->student,
+                       .batch_id = b->id,
+                       .submitted_ms = im->submitted_ms,
+                       .regrade_of = im->regrade_of[0] ? im->regrade_of : NULL};
     if (im->error) {
-        grading_error_record(b->g, b->assignment, im->student, b->id, im->error, id);
+        grading_error_record_sub(b->g, b->assignment, &sub, im->error, id);
         drop_png(b, im);
         return;
     }
@@ -99,11 +103,10 @@ static void grade_image(grade_batch *b, size_t i)
     if (!rc && rd_grade_finish(&o))
         rc = rd_error_set(&err, RD_ERR_NOMEM, 0, 0, "out of memory comparing the images");
     char *verdict = NULL;
-    grading_sub sub = {.student = im->student, .batch_id = b->id};
     if (!rc)
         rc = grading_one(b->g, &o, &sub, id, &verdict, &err);
     if (rc)
-        grading_error_record(b->g, b->assignment, im->student, b->id, err.message, id);
+        grading_error_record_sub(b->g, b->assignment, &sub, err.message, id);
     free(verdict);
     if (!b->failed.code)
         rd_grade_output_free(&o);

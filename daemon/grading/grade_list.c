@@ -27,6 +27,7 @@ static void record_columns(const rd_store_grade *g, int counts, rd_grade_row *ro
     row->late = g->late_ms > 0;
     row->score = g->score;
     row->points = g->points;
+    snprintf(row->regrade_of, sizeof row->regrade_of, "%s", g->regrade_of ? g->regrade_of : "");
 }
 
 /* A record as a table row. 0 when it cannot be one. */

@@ -32,7 +32,7 @@ void grading_term_fields(rd_grading *g, rd_store_grade *rec, const grading_sub *
     rd_term_window w = rd_term_when(&t, rec->submitted_ms, &late);
     /* A batch is the instructor's collection of the class's work: its
      * time says when it was graded, not when each student handed it in. */
-    if (sub->batch_id)
+    if (sub->batch_id && !sub->regrade_of)
         w = RD_TERM_ON_TIME, late = 0;
     rec->late_ms = late;
     rec->closed = w == RD_TERM_CLOSED;
@@ -92,6 +92,7 @@ cJSON *grading_record_json(const rd_store_grade *rec, const rd_term *t, int coun
     rd_json_add(o, "counts", counts < 0 ? cJSON_CreateNull() : cJSON_CreateBool(counts), &f);
     rd_json_add(o, "score", number_or_null(rec->score), &f);
     rd_json_add(o, "points", number_or_null(rec->points), &f);
+    rd_json_add(o, "regrade_of", rec->regrade_of ? cJSON_CreateString(rec->regrade_of) : cJSON_CreateNull(), &f);
     if (f) {
         cJSON_Delete(o);
         return NULL;
@@ -118,14 +119,26 @@ char *grading_with_record(char *verdict, const rd_store_grade *rec, const rd_ter
     return text;
 }
 
-/* The entries of one student's records, for rd_term_pick. */
+/* Whether a record of rows was regraded: a newer verdict of the same
+ * image stands in its place. */
+static int regraded(const rd_store_grade *rows, size_t n, const char *id)
+{
+    for (size_t i = 0; i < n; i++)
+        if (rows[i].regrade_of && strcmp(rows[i].regrade_of, id) == 0)
+            return 1;
+    return 0;
+}
+
+/* The entries of one student's records, for rd_term_pick: one that was
+ * regraded, or came after the window, never counts. */
 static long pick_of(const rd_store_grade *rows, size_t n, rd_counts_rule rule)
 {
     rd_term_entry *e = calloc(n ? n : 1, sizeof *e);
     if (!e)
         return -2;
     for (size_t i = 0; i < n; i++)
-        e[i] = (rd_term_entry){rows[i].submitted_ms, isfinite(rows[i].score) ? rows[i].score : 0, rows[i].closed};
+        e[i] = (rd_term_entry){rows[i].submitted_ms, isfinite(rows[i].score) ? rows[i].score : 0,
+                               rows[i].closed || regraded(rows, n, rows[i].id)};
     long k = rd_term_pick(rule, e, n);
     free(e);
     return k;

@@ -65,7 +65,8 @@ rd_error_code grading_keep(rd_grading *g, const rd_grade_output *o, const char *
 /* Who handed a grade in, how and when: what its record's term needs. */
 typedef struct {
     const char *student;
-    const char *batch_id;   /* a batch's: judged on time (its instructor collected it) */
+    const char *batch_id;   /* a batch's: judged on time (its instructor collected it), but a regrade */
+    const char *regrade_of; /* a regrade's: the record it grades again, whose submission time it keeps */
     long long submitted_ms; /* when the request came; 0: now */
     int code;               /* a code grade */
     double share;           /* code: its configurations right, of all */

@@ -273,6 +273,7 @@ void grading_record(rd_grading *g, const rd_grade_output *o, const char *id, con
     snprintf(key, sizeof key, "%s/%s", o->key, rd_renderer_id());
     rd_store_grade rec = {.id = id,
                           .batch_id = sub->batch_id,
+                          .regrade_of = sub->regrade_of,
                           .assignment = o->assignment,
                           .student = sub->student ? sub->student : "",
                           .pass = pass,
@@ -294,6 +295,21 @@ void grading_record(rd_grading *g, const rd_grade_output *o, const char *id, con
         rd_store_grades_expire(g->store, (int64_t)g->opt.ttl_ms, NULL, &err);
 }
 
+/* The image a record was graded from, stored beside it so that it can be
+ * graded again (grade_regrade.c): the kept PNG, lossless, of the pixels
+ * compared. A failure only means no regrade of it; it is logged. */
+static void store_image(rd_grading *g, const char *id)
+{
+    size_t len = 0;
+    pthread_mutex_lock(&g->mu);
+    unsigned char *png = kept_copy(g, id, 2, &len);
+    pthread_mutex_unlock(&g->mu);
+    rd_error err = {0};
+    if (png && rd_store_grade_image_put(g->store, id, RD_STORE_GRADE_IMAGE, png, len, &err))
+        rd_log_msg(g->opt.log, "warning", "grade %s: its image was not stored (no regrade of it): %s", id, err.message);
+    free(png);
+}
+
 rd_error_code grading_one(rd_grading *g, const rd_grade_output *o, const grading_sub *sub, char id[RD_CAP_MAX],
                           char **verdict, rd_error *err)
 {
@@ -302,6 +318,8 @@ rd_error_code grading_one(rd_grading *g, const rd_grade_output *o, const grading
     rd_error_code rc = grading_keep(g, o, sub->student, id, verdict, &diff, &diff_len, err);
     if (!rc)
         grading_record(g, o, id, sub, o->result.pass, verdict, diff, diff_len);
+    if (!rc && o->assignment[0])
+        store_image(g, id);
     free(diff);
     return rc;
 }
@@ -316,6 +334,7 @@ void grading_error_record_sub(rd_grading *g, const char *assignment, const gradi
     }
     rd_store_grade rec = {.id = id,
                           .batch_id = sub->batch_id,
+                          .regrade_of = sub->regrade_of,
                           .assignment = assignment,
                           .student = sub->student ? sub->student : "",
                           .graded_ms = rd_wall_ms(),

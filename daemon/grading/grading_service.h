@@ -181,6 +181,10 @@ typedef struct {
     unsigned char *png;
     size_t len;
     const char *error;
+    /* A regrade's (rd_grading_regrade): the record it grades again and
+     * when that was submitted; "" and 0 otherwise. */
+    char regrade_of[RD_CAP_MAX];
+    long long submitted_ms;
 } rd_grade_batch_image;
 
 /* Records the batch (this daemon's, with its students), then grades it on
@@ -190,6 +194,16 @@ typedef struct {
  * queue's budget until each is graded. */
 rd_error_code rd_grading_batch_start(rd_grading *g, const char *assignment, rd_grade_batch_image *images, size_t n,
                                      char id[RD_STORE_ID_MAX], rd_error *err);
+
+/* Grades again, as a batch of its own (its id in id), every image record
+ * of assignment that has not been regraded yet, against the reference as
+ * it is now (docs/grading.md, "Regrading"): each into a new record whose
+ * regrade_of names the old one, with the old one's student and submission
+ * time; the old record stays. A record whose image was not stored (older
+ * than migration 7) gets an error row saying so. RD_ERR_NOT_FOUND when the
+ * assignment has no image record; the store's errors; those of
+ * rd_grading_batch_start. */
+rd_error_code rd_grading_regrade(rd_grading *g, const char *assignment, char id[RD_STORE_ID_MAX], rd_error *err);
 
 typedef enum {
     RD_BATCH_STATUS,    /* the batch's status with its rows (JSON) */

@@ -203,6 +203,8 @@ enum MHD_Result rd_route_grade_files(rd_req *r, const char *rest);
 enum MHD_Result rd_route_grades_list(rd_req *r);
 /* GET /v1/gradebook?format=moodle|canvas: the gradebook (instructors). */
 enum MHD_Result rd_route_gradebook(rd_req *r, const char *rest);
+/* POST /v1/grade/regrade?assignment=NAME: a regrade, as a batch (instructors). */
+enum MHD_Result rd_route_regrade(rd_req *r, const char *rest);
 /* POST /v1/grade/batch, GET /v1/grade/batch/{id}[/results.csv|.json] */
 enum MHD_Result rd_route_batch_begin(rd_req *r);
 enum MHD_Result rd_route_batch_data(rd_req *r, const char *data, size_t size);

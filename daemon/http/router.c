@@ -70,6 +70,7 @@ static const rd_route routes[] = {
     {"/v1/grade/batch", RD_ROUTE_BELOW, "GET", NULL, NULL, NULL, 0, rd_route_batch_get, NULL},
     {"/v1/grades", RD_ROUTE_EXACT_OR_BELOW, "GET", NULL, NULL, NULL, 0, rd_route_grade_files, NULL},
     {"/v1/gradebook", RD_ROUTE_EXACT, "GET", NULL, NULL, NULL, 0, rd_route_gradebook, NULL},
+    {"/v1/grade/regrade", RD_ROUTE_EXACT, "POST", NULL, NULL, NULL, 0, rd_route_regrade, NULL},
     {"/v1/scenes", RD_ROUTE_EXACT_OR_BELOW, "GET", NULL, NULL, NULL, 0, rd_route_scenes, NULL},
     {"/healthz", RD_ROUTE_EXACT, "GET", NULL, NULL, NULL, 0, health, NULL},
     {"/readyz", RD_ROUTE_EXACT, "GET", NULL, NULL, NULL, 0, rd_route_ready, NULL},

@@ -240,6 +240,19 @@ static int form_errors(rd_req *r, enum MHD_Result *ret)
 }
 
 /* The form's images, an archive's expanded or not, become a batch. */
+/* 202 with batch id as it stands and its Location. */
+static enum MHD_Result batch_accepted(rd_req *r, rd_grading *g, const char *id)
+{
+    rd_error err = {0};
+    char *text = NULL;
+    if (rd_grading_batch_text(g, id, RD_BATCH_STATUS, &text, &err))
+        return rd_reply_failed(r, &err);
+    char loc[32 + RD_STORE_ID_MAX];
+    snprintf(loc, sizeof loc, "/v1/grade/batch/%s", id);
+    const char *headers[] = {MHD_HTTP_HEADER_LOCATION, loc, NULL};
+    return rd_reply_with(r, 202, "application/json", text, strlen(text), 1, headers);
+}
+
 static enum MHD_Result start_batch(rd_req *r, batch_form *f)
 {
     rd_server *srv = r->srv;
@@ -263,14 +276,9 @@ static enum MHD_Result start_batch(rd_req *r, batch_form *f)
     f->images = NULL;
     f->n = f->cap = 0;
     char id[RD_STORE_ID_MAX];
-    char *text = NULL;
-    if (rd_grading_batch_start(g, f->assignment, images, n, id, &err) ||
-        rd_grading_batch_text(g, id, RD_BATCH_STATUS, &text, &err))
+    if (rd_grading_batch_start(g, f->assignment, images, n, id, &err))
         return rd_reply_failed(r, &err);
-    char loc[32 + RD_STORE_ID_MAX];
-    snprintf(loc, sizeof loc, "/v1/grade/batch/%s", id);
-    const char *headers[] = {MHD_HTTP_HEADER_LOCATION, loc, NULL};
-    return rd_reply_with(r, 202, "application/json", text, strlen(text), 1, headers);
+    return batch_accepted(r, g, id);
 }
 
 /* An archive is expanded by a job of the render queue, never on the HTTP
@@ -477,4 +485,30 @@ enum MHD_Result rd_route_gradebook(rd_req *r, const char *rest)
     if (rc)
         return rd_reply_failed(r, &err);
     return reply_csv(r, text);
+}
+
+/* POST /v1/grade/regrade?assignment=NAME: the assignment's image records
+ * graded again against its reference as it is now, as a batch. */
+enum MHD_Result rd_route_regrade(rd_req *r, const char *rest)
+{
+    (void)rest;
+    enum MHD_Result ret;
+    if (rd_require_instructor(r, &ret))
+        return ret;
+    rd_grading *g = rd_server_grading(r->srv);
+    if (!g)
+        return rd_reply_starting(r);
+    if (atomic_load(&r->srv->draining))
+        return rd_reply_draining(r);
+    const char *name = MHD_lookup_connection_value(r->conn, MHD_GET_ARGUMENT_KIND, "assignment");
+    rd_assignment a;
+    rd_error err = {0};
+    if (!name || !*name)
+        return rd_reply_error(r, 400, "parse_error", NULL, "query parameter assignment: the assignment to regrade");
+    if (rd_assignment_load(r->srv->opt.assignments_dir, name, &a, &err))
+        return rd_reply_answer(r, rd_grade_error_answer(RD_GRADE_STAGE_ASSIGNMENT, err.code), &err);
+    char id[RD_STORE_ID_MAX];
+    if (rd_grading_regrade(g, a.name, id, &err))
+        return rd_reply_failed(r, &err);
+    return batch_accepted(r, g, id);
 }

@@ -246,6 +246,8 @@ static rd_error_code check_grade(const rd_store *s, const rd_store_grade *g, con
                          (long long)g->graded_ms);
     if (!c)
         c = check_term(g, err);
+    if (!c && g->regrade_of)
+        c = check_id("the regraded grade's id", g->regrade_of, err);
     if (!c)
         c = check_text(s, "the verdict", g->verdict, err);
     if (!c)
@@ -590,8 +592,8 @@ rd_error_code rd_store_grade_get(rd_store *s, const char *id, rd_store_grade *ou
 
 void rd_store_grade_free(rd_store_grade *g)
 {
-    const char **texts[] = {&g->id,      &g->batch_id,      &g->assignment, &g->student,
-                            &g->verdict, &g->reference_key, &g->error,      &g->kind};
+    const char **texts[] = {&g->id,    &g->batch_id, &g->assignment, &g->student, &g->verdict, &g->reference_key,
+                            &g->error, &g->kind,     &g->regrade_of};
     for (size_t i = 0; i < sizeof texts / sizeof texts[0]; i++) {
         free((void *)*texts[i]);
         *texts[i] = NULL;
@@ -613,6 +615,19 @@ rd_error_code rd_store_grade_image(rd_store *s, const char *id, rd_store_grade_i
     if (kind != RD_STORE_GRADE_DIFF && kind != RD_STORE_GRADE_IMAGE)
         return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: no grade image kind %d", (int)kind);
     LOCKED(s, rd_store_op_grade_image(s, id, kind, data, len, err));
+}
+
+rd_error_code rd_store_grade_image_put(rd_store *s, const char *id, rd_store_grade_image_kind kind,
+                                       const unsigned char *data, size_t len, rd_error *err)
+{
+    USE_ERR(err);
+    CHECKED(check_id("a grade id", id, err));
+    if (kind != RD_STORE_GRADE_DIFF && kind != RD_STORE_GRADE_IMAGE)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: no grade image kind %d", (int)kind);
+    CHECKED(check_bytes("a grade's image", data, len, s->opt.limits.image_bytes, err));
+    if (!data || !len)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: grade %s: an empty image", id);
+    LOCKED(s, rd_store_op_grade_image_put(s, id, kind, data, len, err));
 }
 
 rd_error_code rd_store_grades_list(rd_store *s, const rd_store_grade_filter *f, rd_store_grade **out, size_t *n,

@@ -394,6 +394,7 @@ typedef struct {
     /* The score of the assignment's points: 0 <= score <= points, points
      * > 0; points 0 (or NAN) is no score, read back as both NAN. */
     double score, points;
+    const char *regrade_of; /* migration 7: the record this one grades again; NULL: none */
 } rd_store_grade;
 
 /* Frees what g holds (not g itself) and sets its pointers to NULL. */
@@ -416,8 +417,13 @@ rd_error_code rd_store_grade_get(rd_store *s, const char *id, rd_store_grade *ou
 
 typedef enum {
     RD_STORE_GRADE_DIFF,  /* the diff PNG of rd_store_grade_put */
-    RD_STORE_GRADE_IMAGE, /* the student's upload: the schema has room for it, no call stores it yet */
+    RD_STORE_GRADE_IMAGE, /* the image graded, for a regrade (rd_store_grade_image_put) */
 } rd_store_grade_image_kind;
+
+/* Stores a grade's image of kind (len bytes, at most limits.image_bytes),
+ * replacing one it had. RD_ERR_NOT_FOUND when there is no such grade. */
+rd_error_code rd_store_grade_image_put(rd_store *s, const char *id, rd_store_grade_image_kind kind,
+                                       const unsigned char *data, size_t len, rd_error *err);
 
 /* A grade's image, malloc'ed. RD_ERR_NOT_FOUND when there is no such grade,
  * RD_ERR_INVALID when it has no image of that kind. */

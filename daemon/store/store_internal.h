@@ -136,6 +136,8 @@ rd_error_code rd_store_op_tiles_get(rd_store *s, const char *id, int index, rd_s
 rd_error_code rd_store_op_grade_put(rd_store *s, const rd_store_grade *g, const unsigned char *diff, size_t len,
                                     rd_error *err);
 rd_error_code rd_store_op_grade_get(rd_store *s, const char *id, rd_store_grade *out, rd_error *err);
+rd_error_code rd_store_op_grade_image_put(rd_store *s, const char *id, rd_store_grade_image_kind kind,
+                                          const unsigned char *data, size_t len, rd_error *err);
 rd_error_code rd_store_op_grade_image(rd_store *s, const char *id, rd_store_grade_image_kind kind, unsigned char **data,
                                       size_t *len, rd_error *err);
 /* f never NULL, f->max > 0. */

@@ -972,7 +972,7 @@ rd_error_code rd_store_op_tiles_get(rd_store *s, const char *id, int index, rd_s
 /* The columns a grade is read from, in this order. */
 #define GRADE_COLUMNS                                                                                                  \
     "id, batch_id, assignment, student, pass, failed_fraction, max_abs, psnr_db, ssim, verdict, reference_key, "       \
-    "graded_ms, error, kind, submitted_ms, late_ms, closed, score, points"
+    "graded_ms, error, kind, submitted_ms, late_ms, closed, score, points, regrade_of"
 
 static const char *grade_image_name(rd_store_grade_image_kind kind)
 {
@@ -1031,11 +1031,11 @@ static rd_error_code insert_grade(rd_store *s, const rd_store_grade *g, rd_error
     int graded = !g->error, scored = isfinite(g->points) && g->points > 0;
     return run(s, NULL, err,
                "INSERT INTO grades (" GRADE_COLUMNS
-               ") VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-               "ttttiddddttIttIIidd", g->id, g->batch_id, g->assignment, g->student, g->pass,
+               ") VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+               "ttttiddddttIttIIiddt", g->id, g->batch_id, g->assignment, g->student, g->pass,
                graded ? &g->failed_fraction : NULL, graded ? &g->max_abs : NULL, graded ? &g->psnr_db : NULL,
                graded ? &g->ssim : NULL, g->verdict, g->reference_key, g->graded_ms, g->error, g->kind, g->submitted_ms,
-               g->late_ms, g->closed, scored ? &g->score : NULL, scored ? &g->points : NULL);
+               g->late_ms, g->closed, scored ? &g->score : NULL, scored ? &g->points : NULL, g->regrade_of);
 }
 
 rd_error_code rd_store_op_grade_put(rd_store *s, const rd_store_grade *g, const unsigned char *diff, size_t len,
@@ -1085,6 +1085,7 @@ static rd_error_code grade_row(const stmt *q, rd_store_grade *g, rd_error *err)
     g->reference_key = col_dup(q, 10, &ok);
     g->error = col_dup(q, 12, &ok);
     g->kind = col_dup(q, 13, &ok);
+    g->regrade_of = col_dup(q, 19, &ok);
     if (ok)
         return RD_OK;
     rd_store_grade_free(g);
@@ -1120,6 +1121,25 @@ rd_error_code rd_store_op_grade_image(rd_store *s, const char *id, rd_store_grad
     if (!found)
         return absent(err, "grade", id);
     return rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: grade %s has no %s image", id, name);
+}
+
+rd_error_code rd_store_op_grade_image_put(rd_store *s, const char *id, rd_store_grade_image_kind kind,
+                                          const unsigned char *data, size_t len, rd_error *err)
+{
+    int found = 0;
+    rd_error_code c = begin(s, err);
+    if (c)
+        return c;
+    c = exists(s, "SELECT 1 FROM grades WHERE id = ?", id, &found, err);
+    if (!c && !found)
+        c = absent(err, "grade", id);
+    if (!c)
+        c = run(s, NULL, err, "DELETE FROM grade_images WHERE grade_id = ? AND kind = ?", "tt", id,
+                grade_image_name(kind));
+    if (!c)
+        c = run(s, NULL, err, "INSERT INTO grade_images (grade_id, kind, data) VALUES (?, ?, ?)", "ttb", id,
+                grade_image_name(kind), (const void *)data, len);
+    return end(s, c, err);
 }
 
 /* The filter's conditions are written in only when given, so that each

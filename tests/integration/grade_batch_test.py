@@ -26,7 +26,7 @@ check = Checks("grade batch")
 TOKEN = "class-token-0123456789abcdef"
 AUTH = {"Authorization": "Bearer " + TOKEN}
 COLUMNS = ["student", "assignment", "pass", "failed_fraction", "max_abs", "psnr_db", "ssim", "graded_at", "grade_id",
-           "url", "kind", "counts", "submitted_at", "late", "score", "points", "on_roster", "error"]
+           "url", "kind", "counts", "submitted_at", "late", "score", "points", "on_roster", "regrade_of", "error"]
 
 
 def render(scene_text, out):

@@ -56,7 +56,7 @@ sed -n 3p "$T/out" | grep -Eq '^student bob: fail failed_fraction=0\.[0-9]+ max_
 # quoting, the formula guard, RFC 3339 times; the metrics are those of
 # grading each image alone.
 head -n 1 "$T/class.csv" | od -An -c | tr -d ' \n' >"$T/header"
-[ "$(cat "$T/header")" = 'student,assignment,pass,failed_fraction,max_abs,psnr_db,ssim,graded_at,grade_id,url,kind,counts,submitted_at,late,score,points,on_roster,error\r\n' ] && ok ||
+[ "$(cat "$T/header")" = 'student,assignment,pass,failed_fraction,max_abs,psnr_db,ssim,graded_at,grade_id,url,kind,counts,submitted_at,late,score,points,on_roster,regrade_of,error\r\n' ] && ok ||
     bad "CSV header: $(cat "$T/header")"
 grade --assignment phong --image "$C/bob.png"
 [ "$rc" -eq 4 ] && ok || bad "bob alone: exit $rc, wanted 4"
@@ -74,7 +74,7 @@ lines = raw.split(b"\r\n")
 want(lines[-1] == b"" and all(b"\n" not in l for l in lines), "every line ends in CRLF")
 rows = list(csv.reader(open(sys.argv[1], newline="")))
 want(len(rows) == 6, "%d records, wanted the header and 5" % len(rows))
-want(all(len(r) == 18 for r in rows), "a record without 18 cells: %s" % [len(r) for r in rows])
+want(all(len(r) == 19 for r in rows), "a record without 19 cells: %s" % [len(r) for r in rows])
 if not problems:
     body = [dict(zip(rows[0], r)) for r in rows[1:]]
     want([r["student"] for r in body] == ["'=smith, j", "alice", "bob", "carol", "dave"],
@@ -83,7 +83,7 @@ if not problems:
     want(all(r["assignment"] == "phong" for r in body), "assignment column")
     want([(r["kind"], r["score"], r["points"]) for r in body] == [("image", "1", "1")] * 2 + [("image", "0", "1")] * 3,
          "kind, score and points (phong's 1 point): %s" % [(r["kind"], r["score"], r["points"]) for r in body])
-    want(all(r[k] == "" for r in body for k in ("grade_id", "url", "counts", "submitted_at", "late", "on_roster")),
+    want(all(r[k] == "" for r in body for k in ("grade_id", "url", "counts", "submitted_at", "late", "on_roster", "regrade_of")),
          "a command's rows are no records: %s" % body[0])
     want([r["pass"] for r in body] == ["true", "true", "false", "false", "false"],
          "pass column: %s" % [r["pass"] for r in body])

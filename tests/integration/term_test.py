@@ -16,7 +16,11 @@ some twice) through POST /v1/grade:
 - the verdict of GET /v1/grades/{id} has its record, counts as of now: a
   later submission takes it over (latest), a better one (best);
 - a code grade's record is of kind code and earns, with partial credit,
-  its share of configurations right.
+  its share of configurations right;
+- a whole term on a store of its own: a roster of 30, three assignments,
+  late and repeated submissions, a batch with files not on the roster,
+  "no submission" rows, both gradebooks held to the importers' rules, and
+  a regrade after the scene changed.
 
 Usage: RAYD=build/rayd /usr/bin/python3 tests/integration/term_test.py
 Prints `term: N passed, M failed`."""
@@ -150,8 +154,8 @@ def listing(d, cid):
     st, h, out = d.request("GET", "/v1/grades", headers=dict(AUTH, Accept="text/csv"))
     check(st == 200 and not out.startswith(b"\xef\xbb\xbf"), "plain CSV has no byte order mark")
     table = list(csv.reader(io.StringIO(out.decode())))
-    check(table[0][-1] == "error" and "score" in table[0] and len(table) == 10 and all(len(r) == 18 for r in table),
-          "CSV: header and 18 cells a row: %s" % table[:2])
+    check(table[0][-1] == "error" and "score" in table[0] and len(table) == 10 and all(len(r) == 19 for r in table),
+          "CSV: header and 19 cells a row: %s" % table[:2])
     st, h, bom = d.request("GET", "/v1/grades?excel=1", headers=dict(AUTH, Accept="text/csv"))
     check(st == 200 and bom == b"\xef\xbb\xbf" + out, "?excel=1: the byte order mark, then the same CSV")
 
@@ -324,6 +328,54 @@ def check_gradebooks(d, scores):
     check(st == 401, "the gradebook without a token: %d" % st)
 
 
+def wait_batch(d, bid):
+    out = {}
+    for _ in range(2400):
+        st, _, b = d.request("GET", "/v1/grade/batch/" + bid, headers=AUTH)
+        out = json.loads(b) if st == 200 else {}
+        if out.get("status") != "running":
+            break
+        time.sleep(0.05)
+    return out
+
+
+def regrade(d, folder, before):
+    """a1's scene changes (its light dims): a regrade grades a1's 25 image
+    records again into 25 new records that name them; the old ones stay and
+    no longer count; lateness is the original submission's; a second regrade
+    takes only the newest line."""
+    with open(os.path.join(folder, "a1.cfg"), "w") as f:
+        f.write(TINY_SCENE.replace("color = 1 1 1", "color = 0.5 0.5 0.5"))
+    st, h, out = d.request("POST", "/v1/grade/regrade?assignment=a1", headers=AUTH)
+    b = json.loads(out) if st == 202 else {}
+    check(st == 202 and b.get("total") == 25 and h.get("location") == "/v1/grade/batch/" + b.get("id", ""),
+          "POST /v1/grade/regrade: %d %s" % (st, out[:200]))
+    done = wait_batch(d, b.get("id", "x"))
+    check(done.get("status") == "done" and done.get("done") == 25, "the regrade ended: %s" % str(done)[:200])
+    rows = json.loads(d.request("GET", "/v1/grades?assignment=a1", headers=AUTH)[2])["grades"]
+    old = {r["grade_id"]: r for r in before if r["assignment"] == "a1"}
+    new = [r for r in rows if r["regrade_of"]]
+    check(len(new) == 25 and sorted(r["regrade_of"] for r in new) == sorted(old),
+          "each a1 record regraded once: %d" % len(new))
+    check(all(r["student"] == old[r["regrade_of"]]["student"] and r["submitted_at"] == old[r["regrade_of"]]["submitted_at"]
+              and r["late"] for r in new), "a regrade keeps the student, the submission time and its lateness")
+    check(all(not r["pass"] and r["score"] == 0 for r in new), "against the dimmer reference nothing passes")
+    kept = [r for r in rows if r["grade_id"] in old]
+    check(len(kept) == 25 and not any(r["counts"] for r in kept), "the old verdicts stay, and none counts")
+    counted = sorted(r["student"] for r in rows if r["counts"])
+    check(counted == sorted("s%02d" % i for i in range(1, 21)), "one regrade counts per student: %s" % counted)
+    gid = new[0]["grade_id"] if new else "x"
+    rec = json.loads(d.request("GET", "/v1/grades/" + gid, headers={"Accept": "application/json"})[2]).get("record", {})
+    check(rec.get("regrade_of") == new[0]["regrade_of"] if new else False, "the verdict's record: %s" % rec)
+    st, _, out = d.request("POST", "/v1/grade/regrade?assignment=a1", headers=AUTH)
+    again = wait_batch(d, json.loads(out).get("id", "x")) if st == 202 else {}
+    check(again.get("total") == 25, "a second regrade takes the 25 newest only: %s" % str(again)[:120])
+    st, _, _ = d.request("POST", "/v1/grade/regrade?assignment=nope", headers=AUTH)
+    check(st == 404, "regrade of no assignment: %d" % st)
+    st, _, _ = d.request("POST", "/v1/grade/regrade?assignment=a1")
+    check(st == 401, "regrade without a token: %d" % st)
+
+
 def whole_term(tmp, store_flags, right, wrong):
     folder = term_assignments(tmp)
     flags = store_flags + ["--assignments", folder, "--instructor-tokens", os.path.join(tmp, "tokens"),
@@ -335,6 +387,10 @@ def whole_term(tmp, store_flags, right, wrong):
         check(len(rows) == 25 + 28 + 30, "the term's records: %d" % len(rows))
         check_tables(d, bid, rows)
         check_gradebooks(d, scores)
+        regrade(d, folder, rows)
+        text = d.request("GET", "/v1/gradebook?format=moodle", headers=AUTH)[2].decode()
+        a1 = [r[3] for r in csv.reader(io.StringIO(text))][1:]
+        check(sorted(a1) == sorted(["0"] * 20 + [""] * 10), "the gradebook after the regrade: %s" % a1)
         print("term: a whole term (roster 30, 3 assignments, %d records) in %.1f s" % (len(rows), time.time() - t0))
 
 

@@ -18,8 +18,8 @@
 /* 2024-05-01T09:30:00.123Z */
 #define AT_MS 1714555800123LL
 #define AT_TEXT "2024-05-01T09:30:00.123Z"
-/* The record's nine cells of a row that is no record, each with its comma. */
-#define NO_RECORD ",,,,,,,,,"
+/* The record's ten cells of a row that is no record, each with its comma. */
+#define NO_RECORD ",,,,,,,,,,"
 
 static char *csv_of(const rd_grade_row *row)
 {
@@ -103,7 +103,7 @@ Test(grade_table, header_names_the_columns_in_order)
     rd_grade_csv_header(&b);
     char *t = rd_strbuf_take(&b, NULL);
     cr_assert_str_eq(t, "student,assignment,pass,failed_fraction,max_abs,psnr_db,ssim,graded_at,grade_id,url,kind,"
-                        "counts,submitted_at,late,score,points,on_roster,error\r\n");
+                        "counts,submitted_at,late,score,points,on_roster,regrade_of,error\r\n");
     free(t);
 }
 
@@ -119,12 +119,12 @@ Test(grade_table, a_row_from_a_known_result)
                      "alice,phong,false,0.3333333333333333,57,38.2,0.30000000000000004," AT_TEXT "," NO_RECORD "\r\n");
     char *f[20];
     int n = read_record(t, f, 20);
-    cr_assert_eq(n, 18, "%d fields in %s", n, t);
+    cr_assert_eq(n, 19, "%d fields in %s", n, t);
     /* Every number reads back to the double it was. */
     cr_assert(strtod(f[3], NULL) == r.failed_fraction, "%s", f[3]);
     cr_assert(strtod(f[5], NULL) == r.psnr_db, "%s", f[5]);
     cr_assert(strtod(f[6], NULL) == r.ssim, "%s", f[6]);
-    cr_assert_str_eq(f[17], "", "a graded row has no error");
+    cr_assert_str_eq(f[18], "", "a graded row has no error");
     free_fields(f, n);
     free(t);
 
@@ -192,7 +192,7 @@ Test(grade_table, ids_with_commas_quotes_and_newlines_are_quoted)
         cr_assert(strncmp(t, cases[i].cell, strlen(cases[i].cell)) == 0, "'%s' written %s", cases[i].id, t);
         char *f[20];
         int n = read_record(t, f, 20);
-        cr_assert_eq(n, 18, "'%s': %d fields in %s", cases[i].id, n, t);
+        cr_assert_eq(n, 19, "'%s': %d fields in %s", cases[i].id, n, t);
         cr_assert_str_eq(f[0], cases[i].id);
         cr_assert_str_eq(f[1], "phong");
         free_fields(f, n);
@@ -225,7 +225,7 @@ Test(grade_table, formulas_are_not_left_to_run)
         char *t = csv_of(&row);
         char *f[20];
         int n = read_record(t, f, 20);
-        cr_assert_eq(n, 18, "'%s': %d fields in %s", cases[i].id, n, t);
+        cr_assert_eq(n, 19, "'%s': %d fields in %s", cases[i].id, n, t);
         cr_assert_str_eq(f[0], cases[i].read_back, "'%s' written %s", cases[i].id, t);
         cr_assert_str_eq(f[6], "-0.25", "a negative number is written as a number: %s", t);
         free_fields(f, n);
@@ -266,7 +266,7 @@ Test(grade_table, semicolons_are_quoted_and_what_follows_a_separator_is_guarded)
         cr_assert_eq(t[0], '"', "'%s' is not quoted: %s", cases[i].id, t);
         char *f[20];
         int n = read_record(t, f, 20);
-        cr_assert_eq(n, 18, "'%s': %d fields in %s", cases[i].id, n, t);
+        cr_assert_eq(n, 19, "'%s': %d fields in %s", cases[i].id, n, t);
         cr_assert_str_eq(f[0], cases[i].read_back, "'%s' written %s", cases[i].id, t);
         free_fields(f, n);
         /* Split at both separators, quotes ignored. */
@@ -284,8 +284,9 @@ Test(grade_table, semicolons_are_quoted_and_what_follows_a_separator_is_guarded)
 Test(grade_table, json_row_has_the_csv_keys)
 {
     static const char *const keys[] = {
-        "student", "assignment", "pass",   "failed_fraction", "max_abs", "psnr_db", "ssim",   "graded_at", "grade_id",
-        "url",     "kind",       "counts", "submitted_at",    "late",    "score",   "points", "on_roster", "error"};
+        "student",   "assignment", "pass", "failed_fraction", "max_abs",      "psnr_db", "ssim",  "graded_at",
+        "grade_id",  "url",        "kind", "counts",          "submitted_at", "late",    "score", "points",
+        "on_roster", "regrade_of", "error"};
     rd_grade_result r = known_result();
     rd_grade_row row;
     cr_assert_eq(rd_grade_row_from_result(&row, "alice", "phong", &r, AT_MS, NULL), RD_OK);
@@ -297,8 +298,8 @@ Test(grade_table, json_row_has_the_csv_keys)
     cJSON_Delete(made);
     cJSON *j = cJSON_Parse(text);
     cr_assert(j, "%s", text);
-    cr_assert_eq(cJSON_GetArraySize(j), 18, "%s", text);
-    for (int i = 0; i < 18; i++)
+    cr_assert_eq(cJSON_GetArraySize(j), 19, "%s", text);
+    for (int i = 0; i < 19; i++)
         cr_assert(cJSON_GetObjectItem(j, keys[i]), "no %s", keys[i]);
     cr_assert_str_eq(cJSON_GetObjectItem(j, "student")->valuestring, "alice");
     cr_assert_str_eq(cJSON_GetObjectItem(j, "assignment")->valuestring, "phong");
@@ -317,7 +318,7 @@ Test(grade_table, json_row_has_the_csv_keys)
     cr_assert_eq(rd_grade_row_error(&row, "dave", NULL, "the image is not a PNG file", AT_MS, NULL), RD_OK);
     j = rd_grade_row_json(&row);
     cr_assert(j);
-    cr_assert_eq(cJSON_GetArraySize(j), 18);
+    cr_assert_eq(cJSON_GetArraySize(j), 19);
     cr_assert(cJSON_IsNull(cJSON_GetObjectItem(j, "assignment")));
     cr_assert(cJSON_IsFalse(cJSON_GetObjectItem(j, "pass")));
     for (int i = 3; i < 7; i++)
@@ -394,7 +395,7 @@ Test(grade_table, a_record_fills_its_columns)
     row.points = 10;
     char *t = csv_of(&row);
     cr_assert_eq(row.on_roster, -1, "no roster: unknown");
-    cr_assert(strstr(t, "," AT_TEXT ",g0123,/v1/grades/g0123,code,true,2024-05-01T09:29:59.123Z,false,7.5,10,,\r\n"),
+    cr_assert(strstr(t, "," AT_TEXT ",g0123,/v1/grades/g0123,code,true,2024-05-01T09:29:59.123Z,false,7.5,10,,,\r\n"),
               "%s", t);
     free(t);
     cJSON *made = rd_grade_row_json(&row);
@@ -418,7 +419,7 @@ Test(grade_table, a_student_without_a_submission_has_no_time)
     cr_assert_eq(rd_grade_row_error(&row, "ann", "phong", "no submission", 0, NULL), RD_OK);
     row.on_roster = 1;
     char *t = csv_of(&row);
-    cr_assert_str_eq(t, "ann,phong,false,,,,,,,,,,,,,,true,no submission\r\n");
+    cr_assert_str_eq(t, "ann,phong,false,,,,,,,,,,,,,,true,,no submission\r\n");
     free(t);
     cJSON *j = rd_grade_row_json(&row);
     cr_assert(cJSON_IsNull(cJSON_GetObjectItem(j, "graded_at")));
