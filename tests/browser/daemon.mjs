@@ -48,11 +48,13 @@ export function logTail(file, n = 20) {
 }
 
 // Starts `rayd serve` on a free loopback port in folder `dir` (port file,
-// log, --data-dir); resolves once it listens.
+// log, --data-dir; a folder used before is started again with its store);
+// resolves once it listens.
 export async function startDaemon(dir, args) {
   fs.mkdirSync(dir, { recursive: true });
   const portFile = path.join(dir, "port");
   const log = path.join(dir, "rayd-serve.log");
+  fs.rmSync(portFile, { force: true }); // a restart in the same folder: not the last daemon's port
   const fd = fs.openSync(log, "w");
   const proc = spawn(RAYD, ["serve", "--listen", "127.0.0.1:0", "--port-file", portFile,
     "--data-dir", path.join(dir, "var"), ...args], { cwd: ROOT, stdio: ["ignore", "ignore", fd] });
