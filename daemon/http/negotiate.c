@@ -14,10 +14,10 @@ static const char OWS[] = " \t";
  * not one is taken as 0: a client that cannot spell it is not asking. */
 static int parse_q(const char *p, size_t n)
 {
-    if (n < 3 || (p[0] != 'q' && p[0] != 'Q') || p[1] != '=')
+    if (n < 2 || (p[0] != 'q' && p[0] != 'Q') || p[1] != '=')
         return -1; /* another parameter */
     p += 2, n -= 2;
-    if (p[0] != '0' && p[0] != '1')
+    if (n == 0 || (p[0] != '0' && p[0] != '1'))
         return Q_BAD;
     int q = (p[0] - '0') * Q_ONE;
     if (n == 1)
