@@ -1,6 +1,7 @@
 // Starting and stopping `rayd serve` for a browser test, and the Chromium
-// it is driven with. page.test.mjs keeps its own copy; class.test.mjs uses
-// these (several daemons: with and without --instructor-tokens).
+// it is driven with. page.test.mjs keeps its own copy; class.test.mjs,
+// code.test.mjs and verdict.test.mjs use these (several daemons: with and
+// without --instructor-tokens, and one restarted on its own store).
 import { spawn, execFileSync } from "node:child_process";
 import fs from "node:fs";
 import os from "node:os";
