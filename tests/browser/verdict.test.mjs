@@ -128,6 +128,10 @@ test("just over the threshold: the digits show that 0.104% is over 0.10%", { tim
   assert.equal((await metrics(page))["Failed pixels"], "80 (0.104%, limit 0.10%)");
   await imagesLoaded(page, ["diff-img"]);
   await page.screenshot({ path: path.join(SHOTS, "2-image-just-over.png"), fullPage: true });
+  // A student opens the link on a phone: nothing scrolls sideways.
+  await page.setViewportSize({ width: 375, height: 740 });
+  assert.equal(await page.evaluate(() => document.documentElement.scrollWidth <= window.innerWidth), true);
+  await page.screenshot({ path: path.join(SHOTS, "2c-phone.png"), fullPage: true });
   assert.deepEqual(page.errors, []);
   await page.close();
 });
