@@ -98,6 +98,9 @@ typedef struct rd_req {
     pthread_mutex_t mu;
     rd_jq_job *job;
     int suspended, finished;
+    /* The request headers an answer's content depends on (its Vary), beside
+     * the Origin that CORS adds; NULL: none. */
+    const char *vary;
     /* the route's own state while the request lasts, freed by free_state */
     void *state;
     void (*free_state)(struct rd_req *r);
@@ -139,6 +142,16 @@ enum MHD_Result rd_reply(rd_req *r, unsigned status, const char *type, void *bod
 /* The same with extra headers: name, value, ..., NULL. */
 enum MHD_Result rd_reply_with(rd_req *r, unsigned status, const char *type, void *body, size_t len, int must_free,
                               const char *const *headers);
+
+/* The web page (daemon/http/web/index.html) with this status and extra
+ * headers (name, value, ..., NULL). */
+enum MHD_Result rd_reply_page(rd_req *r, unsigned status, const char *const *headers);
+
+/* The q-value, in thousandths (0 to 1000), an Accept header gives type
+ * ("text/html"): that of the most specific range matching it (the type,
+ * "text/wildcard", then the wildcard of all); -1 when none does or accept is
+ * NULL. *named (may be NULL): the type itself is named. */
+int rd_accept_quality(const char *accept, const char *type, int *named);
 
 /* A synchronous request's job: rd_req_on_done is the job's done callback
  * (it resumes the connection); rd_req_wait suspends the connection until

@@ -270,8 +270,19 @@ static void add_cors(rd_req *r, struct MHD_Response *resp)
     MHD_add_response_header(resp, "Access-Control-Expose-Headers",
                             "X-Request-Id, X-Rayd-Job, X-Rayd-Daemon, X-Rayd-Render-Ms, X-Rayd-Samples, X-Rayd-Passes, "
                             "X-Rayd-Error-Estimate, X-Rayd-Stopped-By, Retry-After, ETag");
-    if (strcmp(origin, "*") != 0)
-        MHD_add_response_header(resp, MHD_HTTP_HEADER_VARY, "Origin");
+}
+
+/* One Vary naming every request header the answer depends on: Origin when
+ * CORS names one origin, and the route's own (r->vary). */
+static void add_vary(rd_req *r, struct MHD_Response *resp)
+{
+    const char *origin = r->srv->opt.cors_origin;
+    int by_origin = origin && strcmp(origin, "*") != 0;
+    char vary[96];
+    snprintf(vary, sizeof vary, "%s%s%s", by_origin ? "Origin" : "", by_origin && r->vary ? ", " : "",
+             r->vary ? r->vary : "");
+    if (vary[0])
+        MHD_add_response_header(resp, MHD_HTTP_HEADER_VARY, vary);
 }
 
 enum MHD_Result rd_reply_with(rd_req *r, unsigned status, const char *type, void *body, size_t len, int must_free,
@@ -300,6 +311,7 @@ enum MHD_Result rd_reply_with(rd_req *r, unsigned status, const char *type, void
     if (r->srv->daemon_id[0])
         MHD_add_response_header(resp, "X-Rayd-Daemon", r->srv->daemon_id);
     add_cors(r, resp);
+    add_vary(r, resp);
     for (int i = 0; headers && headers[i] && headers[i + 1]; i += 2)
         MHD_add_response_header(resp, headers[i], headers[i + 1]);
     r->status = status;

@@ -118,22 +118,51 @@ enum MHD_Result rd_route_grade_resumed(rd_req *r)
     return rd_reply_cancelled(r, &info, "grade");
 }
 
+/* A browser's navigation asks for text/html before JSON; a client naming
+ * neither, or JSON at least as much (curl's wildcard), keeps the JSON. */
+static int prefers_html(rd_req *r)
+{
+    const char *accept = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_ACCEPT);
+    int html = rd_accept_quality(accept, "text/html", NULL);
+    return html > 0 && html > rd_accept_quality(accept, "application/json", NULL);
+}
+
+/* GET /v1/grades/{id}: the verdict's JSON, or for a browser the page,
+ * which reads that JSON and shows the grade. The page's status is the
+ * JSON's, so a link to no grade is a 404 either way. The page's address
+ * is the capability: no Referer carries it elsewhere. */
+static enum MHD_Result reply_verdict(rd_req *r, rd_grading *g, const char *id)
+{
+    rd_error err = {0};
+    char *text = NULL;
+    rd_error_code rc = rd_cap_valid(id, 'g') ? rd_grading_verdict(g, id, &text, &err)
+                                             : rd_error_set(&err, RD_ERR_NOT_FOUND, 0, 0, "no such grade");
+    if (!prefers_html(r))
+        return rc ? rd_reply_failed(r, &err) : rd_reply_json(r, 200, text);
+    free(text);
+    rd_error_answer a = rc ? rd_error_answer_for(err.code) : (rd_error_answer){.http = 200};
+    char after[16];
+    snprintf(after, sizeof after, "%u", a.retry_after);
+    const char *headers[] = {"Referrer-Policy", "no-referrer", a.retry_after ? "Retry-After" : NULL, after, NULL};
+    return rd_reply_page(r, a.http, headers);
+}
+
 enum MHD_Result rd_route_grade_files(rd_req *r, const char *path)
 {
     if (!*path)
         return rd_route_grades_list(r);
-    rd_grading *g = rd_server_grading(r->srv);
-    if (!g)
-        return rd_reply_starting(r);
     const char *rest = path + 1;
     /* rest: "{id}", "{id}/diff.png", "{id}/reference.png" or "{id}/image.png" */
     const char *slash = strchr(rest, '/');
+    if (!slash)
+        r->vary = "Accept";
+    rd_grading *g = rd_server_grading(r->srv);
+    if (!g)
+        return rd_reply_starting(r);
+    if (!slash)
+        return reply_verdict(r, g, rest);
     rd_error err = {0};
-    if (!slash && rd_cap_valid(rest, 'g')) {
-        char *text = NULL;
-        return rd_grading_verdict(g, rest, &text, &err) ? rd_reply_failed(r, &err) : rd_reply_json(r, 200, text);
-    }
-    if (!slash || slash - rest >= RD_CAP_MAX)
+    if (slash - rest >= RD_CAP_MAX)
         return rd_reply_error(r, 404, "not_found", NULL, "no such grade");
     char id[RD_CAP_MAX];
     memcpy(id, rest, (size_t)(slash - rest));

@@ -74,10 +74,16 @@ enum MHD_Result rd_route_scenes(rd_req *r, const char *rest)
     return rd_reply(r, 200, type, text, len, 1);
 }
 
+enum MHD_Result rd_reply_page(rd_req *r, unsigned status, const char *const *headers)
+{
+    return rd_reply_with(r, status, "text/html; charset=utf-8", (void *)rd_web_index_html, strlen(rd_web_index_html), 0,
+                         headers);
+}
+
 enum MHD_Result rd_route_page(rd_req *r, const char *rest)
 {
     (void)rest;
-    return rd_reply(r, 200, "text/html; charset=utf-8", (void *)rd_web_index_html, strlen(rd_web_index_html), 0);
+    return rd_reply_page(r, 200, NULL);
 }
 
 enum MHD_Result rd_route_openapi(rd_req *r, const char *rest)

@@ -60,16 +60,9 @@ static void free_render(void *arg)
  * naming it asks for it). */
 static int accepts_exr(struct MHD_Connection *c)
 {
-    const char *a = MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_ACCEPT);
-    static const char exr[] = "image/x-exr";
-    for (const char *p = a; p && *p;) {
-        p += strspn(p, " \t,");
-        size_t n = strcspn(p, ";, \t");
-        if (n == sizeof exr - 1 && strncasecmp(p, exr, n) == 0)
-            return 1;
-        p += strcspn(p, ",");
-    }
-    return 0;
+    int named;
+    rd_accept_quality(MHD_lookup_connection_value(c, MHD_HEADER_KIND, MHD_HTTP_HEADER_ACCEPT), "image/x-exr", &named);
+    return named;
 }
 
 /* The query's parameters (http-api.md), read on the HTTP thread (each

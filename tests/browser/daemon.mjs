@@ -1,6 +1,7 @@
 // Starting and stopping `rayd serve` for a browser test, and the Chromium
-// it is driven with. page.test.mjs keeps its own copy; class.test.mjs uses
-// these (several daemons: with and without --instructor-tokens).
+// it is driven with. page.test.mjs keeps its own copy; class.test.mjs,
+// code.test.mjs and verdict.test.mjs use these (several daemons: with and
+// without --instructor-tokens, and one restarted on its own store).
 import { spawn, execFileSync } from "node:child_process";
 import fs from "node:fs";
 import os from "node:os";
@@ -48,11 +49,13 @@ export function logTail(file, n = 20) {
 }
 
 // Starts `rayd serve` on a free loopback port in folder `dir` (port file,
-// log, --data-dir); resolves once it listens.
+// log, --data-dir; a folder used before is started again with its store);
+// resolves once it listens.
 export async function startDaemon(dir, args) {
   fs.mkdirSync(dir, { recursive: true });
   const portFile = path.join(dir, "port");
   const log = path.join(dir, "rayd-serve.log");
+  fs.rmSync(portFile, { force: true }); // a restart in the same folder: not the last daemon's port
   const fd = fs.openSync(log, "w");
   const proc = spawn(RAYD, ["serve", "--listen", "127.0.0.1:0", "--port-file", portFile,
     "--data-dir", path.join(dir, "var"), ...args], { cwd: ROOT, stdio: ["ignore", "ignore", fd] });

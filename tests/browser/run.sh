@@ -2,10 +2,12 @@
 # Browser test of the page `rayd serve` shows at GET /: drives Debian's
 # Chromium with playwright-core against daemons the tests start themselves
 # (page.test.mjs: rendering and one student's grade; class.test.mjs: the
-# class view, with --instructor-tokens, skipped by a rayd without it).
+# class view, with --instructor-tokens, skipped by a rayd without it;
+# code.test.mjs: grading code; verdict.test.mjs: a grade's own page at
+# /v1/grades/{id}).
 # Run from anywhere; works from the repository root:  tests/browser/run.sh
 # Needs: build/rayd (make build/rayd; or RAYD=path), node >= 20 with npm,
-# /usr/bin/chromium (Debian package chromium). Screenshots: build/browser-screenshots/ (class/ for the class view).
+# /usr/bin/chromium (Debian package chromium). Screenshots: build/browser-screenshots/ (class/, code/ and verdict/ for those tests).
 set -eu
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)

@@ -408,9 +408,18 @@ def grades(c, tmp):
     verdict = json.loads(data) if status == 200 else {}
     check(verdict.get("pass") is True, "the rendered image did not pass: %s" % verdict)
     post({"scene": SCENE.encode(), "image": wrong}, 200)
-    post({"assignment": b"tiny", "image": good}, 200)
+    status, _, data = post({"assignment": b"tiny", "image": good}, 200)
+    recorded = json.loads(data).get("id") if status == 200 else "g" + "f" * 32  # an assignment's grade is a record
     for name in ("diff.png", "reference.png", "image.png"):
         c.call("get", "/v1/grades/{id}/{file}", "/v1/grades/%s/%s" % (verdict.get("id"), name), expect=200)
+    # One address, two answers: the page to a browser, the JSON to the rest.
+    V = "/v1/grades/{id}"
+    for accept, ctype in [(None, "application/json"), ("application/json", "application/json"),
+                          ("text/html,application/xhtml+xml,*/*;q=0.8", "text/html; charset=utf-8")]:
+        _, h, _ = c.call("get", V, "/v1/grades/" + recorded, headers={"Accept": accept} if accept else None, expect=200)
+        check(h.get("content-type") == ctype and h.get("vary") == "Accept",
+              "GET /v1/grades/{id} with Accept %r: %r, Vary %r" % (accept, h.get("content-type"), h.get("vary")))
+    c.call("get", V, "/v1/grades/g" + "0" * 32, headers={"Accept": "text/html"}, expect=404)
     c.call("get", "/v1/grades/{id}/{file}", "/v1/grades/%s/other.png" % verdict.get("id"), expect=404)
     c.call("get", "/v1/grades/{id}/{file}", "/v1/grades/g0000000000000000/diff.png", expect=404)
     post({"scene": SCENE.encode()}, 400)  # no image

@@ -2,7 +2,8 @@
 """What an operator expects of `rayd serve`: options and their environment
 variables, listening addresses, start-up checks, /readyz, the log (text and
 JSON, request ids, clients behind trusted proxies), per-client limits,
-caching headers, CORS, SIGHUP.
+caching headers, CORS, SIGHUP, a grade's address answering a browser with
+the page and everyone else with JSON.
 
 Usage: RAYD=build/rayd /usr/bin/python3 tests/integration/serve_test.py
 (from the repository root). Every daemon listens on loopback on a port it
@@ -21,7 +22,7 @@ import threading
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
-from rayd_http import RAYD, Checks  # noqa: E402
+from rayd_http import RAYD, Checks, form, render_png  # noqa: E402
 from rayd_http import Daemon as _Daemon  # noqa: E402
 
 t = Checks("serve_test")
@@ -269,6 +270,61 @@ def test_cors():
                 headers.get("vary") == "Origin", "answers carry the CORS headers: %r" % headers)
 
 
+# What Chromium sends when it opens a link, and curl by default.
+BROWSER_ACCEPT = ("text/html,application/xhtml+xml,application/xml;q=0.9,image/avif,image/webp,image/apng,*/*;q=0.8,"
+                  "application/signed-exchange;v=b3;q=0.7")
+
+
+def test_verdict_page():
+    """GET /v1/grades/{id}: the page to a client that prefers text/html,
+    the verdict's JSON to every other, the same status either way, and a
+    Vary that names Accept (beside CORS's Origin)."""
+    tmp = tempfile.mkdtemp(prefix="rayd-serve-test-")
+    image = render_png("scenes/assignments/phong.cfg", os.path.join(tmp, "mine.png"))
+    with Daemon(["--cors-origin", "https://course.example"]) as d:
+        body, ct = form({"assignment": b"phong", "image": image})
+        status, _, data = d.request("POST", "/v1/grade", body=body, headers={"Content-Type": ct})
+        gid = json.loads(data)["id"] if status == 200 else "g" + "0" * 32
+        t(status == 200, "the grade is answered: %d %r" % (status, data[:200]))
+        url = "/v1/grades/" + gid
+        json_accepts = [None, "*/*", "application/json", "application/json, text/html;q=0.9",
+                        "text/html;q=0.5, application/json", "text/html;q=0", "text/html;q=2", "image/png",
+                        "text/html;;;q=,,,", ",;=" * 2000]
+        for accept in json_accepts:
+            status, headers, data = d.request("GET", url, headers={"Accept": accept} if accept else {})
+            try:
+                same = json.loads(data).get("id") == gid
+            except ValueError:
+                same = False
+            t(status == 200 and headers.get("content-type") == "application/json" and same,
+              "Accept %r gets the verdict's JSON: %d %r" % ((accept or "")[:60], status, headers.get("content-type")))
+            t(headers.get("vary") == "Origin, Accept", "Accept %r: Vary %r" % ((accept or "")[:60], headers.get("vary")))
+        for accept in [BROWSER_ACCEPT, "text/html", "TEXT/HTML", "text/*", "text/html ;q=0.9, application/json;q=0.8",
+                       "text/html, */*;q=0.1"]:
+            status, headers, data = d.request("GET", url, headers={"Accept": accept})
+            t(status == 200 and headers.get("content-type") == "text/html; charset=utf-8" and
+              data.startswith(b"<!doctype html>") and b"showOneGrade" in data,
+              "Accept %r gets the page: %d %r" % (accept[:60], status, headers.get("content-type")))
+            t(headers.get("vary") == "Origin, Accept", "the page: Vary %r" % headers.get("vary"))
+            t(headers.get("referrer-policy") == "no-referrer", "the page sends no Referer: %r" % headers)
+        for missing in ["g" + "0" * 32, "gnot-an-id", "x" * 150]:
+            status, headers, data = d.request("GET", "/v1/grades/" + missing, headers={"Accept": BROWSER_ACCEPT})
+            t(status == 404 and headers.get("content-type", "").startswith("text/html"),
+              "a browser's link to no grade (%s) is a 404 page: %d %r" % (missing[:40], status, headers.get("content-type")))
+            status, headers, data = d.request("GET", "/v1/grades/" + missing)
+            t(status == 404 and json.loads(data)["error"]["code"] == "not_found" and
+              headers.get("vary") == "Origin, Accept", "and curl's is the 404's JSON: %d %r" % (status, data[:120]))
+        status, headers, data = d.request("GET", url + "/diff.png", headers={"Accept": BROWSER_ACCEPT})
+        t(status == 200 and data.startswith(b"\x89PNG") and headers.get("vary") == "Origin",
+          "a grade's images do not depend on Accept: %d %r" % (status, headers.get("vary")))
+    with Daemon() as d:
+        status, headers, _ = d.request("GET", "/v1/grades/g" + "0" * 32)
+        t(status == 404 and headers.get("vary") == "Accept", "without CORS, Vary is Accept alone: %r" % headers)
+        status, headers, _ = d.request("GET", "/healthz")
+        t("vary" not in headers, "other answers have no Vary: %r" % headers.get("vary"))
+    shutil.rmtree(tmp)
+
+
 def test_sighup():
     tmp = tempfile.mkdtemp()
     log = os.path.join(tmp, "rayd.log")
@@ -340,7 +396,8 @@ def test_sighup_tokens():
 
 
 for test in [test_listen_forms, test_options_and_environment, test_start_checks, test_readyz, test_json_log,
-             test_library_messages_in_json, test_text_log_and_proxy, test_per_client_limit, test_caching_headers, test_cors, test_sighup, test_sighup_tokens]:
+             test_library_messages_in_json, test_text_log_and_proxy, test_per_client_limit, test_caching_headers, test_cors,
+             test_verdict_page, test_sighup, test_sighup_tokens]:
     try:
         test()
     except Exception as e:  # one broken feature must not hide the others' results
