@@ -378,7 +378,7 @@ test("(class c) the CSV and JSON downloads are the table's rows", { timeout: TES
     await dl.saveAs(file);
     assert.match(dl.suggestedFilename(), new RegExp(`^${ASSIGNMENT}-[^/]+\\.csv$`), dl.suggestedFilename());
     const csv = parseCsv(fs.readFileSync(file, "utf8"));
-    assert.deepEqual(csv[0], ["student", "assignment", "pass", "failed_fraction", "max_abs", "psnr_db", "ssim", "graded_at", "error"], "header line");
+    assert.deepEqual(csv[0], ["student", "assignment", "pass", "failed_fraction", "max_abs", "psnr_db", "ssim", "graded_at", "grade_id", "url", "kind", "counts", "submitted_at", "late", "score", "points", "on_roster", "regrade_of", "error"], "header line");
     const body = csv.slice(1).filter((r) => r.length > 1);
     assert.equal(body.length, 12, "one line per student");
     for (const line of body) {

@@ -589,14 +589,27 @@ test("(g) a long render shows its progress, each pass's image and the error curv
     assert.equal(await page.isEnabled("#cancel-btn"), true);
 
     // Two passes: two points on the curve, and the image of a pass on show.
-    await page.waitForFunction(() => Number(document.getElementById("curve").dataset.points || 0) >= 2 &&
-      document.getElementById("render-img").complete && document.getElementById("render-img").naturalWidth > 0, null, { timeout: RENDER_MS });
-    const img = await image(page, "render-img");
+    // The page swaps in each new pass's image as it comes, so the image is
+    // measured in the same moment it is seen loaded: a read after the wait
+    // may find the next pass's image still loading (naturalWidth 0).
+    const img = await (await page.waitForFunction(() => {
+      const i = document.getElementById("render-img");
+      if (Number(document.getElementById("curve").dataset.points || 0) < 2 || !i.complete || i.naturalWidth === 0)
+        return null;
+      const c = document.createElement("canvas");
+      c.width = i.naturalWidth; c.height = i.naturalHeight;
+      const g = c.getContext("2d");
+      g.drawImage(i, 0, 0);
+      const d = g.getImageData(0, 0, c.width, c.height).data;
+      const seen = new Set();
+      for (let p = 0; p < d.length; p += 4) seen.add((d[p] << 16) | (d[p + 1] << 8) | d[p + 2]);
+      return { naturalWidth: i.naturalWidth, hidden: i.hidden || i.closest("[hidden]") !== null, src: i.getAttribute("src"), colours: seen.size };
+    }, null, { timeout: RENDER_MS })).jsonValue();
     assert.equal(img.naturalWidth, 320, "the partial image is the full size");
     assert.equal(img.hidden, false);
     assert.ok(img.src.startsWith("blob:"), "drawn from a fetched partial image");
     assert.ok(partials.length >= 1 && partials.every((u) => u.includes(id)), `asked for ?partial=1 images: ${partials.length}`);
-    assert.ok(await colours(page, "render-img") > 50, "the partial image is a rendering");
+    assert.ok(img.colours > 50, "the partial image is a rendering");
     const ptext = await text(page, "#render-progress-text");
     assert.match(ptext, new RegExp(`^Job ${id} · running · \\d+(\\.\\d)?% done · pass \\d+: \\d+ samples per pixel · estimated error \\d+\\.\\d\\d of 255 levels · `), ptext);
     const bar = await page.evaluate(() => document.getElementById("render-bar").value);

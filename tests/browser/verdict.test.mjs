@@ -234,7 +234,7 @@ test("a batch's error row: not graded, with the server's words", { timeout: 90_0
   const { page } = await open("/v1/grades/" + row.grade_id);
   await page.waitForSelector("#one-msg.error", { timeout: STEP_MS });
   assert.equal(await page.textContent("#one-msg"), "Not graded: the image is not a PNG file.");
-  assert.match(await page.textContent("#one-title"), /^erin — phong$/);
+  assert.match(await page.textContent("#one-title"), /^erin — phong \(image\)$/);
   await page.screenshot({ path: path.join(SHOTS, "4-error-row.png"), fullPage: true });
   assert.deepEqual(page.errors, []);
   await page.close();
