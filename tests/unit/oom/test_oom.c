@@ -37,7 +37,7 @@
  *               without a cache, twice through a memory cache and twice
  *               through a disk cache (the second grade finds the reference
  *               there); the verdict JSON; the assignment list of
- *               scenes/assignments;
+ *               scenes/assignments; a class's roster;
  *   writing     scene.cfg written as cfg and as JSON; the JSON Schema; a
  *               render's statistics as rayd render's object and as a job
  *               status.
@@ -63,6 +63,7 @@
 #include "rayd/job.h"
 #include "rayd/render.h"
 #include "reference.h"
+#include "roster.h"
 #include "scene_load.h"
 #include "scene_open.h"
 #include "scene_schema.h"
@@ -88,6 +89,7 @@ typedef struct {
     rd_ref_cache *cache;
     rd_assignment *list;
     size_t count;
+    rd_roster roster;
 } result;
 
 typedef struct {
@@ -766,6 +768,39 @@ static void release_list(result *r) { free(r->list); }
 Test(oom, assignment_list)
 {
     operation op = {"list assignments", run_list, list_after_error, same_list, release_list};
+    exercise(&op);
+}
+
+static const char ROSTER[] = "\xEF\xBB\xBFstudent,name,email\r\ns02,\"Two, B\",b@x\r\ns01,One,a@x\r\n"
+                             "yamada,\xE5\xB1\xB1\xE7\x94\xB0,\r\n";
+
+static rd_error_code run_roster(result *r, rd_error *err)
+{
+    return rd_roster_parse(ROSTER, sizeof ROSTER - 1, "roster.csv", &r->roster, err);
+}
+
+static int same_roster(const result *a, const result *b)
+{
+    if (a->roster.n != b->roster.n)
+        return 0;
+    for (size_t i = 0; i < a->roster.n; i++)
+        if (!same_str(a->roster.e[i].student, b->roster.e[i].student) ||
+            !same_str(a->roster.e[i].name, b->roster.e[i].name) ||
+            !same_str(a->roster.e[i].email, b->roster.e[i].email))
+            return 0;
+    return 1;
+}
+
+static const char *roster_after_error(const result *r)
+{
+    return r->roster.e || r->roster.n ? "a roster came back" : NULL;
+}
+
+static void release_roster(result *r) { rd_roster_free(&r->roster); }
+
+Test(oom, roster)
+{
+    operation op = {"read a roster", run_roster, roster_after_error, same_roster, release_roster};
     exercise(&op);
 }
 
