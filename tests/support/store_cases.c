@@ -1367,6 +1367,65 @@ void case_grade_images(const store_env *e)
     rd_store_close(s);
 }
 
+void case_grade_term(const store_env *e)
+{
+    rd_store *s = store_env_open(e);
+    /* Zeroed fields: an image, submitted when graded, on time, no score. */
+    rd_store_grade plain = grade_of("e000000000000001", "phong", "a", 5000);
+    put_grade(s, &plain);
+    rd_store_grade g = grade_got(s, plain.id);
+    cr_assert_str_eq(g.kind, "image");
+    cr_assert_eq(g.submitted_ms, 5000, "submitted when graded");
+    cr_assert(g.late_ms == 0 && !g.closed && isnan(g.score) && isnan(g.points) && !g.regrade_of);
+    rd_store_grade_free(&g);
+    /* Every term field comes back as it went. */
+    rd_store_grade t = grade_of("e000000000000002", "phong", "a", 9000);
+    t.kind = "code";
+    t.submitted_ms = 8000;
+    t.late_ms = 86400001;
+    t.closed = 1;
+    t.score = 7.5;
+    t.points = 10;
+    t.regrade_of = plain.id;
+    put_grade(s, &t);
+    g = grade_got(s, t.id);
+    cr_assert_str_eq(g.kind, "code");
+    cr_assert(g.submitted_ms == 8000 && g.late_ms == 86400001 && g.closed == 1, "the times come back");
+    cr_assert(g.score == 7.5 && g.points == 10, "the score comes back");
+    cr_assert_str_eq(g.regrade_of, plain.id);
+    rd_store_grade_free(&g);
+    cr_assert(!g.kind && !g.regrade_of, "rd_store_grade_free clears them");
+    /* Refused: a kind not known, a score over its points, a negative lateness. */
+    rd_store_grade bad = grade_of("e000000000000003", "phong", "a", 1);
+    bad.kind = "essay";
+    FAILS(RD_ERR_INVALID, rd_store_grade_put(s, &bad, NULL, 0, &e_));
+    bad.kind = "image";
+    bad.points = 1;
+    bad.score = 1.5;
+    FAILS(RD_ERR_INVALID, rd_store_grade_put(s, &bad, NULL, 0, &e_));
+    bad.score = 1;
+    bad.late_ms = -1;
+    FAILS(RD_ERR_INVALID, rd_store_grade_put(s, &bad, NULL, 0, &e_));
+    bad.regrade_of = "not an id";
+    bad.late_ms = 0;
+    FAILS(RD_ERR_INVALID, rd_store_grade_put(s, &bad, NULL, 0, &e_));
+    check_no_grade(s, bad.id);
+    /* The image graded, stored after the grade, replaced by a second put. */
+    static unsigned char png[700], again[90];
+    fill(png, sizeof png, 3);
+    fill(again, sizeof again, 4);
+    OK(rd_store_grade_image_put(s, plain.id, RD_STORE_GRADE_IMAGE, png, sizeof png, &e_));
+    OK(rd_store_grade_image_put(s, plain.id, RD_STORE_GRADE_IMAGE, again, sizeof again, &e_));
+    unsigned char *d = NULL;
+    size_t len = 0;
+    OK(rd_store_grade_image(s, plain.id, RD_STORE_GRADE_IMAGE, &d, &len, &e_));
+    cr_assert(len == sizeof again && memcmp(d, again, len) == 0, "the last image put is the one kept");
+    free(d);
+    FAILS(RD_ERR_NOT_FOUND, rd_store_grade_image_put(s, "e0000000000000ff", RD_STORE_GRADE_IMAGE, png, 10, &e_));
+    FAILS(RD_ERR_INVALID, rd_store_grade_image_put(s, plain.id, RD_STORE_GRADE_IMAGE, png, 0, &e_));
+    rd_store_close(s);
+}
+
 /* The ids f lists, joined by commas. */
 static void check_list(rd_store *s, const rd_store_grade_filter *f, const char *want)
 {

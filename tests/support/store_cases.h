@@ -74,6 +74,9 @@ void case_grade_round_trip(const store_env *e);
 void case_grade_error_row(const store_env *e);
 /* The diff PNG round-trips; absent, it is told apart from no grade. */
 void case_grade_images(const store_env *e);
+/* A grade's term (kind, submission, lateness, score, regrade_of) round-trips,
+ * is refused out of range, and the image graded is put and replaced. */
+void case_grade_term(const store_env *e);
 /* Listing by assignment, student, batch, since, at most max, in
  * graded_ms then id order. */
 void case_grades_list(const store_env *e);

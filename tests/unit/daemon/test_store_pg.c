@@ -83,6 +83,8 @@ Test(store_pg, grade_error_row_has_no_metrics) { case_grade_error_row(&g_env); }
 
 Test(store_pg, grade_diff_image_round_trip_and_absence) { case_grade_images(&g_env); }
 
+Test(store_pg, grade_term_round_trip_and_image) { case_grade_term(&g_env); }
+
 Test(store_pg, grades_list_filters_and_order) { case_grades_list(&g_env); }
 
 Test(store_pg, batch_counts_to_done_once) { case_batch_progress(&g_env); }
