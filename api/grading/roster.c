@@ -148,7 +148,9 @@ static int by_student(const void *a, const void *b)
 /* Sorted, no student twice. */
 static rd_error_code sort_unique(const char *source, rd_roster *out, rd_error *err)
 {
-    qsort(out->e, out->n, sizeof *out->e, by_student);
+    /* A roster of no student (a header alone) has no array to sort. */
+    if (out->n > 1)
+        qsort(out->e, out->n, sizeof *out->e, by_student);
     for (size_t i = 1; i < out->n; i++)
         if (strcmp(out->e[i - 1].student, out->e[i].student) == 0)
             return rd_error_set(err, RD_ERR_SYNTAX, 0, 0, "%s: student '%.60s' is listed twice", source,

@@ -33,6 +33,9 @@ Test(roster, columns_by_their_header_quoting_and_a_byte_order_mark)
     cr_assert(rd_roster_find(&r, "zoe") == &r.e[1]);
     cr_assert_null(rd_roster_find(&r, "zo"));
     rd_roster_free(&r);
+    cr_assert_eq(parse("student,name\r\n", &r, &err), RD_OK, "a header alone: no student");
+    cr_assert(r.n == 0 && rd_roster_find(&r, "ann") == NULL);
+    rd_roster_free(&r);
     cr_assert_eq(parse("student\nann\n", &r, &err), RD_OK, "only the student column");
     cr_assert_str_eq(r.e[0].name, "");
     rd_roster_free(&r);
