@@ -23,7 +23,7 @@ rd_term grading_term_of(rd_grading *g, const char *assignment)
     return a.term;
 }
 
-void grading_term_fields(rd_grading *g, rd_store_grade *rec, const grading_sub *sub, int pass)
+rd_term grading_term_fields(rd_grading *g, rd_store_grade *rec, const grading_sub *sub, int pass)
 {
     rd_term t = grading_term_of(g, rec->assignment);
     rec->kind = sub->code ? "code" : "image";
@@ -44,6 +44,7 @@ void grading_term_fields(rd_grading *g, rd_store_grade *rec, const grading_sub *
                          .late_ms = late};
     rec->points = t.points;
     rec->score = rd_term_score(&t, &o);
+    return t;
 }
 
 const char *rd_grading_window_refusal(rd_grading *g, const char *assignment, char *why, size_t size)

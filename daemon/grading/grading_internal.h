@@ -97,8 +97,8 @@ void grading_error_record_sub(rd_grading *g, const char *assignment, const gradi
 rd_term grading_term_of(rd_grading *g, const char *assignment);
 
 /* Sets rec's kind, submission time, lateness, score and points (rec's
- * assignment, error and failed_fraction set). */
-void grading_term_fields(rd_grading *g, rd_store_grade *rec, const grading_sub *sub, int pass);
+ * assignment, error and failed_fraction set); the term it used. */
+rd_term grading_term_fields(rd_grading *g, rd_store_grade *rec, const grading_sub *sub, int pass);
 
 /* The record object of an answer: student, assignment, kind,
  * submitted_at, due_at, late, late_days, closed, counts (null when -1),

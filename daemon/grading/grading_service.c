@@ -283,8 +283,7 @@ void grading_record(rd_grading *g, const rd_grade_output *o, const char *id, con
                           .ssim = o->result.ssim,
                           .reference_key = key,
                           .graded_ms = rd_wall_ms()};
-    grading_term_fields(g, &rec, sub, pass);
-    rd_term t = grading_term_of(g, o->assignment);
+    rd_term t = grading_term_fields(g, &rec, sub, pass);
     /* Which counts is known once it is stored; the answer says so then. */
     *verdict = grading_with_record(*verdict, &rec, &t, -1);
     rec.verdict = *verdict;
