@@ -37,6 +37,7 @@ struct rd_grading {
     rd_grader grader; /* its cache locks itself */
     grade_entry kept[GRADES_KEPT];
     size_t next, kept_bytes;
+    struct grade_batch *batches; /* those graded here now (grade_batch.c) */
     /* Grading code (grade_code.c), under code_mu. */
     rd_codegrade_config code; /* its grader is the one above */
     int sandbox_ok;           /* set at start */
@@ -74,12 +75,20 @@ rd_error_code grading_one(rd_grading *g, const rd_grade_output *o, const char *s
 void grading_error_record(rd_grading *g, const char *assignment, const char *student, const char *batch_id,
                           const char *message, char id[RD_CAP_MAX]);
 
+/* Forgets the kept images of deleted grades, so that no image outlives its
+ * record. */
+void grading_forget(rd_grading *g, const rd_store_grade_id *ids, size_t n);
+
 /* grade_batch.c: ends the batches a killed daemon of this id left running. */
 void grading_batches_end_restarted(rd_grading *g);
 
 /* grade_list.c: the records as rows, a JSON array or CSV (malloc'ed; NULL
  * when out of memory). */
 char *grading_rows_text(const rd_store_grade *grades, size_t n, int csv);
+
+/* grade_list.c: a batch's id, assignment, status, total, done and
+ * created_at as a JSON object (NULL when out of memory). */
+struct cJSON *grading_batch_json(const rd_store_batch *b);
 
 /* grade_code.c: the code grader's state set up (the sandbox probed, which
  * logs when it does not start), and freed. RD_ERR_NOMEM. */

@@ -116,14 +116,17 @@ enum MHD_Result rd_route_grade_resumed(rd_req *r)
 
 enum MHD_Result rd_route_grade_files(rd_req *r, const char *path)
 {
+    int del = strcmp(r->method, "DELETE") == 0;
     if (!*path)
-        return rd_route_grades_list(r);
-    rd_grading *g = rd_server_grading(r->srv);
-    if (!g)
-        return rd_reply_starting(r);
+        return del ? rd_route_grades_delete(r) : rd_route_grades_list(r);
     const char *rest = path + 1;
     /* rest: "{id}", "{id}/diff.png", "{id}/reference.png" or "{id}/image.png" */
     const char *slash = strchr(rest, '/');
+    if (del)
+        return rd_route_grade_delete(r, rest);
+    rd_grading *g = rd_server_grading(r->srv);
+    if (!g)
+        return rd_reply_starting(r);
     rd_error err = {0};
     if (!slash && rd_cap_valid(rest, 'g')) {
         char *text = NULL;
