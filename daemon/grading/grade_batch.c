@@ -45,18 +45,22 @@ static void unlink_batch(rd_grading *g, grade_batch *b)
         }
 }
 
-/* g->mu is taken first: a cancel refs the batch it finds in g->batches
- * under it, so the last ref must not go between its find and its ref. */
+/* g->mu is taken first: a cancel walks g->batches under it, so the last
+ * ref must not go while it looks at the batch. The queue frees the tasks
+ * it still holds after the service is gone (rd_grading_free detached the
+ * batch: g is NULL), with nothing left to tell. */
 static void batch_unref(grade_batch *b)
 {
     rd_grading *g = b->g;
-    pthread_mutex_lock(&g->mu);
+    if (g)
+        pthread_mutex_lock(&g->mu);
     pthread_mutex_lock(&b->mu);
     int last = --b->refs == 0;
     pthread_mutex_unlock(&b->mu);
-    if (last)
+    if (last && g)
         unlink_batch(g, b);
-    pthread_mutex_unlock(&g->mu);
+    if (g)
+        pthread_mutex_unlock(&g->mu);
     if (!last)
         return;
     free_images(b->images, b->n);
@@ -405,6 +409,15 @@ rd_error_code rd_grading_batch_text(rd_grading *g, const char *id, rd_grading_ba
 }
 
 /* ---- cancelling and deleting ---- */
+
+void grading_batches_detach(rd_grading *g)
+{
+    pthread_mutex_lock(&g->mu);
+    for (grade_batch *b = g->batches; b; b = b->next)
+        b->g = NULL;
+    g->batches = NULL;
+    pthread_mutex_unlock(&g->mu);
+}
 
 /* A batch graded here stops: the images not taken yet are dropped and
  * leave the budget at once, so the slices still queued find nothing to

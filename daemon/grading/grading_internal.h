@@ -79,6 +79,10 @@ void grading_error_record(rd_grading *g, const char *assignment, const char *stu
  * record. */
 void grading_forget(rd_grading *g, const rd_store_grade_id *ids, size_t n);
 
+/* grade_batch.c: the batches graded here forget the service, whose queue
+ * frees the tasks it still holds once the service is freed. */
+void grading_batches_detach(rd_grading *g);
+
 /* grade_batch.c: ends the batches a killed daemon of this id left running. */
 void grading_batches_end_restarted(rd_grading *g);
 

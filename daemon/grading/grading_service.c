@@ -54,6 +54,7 @@ void rd_grading_free(rd_grading *g)
 {
     if (!g)
         return;
+    grading_batches_detach(g);
     /* The queue is gone by now: nobody is told of these bytes. */
     for (int i = 0; i < GRADES_KEPT; i++) {
         free(g->kept[i].diff);
