@@ -143,10 +143,10 @@ rd_error_code rd_grading_image_file(rd_grading *g, const char *id, const char *f
                                     rd_error *err);
 
 /* The records, oldest first: an assignment's, a student's, since a time
- * (Unix milliseconds, or a UTC date as 2026-12-01 or 2026-12-01T09:30:00Z;
- * NULL: every one; RD_ERR_INVALID when it is neither), at most 10000 (a
- * longer history is read in pages by moving since on); as CSV (a header
- * first) or as JSON {"grades": [...]}. */
+ * (Unix milliseconds, or a UTC date as 2026-12-01, 2026-12-01T09:30:00Z or
+ * 2026-12-01T09:30:00.123Z; NULL: every one; RD_ERR_INVALID when it is
+ * neither), at most 10000 (a longer history is read in pages by moving
+ * since on); as CSV (a header first) or as JSON {"grades": [...]}. */
 typedef struct {
     const char *assignment, *student, *since;
     int csv;
@@ -194,10 +194,9 @@ rd_error_code rd_grading_batch_text(rd_grading *g, const char *id, rd_grading_ba
 
 /* The batches, newest first, as JSON {"batches": [{id, assignment, status,
  * total, done, created_at}]}: an assignment's (NULL: every one), created
- * at or before until (as since above, milliseconds allowed:
- * 2026-12-01T09:30:00.123Z; NULL: now), at most limit (decimal text, 1 to
- * 1000; NULL: 100). RD_ERR_INVALID with a message for a bad until or
- * limit. */
+ * at or before until (as since above; NULL: now), at most limit
+ * (decimal text, 1 to 1000; NULL: 100). RD_ERR_INVALID with a message for
+ * a bad until or limit. */
 typedef struct {
     const char *assignment, *until, *limit;
 } rd_grading_batch_filter;

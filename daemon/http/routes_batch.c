@@ -378,6 +378,28 @@ enum MHD_Result rd_route_batch_resumed(rd_req *r)
         r, 503, "cancelled", "the archive's expansion was cancelled (the server is shutting down)", "Retry-After", "5");
 }
 
+/* The grading service for an instructor's request; NULL with the answer
+ * queued (*ret) when the request may not go on, or the service is not up
+ * yet. */
+static rd_grading *instructors_grading(rd_req *r, enum MHD_Result *ret)
+{
+    if (rd_require_instructor(r, ret))
+        return NULL;
+    rd_grading *g = rd_server_grading(r->srv);
+    if (!g)
+        *ret = rd_reply_starting(r);
+    return g;
+}
+
+/* A query the service refused: a bad filter is the query's fault (400),
+ * whatever the store calls it; the rest as the error says. */
+static enum MHD_Result query_refused(rd_req *r, rd_error_code rc, const rd_error *err)
+{
+    if (rc == RD_ERR_INVALID || rc == RD_ERR_LIMIT)
+        return rd_reply_error(r, 400, "parse_error", err, NULL);
+    return rd_reply_failed(r, err);
+}
+
 /* The query's value of name. */
 static const char *arg(rd_req *r, const char *name)
 {
@@ -388,22 +410,15 @@ static const char *arg(rd_req *r, const char *name)
 static enum MHD_Result batches_list(rd_req *r)
 {
     enum MHD_Result ret;
-    if (rd_require_instructor(r, &ret))
-        return ret;
-    rd_grading *g = rd_server_grading(r->srv);
+    rd_grading *g = instructors_grading(r, &ret);
     if (!g)
-        return rd_reply_starting(r);
+        return ret;
     rd_grading_batch_filter f = {
         .assignment = arg(r, "assignment"), .until = arg(r, "until"), .limit = arg(r, "limit")};
     rd_error err = {0};
     char *text = NULL;
     rd_error_code rc = rd_grading_batches_list(g, &f, &text, &err);
-    /* A bad filter is the query's fault, whatever the store calls it. */
-    if (rc == RD_ERR_INVALID || rc == RD_ERR_LIMIT)
-        return rd_reply_error(r, 400, "parse_error", &err, NULL);
-    if (rc)
-        return rd_reply_failed(r, &err);
-    return rd_reply_json(r, 200, text);
+    return rc ? query_refused(r, rc, &err) : rd_reply_json(r, 200, text);
 }
 
 /* DELETE /v1/grade/batch/{id}: a running batch cancelled (200, its status),
@@ -424,11 +439,9 @@ static enum MHD_Result batch_delete(rd_req *r, rd_grading *g, const char *id)
 enum MHD_Result rd_route_batch_get(rd_req *r, const char *path)
 {
     enum MHD_Result ret;
-    if (rd_require_instructor(r, &ret))
-        return ret;
-    rd_grading *g = rd_server_grading(r->srv);
+    rd_grading *g = instructors_grading(r, &ret);
     if (!g)
-        return rd_reply_starting(r);
+        return ret;
     /* An id too long for one is no batch's, as the service says. */
     char id[RD_STORE_ID_MAX] = "";
     const char *p = path + 1, *slash = strchr(p, '/');
@@ -459,11 +472,9 @@ enum MHD_Result rd_route_batch_get(rd_req *r, const char *path)
 enum MHD_Result rd_route_grades_list(rd_req *r)
 {
     enum MHD_Result ret;
-    if (rd_require_instructor(r, &ret))
-        return ret;
-    rd_grading *g = rd_server_grading(r->srv);
+    rd_grading *g = instructors_grading(r, &ret);
     if (!g)
-        return rd_reply_starting(r);
+        return ret;
     const char *accept = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_ACCEPT);
     rd_grading_filter f = {.assignment = arg(r, "assignment"),
                            .student = arg(r, "student"),
@@ -472,11 +483,8 @@ enum MHD_Result rd_route_grades_list(rd_req *r)
     rd_error err = {0};
     char *text = NULL;
     rd_error_code rc = rd_grading_list(g, &f, &text, &err);
-    /* A bad filter is the query's fault, whatever the store calls it. */
-    if (rc == RD_ERR_INVALID)
-        return rd_reply_error(r, 400, "parse_error", &err, NULL);
     if (rc)
-        return rd_reply_failed(r, &err);
+        return query_refused(r, rc, &err);
     if (f.csv)
         return rd_reply(r, 200, "text/csv; charset=utf-8", text, strlen(text), 1);
     return rd_reply_json(r, 200, text);
@@ -487,21 +495,17 @@ enum MHD_Result rd_route_grades_list(rd_req *r)
 enum MHD_Result rd_route_grades_delete(rd_req *r)
 {
     enum MHD_Result ret;
-    if (rd_require_instructor(r, &ret))
-        return ret;
-    rd_grading *g = rd_server_grading(r->srv);
+    rd_grading *g = instructors_grading(r, &ret);
     if (!g)
-        return rd_reply_starting(r);
+        return ret;
     const char *student = arg(r, "student");
     if (!student || !*student)
         return rd_reply_error(r, 400, "parse_error", NULL, "give the student whose records go: ?student=NAME");
     rd_error err = {0};
     size_t n = 0;
     rd_error_code rc = rd_grading_student_delete(g, student, &n, &err);
-    if (rc == RD_ERR_INVALID || rc == RD_ERR_LIMIT)
-        return rd_reply_error(r, 400, "parse_error", &err, NULL);
     if (rc)
-        return rd_reply_failed(r, &err);
+        return query_refused(r, rc, &err);
     char *text = malloc(64);
     if (!text)
         return rd_reply_error(r, 503, "unavailable", NULL, "out of memory");
@@ -514,11 +518,9 @@ enum MHD_Result rd_route_grades_delete(rd_req *r)
 enum MHD_Result rd_route_grade_delete(rd_req *r, const char *id)
 {
     enum MHD_Result ret;
-    if (rd_require_instructor(r, &ret))
-        return ret;
-    rd_grading *g = rd_server_grading(r->srv);
+    rd_grading *g = instructors_grading(r, &ret);
     if (!g)
-        return rd_reply_starting(r);
+        return ret;
     rd_error err = {0};
     if (!rd_cap_valid(id, 'g'))
         return rd_reply_error(r, 404, "not_found", NULL, "no such grade");

@@ -502,7 +502,7 @@ typedef struct {
 
 /* Deletes a batch that has ended (done or cancelled) with its grades and
  * their images. *ids (ids may be NULL; else a malloc'ed array, NULL when
- * *n is 0) the deleted grades' ids, *n how many. RD_ERR_NOT_FOUND when
+ * *n is 0) the deleted grades' ids, *n (n may be NULL) how many. RD_ERR_NOT_FOUND when
  * there is no batch of that id, RD_ERR_INVALID when it is still running
  * (cancel it first): then nothing is deleted. */
 rd_error_code rd_store_batch_delete(rd_store *s, const char *id, rd_store_grade_id **ids, size_t *n, rd_error *err);
