@@ -5,7 +5,8 @@ running batch (it grades no more, its rows graded before stay, its images
 not graded leave the memory budget) and deletes a finished one with its
 records and their images; DELETE /v1/grades?student= deletes a student's
 records, DELETE /v1/grades/{id} one; every one of these routes answers 404
-without --instructor-tokens, 401 without a token and 403 with a wrong one.
+without --instructor-tokens, 401 without a token and 403 with a wrong one,
+and 503 while the store (PostgreSQL) is down.
 On the job store RAYD_TEST_STORE names (tests/support/stored_jobs.py):
 sqlite, the default, or postgresql (a server of the test's own).
 
@@ -230,6 +231,20 @@ def delete_student(d, right):
     check(st == 405, "DELETE of a record's image: %d, not 405" % st)
 
 
+def store_down(d, pg):
+    """PostgreSQL stopped: every route answers 503 with a message, never a
+    500 or a crash; started again, they answer as before."""
+    pg.stop()
+    try:
+        for method, path in ROUTES:
+            st, o = answer(d, method, path)
+            check(st == 503 and message(o), "%s %s with the store down: %d %r" % (method, path, st, o))
+    finally:
+        pg.start()
+    st, o = answer(d, "GET", "/v1/grade/batch?limit=1")
+    check(st == 200, "GET /v1/grade/batch once the store is back: %d %r" % (st, o))
+
+
 def main():
     tmp = tempfile.mkdtemp(prefix="rayd-batch-manage-")
     kept, closers = [tmp], []
@@ -250,6 +265,8 @@ def main():
         cancel_running(d, right)
         delete_finished(d, right)
         delete_student(d, right)
+        if store.engine == "postgresql":
+            store_down(d, store.pg)
         check(d.stop() == 0, "the daemon did not exit 0 after SIGTERM")
 
     return stored_jobs.bounded_run(check, "batch manage", BOUND_S, run, STARTED, kept, closers)
