@@ -438,15 +438,16 @@ static void cancel_here(rd_grading *g, const char *id)
     pthread_mutex_unlock(&g->mu);
 }
 
-/* Here first, then in the store: the images being graded are recorded if
- * they end before the store's cancel, and the store then takes no more
- * rows, whoever grades the batch. */
+/* In the store first, so that a store that cannot be written leaves the
+ * batch as it was: then it takes no more rows, whoever grades it (the
+ * images being graded now are refused, and logged), and here its images
+ * stop. */
 static rd_error_code cancel(rd_grading *g, const rd_store_batch *b, char **status, rd_error *err)
 {
-    cancel_here(g, b->id);
     rd_error_code rc = rd_store_batch_cancel(g->store, b->id, NULL, err);
     if (rc)
         return rc;
+    cancel_here(g, b->id);
     rd_log_msg(g->opt.log, "info", "batch %s cancelled", b->id);
     return rd_grading_batch_text(g, b->id, RD_BATCH_STATUS, status, err);
 }
