@@ -153,13 +153,31 @@ static void grade_image(grade_batch *b, size_t i)
     drop_png(b, im);
 }
 
+static void cancel_here(rd_grading *g, const char *id);
+
+/* A DELETE answered by another daemon on the same store cancels the batch
+ * in the store only: a slice looks every CHECK_EVERY images (a row read,
+ * against a grade's tens of milliseconds) and then stops here too. */
+enum { CHECK_EVERY = 16 };
+
+static int cancelled_in_store(const grade_batch *b)
+{
+    rd_store_batch sb;
+    return rd_store_batch_get(b->g->store, b->id, &sb, NULL) == RD_OK && sb.status == RD_STORE_BATCH_CANCELLED;
+}
+
 static rd_error_code grade_slice(void *arg, rd_scene *s, int *render, rd_error *err)
 {
     (void)s, (void)err;
     batch_task *t = arg;
     *render = 0;
-    for (size_t i = t->i0; i < t->i1; i++)
+    for (size_t i = t->i0; i < t->i1; i++) {
+        if ((i - t->i0) % CHECK_EVERY == CHECK_EVERY - 1 && cancelled_in_store(t->b)) {
+            cancel_here(t->b->g, t->b->id);
+            break;
+        }
         grade_image(t->b, i);
+    }
     return RD_OK;
 }
 

@@ -5,8 +5,10 @@ running batch (it grades no more, its rows graded before stay, its images
 not graded leave the memory budget) and deletes a finished one with its
 records and their images; DELETE /v1/grades?student= deletes a student's
 records, DELETE /v1/grades/{id} one; every one of these routes answers 404
-without --instructor-tokens, 401 without a token and 403 with a wrong one,
-and 503 while the store (PostgreSQL) is down.
+without --instructor-tokens, 401 without a token and 403 with a wrong one.
+On PostgreSQL also: a batch cancelled by another daemon on the store stops
+on the daemon grading it, and the routes answer 503 while the store is
+down.
 On the job store RAYD_TEST_STORE names (tests/support/stored_jobs.py):
 sqlite, the default, or postgresql (a server of the test's own).
 
@@ -231,6 +233,42 @@ def delete_student(d, right):
     check(st == 405, "DELETE of a record's image: %d, not 405" % st)
 
 
+def other_daemon(tmp, d, flags, right):
+    """Two daemons on one PostgreSQL: a DELETE answered by the other one
+    cancels the batch, and the daemon grading it stops too: its queued
+    images leave its budget and done stays."""
+    other_tmp = os.path.join(tmp, "other")
+    os.makedirs(other_tmp)
+    e = Daemon(other_tmp, flags)
+    STARTED.append(e)
+    n = 600
+    bid = post_batch(d, [("assignment", None, b"phong")] + [("image", "s%03d.png" % i, right) for i in range(n)])
+    for _ in range(3000):
+        st, before = answer(d, "GET", "/v1/grade/batch/" + bid)
+        if before.get("done", 0) >= 1 or before.get("status") != "running":
+            break
+        time.sleep(0.01)
+    held = grade_cache_bytes(d)
+    st, o = answer(e, "DELETE", "/v1/grade/batch/" + bid)
+    check(st == 200 and o.get("status") == "cancelled" and o.get("done", 0) < n,
+          "DELETE on the other daemon: %d %r" % (st, {k: o.get(k) for k in ("status", "done", "total")}))
+    done, freed = o.get("done", 0), 0
+    for _ in range(100):
+        freed = held - grade_cache_bytes(d)
+        if freed > (n - done) * len(right) / 2:
+            break
+        time.sleep(0.1)
+    check(freed > (n - done) * len(right) / 2, "the grading daemon freed %d bytes of its budget after the other's "
+          "cancel; %d images of %d bytes were not graded" % (freed, n - done, len(right)))
+    st, after = answer(d, "GET", "/v1/grade/batch/" + bid)
+    check(after.get("status") == "cancelled" and after.get("done") == done,
+          "after the other daemon's cancel: %r (done %d when cancelled)" %
+          ({k: after.get(k) for k in ("status", "done")}, done))
+    check(e.stop() == 0, "the other daemon did not exit 0 after SIGTERM")
+    print("batch manage: cancelled by the other daemon at %d/%d; the grading daemon freed %.1f MiB" %
+          (done, n, freed / 2**20))
+
+
 def store_down(d, pg):
     """PostgreSQL stopped: every route answers 503 with a message, never a
     500 or a crash; started again, they answer as before."""
@@ -266,6 +304,7 @@ def main():
         delete_finished(d, right)
         delete_student(d, right)
         if store.engine == "postgresql":
+            other_daemon(tmp, d, flags, right)
             store_down(d, store.pg)
         check(d.stop() == 0, "the daemon did not exit 0 after SIGTERM")
 
