@@ -124,20 +124,29 @@ def grade_cache_bytes(d):
     return metric_value(text, "rayd_grade_cache_bytes") or 0
 
 
+BIG = 600
+
+
+def big_batch(d, right):
+    """A batch of BIG images, once it has graded one (on a loaded machine
+    the rest take seconds more): its id, and the daemon's
+    rayd_grade_cache_bytes then, which holds its images not graded."""
+    bid = post_batch(d, [("assignment", None, b"phong")] + [("image", "s%03d.png" % i, right) for i in range(BIG)])
+    for _ in range(3000):
+        st, now = answer(d, "GET", "/v1/grade/batch/" + bid)
+        if now.get("done", 0) >= 1 or now.get("status") != "running":
+            break
+        time.sleep(0.01)
+    return bid, grade_cache_bytes(d)
+
+
 def cancel_running(d, right):
     """A batch of 600 images, cancelled once it has graded one: the DELETE
     answers cancelled; from then on done does not grow and the rows stay
     those graded before it; the images not graded leave the budget; a
     second DELETE deletes it."""
-    n = 600
-    bid = post_batch(d, [("assignment", None, b"phong")] + [("image", "s%03d.png" % i, right) for i in range(n)])
-    before = {}
-    for _ in range(3000):
-        st, before = answer(d, "GET", "/v1/grade/batch/" + bid)
-        if before.get("done", 0) >= 1 or before.get("status") != "running":
-            break
-        time.sleep(0.01)
-    held = grade_cache_bytes(d)
+    n = BIG
+    bid, held = big_batch(d, right)
     st, o = answer(d, "DELETE", "/v1/grade/batch/" + bid)
     check(st == 200 and o.get("status") == "cancelled" and o.get("id") == bid and 0 < o.get("done", 0) < n,
           "DELETE of a running batch: %d %r" % (st, {k: o.get(k) for k in ("id", "status", "done", "total")}))
@@ -241,14 +250,8 @@ def other_daemon(tmp, d, flags, right):
     os.makedirs(other_tmp)
     e = Daemon(other_tmp, flags)
     STARTED.append(e)
-    n = 600
-    bid = post_batch(d, [("assignment", None, b"phong")] + [("image", "s%03d.png" % i, right) for i in range(n)])
-    for _ in range(3000):
-        st, before = answer(d, "GET", "/v1/grade/batch/" + bid)
-        if before.get("done", 0) >= 1 or before.get("status") != "running":
-            break
-        time.sleep(0.01)
-    held = grade_cache_bytes(d)
+    n = BIG
+    bid, held = big_batch(d, right)
     st, o = answer(e, "DELETE", "/v1/grade/batch/" + bid)
     check(st == 200 and o.get("status") == "cancelled" and o.get("done", 0) < n,
           "DELETE on the other daemon: %d %r" % (st, {k: o.get(k) for k in ("status", "done", "total")}))
