@@ -213,6 +213,8 @@ check: $(BUILD)/rayd $(BUILD)/unit-tests $(GENERATED)
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/grade_batch_test.py
 	RAYD=$(BUILD)/rayd RAYD_TEST_STORE=sqlite /usr/bin/python3 tests/integration/term_test.py
 	RAYD=$(BUILD)/rayd RAYD_TEST_STORE=postgresql /usr/bin/python3 tests/integration/term_test.py
+	RAYD=$(BUILD)/rayd RAYD_TEST_STORE=sqlite /usr/bin/python3 tests/integration/batch_manage_test.py
+	RAYD=$(BUILD)/rayd RAYD_TEST_STORE=postgresql /usr/bin/python3 tests/integration/batch_manage_test.py
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/access_test.py
 	RAYD=$(BUILD)/rayd /usr/bin/python3 tests/integration/store_faults_test.py
 	RAYD=$(BUILD)/rayd $(if $(SAN),RAYD_TEST_SLOW=3) /usr/bin/python3 tests/integration/same_bytes_test.py

@@ -31,9 +31,13 @@ the instructor token is needed, so the two cannot drift apart):
   grades(assignment=, student=, since=)       GET /v1/grades (token) -> [GradeRow]; grades_csv(..., excel=) -> str
   gradebook(format, excel=False)              GET /v1/gradebook (token) -> str: Moodle's or Canvas's CSV
   regrade(assignment)                         POST /v1/grade/regrade (token) -> Batch
+  batches(assignment=, until=, limit=)       GET /v1/grade/batch (token) -> [BatchSummary], newest first
+  delete_batch(id)                 DELETE /v1/grade/batch/{id} (token) -> Batch (cancelled), or None (deleted)
+  delete_student(student)          DELETE /v1/grades?student= (token) -> how many records went
+  delete_grade(id)                 DELETE /v1/grades/{id} (token)
   assignments(), scenes(), scene(name), assignment_scene(name), health(), ready()
 
-The records (Job, Verdict, CodeGrade, Batch, GradeRow) are dicts of the
+The records (Job, Verdict, CodeGrade, Batch, BatchSummary, GradeRow) are dicts of the
 JSON answer as the document's schema of that name describes it, whose
 properties are also attributes (`job.status`); a property that is a Python
 keyword takes a trailing `_` (`verdict.pass_`, `code_grade.class_`). Their
@@ -49,8 +53,8 @@ import urllib.parse
 import urllib.request
 import uuid
 
-__all__ = ["Client", "RaydError", "Render", "Job", "Verdict", "CodeGrade", "Batch", "GradeRow", "OPERATIONS",
-           "OVERRIDES"]
+__all__ = ["Client", "RaydError", "Render", "Job", "Verdict", "CodeGrade", "Batch", "BatchSummary", "GradeRow",
+           "OPERATIONS", "OVERRIDES"]
 
 # The query parameters of POST /v1/render and POST /v1/jobs that override a scene's [render] keys.
 OVERRIDES = ("width", "height", "samples", "max_depth", "gamma", "seed", "time_budget_ms", "target_error",
@@ -87,6 +91,10 @@ OPERATIONS = {
     "listGrades": Operation("GET", "/v1/grades", ("assignment", "student", "since", "excel"), token=True),
     "getGradebook": Operation("GET", "/v1/gradebook", ("format", "excel"), token=True),
     "regradeAssignment": Operation("POST", "/v1/grade/regrade", ("assignment",), token=True),
+    "listGradeBatches": Operation("GET", "/v1/grade/batch", ("assignment", "until", "limit"), token=True),
+    "deleteGradeBatch": Operation("DELETE", "/v1/grade/batch/{id}", token=True),
+    "deleteStudentGrades": Operation("DELETE", "/v1/grades", ("student",), token=True),
+    "deleteGrade": Operation("DELETE", "/v1/grades/{id}", token=True),
     "listAssignments": Operation("GET", "/v1/assignments"),
     "getAssignmentSceneFile": Operation("GET", "/v1/assignments/{name}/scene"),
     "listScenes": Operation("GET", "/v1/scenes"),
@@ -155,7 +163,7 @@ class GradeRow(Record):
 
 class Batch(Record):
     SCHEMA = "Batch"
-    FIELDS = ("id", "assignment", "status", "total", "done", "results")
+    FIELDS = ("id", "assignment", "status", "total", "done", "created_at", "results")
 
     def __init__(self, *args, **kw):
         super().__init__(*args, **kw)
@@ -163,7 +171,12 @@ class Batch(Record):
             self["results"] = [GradeRow(r) for r in self["results"]]
 
 
-RECORDS = (Job, Verdict, CodeGrade, GradeRow, Batch)
+class BatchSummary(Record):
+    SCHEMA = "BatchSummary"
+    FIELDS = ("id", "assignment", "status", "total", "done", "created_at")
+
+
+RECORDS = (Job, Verdict, CodeGrade, GradeRow, Batch, BatchSummary)
 
 
 class Render:
@@ -402,6 +415,27 @@ class Client:
         """GET /v1/gradebook?format=moodle|canvas: the scores that count, as the LMS's import reads them."""
         query = {"format": format, "excel": "1" if excel else None}
         return self._call("getGradebook", query=query)[2].decode("utf-8")
+
+    def batches(self, assignment=None, until=None, limit=None):
+        """GET /v1/grade/batch: the batches, newest first ([BatchSummary]);
+        the next page from until=the last one's created_at."""
+        data = self._json("listGradeBatches", query={"assignment": assignment, "until": until, "limit": limit})
+        return [BatchSummary(b) for b in data.get("batches", [])]
+
+    def delete_batch(self, batch_id):
+        """DELETE /v1/grade/batch/{id}: a running batch cancelled (its Batch,
+        cancelled); one that had ended deleted with its records (None)."""
+        status, _, data = self._call("deleteGradeBatch", {"id": batch_id})
+        return Batch(json.loads(data.decode("utf-8"))) if status == 200 else None
+
+    def delete_student(self, student):
+        """DELETE /v1/grades?student=: the student's records, with their
+        images; how many went."""
+        return self._json("deleteStudentGrades", query={"student": student})["deleted"]
+
+    def delete_grade(self, grade_id):
+        """DELETE /v1/grades/{id}: one record, with its images."""
+        self._call("deleteGrade", {"id": grade_id})
 
     # ---- what the daemon offers -----------------------------------------
     def assignments(self):

@@ -18,8 +18,9 @@ static void free_images(rd_grade_batch_image *im, size_t n)
     free(im);
 }
 
-/* Shared by the batch's tasks; the last one to end frees it. */
-typedef struct {
+/* Shared by the batch's tasks; the last one to end frees it. While any
+ * task holds it, it is in g->batches, where a DELETE finds it. */
+typedef struct grade_batch {
     rd_grading *g;
     char id[RD_STORE_ID_MAX];
     char assignment[80];
@@ -30,13 +31,36 @@ typedef struct {
     rd_error failed; /* the reference could not be had: every image is this error */
     pthread_mutex_t mu;
     int refs;
+    int cancelled; /* under mu: every image not taken was dropped, and none is taken */
+    struct grade_batch *next;
 } grade_batch;
 
+/* Under g->mu. */
+static void unlink_batch(rd_grading *g, grade_batch *b)
+{
+    for (grade_batch **p = &g->batches; *p; p = &(*p)->next)
+        if (*p == b) {
+            *p = b->next;
+            return;
+        }
+}
+
+/* g->mu is taken first: a cancel walks g->batches under it, so the last
+ * ref must not go while it looks at the batch. The queue frees the tasks
+ * it still holds after the service is gone (rd_grading_free detached the
+ * batch: g is NULL), with nothing left to tell. */
 static void batch_unref(grade_batch *b)
 {
+    rd_grading *g = b->g;
+    if (g)
+        pthread_mutex_lock(&g->mu);
     pthread_mutex_lock(&b->mu);
     int last = --b->refs == 0;
     pthread_mutex_unlock(&b->mu);
+    if (last && g)
+        unlink_batch(g, b);
+    if (g)
+        pthread_mutex_unlock(&g->mu);
     if (!last)
         return;
     free_images(b->images, b->n);
@@ -70,16 +94,35 @@ static long long images_bytes(const rd_grade_batch_image *images, size_t n)
     return sum;
 }
 
+/* Its bytes leave the budget once: len is 0 after. */
 static void drop_png(grade_batch *b, rd_grade_batch_image *im)
 {
     free(im->png);
     im->png = NULL;
     rd_jq_external_bytes(b->g->opt.jobs, -(long long)im->len);
+    im->len = 0;
+}
+
+/* Image i moved out of the batch to be graded, so that a cancel meanwhile
+ * drops only the others; 0 when the batch was cancelled. */
+static int take_image(grade_batch *b, size_t i, rd_grade_batch_image *out)
+{
+    pthread_mutex_lock(&b->mu);
+    int go = !b->cancelled;
+    if (go) {
+        *out = b->images[i];
+        b->images[i].png = NULL;
+        b->images[i].len = 0;
+    }
+    pthread_mutex_unlock(&b->mu);
+    return go;
 }
 
 static void grade_image(grade_batch *b, size_t i)
 {
-    rd_grade_batch_image *im = &b->images[i];
+    rd_grade_batch_image taken, *im = &taken;
+    if (!take_image(b, i, im))
+        return;
     char id[RD_CAP_MAX];
     grading_sub sub = {.student = im->student,
                        .batch_id = b->id,
@@ -114,13 +157,31 @@ static void grade_image(grade_batch *b, size_t i)
     drop_png(b, im);
 }
 
+static void cancel_here(rd_grading *g, const char *id);
+
+/* A DELETE answered by another daemon on the same store cancels the batch
+ * in the store only: a slice looks every CHECK_EVERY images (a row read,
+ * against a grade's tens of milliseconds) and then stops here too. */
+enum { CHECK_EVERY = 16 };
+
+static int cancelled_in_store(const grade_batch *b)
+{
+    rd_store_batch sb;
+    return rd_store_batch_get(b->g->store, b->id, &sb, NULL) == RD_OK && sb.status == RD_STORE_BATCH_CANCELLED;
+}
+
 static rd_error_code grade_slice(void *arg, rd_scene *s, int *render, rd_error *err)
 {
     (void)s, (void)err;
     batch_task *t = arg;
     *render = 0;
-    for (size_t i = t->i0; i < t->i1; i++)
+    for (size_t i = t->i0; i < t->i1; i++) {
+        if ((i - t->i0) % CHECK_EVERY == CHECK_EVERY - 1 && cancelled_in_store(t->b)) {
+            cancel_here(t->b->g, t->b->id);
+            break;
+        }
         grade_image(t->b, i);
+    }
     return RD_OK;
 }
 
@@ -180,8 +241,11 @@ static rd_error_code finish_reference(void *arg, const uint8_t *rgb, int w, int 
     } else {
         b->failed = *err;
     }
+    pthread_mutex_lock(&b->mu);
+    int cancelled = b->cancelled;
+    pthread_mutex_unlock(&b->mu);
     rd_error qerr = {0};
-    if (submit_slices(b, &qerr)) {
+    if (!cancelled && submit_slices(b, &qerr)) {
         batch_task all = {b, 0, b->n, {0}};
         int render = 0;
         grade_slice(&all, NULL, &render, &qerr);
@@ -238,6 +302,10 @@ rd_error_code rd_grading_batch_start(rd_grading *g, const char *assignment, rd_g
     pthread_mutex_init(&b->mu, NULL);
     t->b = b;
     memcpy(id, b->id, RD_STORE_ID_MAX);
+    pthread_mutex_lock(&g->mu);
+    b->next = g->batches;
+    g->batches = b;
+    pthread_mutex_unlock(&g->mu);
     rd_jq_task task = {prepare_reference, finish_reference, free_batch_task, t, 0, NULL};
     rd_jq_submit_options so = {.watch_fd = -1}; /* registered: the queue holds it until it ends */
     rd_jq_job *job;
@@ -323,26 +391,27 @@ static const char NO_BATCH[] = "no batch with that id (batches expire with their
  * print their numbers again, with fewer digits than grade_table.h gives. */
 static char *status_text(const rd_store_batch *b, const char *rows)
 {
-    cJSON *o = cJSON_CreateObject();
-    cJSON_AddStringToObject(o, "id", b->id);
-    cJSON_AddStringToObject(o, "assignment", b->assignment);
-    cJSON_AddStringToObject(o, "status", rd_store_batch_status_name(b->status));
-    cJSON_AddNumberToObject(o, "total", b->total);
-    cJSON_AddNumberToObject(o, "done", b->done);
+    cJSON *o = grading_batch_json(b);
     cJSON_AddRawToObject(o, "results", rows);
     char *text = cJSON_PrintUnformatted(o);
     cJSON_Delete(o);
     return text;
 }
 
+static rd_error_code batch_get(rd_grading *g, const char *id, rd_store_batch *b, rd_error *err)
+{
+    rd_error_code rc = rd_store_batch_get(g->store, id, b, err);
+    /* An id the store would never have made is no batch either. */
+    if (rc == RD_ERR_NOT_FOUND || rc == RD_ERR_INVALID)
+        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "%s", NO_BATCH);
+    return rc;
+}
+
 rd_error_code rd_grading_batch_text(rd_grading *g, const char *id, rd_grading_batch_form form, char **text,
                                     rd_error *err)
 {
     rd_store_batch b;
-    rd_error_code rc = rd_store_batch_get(g->store, id, &b, err);
-    /* An id the store would never have made is no batch either. */
-    if (rc == RD_ERR_NOT_FOUND || rc == RD_ERR_INVALID)
-        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "%s", NO_BATCH);
+    rd_error_code rc = batch_get(g, id, &b, err);
     if (rc)
         return rc;
     rd_store_grade_filter f = {.batch_id = id, .max = (size_t)b.total};
@@ -359,4 +428,70 @@ rd_error_code rd_grading_batch_text(rd_grading *g, const char *id, rd_grading_ba
     }
     *text = t;
     return t ? RD_OK : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+}
+
+/* ---- cancelling and deleting ---- */
+
+void grading_batches_detach(rd_grading *g)
+{
+    pthread_mutex_lock(&g->mu);
+    for (grade_batch *b = g->batches; b; b = b->next)
+        b->g = NULL;
+    g->batches = NULL;
+    pthread_mutex_unlock(&g->mu);
+}
+
+/* A batch graded here stops: the images not taken yet are dropped and
+ * leave the budget at once, so the slices still queued find nothing to
+ * grade. The images being graded now end as they would. Nothing when the
+ * batch is not graded here (another daemon's, or ended). */
+static void cancel_here(rd_grading *g, const char *id)
+{
+    pthread_mutex_lock(&g->mu);
+    for (grade_batch *b = g->batches; b; b = b->next) {
+        if (!rd_cap_equal(b->id, id))
+            continue;
+        pthread_mutex_lock(&b->mu);
+        b->cancelled = 1;
+        for (size_t i = 0; i < b->n; i++)
+            drop_png(b, &b->images[i]);
+        pthread_mutex_unlock(&b->mu);
+    }
+    pthread_mutex_unlock(&g->mu);
+}
+
+/* In the store first, so that a store that cannot be written leaves the
+ * batch as it was: then it takes no more rows, whoever grades it (the
+ * images being graded now are refused, and logged), and here its images
+ * stop. */
+static rd_error_code cancel(rd_grading *g, const rd_store_batch *b, char **status, rd_error *err)
+{
+    rd_error_code rc = rd_store_batch_cancel(g->store, b->id, NULL, err);
+    if (rc)
+        return rc;
+    cancel_here(g, b->id);
+    rd_log_msg(g->opt.log, "info", "batch %s cancelled", b->id);
+    return rd_grading_batch_text(g, b->id, RD_BATCH_STATUS, status, err);
+}
+
+rd_error_code rd_grading_batch_delete(rd_grading *g, const char *id, char **status, rd_error *err)
+{
+    rd_store_batch b;
+    *status = NULL;
+    rd_error_code rc = batch_get(g, id, &b, err);
+    if (rc)
+        return rc;
+    if (b.status == RD_STORE_BATCH_RUNNING)
+        return cancel(g, &b, status, err);
+    rd_store_grade_id *ids = NULL;
+    size_t n = 0;
+    rc = rd_store_batch_delete(g->store, id, &ids, &n, err);
+    if (rc == RD_ERR_NOT_FOUND)
+        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "%s", NO_BATCH);
+    if (rc)
+        return rc;
+    grading_forget(g, ids, n);
+    free(ids);
+    rd_log_msg(g->opt.log, "info", "batch %s deleted with its %zu records", id, n);
+    return RD_OK;
 }

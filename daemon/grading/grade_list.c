@@ -237,3 +237,69 @@ rd_error_code rd_grading_list(rd_grading *g, const rd_grading_filter *f, char **
     *text = t;
     return t ? RD_OK : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
 }
+
+/* ---- the batches ---- */
+
+/* A listing gives 100 batches unless asked for up to 1000: each is a row
+ * of the page's list, and a term has a few dozen. */
+enum { BATCHES_LISTED = 100, BATCHES_LISTED_MAX = 1000 };
+
+cJSON *grading_batch_json(const rd_store_batch *b)
+{
+    char at[40];
+    rd_time_text(b->created_ms, at, sizeof at);
+    cJSON *o = cJSON_CreateObject();
+    int ok = o && cJSON_AddStringToObject(o, "id", b->id) && cJSON_AddStringToObject(o, "assignment", b->assignment) &&
+             cJSON_AddStringToObject(o, "status", rd_store_batch_status_name(b->status)) &&
+             cJSON_AddNumberToObject(o, "total", b->total) && cJSON_AddNumberToObject(o, "done", b->done) &&
+             cJSON_AddStringToObject(o, "created_at", at);
+    if (ok)
+        return o;
+    cJSON_Delete(o);
+    return NULL;
+}
+
+/* limit: 1 to BATCHES_LISTED_MAX in decimal; NULL the default; -1 else. */
+static long listed(const char *v)
+{
+    if (!v)
+        return BATCHES_LISTED;
+    char *end;
+    long n = v[0] >= '0' && v[0] <= '9' ? strtol(v, &end, 10) : -1;
+    return n < 1 || n > BATCHES_LISTED_MAX || *end ? -1 : n;
+}
+
+static char *batches_text(const rd_store_batch *list, size_t n)
+{
+    cJSON *root = cJSON_CreateObject();
+    cJSON *a = root ? cJSON_AddArrayToObject(root, "batches") : NULL;
+    int ok = a != NULL;
+    for (size_t i = 0; ok && i < n; i++) {
+        cJSON *o = grading_batch_json(&list[i]);
+        ok = o && cJSON_AddItemToArray(a, o);
+    }
+    char *text = ok ? cJSON_PrintUnformatted(root) : NULL;
+    cJSON_Delete(root);
+    return text;
+}
+
+rd_error_code rd_grading_batches_list(rd_grading *g, const rd_grading_batch_filter *f, char **text, rd_error *err)
+{
+    long long until = since_ms(f->until);
+    long max = listed(f->limit);
+    if (until < 0)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0,
+                            "query parameter until: expected Unix milliseconds or a time as 2026-12-01T09:30:00.123Z");
+    if (max < 0)
+        return rd_error_set(err, RD_ERR_INVALID, 0, 0, "query parameter limit: expected a whole number from 1 to %d",
+                            BATCHES_LISTED_MAX);
+    rd_store_batch_filter sf = {.assignment = f->assignment, .until_ms = until, .max = (size_t)max};
+    rd_store_batch *list = NULL;
+    size_t n = 0;
+    rd_error_code rc = rd_store_batches_list(g->store, &sf, &list, &n, err);
+    if (rc)
+        return rc;
+    *text = batches_text(list, n);
+    free(list);
+    return *text ? RD_OK : rd_error_set(err, RD_ERR_NOMEM, 0, 0, "out of memory");
+}

@@ -40,6 +40,7 @@ struct rd_grading {
     rd_grader grader; /* its cache locks itself */
     grade_entry kept[GRADES_KEPT];
     size_t next, kept_bytes;
+    struct grade_batch *batches; /* those graded here now (grade_batch.c) */
     /* Grading code (grade_code.c), under code_mu. */
     rd_codegrade_config code; /* its grader is the one above */
     int sandbox_ok;           /* set at start */
@@ -117,6 +118,13 @@ int grading_counts(rd_grading *g, const rd_store_grade *rec, const rd_term *t);
  * together (sorted by student, then assignment): 1 for the record
  * of each student and assignment that counts, else 0. */
 void grading_mark_counts(rd_grading *g, rd_store_grade *rows, size_t n, int *counts);
+/* Forgets the kept images of deleted grades, so that no image outlives its
+ * record. */
+void grading_forget(rd_grading *g, const rd_store_grade_id *ids, size_t n);
+
+/* grade_batch.c: the batches graded here forget the service, whose queue
+ * frees the tasks it still holds once the service is freed. */
+void grading_batches_detach(rd_grading *g);
 
 /* grade_batch.c: ends the batches a killed daemon of this id left running. */
 void grading_batches_end_restarted(rd_grading *g);
@@ -131,6 +139,10 @@ char *grading_rows_text(rd_grading *g, rd_store_grade *grades, size_t n, int csv
 /* rows sorted in place by student, then assignment, then submission time
  * (then id); rows itself. */
 rd_store_grade *grading_sort_rows(rd_store_grade *rows, size_t n);
+
+/* grade_list.c: a batch's id, assignment, status, total, done and
+ * created_at as a JSON object (NULL when out of memory). */
+struct cJSON *grading_batch_json(const rd_store_batch *b);
 
 /* grade_code.c: the code grader's state set up (the sandbox probed, which
  * logs when it does not start), and freed. RD_ERR_NOMEM. */

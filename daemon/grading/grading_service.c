@@ -54,6 +54,7 @@ void rd_grading_free(rd_grading *g)
 {
     if (!g)
         return;
+    grading_batches_detach(g);
     /* The queue is gone by now: nobody is told of these bytes. */
     for (int i = 0; i < GRADES_KEPT; i++) {
         free(g->kept[i].diff);
@@ -349,6 +350,45 @@ void grading_error_record(rd_grading *g, const char *assignment, const char *stu
     grading_error_record_sub(g, assignment, &sub, message, id);
 }
 
+void grading_forget(rd_grading *g, const rd_store_grade_id *ids, size_t n)
+{
+    pthread_mutex_lock(&g->mu);
+    for (int i = 0; i < GRADES_KEPT; i++)
+        for (size_t k = 0; g->kept[i].id[0] && k < n; k++)
+            if (rd_cap_equal(g->kept[i].id, ids[k].id))
+                drop_kept(g, &g->kept[i]);
+    fit(g);
+    pthread_mutex_unlock(&g->mu);
+}
+
+static const char NO_GRADE[] = "no such grade (records are kept for --grade-ttl)";
+
+rd_error_code rd_grading_student_delete(rd_grading *g, const char *student, size_t *deleted, rd_error *err)
+{
+    rd_store_grade_id *ids = NULL;
+    size_t n = 0;
+    rd_error_code rc = rd_store_grades_delete(g->store, student, &ids, &n, err);
+    if (rc)
+        return rc;
+    grading_forget(g, ids, n);
+    free(ids);
+    *deleted = n;
+    return RD_OK;
+}
+
+rd_error_code rd_grading_grade_delete(rd_grading *g, const char *id, rd_error *err)
+{
+    rd_error_code rc = rd_store_grade_delete(g->store, id, err);
+    if (rc == RD_ERR_NOT_FOUND || rc == RD_ERR_INVALID)
+        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "%s", NO_GRADE);
+    if (rc)
+        return rc;
+    rd_store_grade_id one;
+    snprintf(one.id, sizeof one.id, "%s", id);
+    grading_forget(g, &one, 1);
+    return RD_OK;
+}
+
 /* An error row's verdict: what the record says of it. */
 static char *error_verdict(const char *id, const rd_store_grade *rec)
 {
@@ -368,7 +408,7 @@ rd_error_code rd_grading_verdict(rd_grading *g, const char *id, char **json, rd_
     rd_store_grade rec = {0};
     rd_error_code rc = rd_store_grade_get(g->store, id, &rec, err);
     if (rc == RD_ERR_NOT_FOUND || rc == RD_ERR_INVALID)
-        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "no such grade (records are kept for --grade-ttl)");
+        return rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "%s", NO_GRADE);
     if (rc)
         return rc;
     *json = rec.verdict ? strdup(rec.verdict) : rec.error ? error_verdict(id, &rec) : NULL;

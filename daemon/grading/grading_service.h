@@ -151,10 +151,10 @@ rd_error_code rd_grading_image_file(rd_grading *g, const char *id, const char *f
                                     rd_error *err);
 
 /* The records, oldest first: an assignment's, a student's, since a time
- * (Unix milliseconds, or a UTC date as 2026-12-01 or 2026-12-01T09:30:00Z;
- * NULL: every one; RD_ERR_INVALID when it is neither), at most 10000 (a
- * longer history is read in pages by moving since on); as CSV (a header
- * first) or as JSON {"grades": [...]}. */
+ * (Unix milliseconds, or a UTC date as 2026-12-01, 2026-12-01T09:30:00Z or
+ * 2026-12-01T09:30:00.123Z; NULL: every one; RD_ERR_INVALID when it is
+ * neither), at most 10000 (a longer history is read in pages by moving
+ * since on); as CSV (a header first) or as JSON {"grades": [...]}. */
 typedef struct {
     const char *assignment, *student, *since;
     int csv;
@@ -172,6 +172,16 @@ typedef enum { RD_GRADEBOOK_MOODLE, RD_GRADEBOOK_CANVAS } rd_gradebook_format;
  * RD_ERR_SYNTAX when the roster no longer reads (err says where); the
  * store's errors. */
 rd_error_code rd_grading_gradebook(rd_grading *g, rd_gradebook_format f, char **csv, rd_error *err);
+/* The records of a student (UTF-8; a student who leaves the course)
+ * deleted with their images, whichever batch they belong to; *deleted
+ * says how many (none is not an error). RD_ERR_INVALID or RD_ERR_LIMIT for
+ * a name no record can have. A batch still grading that student's image
+ * records it once graded: delete after the batch ends. */
+rd_error_code rd_grading_student_delete(rd_grading *g, const char *student, size_t *deleted, rd_error *err);
+
+/* One record deleted with its images. RD_ERR_NOT_FOUND when there is no
+ * record of that id. */
+rd_error_code rd_grading_grade_delete(rd_grading *g, const char *id, rd_error *err);
 
 /* A batch's images. student is UTF-8; error (a static text, or NULL) says
  * why the image is not graded but becomes an error row (a name that was
@@ -213,5 +223,23 @@ typedef enum {
 
 rd_error_code rd_grading_batch_text(rd_grading *g, const char *id, rd_grading_batch_form form, char **text,
                                     rd_error *err);
+
+/* The batches, newest first, as JSON {"batches": [{id, assignment, status,
+ * total, done, created_at}]}: an assignment's (NULL: every one), created
+ * at or before until (as since above; NULL: now), at most limit
+ * (decimal text, 1 to 1000; NULL: 100). RD_ERR_INVALID with a message for
+ * a bad until or limit. */
+typedef struct {
+    const char *assignment, *until, *limit;
+} rd_grading_batch_filter;
+
+rd_error_code rd_grading_batches_list(rd_grading *g, const rd_grading_batch_filter *f, char **text, rd_error *err);
+
+/* A running batch is cancelled: its images not yet graded are dropped (and
+ * leave the queue's budget), it takes no more rows, and *status is its
+ * status (RD_BATCH_STATUS; the caller frees it). A batch that has ended
+ * (done or cancelled) is deleted with its records and their images, and
+ * *status is NULL. RD_ERR_NOT_FOUND when there is no batch of that id. */
+rd_error_code rd_grading_batch_delete(rd_grading *g, const char *id, char **status, rd_error *err);
 
 #endif

@@ -218,7 +218,11 @@ enum MHD_Result rd_route_grades_list(rd_req *r);
 enum MHD_Result rd_route_gradebook(rd_req *r, const char *rest);
 /* POST /v1/grade/regrade?assignment=NAME: a regrade, as a batch (instructors). */
 enum MHD_Result rd_route_regrade(rd_req *r, const char *rest);
-/* POST /v1/grade/batch, GET /v1/grade/batch/{id}[/results.csv|.json] */
+/* DELETE /v1/grades?student=NAME, DELETE /v1/grades/{id} (instructors). */
+enum MHD_Result rd_route_grades_delete(rd_req *r);
+enum MHD_Result rd_route_grade_delete(rd_req *r, const char *id);
+/* POST and GET /v1/grade/batch, GET /v1/grade/batch/{id}[/results.csv|.json],
+ * DELETE /v1/grade/batch/{id} */
 enum MHD_Result rd_route_batch_begin(rd_req *r);
 enum MHD_Result rd_route_batch_data(rd_req *r, const char *data, size_t size);
 enum MHD_Result rd_route_batch_post(rd_req *r, const char *rest);

@@ -51,8 +51,13 @@ enum MHD_Result rd_route_ready(rd_req *r, const char *rest)
     return rd_reply_with(r, t == ok ? 200 : 503, "application/json", (void *)t, strlen(t), 0, t == ok ? NULL : headers);
 }
 
-/* GET /v1/jobs/{id} may also be deleted; its image only read. */
+/* GET /v1/jobs/{id} may also be deleted; its image only read. So do a
+ * batch and its tables, and a grade record and its images. */
 static const char *job_allow(const char *rest) { return strchr(rest + 1, '/') ? "GET" : "GET, DELETE"; }
+
+/* /v1/grades is listed and deleted from (a student's records), as is a
+ * record. */
+static const char *grades_allow(const char *rest) { return *rest ? job_allow(rest) : "GET, DELETE"; }
 
 static const rd_route routes[] = {
     {"/v1/render", RD_ROUTE_EXACT, "POST", NULL, rd_render_begin, NULL, 1, rd_route_render_sync,
@@ -65,10 +70,10 @@ static const rd_route routes[] = {
     {"/v1/grade/code", RD_ROUTE_EXACT, "POST", NULL, rd_route_code_begin, rd_route_code_data, 0, rd_route_code,
      rd_route_code_resumed},
     {"/v1/grade/code", RD_ROUTE_BELOW, "GET", NULL, NULL, NULL, 0, rd_route_code_get, NULL},
-    {"/v1/grade/batch", RD_ROUTE_EXACT, "POST", NULL, rd_route_batch_begin, rd_route_batch_data, 0, rd_route_batch_post,
-     rd_route_batch_resumed},
-    {"/v1/grade/batch", RD_ROUTE_BELOW, "GET", NULL, NULL, NULL, 0, rd_route_batch_get, NULL},
-    {"/v1/grades", RD_ROUTE_EXACT_OR_BELOW, "GET", NULL, NULL, NULL, 0, rd_route_grade_files, NULL},
+    {"/v1/grade/batch", RD_ROUTE_EXACT, "GET, POST", NULL, rd_route_batch_begin, rd_route_batch_data, 0,
+     rd_route_batch_post, rd_route_batch_resumed},
+    {"/v1/grade/batch", RD_ROUTE_BELOW, "GET, DELETE", job_allow, NULL, NULL, 0, rd_route_batch_get, NULL},
+    {"/v1/grades", RD_ROUTE_EXACT_OR_BELOW, "GET, DELETE", grades_allow, NULL, NULL, 0, rd_route_grade_files, NULL},
     {"/v1/gradebook", RD_ROUTE_EXACT, "GET", NULL, NULL, NULL, 0, rd_route_gradebook, NULL},
     {"/v1/grade/regrade", RD_ROUTE_EXACT, "POST", NULL, NULL, NULL, 0, rd_route_regrade, NULL},
     {"/v1/scenes", RD_ROUTE_EXACT_OR_BELOW, "GET", NULL, NULL, NULL, 0, rd_route_scenes, NULL},

@@ -149,9 +149,15 @@ int rd_require_instructor(rd_req *r, enum MHD_Result *ret)
     return 1;
 }
 
+/* The path takes GET (the list) too, which has no form: it is answered
+ * once the request is in. */
+static int is_post(const rd_req *r) { return strcmp(r->method, "POST") == 0; }
+
 enum MHD_Result rd_route_batch_begin(rd_req *r)
 {
     enum MHD_Result ret;
+    if (!is_post(r))
+        return MHD_YES;
     if (rd_require_instructor(r, &ret))
         return ret;
     const rd_server_options *o = &r->srv->opt;
@@ -338,10 +344,14 @@ static enum MHD_Result submit_expansion(rd_req *r, batch_form *f)
     return rd_req_submit(r, &task, &so);
 }
 
+static enum MHD_Result batches_list(rd_req *r);
+
 enum MHD_Result rd_route_batch_post(rd_req *r, const char *rest)
 {
     (void)rest;
     enum MHD_Result ret;
+    if (!is_post(r))
+        return batches_list(r);
     if (form_errors(r, &ret))
         return ret;
     batch_form *f = r->state;
@@ -400,14 +410,70 @@ static enum MHD_Result reply_csv(rd_req *r, char *text)
 }
 
 /* GET /v1/grade/batch/{id}, .../results.csv, .../results.json */
+/* The grading service for an instructor's request; NULL with the answer
+ * queued (*ret) when the request may not go on, or the service is not up
+ * yet. */
+static rd_grading *instructors_grading(rd_req *r, enum MHD_Result *ret)
+{
+    if (rd_require_instructor(r, ret))
+        return NULL;
+    rd_grading *g = rd_server_grading(r->srv);
+    if (!g)
+        *ret = rd_reply_starting(r);
+    return g;
+}
+
+/* A query the service refused: a bad filter is the query's fault (400),
+ * whatever the store calls it; the rest as the error says. */
+static enum MHD_Result query_refused(rd_req *r, rd_error_code rc, const rd_error *err)
+{
+    if (rc == RD_ERR_INVALID || rc == RD_ERR_LIMIT)
+        return rd_reply_error(r, 400, "parse_error", err, NULL);
+    return rd_reply_failed(r, err);
+}
+
+/* The query's value of name. */
+static const char *arg(rd_req *r, const char *name)
+{
+    return MHD_lookup_connection_value(r->conn, MHD_GET_ARGUMENT_KIND, name);
+}
+
+/* GET /v1/grade/batch: the batches, newest first. */
+static enum MHD_Result batches_list(rd_req *r)
+{
+    enum MHD_Result ret;
+    rd_grading *g = instructors_grading(r, &ret);
+    if (!g)
+        return ret;
+    rd_grading_batch_filter f = {
+        .assignment = arg(r, "assignment"), .until = arg(r, "until"), .limit = arg(r, "limit")};
+    rd_error err = {0};
+    char *text = NULL;
+    rd_error_code rc = rd_grading_batches_list(g, &f, &text, &err);
+    return rc ? query_refused(r, rc, &err) : rd_reply_json(r, 200, text);
+}
+
+/* DELETE /v1/grade/batch/{id}: a running batch cancelled (200, its status),
+ * an ended one deleted (204). */
+static enum MHD_Result batch_delete(rd_req *r, rd_grading *g, const char *id)
+{
+    rd_error err = {0};
+    char *status = NULL;
+    if (rd_grading_batch_delete(g, id, &status, &err))
+        return rd_reply_failed(r, &err);
+    if (status)
+        return rd_reply_json(r, 200, status);
+    return rd_reply(r, 204, NULL, (void *)"", 0, 0);
+}
+
+/* GET /v1/grade/batch/{id}, .../results.csv, .../results.json; DELETE
+ * /v1/grade/batch/{id} */
 enum MHD_Result rd_route_batch_get(rd_req *r, const char *path)
 {
     enum MHD_Result ret;
-    if (rd_require_instructor(r, &ret))
-        return ret;
-    rd_grading *g = rd_server_grading(r->srv);
+    rd_grading *g = instructors_grading(r, &ret);
     if (!g)
-        return rd_reply_starting(r);
+        return ret;
     /* An id too long for one is no batch's, as the service says. */
     char id[RD_STORE_ID_MAX] = "";
     const char *p = path + 1, *slash = strchr(p, '/');
@@ -423,6 +489,8 @@ enum MHD_Result rd_route_batch_get(rd_req *r, const char *path)
                                                    : -1;
     if (form < 0)
         return rd_reply_error(r, 404, "not_found", NULL, "no such route");
+    if (strcmp(r->method, "DELETE") == 0)
+        return batch_delete(r, g, id);
     rd_error err = {0};
     char *text = NULL;
     if (rd_grading_batch_text(g, id, (rd_grading_batch_form)form, &text, &err))
@@ -436,24 +504,19 @@ enum MHD_Result rd_route_batch_get(rd_req *r, const char *path)
 enum MHD_Result rd_route_grades_list(rd_req *r)
 {
     enum MHD_Result ret;
-    if (rd_require_instructor(r, &ret))
-        return ret;
-    rd_grading *g = rd_server_grading(r->srv);
+    rd_grading *g = instructors_grading(r, &ret);
     if (!g)
-        return rd_reply_starting(r);
+        return ret;
     const char *accept = MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, MHD_HTTP_HEADER_ACCEPT);
-    rd_grading_filter f = {.assignment = MHD_lookup_connection_value(r->conn, MHD_GET_ARGUMENT_KIND, "assignment"),
-                           .student = MHD_lookup_connection_value(r->conn, MHD_GET_ARGUMENT_KIND, "student"),
-                           .since = MHD_lookup_connection_value(r->conn, MHD_GET_ARGUMENT_KIND, "since"),
+    rd_grading_filter f = {.assignment = arg(r, "assignment"),
+                           .student = arg(r, "student"),
+                           .since = arg(r, "since"),
                            .csv = accept && strstr(accept, "text/csv")};
     rd_error err = {0};
     char *text = NULL;
     rd_error_code rc = rd_grading_list(g, &f, &text, &err);
-    /* A bad filter is the query's fault, whatever the store calls it. */
-    if (rc == RD_ERR_INVALID)
-        return rd_reply_error(r, 400, "parse_error", &err, NULL);
     if (rc)
-        return rd_reply_failed(r, &err);
+        return query_refused(r, rc, &err);
     if (f.csv)
         return reply_csv(r, text);
     return rd_reply_json(r, 200, text);
@@ -464,12 +527,10 @@ enum MHD_Result rd_route_gradebook(rd_req *r, const char *rest)
 {
     (void)rest;
     enum MHD_Result ret;
-    if (rd_require_instructor(r, &ret))
-        return ret;
-    rd_grading *g = rd_server_grading(r->srv);
+    rd_grading *g = instructors_grading(r, &ret);
     if (!g)
-        return rd_reply_starting(r);
-    const char *format = MHD_lookup_connection_value(r->conn, MHD_GET_ARGUMENT_KIND, "format");
+        return ret;
+    const char *format = arg(r, "format");
     int canvas = format && strcmp(format, "canvas") == 0;
     if (!format || (!canvas && strcmp(format, "moodle") != 0))
         return rd_reply_error(r, 400, "parse_error", NULL, "query parameter format: expected moodle or canvas");
@@ -493,14 +554,12 @@ enum MHD_Result rd_route_regrade(rd_req *r, const char *rest)
 {
     (void)rest;
     enum MHD_Result ret;
-    if (rd_require_instructor(r, &ret))
-        return ret;
-    rd_grading *g = rd_server_grading(r->srv);
+    rd_grading *g = instructors_grading(r, &ret);
     if (!g)
-        return rd_reply_starting(r);
+        return ret;
     if (atomic_load(&r->srv->draining))
         return rd_reply_draining(r);
-    const char *name = MHD_lookup_connection_value(r->conn, MHD_GET_ARGUMENT_KIND, "assignment");
+    const char *name = arg(r, "assignment");
     rd_assignment a;
     rd_error err = {0};
     if (!name || !*name)
@@ -511,4 +570,43 @@ enum MHD_Result rd_route_regrade(rd_req *r, const char *rest)
     if (rd_grading_regrade(g, a.name, id, &err))
         return rd_reply_failed(r, &err);
     return batch_accepted(r, g, id);
+}
+
+/* DELETE /v1/grades?student=NAME: a student's records, for instructors. The
+ * student is required: deleting every record is not offered. */
+enum MHD_Result rd_route_grades_delete(rd_req *r)
+{
+    enum MHD_Result ret;
+    rd_grading *g = instructors_grading(r, &ret);
+    if (!g)
+        return ret;
+    const char *student = arg(r, "student");
+    if (!student || !*student)
+        return rd_reply_error(r, 400, "parse_error", NULL, "give the student whose records go: ?student=NAME");
+    rd_error err = {0};
+    size_t n = 0;
+    rd_error_code rc = rd_grading_student_delete(g, student, &n, &err);
+    if (rc)
+        return query_refused(r, rc, &err);
+    char *text = malloc(64);
+    if (!text)
+        return rd_reply_error(r, 503, "unavailable", NULL, "out of memory");
+    snprintf(text, 64, "{\"deleted\":%zu}", n);
+    return rd_reply_json(r, 200, text);
+}
+
+/* DELETE /v1/grades/{id}: one record, for instructors (its id reads it,
+ * but does not delete it). */
+enum MHD_Result rd_route_grade_delete(rd_req *r, const char *id)
+{
+    enum MHD_Result ret;
+    rd_grading *g = instructors_grading(r, &ret);
+    if (!g)
+        return ret;
+    rd_error err = {0};
+    if (!rd_cap_valid(id, 'g'))
+        return rd_reply_error(r, 404, "not_found", NULL, "no such grade");
+    if (rd_grading_grade_delete(g, id, &err))
+        return rd_reply_failed(r, &err);
+    return rd_reply(r, 204, NULL, (void *)"", 0, 0);
 }

@@ -149,11 +149,14 @@ static enum MHD_Result reply_verdict(rd_req *r, rd_grading *g, const char *id)
 
 enum MHD_Result rd_route_grade_files(rd_req *r, const char *path)
 {
+    int del = strcmp(r->method, "DELETE") == 0;
     if (!*path)
-        return rd_route_grades_list(r);
+        return del ? rd_route_grades_delete(r) : rd_route_grades_list(r);
     const char *rest = path + 1;
     /* rest: "{id}", "{id}/diff.png", "{id}/reference.png" or "{id}/image.png" */
     const char *slash = strchr(rest, '/');
+    if (del)
+        return rd_route_grade_delete(r, rest);
     if (!slash)
         r->vary = "Accept";
     rd_grading *g = rd_server_grading(r->srv);

@@ -718,3 +718,65 @@ rd_error_code rd_store_batch_cancel(rd_store *s, const char *id, int *changed, r
         *changed = ch;
     return c;
 }
+
+rd_error_code rd_store_batches_list(rd_store *s, const rd_store_batch_filter *f, rd_store_batch **out, size_t *n,
+                                    rd_error *err)
+{
+    USE_ERR(err);
+    rd_store_batch_filter all = {NULL, 0, SIZE_MAX};
+    if (!f)
+        f = &all;
+    if (f->assignment)
+        CHECKED(check_name("the assignment", f->assignment, 0, err));
+    if (!f->max) {
+        *out = NULL;
+        *n = 0;
+        return RD_OK;
+    }
+    LOCKED(s, rd_store_op_batches_list(s, f, out, n, err));
+}
+
+/* Runs a deletion, and gives its ids only to a caller that wants them. */
+static rd_error_code deleted(rd_store *s, const char *column, const char *value, rd_store_grade_id **ids, size_t *n,
+                             rd_error *err)
+{
+    rd_store_grade_id *list = NULL;
+    size_t k = 0;
+    pthread_mutex_lock(&s->lock);
+    rd_error_code c = column ? rd_store_op_grades_delete(s, column, value, &list, &k, err)
+                             : rd_store_op_batch_delete(s, value, &list, &k, err);
+    pthread_mutex_unlock(&s->lock);
+    if (c)
+        return c;
+    if (ids)
+        *ids = list;
+    else
+        free(list);
+    if (n)
+        *n = k;
+    return RD_OK;
+}
+
+rd_error_code rd_store_batch_delete(rd_store *s, const char *id, rd_store_grade_id **ids, size_t *n, rd_error *err)
+{
+    USE_ERR(err);
+    CHECKED(check_id("a batch id", id, err));
+    return deleted(s, NULL, id, ids, n, err);
+}
+
+rd_error_code rd_store_grades_delete(rd_store *s, const char *student, rd_store_grade_id **ids, size_t *n,
+                                     rd_error *err)
+{
+    USE_ERR(err);
+    CHECKED(check_name("the student", student, 1, err));
+    return deleted(s, "student", student ? student : "", ids, n, err);
+}
+
+rd_error_code rd_store_grade_delete(rd_store *s, const char *id, rd_error *err)
+{
+    USE_ERR(err);
+    size_t n = 0;
+    CHECKED(check_id("a grade id", id, err));
+    CHECKED(deleted(s, "id", id, NULL, &n, err));
+    return n ? RD_OK : rd_error_set(err, RD_ERR_NOT_FOUND, 0, 0, "store: no grade %s", id);
+}

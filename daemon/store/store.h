@@ -496,4 +496,43 @@ rd_error_code rd_store_batch_students(rd_store *s, const char *id, char **studen
  * error. */
 rd_error_code rd_store_batch_cancel(rd_store *s, const char *id, int *changed, rd_error *err);
 
+/* Which batches rd_store_batches_list gives. */
+typedef struct {
+    const char *assignment; /* NULL: any */
+    int64_t until_ms;       /* created at or before this; 0: any time */
+    size_t max;             /* at most this many */
+} rd_store_batch_filter;
+
+/* The batches f allows (NULL: every one), newest first (created_ms, then
+ * id, both descending), at most f->max (0: none). A longer list is read in
+ * pages: until_ms the last one's created_ms gives the next page, which
+ * begins with those of that millisecond again (none is skipped). *out is a
+ * malloc'ed array (NULL when *n is 0). */
+rd_error_code rd_store_batches_list(rd_store *s, const rd_store_batch_filter *f, rd_store_batch **out, size_t *n,
+                                    rd_error *err);
+
+/* A deleted grade's id: the daemon forgets what it kept of it. */
+typedef struct {
+    char id[RD_STORE_ID_MAX];
+} rd_store_grade_id;
+
+/* Deletes a batch that has ended (done or cancelled) with its grades and
+ * their images. *ids (ids may be NULL; else a malloc'ed array, NULL when
+ * *n is 0) the deleted grades' ids, *n (n may be NULL) how many. RD_ERR_NOT_FOUND when
+ * there is no batch of that id, RD_ERR_INVALID when it is still running
+ * (cancel it first): then nothing is deleted. */
+rd_error_code rd_store_batch_delete(rd_store *s, const char *id, rd_store_grade_id **ids, size_t *n, rd_error *err);
+
+/* Deletes every grade of student (UTF-8; "" the unknown student) with its
+ * images, whichever batch it belongs to: the batch keeps its count (done
+ * counts the grades it was given), its rows no longer show the student.
+ * ids and n as rd_store_batch_delete; no grade of that student is *n 0,
+ * not an error. */
+rd_error_code rd_store_grades_delete(rd_store *s, const char *student, rd_store_grade_id **ids, size_t *n,
+                                     rd_error *err);
+
+/* Deletes one grade with its images. RD_ERR_NOT_FOUND when there is no
+ * grade of that id. */
+rd_error_code rd_store_grade_delete(rd_store *s, const char *id, rd_error *err);
+
 #endif

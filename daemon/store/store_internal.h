@@ -154,5 +154,13 @@ rd_error_code rd_store_op_batches_running(rd_store *s, const char *daemon, size_
 rd_error_code rd_store_op_batch_students(rd_store *s, const char *id, char **students, rd_error *err);
 /* *changed 0 (and RD_OK) when it had ended. */
 rd_error_code rd_store_op_batch_cancel(rd_store *s, const char *id, int *changed, rd_error *err);
+/* f never NULL, f->max > 0. */
+rd_error_code rd_store_op_batches_list(rd_store *s, const rd_store_batch_filter *f, rd_store_batch **out, size_t *n,
+                                       rd_error *err);
+/* ids never NULL. */
+rd_error_code rd_store_op_batch_delete(rd_store *s, const char *id, rd_store_grade_id **ids, size_t *n, rd_error *err);
+/* The grades whose column ("id" or "student") is value; ids never NULL. */
+rd_error_code rd_store_op_grades_delete(rd_store *s, const char *column, const char *value, rd_store_grade_id **ids,
+                                        size_t *n, rd_error *err);
 
 #endif

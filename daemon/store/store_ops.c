@@ -1272,6 +1272,110 @@ rd_error_code rd_store_op_batch_cancel(rd_store *s, const char *id, int *changed
     return end(s, c, err);
 }
 
+/* Newest first, the way an instructor looks for last week's batch; the
+ * assignment is written in only when given, as in rd_store_op_grades_list. */
+rd_error_code rd_store_op_batches_list(rd_store *s, const rd_store_batch_filter *f, rd_store_batch **out, size_t *n,
+                                       rd_error *err)
+{
+    char sql[300];
+    snprintf(sql, sizeof sql,
+             "SELECT " BATCH_COLUMNS " FROM batches WHERE created_ms <= ?1%s "
+             "ORDER BY created_ms DESC, id DESC LIMIT ?3",
+             f->assignment ? " AND assignment = ?2" : "");
+    void *list = NULL;
+    int64_t until = f->until_ms > 0 ? f->until_ms : INT64_MAX;
+    rd_error_code c = read_rows(s, sizeof **out, batch_entry, free_plain, "a batch list", &list, n, err, sql, "ItI",
+                                until, f->assignment, clamp_max(f->max));
+    if (!c)
+        *out = list;
+    return c;
+}
+
+static rd_error_code grade_id_row(const stmt *q, void *entry, rd_error *err)
+{
+    (void)err;
+    snprintf(((rd_store_grade_id *)entry)->id, RD_STORE_ID_MAX, "%s", col_text(q, 0));
+    return RD_OK;
+}
+
+/* In the caller's transaction: the grades whose column (a name of this
+ * file, never the caller's text) is value, their images first, and their
+ * ids. The images go explicitly, as in expiry, rather than trusting the
+ * cascade to be on in every connection. */
+static rd_error_code delete_grades(rd_store *s, const char *column, const char *value, rd_store_grade_id **ids,
+                                   size_t *n, rd_error *err)
+{
+    char sql[160];
+    snprintf(sql, sizeof sql, "DELETE FROM grade_images WHERE grade_id IN (SELECT id FROM grades WHERE %s = ?)",
+             column);
+    rd_error_code c = run(s, NULL, err, sql, "t", value);
+    if (c)
+        return c;
+    snprintf(sql, sizeof sql, "DELETE FROM grades WHERE %s = ? RETURNING id", column);
+    void *list = NULL;
+    c = read_rows(s, sizeof **ids, grade_id_row, free_plain, "the deleted grades", &list, n, err, sql, "t", value);
+    if (!c)
+        *ids = list;
+    return c;
+}
+
+/* Commits what delete_grades did; the ids are given only once it is
+ * committed. */
+static rd_error_code end_delete(rd_store *s, rd_error_code c, rd_store_grade_id *list, size_t k,
+                                rd_store_grade_id **ids, size_t *n, rd_error *err)
+{
+    c = end(s, c, err);
+    if (c) {
+        free(list);
+        return c;
+    }
+    *ids = list;
+    *n = k;
+    return RD_OK;
+}
+
+rd_error_code rd_store_op_grades_delete(rd_store *s, const char *column, const char *value, rd_store_grade_id **ids,
+                                        size_t *n, rd_error *err)
+{
+    rd_store_grade_id *list = NULL;
+    size_t k = 0;
+    rd_error_code c = begin(s, err);
+    if (c)
+        return c;
+    c = delete_grades(s, column, value, &list, &k, err);
+    return end_delete(s, c, list, k, ids, n, err);
+}
+
+static rd_error_code batch_status_row(const stmt *q, void *entry, rd_error *err)
+{
+    (void)err;
+    *(int *)entry = rd_store_batch_status_parse(col_text(q, 0));
+    return RD_OK;
+}
+
+/* The batch's row is locked before its grades, as a put locks it: a put
+ * to it has committed before, or finds it gone. Only an ended batch goes,
+ * so that no grade of a running one is put after its rows were deleted. */
+rd_error_code rd_store_op_batch_delete(rd_store *s, const char *id, rd_store_grade_id **ids, size_t *n, rd_error *err)
+{
+    rd_store_grade_id *list = NULL;
+    size_t k = 0;
+    int st = -1, found = 0;
+    rd_error_code c = begin(s, err);
+    if (c)
+        return c;
+    c = read_row(s, batch_status_row, &st, &found, err, "SELECT status FROM batches WHERE id = ?@LOCK@", "t", id);
+    if (!c && !found)
+        c = absent(err, "batch", id);
+    else if (!c && st == RD_STORE_BATCH_RUNNING)
+        c = rd_error_set(err, RD_ERR_INVALID, 0, 0, "store: batch %s is running: cancel it first", id);
+    if (!c)
+        c = delete_grades(s, "batch_id", id, &list, &k, err);
+    if (!c)
+        c = run(s, NULL, err, "DELETE FROM batches WHERE id = ?", "t", id);
+    return end_delete(s, c, list, k, ids, n, err);
+}
+
 /* Migrations. */
 
 static rd_error_code schema_version(rd_store *s, int64_t *v, rd_error *err)

@@ -584,6 +584,58 @@ test("(class h) over --max-batch-images: 413 message; without --instructor-token
   }
 });
 
+test("(class j) a new tab lists the batches, opens one, cancels a running one and deletes a finished one", { timeout: TEST_MS, skip }, async () => {
+  const { context, page, log } = await openPage();
+  try {
+    const started = await (await submit(page, { folder: dirs.class })).json();
+    const row = (id) => page.locator(`#past-table tbody tr[data-id='${id}']`);
+    await row(started.id).waitFor();
+    // Another tab: nothing on show until the list is asked for.
+    const other = await context.newPage();
+    other.on("dialog", (d) => d.accept());
+    await other.goto(daemon.base + "/");
+    await other.fill("#token", TOKEN);
+    await other.click("#past-btn");
+    const mine = other.locator(`#past-table tbody tr[data-id='${started.id}']`);
+    await mine.waitFor();
+    assert.deepEqual(await mine.locator("td").allInnerTexts().then((t) => t.slice(1, 4)), [ASSIGNMENT, "done", "12 of 12"]);
+    await mine.getByRole("button", { name: "Open" }).click();
+    await other.waitForFunction(() => document.querySelectorAll("#class-table tbody tr").length === 12);
+    checkTable(await tableRows(other), "opened from the list");
+    await other.locator("#class-panel").screenshot({ path: path.join(SHOTS, "class-12-listed.png") });
+
+    // A batch big enough to be running when its Cancel is clicked.
+    const png = fs.readFileSync(path.join(dirs.class, "alice.png"));
+    const form = new FormData();
+    form.append("assignment", ASSIGNMENT);
+    for (let i = 0; i < 450; i++) form.append("image", new Blob([png], { type: "image/png" }), `s${i}.png`);
+    const posted = await api("/v1/grade/batch", { method: "POST", headers: bearer(), body: form });
+    assert.equal(posted.status, 202, "450 images, within --max-batch-images");
+    const big = await posted.json();
+    await other.click("#past-btn");
+    const running = other.locator(`#past-table tbody tr[data-id='${big.id}']`);
+    await running.getByRole("button", { name: "Cancel" }).click();
+    await other.waitForFunction((id) => document.querySelector(`#past-table tbody tr[data-id='${id}'] td:nth-child(3)`)?.innerText === "cancelled", big.id);
+    assert.match(await text(other, "#past-msg"), /^Cancelled/);
+    const cancelled = await (await api(`/v1/grade/batch/${big.id}`, { headers: bearer() })).json();
+    assert.equal(cancelled.status, "cancelled");
+    assert.ok(cancelled.done < 450, `cancelled at ${cancelled.done} of 450`);
+
+    // Delete (confirmed): the batch on show goes, and its records.
+    const ids = (await (await api(`/v1/grade/batch/${started.id}`, { headers: bearer() })).json()).results.map((r) => r.grade_id);
+    await mine.getByRole("button", { name: "Delete" }).click();
+    await mine.waitFor({ state: "detached" });
+    assert.match(await text(other, "#past-msg"), /^Deleted/);
+    assert.equal(await other.isVisible("#class-results"), false, "the deleted batch is no longer on show");
+    assert.equal((await api(`/v1/grade/batch/${started.id}`, { headers: bearer() })).status, 404);
+    for (const id of ids) assert.equal((await api(`/v1/grades/${id}`)).status, 404, `record ${id} went with its batch`);
+    await other.locator("#class-panel").screenshot({ path: path.join(SHOTS, "class-13-deleted.png") });
+    assert.deepEqual(log.errors, [], "no uncaught script errors");
+  } finally {
+    await context.close();
+  }
+});
+
 test("(class i) at phone width the class view fits the screen", { timeout: TEST_MS, skip }, async () => {
   const { context, page } = await openPage(daemon.base, { viewport: { width: 375, height: 740 }, deviceScaleFactor: 2, isMobile: true, hasTouch: true });
   try {

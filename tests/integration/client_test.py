@@ -15,7 +15,8 @@ the client, on a daemon with --instructor-tokens and a tiny assignment.
     422 compile_error; skeleton and lobe;
   - grade_batch, batch, wait_batch, batch_table, grades, grades_csv: two
     students, one graded and one error row; without the token RaydError 401,
-    with a wrong one 403;
+    with a wrong one 403; batches lists it, delete_student and delete_grade
+    delete records, delete_batch the finished batch;
   - assignments, assignment_scene, scenes, scene, health, ready.
 
 Usage: RAYD=build/rayd /usr/bin/python3 tests/integration/client_test.py
@@ -32,7 +33,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "support"))
 sys.path.insert(0, os.path.join(HERE, "..", "..", "clients", "python"))
 from rayd_http import RUNAWAY_SCENE, TINY_SCENE, Checks, Daemon, cli_render, decode_png, png, tiny_assignments
-from rayd_client import Batch, Client, CodeGrade, GradeRow, Job, RaydError, Render, Verdict
+from rayd_client import Batch, BatchSummary, Client, CodeGrade, GradeRow, Job, RaydError, Render, Verdict
 
 check = Checks("client")
 TOKEN = "client-test-instructor-token-01"
@@ -165,6 +166,26 @@ def klass(base, tmp):
     check(e is not None and e.headers.get("WWW-Authenticate", "").startswith("Bearer"), "401's WWW-Authenticate")
     raises(lambda: Client(base, token="wrong-wrong-wrong-1").batch(b.id), 403, "forbidden")
     raises(lambda: Client(base).grade_batch("tiny", images={"x": ref}), 401, "unauthorized")
+    manage(base, teacher, b.id, ref)
+
+
+def manage(base, teacher, bid, ref):
+    """batches lists the batch; delete_student, delete_grade and
+    delete_batch of the finished batch (None: deleted); 401 without the
+    token."""
+    listed = teacher.batches(assignment="tiny", limit=5)
+    check(listed and isinstance(listed[0], BatchSummary) and listed[0].id == bid and listed[0].created_at,
+          "batches(assignment=tiny): %s" % listed)
+    raises(lambda: teacher.batches(limit=0), 400, "parse_error")
+    v = teacher.grade(ref, assignment="tiny", student="cid")
+    check(teacher.delete_student("cid") == 1, "delete_student(cid)")
+    raises(lambda: teacher.grade_record(v.id), 404, "not_found")
+    v = teacher.grade(ref, assignment="tiny", student="dee")
+    check(teacher.delete_grade(v.id) is None, "delete_grade")
+    raises(lambda: teacher.delete_grade(v.id), 404, "not_found")
+    check(teacher.delete_batch(bid) is None, "delete_batch of a finished batch")
+    raises(lambda: teacher.batch(bid), 404, "not_found")
+    raises(lambda: Client(base).delete_student("bea"), 401, "unauthorized")
 
 
 def listings(c):

@@ -19,6 +19,7 @@ import zipfile
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "support"))
 from rayd_http import RAYD, Checks, Daemon, decode_png, form_parts, png  # noqa: E402
+import class_batches  # noqa: E402
 
 import subprocess  # noqa: E402
 
@@ -55,19 +56,11 @@ def class_images(tmp):
 
 
 def post_batch(d, parts, headers=AUTH):
-    body, ct = form_parts(parts)
-    return d.request("POST", "/v1/grade/batch", body=body, headers=dict(headers, **{"Content-Type": ct}))
+    return class_batches.post_batch(d, parts, headers)
 
 
 def wait_batch(d, bid, bound=120):
-    t0, last = time.time(), {}
-    while time.time() - t0 < bound:
-        st, _, b = d.request("GET", "/v1/grade/batch/" + bid, headers=AUTH)
-        last = json.loads(b) if st == 200 else {"status": "http %d" % st}
-        if last.get("status") != "running":
-            break
-        time.sleep(0.05)
-    return last
+    return class_batches.wait_batch(d, bid, AUTH, bound)
 
 
 def verdicts_right(rows, images, what):

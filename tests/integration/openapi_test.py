@@ -511,9 +511,30 @@ def class_batch(tmp):
         for r in rows:
             c.call("get", "/v1/grades/{id}", "/v1/grades/" + r.get("grade_id", "x"), expect=200)
         c.call("get", "/v1/grades/{id}", "/v1/grades/g0000000000000000", expect=404)
+        manage(c, post, auth, rows, good)
         check_security_answered(c, bid, rows[0].get("grade_id", "x") if rows else "x", auth)
     finally:
         check(d.stop() == 0, "the instructors' daemon did not exit 0")
+
+
+def manage(c, post, auth, rows, good):
+    """Listing batches, cancelling a running one and deleting it, deleting
+    a student's records and one record."""
+    B = "/v1/grade/batch"
+    c.call("get", B, B, headers=auth, expect=200)
+    c.call("get", B, B + "?assignment=tiny&limit=5&until=2100-01-01T00:00:00.000Z", headers=auth, expect=200)
+    c.call("get", B, B + "?limit=0", headers=auth, expect=400)
+    # Deleted as soon as it is posted, 200 images in: still running.
+    status, _, data = post([("assignment", None, b"tiny")] + [("image", "s%d.png" % i, good) for i in range(200)], 202)
+    big = json.loads(data).get("id", "x") if status == 202 else "x"
+    c.call("delete", B + "/{id}", "%s/%s" % (B, big), headers=auth, expect=200)
+    c.call("delete", B + "/{id}", "%s/%s" % (B, big), headers=auth, expect=204)
+    c.call("delete", B + "/{id}", "%s/%s" % (B, big), headers=auth, expect=404)
+    c.call("delete", "/v1/grades", "/v1/grades?student=ben", headers=auth, expect=200)
+    c.call("delete", "/v1/grades", "/v1/grades", headers=auth, expect=400)
+    ann = [r.get("grade_id", "x") for r in rows if r.get("student") == "ann"]
+    c.call("delete", "/v1/grades/{id}", "/v1/grades/" + (ann or ["x"])[0], headers=auth, expect=204)
+    c.call("delete", "/v1/grades/{id}", "/v1/grades/g0000000000000000", headers=auth, expect=404)
 
 
 def check_security_answered(c, bid, gid, auth):
@@ -676,6 +697,8 @@ REQUIRED = {
     ("/v1/grade/batch", "post"): {202, 400, 401, 403, 404, 415, 422},
     ("/v1/grade/batch/{id}", "get"): {200, 401, 403, 404}, ("/v1/grade/batch/{id}/{table}", "get"): {200},
     ("/v1/grades", "get"): {200, 400, 401, 403}, ("/v1/grades/{id}", "get"): {200, 404},
+    ("/v1/grade/batch", "get"): {200, 400, 401, 403}, ("/v1/grade/batch/{id}", "delete"): {200, 204, 401, 403, 404},
+    ("/v1/grades", "delete"): {200, 400, 401, 403}, ("/v1/grades/{id}", "delete"): {204, 401, 403, 404},
     ("/v1/grade/code", "post"): {200, 400, 404, 413, 415, 422, 503},
     ("/v1/grade/code/skeleton/{material}", "get"): {200, 404}, ("/v1/grade/code/{id}/lobe.svg", "get"): {200, 404},
 }

@@ -1903,3 +1903,152 @@ void case_upgrade_from_version_3(const store_env *e, void (*exec)(const char *sq
     check_stored(s, &g);
     rd_store_close(s);
 }
+
+/* The ids of a batch list, "," between them. */
+static void check_batches(rd_store *s, const rd_store_batch_filter *f, const char *want)
+{
+    rd_store_batch *l = NULL;
+    size_t n = 99;
+    OK(rd_store_batches_list(s, f, &l, &n, &e_));
+    char got[256] = "";
+    for (size_t i = 0; i < n; i++)
+        snprintf(got + strlen(got), sizeof got - strlen(got), "%s%s", i ? "," : "", l[i].id);
+    free(l);
+    cr_assert_str_eq(got, want, "batches listed: %s, not %s", got, want);
+}
+
+/* ids (n of them, as a deletion gave them) are exactly want's, any order. */
+static void check_ids(rd_store_grade_id *ids, size_t n, const char *const *want, size_t k)
+{
+    cr_assert_eq(n, k, "%zu grades deleted, not %zu", n, k);
+    for (size_t i = 0; i < k; i++) {
+        int found = 0;
+        for (size_t j = 0; j < n; j++)
+            found |= strcmp(ids[j].id, want[i]) == 0;
+        cr_assert(found, "grade %s is not among the deleted", want[i]);
+    }
+    free(ids);
+}
+
+static void put_diff_grade(rd_store *s, const char *id, const char *batch, const char *student)
+{
+    static const unsigned char diff[] = "\x89PNG diff";
+    rd_store_grade g = grade_of(id, "phong", student, 10);
+    g.batch_id = batch;
+    OK(rd_store_grade_put(s, &g, diff, sizeof diff, &e_));
+}
+
+static void check_no_image(rd_store *s, const char *id)
+{
+    unsigned char *data = NULL;
+    size_t len = 0;
+    FAILS(RD_ERR_NOT_FOUND, rd_store_grade_image(s, id, RD_STORE_GRADE_DIFF, &data, &len, &e_));
+}
+
+void case_batches_list(const store_env *e)
+{
+    rd_store *s = store_env_open(e);
+    const char *ids[] = {"b-old", "b-mid", "b-new"};
+    for (int i = 0; i < 3; i++) {
+        OK(rd_store_batch_create(s, ids[i], i == 1 ? "diffuse" : "phong", 2, NULL, NULL, &e_));
+        sleep_ms_store(5);
+    }
+    check_batches(s, NULL, "b-new,b-mid,b-old");
+    rd_store_batch_filter f = {.max = 2};
+    check_batches(s, &f, "b-new,b-mid");
+    f = (rd_store_batch_filter){.assignment = "phong", .max = 10};
+    check_batches(s, &f, "b-new,b-old");
+    /* The next page from the last one's time: it again, then the older. */
+    rd_store_batch mid;
+    OK(rd_store_batch_get(s, "b-mid", &mid, &e_));
+    f = (rd_store_batch_filter){.until_ms = mid.created_ms, .max = 10};
+    check_batches(s, &f, "b-mid,b-old");
+    f = (rd_store_batch_filter){.until_ms = 1, .max = 10};
+    check_batches(s, &f, "");
+    f = (rd_store_batch_filter){.assignment = "nosuch", .max = 10};
+    check_batches(s, &f, "");
+    f = (rd_store_batch_filter){.max = 0};
+    check_batches(s, &f, "");
+    rd_store_batch *l = NULL;
+    size_t n = 0;
+    f = (rd_store_batch_filter){.assignment = "\xff", .max = 5};
+    FAILS(RD_ERR_INVALID, rd_store_batches_list(s, &f, &l, &n, &e_));
+    f = (rd_store_batch_filter){.assignment = "", .max = 5};
+    FAILS(RD_ERR_INVALID, rd_store_batches_list(s, &f, &l, &n, &e_));
+    rd_store_close(s);
+}
+
+void case_batch_delete(const store_env *e)
+{
+    rd_store *s = store_env_open(e);
+    OK(rd_store_batch_create(s, "run", "phong", 3, NULL, NULL, &e_));
+    put_diff_grade(s, "r1", "run", "ann");
+    /* Running: refused, nothing deleted. */
+    rd_store_grade_id *ids = NULL;
+    size_t n = 7;
+    FAILS(RD_ERR_INVALID, rd_store_batch_delete(s, "run", &ids, &n, &e_));
+    cr_assert(n == 7 && ids == NULL, "a refused delete gives nothing");
+    check_batch(s, "run", 1, 3, RD_STORE_BATCH_RUNNING);
+    /* Cancelled: it goes, with its grades and their images; a grade of no
+     * batch and another batch's stay. */
+    OK(rd_store_batch_create(s, "other", "phong", 1, NULL, NULL, &e_));
+    put_diff_grade(s, "o1", "other", "ann");
+    put_diff_grade(s, "alone", NULL, "ann");
+    put_diff_grade(s, "r2", "run", "ben");
+    OK(rd_store_batch_cancel(s, "run", NULL, &e_));
+    OK(rd_store_batch_delete(s, "run", &ids, &n, &e_));
+    check_ids(ids, n, (const char *const[]){"r1", "r2"}, 2);
+    rd_store_batch b;
+    FAILS(RD_ERR_NOT_FOUND, rd_store_batch_get(s, "run", &b, &e_));
+    check_no_grade(s, "r1");
+    check_no_grade(s, "r2");
+    check_no_image(s, "r1");
+    check_batch(s, "other", 1, 1, RD_STORE_BATCH_DONE);
+    rd_store_grade kept = grade_got(s, "alone");
+    rd_store_grade_free(&kept);
+    /* Done: it goes too; ids and n may be NULL. */
+    OK(rd_store_batch_delete(s, "other", NULL, NULL, &e_));
+    check_no_grade(s, "o1");
+    check_no_image(s, "o1");
+    FAILS(RD_ERR_NOT_FOUND, rd_store_batch_delete(s, "other", &ids, &n, &e_));
+    FAILS(RD_ERR_INVALID, rd_store_batch_delete(s, "bad id", &ids, &n, &e_));
+    kept = grade_got(s, "alone");
+    rd_store_grade_free(&kept);
+    rd_store_close(s);
+}
+
+void case_grades_delete(const store_env *e)
+{
+    rd_store *s = store_env_open(e);
+    OK(rd_store_batch_create(s, "c", "phong", 2, NULL, NULL, &e_));
+    put_diff_grade(s, "a1", "c", "ann");
+    put_diff_grade(s, "b1", "c", "ben");
+    put_diff_grade(s, "a2", NULL, "ann");
+    put_diff_grade(s, "u1", NULL, "");
+    rd_store_grade_id *ids = NULL;
+    size_t n = 0;
+    OK(rd_store_grades_delete(s, "ann", &ids, &n, &e_));
+    check_ids(ids, n, (const char *const[]){"a1", "a2"}, 2);
+    check_no_grade(s, "a1");
+    check_no_grade(s, "a2");
+    check_no_image(s, "a2");
+    /* The batch keeps its count; its rows no longer show her. */
+    check_batch(s, "c", 2, 2, RD_STORE_BATCH_DONE);
+    rd_store_grade_filter f = {.batch_id = "c", .max = 10};
+    rd_store_grade *rows = NULL;
+    OK(rd_store_grades_list(s, &f, &rows, &n, &e_));
+    cr_assert(n == 1 && strcmp(rows[0].id, "b1") == 0, "the batch's rows after ann left: %zu", n);
+    rd_store_grades_free(rows, n);
+    /* Nobody of that name: none, not an error. */
+    OK(rd_store_grades_delete(s, "ann", &ids, &n, &e_));
+    cr_assert(n == 0 && ids == NULL, "a second delete found %zu", n);
+    FAILS(RD_ERR_INVALID, rd_store_grades_delete(s, "\xc3", &ids, &n, &e_));
+    /* One grade. */
+    OK(rd_store_grade_delete(s, "u1", &e_));
+    check_no_grade(s, "u1");
+    FAILS(RD_ERR_NOT_FOUND, rd_store_grade_delete(s, "u1", &e_));
+    FAILS(RD_ERR_INVALID, rd_store_grade_delete(s, "no such id", &e_));
+    rd_store_grade b1 = grade_got(s, "b1");
+    rd_store_grade_free(&b1);
+    rd_store_close(s);
+}

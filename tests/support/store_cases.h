@@ -95,4 +95,13 @@ void case_grades_expire(const store_env *e);
 /* Text, name and image limits, UTF-8, ids: refused, nothing counted. */
 void case_grade_limits(const store_env *e);
 
+/* Batches newest first, by assignment, at most max, paged by until_ms. */
+void case_batches_list(const store_env *e);
+/* An ended batch goes with its grades and their images, and gives their
+ * ids; a running one is refused; other grades stay. */
+void case_batch_delete(const store_env *e);
+/* A student's grades go, whichever batch (which keeps its count); one
+ * grade by its id. */
+void case_grades_delete(const store_env *e);
+
 #endif

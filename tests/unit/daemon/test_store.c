@@ -88,6 +88,12 @@ Test(store, batch_last_grades_race_counts_exactly_total) { case_batch_race(&g_en
 
 Test(store, grades_expire_with_images_then_empty_batches) { case_grades_expire(&g_env); }
 
+Test(store, batches_list_newest_first_in_pages) { case_batches_list(&g_env); }
+
+Test(store, batch_delete_takes_its_grades_and_images) { case_batch_delete(&g_env); }
+
+Test(store, grades_delete_by_student_and_by_id) { case_grades_delete(&g_env); }
+
 Test(store, grade_limits_and_bad_arguments) { case_grade_limits(&g_env); }
 
 static sqlite3 *raw_db(void)

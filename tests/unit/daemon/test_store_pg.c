@@ -94,6 +94,12 @@ Test(store_pg, batch_last_grades_race_counts_exactly_total) { case_batch_race(&g
 
 Test(store_pg, grades_expire_with_images_then_empty_batches) { case_grades_expire(&g_env); }
 
+Test(store_pg, batches_list_newest_first_in_pages) { case_batches_list(&g_env); }
+
+Test(store_pg, batch_delete_takes_its_grades_and_images) { case_batch_delete(&g_env); }
+
+Test(store_pg, grades_delete_by_student_and_by_id) { case_grades_delete(&g_env); }
+
 Test(store_pg, grade_limits_and_bad_arguments) { case_grade_limits(&g_env); }
 
 static long long raw_int(const char *sql)
