@@ -191,8 +191,9 @@ function tableRows(page) {
     verdict: tr.cells[1].innerText.trim(),
     failed: tr.cells[2].innerText.trim(),
     psnr: tr.cells[3].innerText.trim(),
-    note: tr.cells[4].innerText.trim(),
-    thumb: tr.cells[4].querySelector("img")?.getAttribute("src") || null,
+    score: tr.cells[4].innerText.trim(),
+    note: tr.cells[5].innerText.trim(),
+    thumb: tr.cells[5].querySelector("img")?.getAttribute("src") || null,
   })));
 }
 
@@ -220,6 +221,8 @@ function checkTable(rows, label) {
   for (const r of rows) {
     const want = EXPECTED[r.student];
     assert.equal(r.verdict, want.verdict, `${label}: ${r.student} (${want.why}) is ${want.verdict}, the table says ${r.verdict}`);
+    // phong is worth the default 1 point: a pass earns it, the rest nothing
+    assert.equal(r.score, want.verdict === "PASS" ? "1.00 / 1.00" : "0.00 / 1.00", `${label}: ${r.student}'s score`);
     if (want.verdict === "ERROR") {
       assert.equal(r.failed, "—");
       assert.equal(r.thumb, null, `${r.student}: no heat map`);
@@ -356,6 +359,11 @@ test("(class b) the table sorts by each column, both ways; images not graded sta
     o = await order();
     const psnr = Object.fromEntries(rows.filter((r) => r.verdict !== "ERROR").map((r) => [r.student, parseFloat(r.psnr)]));
     for (let k = 1; k < 9; k++) assert.ok(psnr[o[k - 1]] <= psnr[o[k]], `ascending PSNR: ${o}`);
+
+    await sortBy("score");
+    o = await order();
+    const score = Object.fromEntries(rows.map((r) => [r.student, parseFloat(r.score)]));
+    for (let k = 1; k < o.length; k++) assert.ok(score[o[k - 1]] <= score[o[k]], `ascending score: ${o}`);
 
     await sortBy("student");
     assert.deepEqual(await order(), STUDENTS);
