@@ -4,7 +4,8 @@
 # (page.test.mjs: rendering and one student's grade; class.test.mjs: the
 # class view, with --instructor-tokens, skipped by a rayd without it;
 # code.test.mjs: grading code; verdict.test.mjs: a grade's own page at
-# /v1/grades/{id}).
+# /v1/grades/{id}; term.test.mjs: scores, a roster and a late regrade in the
+# class view).
 # Run from anywhere; works from the repository root:  tests/browser/run.sh
 # Needs: build/rayd (make build/rayd; or RAYD=path), node >= 20 with npm,
 # /usr/bin/chromium (Debian package chromium). Screenshots: build/browser-screenshots/ (class/, code/ and verdict/ for those tests).
