@@ -9,7 +9,8 @@ with the same assignments, scenes and limits, then checks:
   - the error message is the same text, up to the scene's name (the file
     path on the command line, <upload> over HTTP);
   - for a graded image, the verdict JSON is the same, but for the fields only
-    the daemon has (id, the image addresses).
+    the daemon has (id, the image addresses, the record: a grade of the
+    command is no record).
 
 Usage: RAYD=build/rayd /usr/bin/python3 tests/integration/grade_parity_test.py
 (from the repository root). The daemon listens on 127.0.0.1 on a port it
@@ -150,7 +151,7 @@ def main():
             check(status == want_status, "%s: HTTP %d, expected %d (%s)" % (name, status, want_status, answer))
             if want_code is None:
                 verdict = json.loads(out) if rc in (0, 4) else {}
-                for key in ("id", "diff_url", "reference_url", "image_url", "reference_cached"):
+                for key in ("id", "diff_url", "reference_url", "image_url", "reference_cached", "record"):
                     answer.pop(key, None)
                     verdict.pop(key, None)
                 check(verdict == answer, "%s: verdicts differ:\n  cli  %s\n  http %s" % (name, verdict, answer))
