@@ -172,7 +172,7 @@ static rd_vec3 odd_dir(test_rng *r)
 /* A random triangle of the world, NULL when it has none. */
 static const rd_wtri *some_tri(const rd_world *w, test_rng *r)
 {
-    return w->ntris ? &w->tris[rng_int(r, (int)w->ntris)] : NULL;
+    return w->ntris ? rd_world_tri(w, (size_t)rng_int(r, (int)w->ntris)) : NULL;
 }
 
 static rd_ray grazing(const rd_world *w, test_rng *r, rd_vec3 lo, rd_vec3 hi)
@@ -494,10 +494,12 @@ static int ties_to_the_higher_id(const rd_world *w, rd_ray r, double tmax, rd_hi
     rd_tri_ray tr = rd_tri_ray_make(r);
     for (size_t i = w->nspheres + w->ntris; i-- > 0;) {
         uint32_t id = (uint32_t)i;
-        double bary[3], t = id < w->nspheres ? rd_sphere_intersect(&w->spheres[id], r, b.limit)
-                                             : rd_tri_intersect_ray(w->tris[id - w->nspheres].v, &tr, b.limit, bary);
+        double bary[3], t = id < w->nspheres
+                                ? rd_sphere_intersect(&w->spheres[id], r, b.limit)
+                                : rd_tri_intersect_ray(rd_world_tri(w, id - w->nspheres)->v, &tr, b.limit, bary);
         if (t > 0 && t < b.limit && (t < b.t || b.kind == RD_K_NONE)) {
-            rd_best_set(&b, t, id < w->nspheres ? RD_K_SPHERE : RD_K_TRI, id < w->nspheres ? id : id - w->nspheres, id);
+            rd_best_set(&b, t, id < w->nspheres ? RD_K_SPHERE : RD_K_TRI,
+                        id < w->nspheres ? id : rd_world_tri_slot(w, id - w->nspheres), id);
             if (id >= w->nspheres)
                 memcpy(b.bary, bary, sizeof bary);
         }
