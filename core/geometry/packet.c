@@ -18,8 +18,6 @@
 #include <float.h>
 #include <immintrin.h>
 #include <math.h>
-#include <stddef.h>
-#include <string.h>
 
 #include "prim.h"
 #include "world.h"
@@ -57,13 +55,13 @@ typedef struct {
 
 #define RD_NODE_PER_RAY(NAME, ATTR, TEST)                                                                              \
     ATTR static inline void NAME(const rd_bvh4_node *n, const packet *p, unsigned rays, const double *tmax,            \
-                                 unsigned children, node_hits *nh)                                                     \
+                                 node_hits *nh)                                                                        \
     {                                                                                                                  \
         nh->mask[0] = nh->mask[1] = nh->mask[2] = nh->mask[3] = 0;                                                     \
         for (unsigned m = rays; m; m &= m - 1) {                                                                       \
             int i = __builtin_ctz(m);                                                                                  \
             double tn[4];                                                                                              \
-            for (unsigned hit = TEST(n, &p->br[i], tmax[i], tn) & children; hit; hit &= hit - 1) {                     \
+            for (unsigned hit = TEST(n, &p->br[i], tmax[i], tn); hit; hit &= hit - 1) {                                \
                 int c = __builtin_ctz(hit);                                                                            \
                 nh->mask[c] |= 1u << i;                                                                                \
                 nh->t[c][i] = tn[c];                                                                                   \
@@ -101,7 +99,7 @@ box8(const rd_bvh4_node *n, int c, const packet *p, int g, __m512d tmax, __m512d
 }
 
 static inline __attribute__((always_inline, target(RD_AVX512))) void
-node_avx512(const rd_bvh4_node *n, const packet *p, unsigned rays, const double *tmax, unsigned children, node_hits *nh)
+node_avx512(const rd_bvh4_node *n, const packet *p, unsigned rays, const double *tmax, node_hits *nh)
 {
     nh->mask[0] = nh->mask[1] = nh->mask[2] = nh->mask[3] = 0;
     for (int g = 0; g < 2; g++) {
@@ -110,8 +108,6 @@ node_avx512(const rd_bvh4_node *n, const packet *p, unsigned rays, const double 
             continue;
         __m512d tm = _mm512_loadu_pd(tmax + 8 * g);
         for (int c = 0; c < 4; c++) {
-            if (!(children >> c & 1))
-                continue;
             __m512d t0;
             __mmask8 m = box8(n, c, p, g, tm, &t0) & act;
             nh->mask[c] |= (unsigned)m << (8 * g);
@@ -119,78 +115,6 @@ node_avx512(const rd_bvh4_node *n, const packet *p, unsigned rays, const double 
         }
     }
 }
-
-/* Camera rays of a block share their origin to the bit. Then on each axis
- * a box plane's distance from it, plane - o, is one double for all the
- * rays, and a ray's entry or exit along the axis is that double times the
- * ray's own reciprocal, rounded (times the widening, rounded, for an
- * exit): monotone in the reciprocal. So the least and the greatest
- * reciprocal of the packet give the least entry and the greatest exit of
- * any of its rays, and a box these bounds reject within the packet's
- * greatest cut, every ray's own test rejects. That is Embree's frustum
- * test for coherent rays, exact here: it only spares the rays' own tests
- * of the children it rejects. Rays with a flat axis, other origins or
- * directions of both signs on an axis have none (ok 0). */
-typedef struct {
-    int ok;
-    double o[3], lo[3], hi[3];
-    uint32_t near[3], far[3];
-} frustum;
-
-static int frustum_make(const packet *p, int n, frustum *f)
-{
-    const rd_bvh_ray *b0 = &p->br[0];
-    for (int i = 0; i < n; i++) {
-        const rd_bvh_ray *b = &p->br[i];
-        if (memcmp(&b->o, &b0->o, sizeof b->o) || memcmp(b->neg, b0->neg, sizeof b->neg) || b->flat[0] || b->flat[1] ||
-            b->flat[2])
-            return f->ok = 0;
-    }
-    const double o[3] = {b0->o.x, b0->o.y, b0->o.z};
-    for (int k = 0; k < 3; k++) {
-        double lo = INFINITY, hi = -INFINITY;
-        for (int i = 0; i < n; i++) {
-            const double inv[3] = {p->br[i].inv.x, p->br[i].inv.y, p->br[i].inv.z};
-            lo = inv[k] < lo ? inv[k] : lo;
-            hi = inv[k] > hi ? inv[k] : hi;
-        }
-        uint32_t l = (uint32_t)(offsetof(rd_bvh4_node, lo) + sizeof(float[4]) * (size_t)k);
-        uint32_t h = (uint32_t)(offsetof(rd_bvh4_node, hi) + sizeof(float[4]) * (size_t)k);
-        f->o[k] = o[k];
-        f->lo[k] = lo;
-        f->hi[k] = hi;
-        f->near[k] = b0->neg[k] ? h : l;
-        f->far[k] = b0->neg[k] ? l : h;
-    }
-    return f->ok = 1;
-}
-
-/* The children of n whose box some ray of the packet may meet within tmax
- * (the greatest of their cuts). */
-static inline __attribute__((always_inline, target("avx2"))) unsigned frustum_test(const rd_bvh4_node *n,
-                                                                                   const frustum *f, double tmax)
-{
-    const char *base = (const char *)n;
-    __m256d t0 = _mm256_setzero_pd(), t1 = _mm256_set1_pd(tmax);
-    const __m256d widen = _mm256_set1_pd(RD_BVH4_WIDEN);
-    for (int k = 0; k < 3; k++) {
-        __m256d l = _mm256_cvtps_pd(_mm_loadu_ps((const float *)(const void *)(base + f->near[k])));
-        __m256d u = _mm256_cvtps_pd(_mm_loadu_ps((const float *)(const void *)(base + f->far[k])));
-        __m256d o = _mm256_set1_pd(f->o[k]), lo = _mm256_set1_pd(f->lo[k]), hi = _mm256_set1_pd(f->hi[k]);
-        __m256d dl = _mm256_sub_pd(l, o), du = _mm256_sub_pd(u, o);
-        __m256d a = _mm256_min_pd(_mm256_mul_pd(dl, lo), _mm256_mul_pd(dl, hi));
-        __m256d b =
-            _mm256_max_pd(_mm256_mul_pd(_mm256_mul_pd(du, lo), widen), _mm256_mul_pd(_mm256_mul_pd(du, hi), widen));
-        t0 = _mm256_max_pd(a, t0);
-        t1 = _mm256_min_pd(b, t1);
-    }
-    return (unsigned)_mm256_movemask_pd(_mm256_cmp_pd(t0, t1, _CMP_LE_OQ));
-}
-
-/* Below this many rays still walking a node, each goes on alone from it
- * (Embree's hybrid traversal): a packet pays for its rays' masks, and
- * few rays share too little to repay it. */
-#define RD_PACKET_SWITCH 14
 
 /* A node to visit, the rays that visit it, and the least of their entries. */
 typedef struct {
@@ -209,9 +133,9 @@ static inline double least_entry(const node_hits *nh, int c)
 
 /* Leaves are searched as soon as their node is tested, ray by ray; inner
  * children go on the stack nearest on top. */
-#define RD_PACKET_CLOSEST(NAME, ATTR, NODE, FRUSTUM)                                                                   \
-    ATTR static void NAME(const rd_world *w, const rd_ray *r, const packet *p, const frustum *f, rd_tri_lazy *tr,      \
-                          unsigned rays, rd_best *b)                                                                   \
+#define RD_PACKET_CLOSEST(NAME, ATTR, NODE)                                                                            \
+    ATTR static void NAME(const rd_world *w, const rd_ray *r, const packet *p, rd_tri_lazy *tr, unsigned rays,         \
+                          rd_best *b)                                                                                  \
     {                                                                                                                  \
         double cut[RD_PACKET_MAX];                                                                                     \
         for (int i = 0; i < RD_PACKET_MAX; i++)                                                                        \
@@ -225,27 +149,19 @@ static inline double least_entry(const node_hits *nh, int c)
             unsigned live = 0;                                                                                         \
             for (unsigned m = v.rays; m; m &= m - 1)                                                                   \
                 live |= (unsigned)(v.t <= cut[__builtin_ctz(m)]) << __builtin_ctz(m);                                  \
-            if (__builtin_popcount(live) <= RD_PACKET_SWITCH) {                                                        \
-                for (unsigned m = live; m; m &= m - 1) {                                                               \
-                    int i = __builtin_ctz(m);                                                                          \
-                    rd_world_closest_below(w, &r[i], &p->br[i], v.idx, &b[i]);                                         \
-                    cut[i] = b[i].cut;                                                                                 \
-                }                                                                                                      \
+            if (!live)                                                                                                 \
                 continue;                                                                                              \
-            }                                                                                                          \
             const rd_bvh4_node *n = &w->bvh4.nodes[v.idx];                                                             \
-            unsigned children = FRUSTUM(n, f, live, cut);                                                              \
-            if (!children)                                                                                             \
-                continue;                                                                                              \
             node_hits nh;                                                                                              \
-            NODE(n, p, live, cut, children, &nh);                                                                      \
+            NODE(n, p, live, cut, &nh);                                                                                \
             for (int c = 0; c < 4; c++) {                                                                              \
                 if (!n->count[c])                                                                                      \
                     continue;                                                                                          \
                 for (unsigned m = nh.mask[c]; m; m &= m - 1) {                                                         \
                     int i = __builtin_ctz(m);                                                                          \
                     double floor = rd_leaf_floor(nh.t[c][i]);                                                          \
-                    rd_leaf_closest(w, n->child[c], n->count[c], n->spheres[c], &r[i], &tr[i], floor, &b[i]);          \
+                    for (uint32_t k = 0; k < n->count[c]; k++)                                                         \
+                        rd_prim_closest(w, w->bvh.prims[n->child[c] + k], &r[i], &tr[i], floor, &b[i]);                \
                     cut[i] = b[i].cut;                                                                                 \
                 }                                                                                                      \
             }                                                                                                          \
@@ -280,21 +196,9 @@ static inline double least_entry(const node_hits *nh, int c)
             if (!live)                                                                                                 \
                 continue;                                                                                              \
             uint32_t node = stack[sp].idx;                                                                             \
-            if (__builtin_popcount(live) <= RD_PACKET_SWITCH) {                                                        \
-                for (unsigned m = live; m; m &= m - 1) {                                                               \
-                    int i = __builtin_ctz(m);                                                                          \
-                    uint32_t leaf = 0;                                                                                 \
-                    if (rd_world_any_below(w, &r[i], &p->br[i], node, tmax[i], &leaf)) {                               \
-                        *last = leaf;                                                                                  \
-                        blocked |= 1u << i;                                                                            \
-                        rays &= ~(1u << i);                                                                            \
-                    }                                                                                                  \
-                }                                                                                                      \
-                continue;                                                                                              \
-            }                                                                                                          \
             const rd_bvh4_node *n = &w->bvh4.nodes[node];                                                              \
             node_hits nh;                                                                                              \
-            NODE(n, p, live, tm, 15, &nh);                                                                             \
+            NODE(n, p, live, tm, &nh);                                                                                 \
             for (int c = 0; c < 4; c++) {                                                                              \
                 if (!n->count[c]) {                                                                                    \
                     if (nh.mask[c]) {                                                                                  \
@@ -305,10 +209,14 @@ static inline double least_entry(const node_hits *nh, int c)
                 }                                                                                                      \
                 for (unsigned m = nh.mask[c] & rays; m; m &= m - 1) {                                                  \
                     int i = __builtin_ctz(m);                                                                          \
-                    if (rd_leaf_any(w, n->child[c], n->count[c], n->spheres[c], &r[i], &tr[i], tmax[i])) {             \
-                        *last = rd_world_hint(node, c);                                                                \
-                        blocked |= 1u << i;                                                                            \
-                        rays &= ~(1u << i);                                                                            \
+                    for (uint32_t k = 0; k < n->count[c]; k++) {                                                       \
+                        uint32_t id = w->bvh.prims[n->child[c] + k];                                                   \
+                        if (rd_prim_any(w, id, &r[i], &tr[i], tmax[i])) {                                              \
+                            *last = rd_world_hint(node, c);                                                            \
+                            blocked |= 1u << i;                                                                        \
+                            rays &= ~(1u << i);                                                                        \
+                            break;                                                                                     \
+                        }                                                                                              \
                     }                                                                                                  \
                 }                                                                                                      \
             }                                                                                                          \
@@ -316,23 +224,9 @@ static inline double least_entry(const node_hits *nh, int c)
         return blocked;                                                                                                \
     }
 
-/* The children the frustum keeps, or all of them without one. */
-static inline unsigned no_frustum(const rd_bvh4_node *n, const frustum *f, unsigned live, const double *cut)
-{
-    (void)n, (void)f, (void)live, (void)cut;
-    return 15;
-}
-
-static inline __attribute__((always_inline, target("avx2"))) unsigned
-by_frustum(const rd_bvh4_node *n, const frustum *f, unsigned live, const double *cut)
-{
-    (void)live, (void)cut;
-    return f->ok ? frustum_test(n, f, INFINITY) : 15;
-}
-
-RD_PACKET_CLOSEST(closest_sse2, __attribute__((noinline)), node_sse2, no_frustum)
-RD_PACKET_CLOSEST(closest_avx2, __attribute__((noinline, target("avx2"))), node_avx2, by_frustum)
-RD_PACKET_CLOSEST(closest_avx512, __attribute__((noinline, target(RD_AVX512))), node_avx512, by_frustum)
+RD_PACKET_CLOSEST(closest_sse2, __attribute__((noinline)), node_sse2)
+RD_PACKET_CLOSEST(closest_avx2, __attribute__((noinline, target("avx2"))), node_avx2)
+RD_PACKET_CLOSEST(closest_avx512, __attribute__((noinline, target(RD_AVX512))), node_avx512)
 RD_PACKET_ANY(any_sse2, __attribute__((noinline)), node_sse2)
 RD_PACKET_ANY(any_avx2, __attribute__((noinline, target("avx2"))), node_avx2)
 RD_PACKET_ANY(any_avx512, __attribute__((noinline, target(RD_AVX512))), node_avx512)
@@ -365,15 +259,13 @@ unsigned rd_world_closest_packet(const rd_world *w, const rd_ray *r, int n, doub
         tr[i] = rd_tri_lazy_none();
     }
     unsigned all = (1u << n) - 1;
-    frustum f;
-    frustum_make(&p, n, &f);
     if (w->avx512) {
         packet_lanes(&p, n);
-        closest_avx512(w, r, &p, &f, tr, all, b);
+        closest_avx512(w, r, &p, tr, all, b);
     } else if (w->avx2) {
-        closest_avx2(w, r, &p, &f, tr, all, b);
+        closest_avx2(w, r, &p, tr, all, b);
     } else {
-        closest_sse2(w, r, &p, &f, tr, all, b);
+        closest_sse2(w, r, &p, tr, all, b);
     }
     unsigned found = 0;
     for (int i = 0; i < n; i++) {

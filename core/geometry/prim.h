@@ -104,16 +104,6 @@ static inline __attribute__((always_inline)) const rd_tri_ray *rd_tri_lazy_get(r
 int rd_world_hint_blocks(const rd_world *w, const rd_ray *r, const rd_bvh_ray *br, rd_tri_lazy *tr, double tmax,
                          uint32_t hint);
 
-/* The closest-hit walk of a finite ray br (made from r) through the subtree
- * of four-wide node `node`, against b: the whole walk from the root when
- * node is 0. A packet hands its rays over to it part way down. */
-void rd_world_closest_below(const rd_world *w, const rd_ray *r, const rd_bvh_ray *br, uint32_t node, rd_best *b);
-
-/* The same for any hit within tmax; *last (may be NULL) as
- * rd_world_any_hint takes it and leaves it when blocked. */
-int rd_world_any_below(const rd_world *w, const rd_ray *r, const rd_bvh_ray *br, uint32_t node, double tmax,
-                       uint32_t *last);
-
 /* Primitive id against b; floor: its leaf's (0 outside a BVH). */
 static inline __attribute__((always_inline)) void rd_prim_closest(const rd_world *w, uint32_t id, const rd_ray *r,
                                                                   rd_tri_lazy *tr, double floor, rd_best *b)

@@ -340,14 +340,14 @@ static inline void plain_ray(const rd_bvh_ray *b, const rd_bvh_ray **q) { *q = b
  * inlined into its loop. The ray comes by pointer and its triangle set-up
  * waits for the first triangle (prim.h). */
 #define RD_WALK_CLOSEST(NAME, ATTR, QTYPE, QMAKE, TEST, LEAF)                                                          \
-    ATTR static void NAME(const rd_world *w, const rd_ray *r, const rd_bvh_ray *br, uint32_t start, rd_best *b)        \
+    ATTR static void NAME(const rd_world *w, const rd_ray *r, const rd_bvh_ray *br, rd_best *b)                        \
     {                                                                                                                  \
         QTYPE q;                                                                                                       \
         QMAKE(br, &q);                                                                                                 \
         rd_tri_lazy tr = rd_tri_lazy_none();                                                                           \
         visit stack[RD_BVH4_STACK];                                                                                    \
         int sp = 0;                                                                                                    \
-        stack[sp++] = (visit){start, 0, 0, 0};                                                                         \
+        stack[sp++] = (visit){0, 0, 0, 0};                                                                             \
         while (sp > 0) {                                                                                               \
             visit v = stack[--sp];                                                                                     \
             /* Entered beyond the cut: nothing in it can win (prim.h). */                                              \
@@ -372,8 +372,7 @@ static inline void plain_ray(const rd_bvh_ray *b, const rd_bvh_ray **q) { *q = b
     }
 
 #define RD_WALK_ANY(NAME, ATTR, QTYPE, QMAKE, TEST, LEAF)                                                              \
-    ATTR static int NAME(const rd_world *w, const rd_ray *r, const rd_bvh_ray *br, uint32_t start, double tmax,        \
-                         uint32_t *last)                                                                               \
+    ATTR static int NAME(const rd_world *w, const rd_ray *r, const rd_bvh_ray *br, double tmax, uint32_t *last)        \
     {                                                                                                                  \
         rd_tri_lazy tr = rd_tri_lazy_none();                                                                           \
         if (last && *last && rd_world_hint_blocks(w, r, br, &tr, tmax, *last))                                         \
@@ -382,7 +381,7 @@ static inline void plain_ray(const rd_bvh_ray *b, const rd_bvh_ray **q) { *q = b
         QMAKE(br, &q);                                                                                                 \
         uint32_t stack[RD_BVH4_STACK];                                                                                 \
         int sp = 0;                                                                                                    \
-        stack[sp++] = start;                                                                                           \
+        stack[sp++] = 0;                                                                                               \
         while (sp > 0) {                                                                                               \
             uint32_t node = stack[--sp];                                                                               \
             const rd_bvh4_node *n = &w->bvh4.nodes[node];                                                              \
@@ -521,22 +520,17 @@ static int has_flat(const rd_bvh_ray *br) { return br->flat[0] | br->flat[1] | b
 
 /* Only the walks need rays turned away (rd_ray_finite): the plain loops'
  * tests already hit nothing with them. */
-void rd_world_closest_below(const rd_world *w, const rd_ray *r, const rd_bvh_ray *br, uint32_t node, rd_best *b)
-{
-    if (!w->avx2)
-        closest_sse2(w, r, br, node, b);
-    else if (has_flat(br))
-        closest_avx2_flat(w, r, br, node, b);
-    else
-        closest_avx2(w, r, br, node, b);
-}
-
 static void bvh_closest(const rd_world *w, const rd_ray *r, rd_best *b)
 {
     if (!rd_ray_finite(*r))
         return;
     rd_bvh_ray br = rd_bvh_ray_make(*r);
-    rd_world_closest_below(w, r, &br, 0, b);
+    if (!w->avx2)
+        closest_sse2(w, r, &br, b);
+    else if (has_flat(&br))
+        closest_avx2_flat(w, r, &br, b);
+    else
+        closest_avx2(w, r, &br, b);
 }
 
 int rd_world_hint_blocks(const rd_world *w, const rd_ray *r, const rd_bvh_ray *br, rd_tri_lazy *tr, double tmax,
@@ -554,20 +548,14 @@ int rd_world_hint_blocks(const rd_world *w, const rd_ray *r, const rd_bvh_ray *b
     return rd_leaf_any(w, n->child[slot], n->count[slot], n->spheres[slot], r, tr, tmax);
 }
 
-int rd_world_any_below(const rd_world *w, const rd_ray *r, const rd_bvh_ray *br, uint32_t node, double tmax,
-                       uint32_t *last)
-{
-    return !w->avx2       ? any_sse2(w, r, br, node, tmax, last)
-           : has_flat(br) ? any_avx2_flat(w, r, br, node, tmax, last)
-                          : any_avx2(w, r, br, node, tmax, last);
-}
-
 static int bvh_any(const rd_world *w, const rd_ray *r, double tmax, uint32_t *last)
 {
     if (!rd_ray_finite(*r))
         return 0;
     rd_bvh_ray br = rd_bvh_ray_make(*r);
-    int blocked = rd_world_any_below(w, r, &br, 0, tmax, last);
+    int blocked = !w->avx2        ? any_sse2(w, r, &br, tmax, last)
+                  : has_flat(&br) ? any_avx2_flat(w, r, &br, tmax, last)
+                                  : any_avx2(w, r, &br, tmax, last);
     /* A ray that reached its light forgets the occluder: in the light, the
      * next ray would test it in vain (world.h). */
     if (!blocked && last)
