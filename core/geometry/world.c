@@ -12,7 +12,6 @@
 #include "rayd/parallel.h"
 #include "sphere4.h"
 #include "triangle.h"
-#include "triangle4.h"
 
 void rd_world_free(rd_world *w)
 {
@@ -466,68 +465,17 @@ leaf_spheres_any(const rd_world *w, uint32_t first, unsigned spheres, const rd_r
 
 /* A leaf's triangles, a call a leaf: their test inlined into the walks
  * made the walks' own loops spill. */
-/* The next up to four triangles of `*tris` (bits over the leaf from first,
- * taken off): their slots in w->tris and corners; lanes past the count
- * repeat the first, whose answers are not read. */
-static inline int tri_group(const rd_world *w, uint32_t first, unsigned *tris, size_t at[4], const rd_vec3 *v[4])
-{
-    int n = 0;
-    for (; *tris && n < 4; *tris &= *tris - 1)
-        at[n++] = first + (uint32_t)__builtin_ctz(*tris) - w->tri_first;
-    for (int i = 0; i < 4; i++)
-        v[i] = w->tris[at[i < n ? i : 0]].v;
-    return n;
-}
-
 RD_NOINLINE_AVX2 static void leaf_tris_closest_avx2(const rd_world *w, uint32_t first, unsigned tris, const rd_ray *r,
                                                     rd_tri_lazy *tr, double floor, rd_best *b)
 {
-    /* One triangle is cheaper alone than in four lanes. */
-    if (!(tris & (tris - 1))) {
-        rd_leaf_tri_closest(w, first + (uint32_t)__builtin_ctz(tris), r, tr, floor, b);
-        return;
-    }
-    const rd_tri_ray *q = rd_tri_lazy_get(tr, r);
-    if (!q->ok)
-        return;
-    while (tris) {
-        size_t at[4];
-        const rd_vec3 *v[4];
-        int n = tri_group(w, first, &tris, at, v);
-        rd_tri4_part part;
-        for (unsigned ok = rd_tri4_part_of(v, q, b->limit, &part) & ((1u << n) - 1); ok; ok &= ok - 1) {
-            int lane = __builtin_ctz(ok);
-            double bary[3], t = rd_tri4_finish(&part, lane, v[lane], b->limit, bary);
-            if (!(t > 0 && t >= floor))
-                continue;
-            uint32_t id = w->bvh.prims[at[lane] + w->tri_first];
-            if (rd_best_takes(b, t, id)) {
-                rd_best_set(b, t, RD_K_TRI, at[lane], id);
-                memcpy(b->bary, bary, sizeof bary);
-            }
-        }
-    }
+    for (unsigned m = tris; m; m &= m - 1)
+        rd_leaf_tri_closest(w, first + (uint32_t)__builtin_ctz(m), r, tr, floor, b);
 }
 
 RD_NOINLINE_AVX2 static int leaf_tris_any_avx2(const rd_world *w, uint32_t first, unsigned tris, const rd_ray *r,
                                                rd_tri_lazy *tr, double tmax)
 {
-    if (!(tris & (tris - 1)))
-        return rd_leaf_tris_any(w, first, tris, r, tr, tmax);
-    const rd_tri_ray *q = rd_tri_lazy_get(tr, r);
-    if (!q->ok)
-        return 0;
-    while (tris) {
-        size_t at[4];
-        const rd_vec3 *v[4];
-        int n = tri_group(w, first, &tris, at, v);
-        rd_tri4_part part;
-        double bary[3];
-        for (unsigned ok = rd_tri4_part_of(v, q, tmax, &part) & ((1u << n) - 1); ok; ok &= ok - 1)
-            if (rd_tri4_finish(&part, __builtin_ctz(ok), v[__builtin_ctz(ok)], tmax, bary) > 0)
-                return 1;
-    }
-    return 0;
+    return rd_leaf_tris_any(w, first, tris, r, tr, tmax);
 }
 
 static inline __attribute__((always_inline, target("avx2"))) void leaf_closest_avx2(const rd_world *w, uint32_t first,
