@@ -431,10 +431,11 @@ Test(oom, render_2_threads) { render_test("render textured_phong, 2 threads", TE
 Test(oom, render_progressive) { render_test("render progressive, adaptive", FIXTURE, 2, 8, 1); }
 
 /* 125 spheres strewn at random: more BVH nodes than the builder first
- * reserves, so that it grows its node array while it builds. */
+ * reserves, so that it grows its node array while it builds; and 25
+ * triangles among them, so that both kinds are laid out in leaf order. */
 Test(oom, render_many_spheres)
 {
-    static char text[16384];
+    static char text[24576];
     int n = snprintf(text, sizeof text,
                      "[render]\nwidth = 8\nheight = 6\n[light]\nposition = 0 10 10\n"
                      "[material m]\ntype = diffuse\n");
@@ -448,6 +449,11 @@ Test(oom, render_many_spheres)
         n += snprintf(text + n, sizeof text - (size_t)n,
                       "[sphere]\ncenter = %.3f %.3f %.3f\nradius = %.3f\nmaterial = m\n", 6 * v[0] - 3, 6 * v[1] - 3,
                       -8 * v[2], 0.05 + 0.25 * v[3]);
+        if (i % 5 == 0)
+            n += snprintf(text + n, sizeof text - (size_t)n,
+                          "[triangle]\nv0 = %.3f %.3f %.3f\nv1 = %.3f %.3f %.3f\nv2 = %.3f %.3f %.3f\nmaterial = m\n",
+                          6 * v[1] - 3, 6 * v[2] - 3, -8 * v[0], 6 * v[1] - 2.7, 6 * v[2] - 3, -8 * v[0], 6 * v[1] - 3,
+                          6 * v[2] - 2.7, -8 * v[3]);
     }
     rd_error err;
     rd_scene_init(&g_scene);
@@ -455,7 +461,7 @@ Test(oom, render_many_spheres)
                  err.message);
     memset(&g_ro, 0, sizeof g_ro);
     g_ro.threads = 1;
-    operation op = {"render 125 spheres", run_render, render_after_error, same_render, release_render};
+    operation op = {"render 125 spheres, 25 triangles", run_render, render_after_error, same_render, release_render};
     exercise(&op);
     rd_scene_free(&g_scene);
 }
