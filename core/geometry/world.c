@@ -463,47 +463,27 @@ leaf_spheres_any(const rd_world *w, uint32_t first, unsigned spheres, const rd_r
     return 0;
 }
 
-/* A leaf's triangles, a call a leaf: their test inlined into the walks
- * made the walks' own loops spill. */
-RD_NOINLINE_AVX2 static void leaf_tris_closest_avx2(const rd_world *w, uint32_t first, unsigned tris, const rd_ray *r,
-                                                    rd_tri_lazy *tr, double floor, rd_best *b)
-{
-    for (unsigned m = tris; m; m &= m - 1)
-        rd_leaf_tri_closest(w, first + (uint32_t)__builtin_ctz(m), r, tr, floor, b);
-}
-
-RD_NOINLINE_AVX2 static int leaf_tris_any_avx2(const rd_world *w, uint32_t first, unsigned tris, const rd_ray *r,
-                                               rd_tri_lazy *tr, double tmax)
-{
-    return rd_leaf_tris_any(w, first, tris, r, tr, tmax);
-}
-
-static inline __attribute__((always_inline, target("avx2"))) void leaf_closest_avx2(const rd_world *w, uint32_t first,
-                                                                                    uint32_t count, uint16_t spheres,
-                                                                                    const rd_ray *r, rd_tri_lazy *tr,
-                                                                                    double floor, rd_best *b)
+/* A leaf's tests, one call a leaf: inlined into the walks, they made the
+ * walks' own loops spill. */
+RD_NOINLINE_AVX2 static void leaf_closest_avx2(const rd_world *w, uint32_t first, uint32_t count, uint16_t spheres,
+                                               const rd_ray *r, rd_tri_lazy *tr, double floor, rd_best *b)
 {
     if (count > RD_BVH4_KINDS) {
-        leaf_closest_sse2(w, first, count, spheres, r, tr, floor, b);
+        rd_leaf_closest(w, first, count, spheres, r, tr, floor, b);
         return;
     }
     leaf_spheres_closest(w, first, spheres, r, floor, b);
-    unsigned tris = rd_leaf_tris(count, spheres);
-    if (tris)
-        leaf_tris_closest_avx2(w, first, tris, r, tr, floor, b);
+    for (unsigned m = rd_leaf_tris(count, spheres); m; m &= m - 1)
+        rd_leaf_tri_closest(w, first + (uint32_t)__builtin_ctz(m), r, tr, floor, b);
 }
 
-static inline __attribute__((always_inline, target("avx2"))) int leaf_any_avx2(const rd_world *w, uint32_t first,
-                                                                               uint32_t count, uint16_t spheres,
-                                                                               const rd_ray *r, rd_tri_lazy *tr,
-                                                                               double tmax)
+RD_NOINLINE_AVX2 static int leaf_any_avx2(const rd_world *w, uint32_t first, uint32_t count, uint16_t spheres,
+                                          const rd_ray *r, rd_tri_lazy *tr, double tmax)
 {
     if (count > RD_BVH4_KINDS)
-        return leaf_any_sse2(w, first, count, spheres, r, tr, tmax);
-    if (leaf_spheres_any(w, first, spheres, r, tmax))
-        return 1;
-    unsigned tris = rd_leaf_tris(count, spheres);
-    return tris && leaf_tris_any_avx2(w, first, tris, r, tr, tmax);
+        return rd_leaf_any(w, first, count, spheres, r, tr, tmax);
+    return leaf_spheres_any(w, first, spheres, r, tmax) ||
+           rd_leaf_tris_any(w, first, rd_leaf_tris(count, spheres), r, tr, tmax);
 }
 
 RD_WALK_CLOSEST(closest_sse2, __attribute__((noinline)), const rd_bvh_ray *, plain_ray, RD_TEST_PLAIN_SSE2,
