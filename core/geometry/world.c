@@ -140,30 +140,59 @@ static void span_of(const rd_world *w, int kind, size_t *first, size_t *last)
         }
 }
 
+/* Moves the triangles in place, each to its slot tri_pos[k] (a
+ * permutation of [0, ntris)), cycle by cycle: no second copy of them, whose
+ * fresh pages cost a million-triangle build more than the moves. */
+static int permute_tris(rd_world *w)
+{
+    size_t n = w->ntris;
+    uint64_t *done = calloc(n / 64 + 1, sizeof *done);
+    if (!done)
+        return 0;
+    for (size_t s = 0; s < n; s++) {
+        if (done[s / 64] >> (s % 64) & 1)
+            continue;
+        rd_wtri carry = w->tris[s];
+        for (size_t k = s;;) {
+            done[k / 64] |= (uint64_t)1 << (k % 64);
+            size_t to = w->tri_pos[k];
+            rd_wtri next = w->tris[to];
+            w->tris[to] = carry;
+            if (to == s)
+                break;
+            carry = next;
+            k = to;
+        }
+    }
+    free(done);
+    return 1;
+}
+
 /* The triangles moved into the order of bvh.prims (world.h). */
 static int tris_in_leaf_order(rd_world *w)
 {
     size_t lo, hi;
     span_of(w, 1, &lo, &hi);
-    rd_wtri *moved = rd_big_malloc((hi - lo + 1) * sizeof *moved);
     w->tri_pos = rd_big_malloc((w->ntris + 1) * sizeof *w->tri_pos);
-    if (!moved || !w->tri_pos) {
-        free(moved);
+    if (!w->tri_pos)
         return 0;
-    }
-    for (size_t p = lo; p <= hi; p++) {
-        uint32_t id = w->bvh.prims[p];
-        if (id < w->nspheres) {
-            memset(&moved[p - lo], 0, sizeof moved[p - lo]);
-            continue;
-        }
-        moved[p - lo] = w->tris[id - w->nspheres];
-        w->tri_pos[id - w->nspheres] = (uint32_t)(p - lo);
-    }
-    free(w->tris);
-    w->tris = moved;
+    for (size_t p = lo; p <= hi; p++)
+        if (w->bvh.prims[p] >= w->nspheres)
+            w->tri_pos[w->bvh.prims[p] - w->nspheres] = (uint32_t)(p - lo);
     w->tri_first = lo;
     w->tri_slots = hi - lo + 1;
+    if (w->tri_slots == w->ntris)
+        return permute_tris(w);
+    /* Spheres lie between the triangles: a larger array, its spheres'
+     * slots unused. */
+    rd_wtri *moved = rd_big_malloc((w->tri_slots + 1) * sizeof *moved);
+    if (!moved)
+        return 0;
+    memset(moved, 0, (w->tri_slots + 1) * sizeof *moved);
+    for (size_t k = 0; k < w->ntris; k++)
+        moved[w->tri_pos[k]] = w->tris[k];
+    free(w->tris);
+    w->tris = moved;
     return 1;
 }
 

@@ -525,3 +525,50 @@ Test(walk, the_comparison_catches_a_wrong_tie_rule)
     rd_world_free(&w);
     rd_scene_free(&s);
 }
+
+/* The leaf order is only a layout: every position of bvh.prims holds the
+ * record of the primitive it names, a triangle's with its corners and its
+ * object, a sphere's centre and radius, and rd_world_tri finds each scene
+ * triangle where it went, in worlds of triangles alone (moved in place)
+ * and of both kinds. */
+static void check_layout(const rd_scene *s, const rd_world *w, const char *what)
+{
+    size_t k = 0;
+    for (size_t i = 0; i < s->object_count; i++) {
+        const rd_object *o = &s->objects[i];
+        if (o->type != RD_OBJ_TRIANGLE)
+            continue;
+        const rd_wtri *t = rd_world_tri(w, k++);
+        for (int c = 0; c < 3; c++) {
+            rd_vec3 want = rd_world_local(w, o->v[c]);
+            cr_assert(memcmp(&t->v[c], &want, sizeof want) == 0 && t->object == (int32_t)i,
+                      "%s: triangle %zu: corner %d or object %d", what, k - 1, c, t->object);
+        }
+    }
+    cr_assert_eq(k, w->ntris, "%s", what);
+    for (size_t p = 0; p < w->bvh.nprims; p++) {
+        uint32_t id = w->bvh.prims[p];
+        if (id >= w->nspheres) {
+            cr_assert_eq(rd_world_tri_slot(w, id - w->nspheres), p - w->tri_first, "%s: position %zu", what, p);
+            continue;
+        }
+        const double *x = w->sph + (p - w->sph_first);
+        const rd_sphere *sp = &w->spheres[id];
+        cr_assert(x[0] == sp->c.x && x[w->sph_n] == sp->c.y && x[2 * w->sph_n] == sp->c.z && x[3 * w->sph_n] == sp->r,
+                  "%s: sphere at position %zu", what, p);
+    }
+}
+
+Test(walk, the_leaf_order_keeps_every_record)
+{
+    const int kinds[] = {W_SOUP, W_TIES, W_GRID, W_FAR};
+    for (size_t i = 0; i < sizeof kinds / sizeof *kinds; i++) {
+        rd_scene s;
+        rd_world w;
+        make_world(&s, &w, kinds[i], 3 + i);
+        cr_assert(w.tri_pos != NULL, "%s", world_names[kinds[i]]);
+        check_layout(&s, &w, world_names[kinds[i]]);
+        rd_world_free(&w);
+        rd_scene_free(&s);
+    }
+}
