@@ -28,8 +28,14 @@ typedef struct {
     float lo[3][4], hi[3][4];
     uint32_t child[4]; /* count 0: a node index; else the first index into prims */
     uint16_t count[4]; /* primitives of a leaf child; 0 for an inner one */
-    uint32_t pad[2];
+    /* Of a leaf of at most RD_BVH4_KINDS primitives, bit j set when its
+     * j-th is a sphere (the world fills it in), so that its spheres and
+     * its triangles are each tested by their own code without reading
+     * their ids. */
+    uint16_t spheres[4];
 } rd_bvh4_node;
+
+#define RD_BVH4_KINDS 16
 
 typedef struct {
     rd_bvh4_node *nodes; /* the root is nodes[0] */

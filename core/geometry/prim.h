@@ -39,7 +39,7 @@ typedef struct {
     double limit; /* what a primitive's t must stay below to be taken */
     double cut;   /* boxes entered beyond it are skipped */
     int kind;     /* RD_K_* */
-    size_t idx;   /* index among its kind */
+    size_t idx;   /* index among its kind; a triangle's slot in w->tris */
     uint32_t id;  /* BVH id of a sphere or triangle */
     double bary[3];
 } rd_best;
@@ -114,11 +114,11 @@ static inline __attribute__((always_inline)) void rd_prim_closest(const rd_world
             rd_best_set(b, t, RD_K_SPHERE, id, id);
         return;
     }
-    size_t k = id - w->nspheres;
+    size_t at = rd_world_tri_slot(w, id - w->nspheres);
     double bary[3];
-    double t = rd_tri_intersect_ray(w->tris[k].v, rd_tri_lazy_get(tr, r), b->limit, bary);
+    double t = rd_tri_intersect_ray(w->tris[at].v, rd_tri_lazy_get(tr, r), b->limit, bary);
     if (t > 0 && t >= floor && rd_best_takes(b, t, id)) {
-        rd_best_set(b, t, RD_K_TRI, k, id);
+        rd_best_set(b, t, RD_K_TRI, at, id);
         memcpy(b->bary, bary, sizeof bary);
     }
 }
@@ -129,7 +129,76 @@ static inline __attribute__((always_inline)) int rd_prim_any(const rd_world *w, 
     if (id < w->nspheres)
         return rd_sphere_intersect(&w->spheres[id], *r, tmax) > 0;
     double bary[3];
-    return rd_tri_intersect_ray(w->tris[id - w->nspheres].v, rd_tri_lazy_get(tr, r), tmax, bary) > 0;
+    return rd_tri_intersect_ray(rd_world_tri(w, id - w->nspheres)->v, rd_tri_lazy_get(tr, r), tmax, bary) > 0;
+}
+
+/* Triangle p of the leaf order (world.h) against b; its id is read only
+ * when its hit counts. */
+static inline __attribute__((always_inline)) void rd_leaf_tri_closest(const rd_world *w, uint32_t p, const rd_ray *r,
+                                                                      rd_tri_lazy *tr, double floor, rd_best *b)
+{
+    double bary[3];
+    size_t at = p - w->tri_first;
+    double t = rd_tri_intersect_ray(w->tris[at].v, rd_tri_lazy_get(tr, r), b->limit, bary);
+    if (!(t > 0 && t >= floor))
+        return;
+    uint32_t id = w->bvh.prims[p];
+    if (rd_best_takes(b, t, id)) {
+        rd_best_set(b, t, RD_K_TRI, at, id);
+        memcpy(b->bary, bary, sizeof bary);
+    }
+}
+
+/* The bits of a leaf's triangles among its count primitives. */
+static inline unsigned rd_leaf_tris(uint32_t count, uint16_t spheres)
+{
+    return ~(unsigned)spheres & ((1u << count) - 1);
+}
+
+/* The primitives of the leaf [first, first + count) of bvh.prims, whose
+ * kinds are `spheres` (rd_bvh4_node.spheres), against b. */
+static inline __attribute__((always_inline)) void rd_leaf_closest(const rd_world *w, uint32_t first, uint32_t count,
+                                                                  uint16_t spheres, const rd_ray *r, rd_tri_lazy *tr,
+                                                                  double floor, rd_best *b)
+{
+    if (count > RD_BVH4_KINDS) {
+        for (uint32_t i = 0; i < count; i++)
+            rd_prim_closest(w, w->bvh.prims[first + i], r, tr, floor, b);
+        return;
+    }
+    for (unsigned m = spheres; m; m &= m - 1)
+        rd_prim_closest(w, w->bvh.prims[first + (uint32_t)__builtin_ctz(m)], r, tr, floor, b);
+    for (unsigned m = rd_leaf_tris(count, spheres); m; m &= m - 1)
+        rd_leaf_tri_closest(w, first + (uint32_t)__builtin_ctz(m), r, tr, floor, b);
+}
+
+/* 1 when a triangle of the leaf at first + a bit of `tris` blocks the ray. */
+static inline __attribute__((always_inline)) int rd_leaf_tris_any(const rd_world *w, uint32_t first, unsigned tris,
+                                                                  const rd_ray *r, rd_tri_lazy *tr, double tmax)
+{
+    double bary[3];
+    for (unsigned m = tris; m; m &= m - 1)
+        if (rd_tri_intersect_ray(w->tris[first + (uint32_t)__builtin_ctz(m) - w->tri_first].v, rd_tri_lazy_get(tr, r),
+                                 tmax, bary) > 0)
+            return 1;
+    return 0;
+}
+
+/* 1 when a primitive of the leaf blocks the ray within tmax. */
+static inline __attribute__((always_inline)) int rd_leaf_any(const rd_world *w, uint32_t first, uint32_t count,
+                                                             uint16_t spheres, const rd_ray *r, rd_tri_lazy *tr,
+                                                             double tmax)
+{
+    if (count > RD_BVH4_KINDS) {
+        for (uint32_t i = 0; i < count; i++)
+            if (rd_prim_any(w, w->bvh.prims[first + i], r, tr, tmax))
+                return 1;
+        return 0;
+    }
+    for (unsigned m = spheres; m; m &= m - 1)
+        if (rd_prim_any(w, w->bvh.prims[first + (uint32_t)__builtin_ctz(m)], r, tr, tmax))
+            return 1;
+    return rd_leaf_tris_any(w, first, rd_leaf_tris(count, spheres), r, tr, tmax);
 }
 
 /* Pushes entry e (with a field t) onto a walk's stack, among the entries

@@ -28,15 +28,18 @@ typedef struct {
     double t0[4], t1[4];
 } rd_sphere4_roots;
 
+/* The same from four spheres whose centres and radii are at cx[0..4),
+ * cy[0..4), cz[0..4) and r[0..4), wherever those lie. */
 static inline __attribute__((always_inline, target("avx2"))) unsigned
-rd_sphere4_roots_of(const rd_sphere4 *p, const rd_ray *ray, rd_sphere4_roots *out)
+rd_sphere4_roots_at(const double *cx, const double *cy, const double *cz, const double *rad, const rd_ray *ray,
+                    rd_sphere4_roots *out)
 {
     const __m256d sign = _mm256_set1_pd(-0.0);
     __m256d dx = _mm256_set1_pd(ray->d.x), dy = _mm256_set1_pd(ray->d.y), dz = _mm256_set1_pd(ray->d.z);
-    __m256d fx = _mm256_sub_pd(_mm256_set1_pd(ray->o.x), _mm256_loadu_pd(p->cx));
-    __m256d fy = _mm256_sub_pd(_mm256_set1_pd(ray->o.y), _mm256_loadu_pd(p->cy));
-    __m256d fz = _mm256_sub_pd(_mm256_set1_pd(ray->o.z), _mm256_loadu_pd(p->cz));
-    __m256d r = _mm256_loadu_pd(p->r);
+    __m256d fx = _mm256_sub_pd(_mm256_set1_pd(ray->o.x), _mm256_loadu_pd(cx));
+    __m256d fy = _mm256_sub_pd(_mm256_set1_pd(ray->o.y), _mm256_loadu_pd(cy));
+    __m256d fz = _mm256_sub_pd(_mm256_set1_pd(ray->o.z), _mm256_loadu_pd(cz));
+    __m256d r = _mm256_loadu_pd(rad);
     double aa = ray->d.x * ray->d.x + ray->d.y * ray->d.y + ray->d.z * ray->d.z;
     __m256d a = _mm256_set1_pd(aa);
     __m256d b = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(fx, dx), _mm256_mul_pd(fy, dy)), _mm256_mul_pd(fz, dz));
@@ -60,6 +63,12 @@ rd_sphere4_roots_of(const rd_sphere4 *p, const rd_ray *ray, rd_sphere4_roots *ou
     __m256d ok = _mm256_and_pd(_mm256_cmp_pd(disc, _mm256_setzero_pd(), _CMP_GE_OQ),
                                _mm256_cmp_pd(q, _mm256_setzero_pd(), _CMP_NEQ_UQ));
     return (unsigned)_mm256_movemask_pd(ok);
+}
+
+static inline __attribute__((always_inline, target("avx2"))) unsigned
+rd_sphere4_roots_of(const rd_sphere4 *p, const rd_ray *ray, rd_sphere4_roots *out)
+{
+    return rd_sphere4_roots_at(p->cx, p->cy, p->cz, p->r, ray, out);
 }
 
 /* rd_sphere_intersect's answer from a lane's roots, for tmax. */

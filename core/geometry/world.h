@@ -45,8 +45,23 @@ typedef struct {
     rd_plane *planes;
     int32_t *plane_mat, *plane_obj;
     size_t nplanes;
+    /* Without a BVH, in scene order. With one, in the order its leaves
+     * name them: the triangle at position p of bvh.prims is tris[p -
+     * tri_first], so a leaf's triangles lie together and are read without
+     * an index (tri_first is the first triangle's position; slots of
+     * spheres between triangles, in a world of both, are unused);
+     * tri_pos[k] is where scene triangle k went, of tri_slots slots.
+     * rd_world_tri finds one by scene index. */
     rd_wtri *tris;
     size_t ntris;
+    uint32_t *tri_pos;
+    size_t tri_first, tri_slots;
+    /* With a BVH and spheres: the same for sphere4.h, from position
+     * sph_first on: centres' x, y, z and radii in four runs of sph_n
+     * (the last lanes of the last leaf included) from sph; a triangle's
+     * slot has a NaN radius. */
+    double *sph;
+    size_t sph_first, sph_n;
     /* The shading normals at unit length, normalized once here instead of
      * on every hit (the same bits: the same function of the same input,
      * once for a normal that faces share): three per [triangle] that has
@@ -81,6 +96,11 @@ void rd_world_free(rd_world *w);
 
 /* Bytes the world holds (surfaces, BVH nodes and indices). */
 size_t rd_world_bytes(const rd_world *w);
+
+/* Where scene triangle k (its BVH id less nspheres) is in w->tris. */
+static inline size_t rd_world_tri_slot(const rd_world *w, size_t k) { return w->tri_pos ? w->tri_pos[k] : k; }
+
+static inline const rd_wtri *rd_world_tri(const rd_world *w, size_t k) { return &w->tris[rd_world_tri_slot(w, k)]; }
 
 /* A world position in the world's coordinates. */
 static inline rd_vec3 rd_world_local(const rd_world *w, rd_vec3 p) { return v3_sub(p, w->origin); }

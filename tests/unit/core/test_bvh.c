@@ -79,7 +79,7 @@ static bsphere *bounding_spheres(const rd_world *w)
         b[i].r = w->spheres[i].r + CULL_SLACK;
     }
     for (size_t i = 0; i < w->ntris; i++) {
-        const rd_vec3 *v = w->tris[i].v;
+        const rd_vec3 *v = rd_world_tri(w, i)->v;
         rd_vec3 lo = v3(fmin(v[0].x, fmin(v[1].x, v[2].x)), fmin(v[0].y, fmin(v[1].y, v[2].y)),
                         fmin(v[0].z, fmin(v[1].z, v[2].z)));
         rd_vec3 hi = v3(fmax(v[0].x, fmax(v[1].x, v[2].x)), fmax(v[0].y, fmax(v[1].y, v[2].y)),
@@ -129,7 +129,7 @@ static bf_hit brute_closest(const rd_world *w, const bsphere *bs, rd_ray r, doub
         if (!may_hit(&bs[w->nspheres + i], r, dd))
             continue;
         double bary[3];
-        double t = rd_tri_intersect(w->tris[i].v, r, tmax, bary);
+        double t = rd_tri_intersect(rd_world_tri(w, i)->v, r, tmax, bary);
         if (t > 0 && t < b.t) {
             b.t = t;
             b.kind = 2;
@@ -147,7 +147,7 @@ static int brute_any(const rd_world *w, const bsphere *bs, rd_ray r, double tmax
             return 1;
     for (size_t i = 0; i < w->ntris; i++) {
         double bary[3];
-        if (may_hit(&bs[w->nspheres + i], r, dd) && rd_tri_intersect(w->tris[i].v, r, tmax, bary) > 0)
+        if (may_hit(&bs[w->nspheres + i], r, dd) && rd_tri_intersect(rd_world_tri(w, i)->v, r, tmax, bary) > 0)
             return 1;
     }
     return 0;
@@ -166,7 +166,7 @@ static prim_ref *object_map(const rd_world *w, size_t nobjects)
     for (size_t i = 0; i < w->nspheres; i++)
         m[w->sphere_obj[i]] = (prim_ref){1, i};
     for (size_t i = 0; i < w->ntris; i++)
-        m[w->tris[i].object] = (prim_ref){2, i};
+        m[rd_world_tri(w, i)->object] = (prim_ref){2, i};
     return m;
 }
 
@@ -175,7 +175,7 @@ static double prim_t(const rd_world *w, prim_ref p, rd_ray r, double tmax)
     double bary[3];
     if (p.kind == 1)
         return rd_sphere_intersect(&w->spheres[p.idx], r, tmax);
-    return rd_tri_intersect(w->tris[p.idx].v, r, tmax, bary);
+    return rd_tri_intersect(rd_world_tri(w, p.idx)->v, r, tmax, bary);
 }
 
 /* ---- BVH invariants ---------------------------------------------------------------- */
@@ -191,7 +191,7 @@ static void prim_bounds(const rd_world *w, uint32_t id, double lo[3], double hi[
         }
         return;
     }
-    const rd_vec3 *v = w->tris[id - w->nspheres].v;
+    const rd_vec3 *v = rd_world_tri(w, id - w->nspheres)->v;
     double p[3][3] = {{v[0].x, v[0].y, v[0].z}, {v[1].x, v[1].y, v[1].z}, {v[2].x, v[2].y, v[2].z}};
     for (int k = 0; k < 3; k++) {
         lo[k] = fmin(p[0][k], fmin(p[1][k], p[2][k]));

@@ -665,14 +665,14 @@ static int check_normals_per_hit(const tri_world *tw, const char *what)
     int hits = 0;
     for (size_t i = 0; i < tw->w.ntris; i++)
         for (size_t k = 0; k < sizeof at / sizeof *at; k++) {
-            const rd_wtri *t = &tw->w.tris[i];
+            const rd_wtri *t = rd_world_tri(&tw->w, i);
             rd_vec3 p =
                 v3_add(v3_add(v3_scale(t->v[0], at[k][0]), v3_scale(t->v[1], at[k][1])), v3_scale(t->v[2], at[k][2]));
             rd_ray r = ray_of(v3(0, 0, 0), v3_normalize(p));
             rd_hit h;
             if (!world_hit(tw, r, INFINITY, &h))
                 continue;
-            const rd_wtri *ht = &tw->w.tris[h.prim];
+            const rd_wtri *ht = rd_world_tri(&tw->w, h.prim);
             rd_vec3 raw[3];
             for (int c = 0; c < 3; c++) {
                 const rd_mesh *m = ht->mesh < 0 ? NULL : &tw->s.meshes[ht->mesh];

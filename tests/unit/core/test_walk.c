@@ -172,7 +172,7 @@ static rd_vec3 odd_dir(test_rng *r)
 /* A random triangle of the world, NULL when it has none. */
 static const rd_wtri *some_tri(const rd_world *w, test_rng *r)
 {
-    return w->ntris ? &w->tris[rng_int(r, (int)w->ntris)] : NULL;
+    return w->ntris ? rd_world_tri(w, (size_t)rng_int(r, (int)w->ntris)) : NULL;
 }
 
 static rd_ray grazing(const rd_world *w, test_rng *r, rd_vec3 lo, rd_vec3 hi)
@@ -494,10 +494,12 @@ static int ties_to_the_higher_id(const rd_world *w, rd_ray r, double tmax, rd_hi
     rd_tri_ray tr = rd_tri_ray_make(r);
     for (size_t i = w->nspheres + w->ntris; i-- > 0;) {
         uint32_t id = (uint32_t)i;
-        double bary[3], t = id < w->nspheres ? rd_sphere_intersect(&w->spheres[id], r, b.limit)
-                                             : rd_tri_intersect_ray(w->tris[id - w->nspheres].v, &tr, b.limit, bary);
+        double bary[3], t = id < w->nspheres
+                                ? rd_sphere_intersect(&w->spheres[id], r, b.limit)
+                                : rd_tri_intersect_ray(rd_world_tri(w, id - w->nspheres)->v, &tr, b.limit, bary);
         if (t > 0 && t < b.limit && (t < b.t || b.kind == RD_K_NONE)) {
-            rd_best_set(&b, t, id < w->nspheres ? RD_K_SPHERE : RD_K_TRI, id < w->nspheres ? id : id - w->nspheres, id);
+            rd_best_set(&b, t, id < w->nspheres ? RD_K_SPHERE : RD_K_TRI,
+                        id < w->nspheres ? id : rd_world_tri_slot(w, id - w->nspheres), id);
             if (id >= w->nspheres)
                 memcpy(b.bary, bary, sizeof bary);
         }
@@ -522,4 +524,51 @@ Test(walk, the_comparison_catches_a_wrong_tie_rule)
     cr_assert_gt(t.bad, 20, "a wrong tie rule went unseen: %ld of %ld hits differ", t.bad, t.hits);
     rd_world_free(&w);
     rd_scene_free(&s);
+}
+
+/* The leaf order is only a layout: every position of bvh.prims holds the
+ * record of the primitive it names, a triangle's with its corners and its
+ * object, a sphere's centre and radius, and rd_world_tri finds each scene
+ * triangle where it went, in worlds of triangles alone (moved in place)
+ * and of both kinds. */
+static void check_layout(const rd_scene *s, const rd_world *w, const char *what)
+{
+    size_t k = 0;
+    for (size_t i = 0; i < s->object_count; i++) {
+        const rd_object *o = &s->objects[i];
+        if (o->type != RD_OBJ_TRIANGLE)
+            continue;
+        const rd_wtri *t = rd_world_tri(w, k++);
+        for (int c = 0; c < 3; c++) {
+            rd_vec3 want = rd_world_local(w, o->v[c]);
+            cr_assert(memcmp(&t->v[c], &want, sizeof want) == 0 && t->object == (int32_t)i,
+                      "%s: triangle %zu: corner %d or object %d", what, k - 1, c, t->object);
+        }
+    }
+    cr_assert_eq(k, w->ntris, "%s", what);
+    for (size_t p = 0; p < w->bvh.nprims; p++) {
+        uint32_t id = w->bvh.prims[p];
+        if (id >= w->nspheres) {
+            cr_assert_eq(rd_world_tri_slot(w, id - w->nspheres), p - w->tri_first, "%s: position %zu", what, p);
+            continue;
+        }
+        const double *x = w->sph + (p - w->sph_first);
+        const rd_sphere *sp = &w->spheres[id];
+        cr_assert(x[0] == sp->c.x && x[w->sph_n] == sp->c.y && x[2 * w->sph_n] == sp->c.z && x[3 * w->sph_n] == sp->r,
+                  "%s: sphere at position %zu", what, p);
+    }
+}
+
+Test(walk, the_leaf_order_keeps_every_record)
+{
+    const int kinds[] = {W_SOUP, W_TIES, W_GRID, W_FAR};
+    for (size_t i = 0; i < sizeof kinds / sizeof *kinds; i++) {
+        rd_scene s;
+        rd_world w;
+        make_world(&s, &w, kinds[i], 3 + i);
+        cr_assert(w.tri_pos != NULL, "%s", world_names[kinds[i]]);
+        check_layout(&s, &w, world_names[kinds[i]]);
+        rd_world_free(&w);
+        rd_scene_free(&s);
+    }
 }

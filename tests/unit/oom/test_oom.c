@@ -432,35 +432,48 @@ Test(oom, render_2_threads) { render_test("render textured_phong, 2 threads", TE
 
 Test(oom, render_progressive) { render_test("render progressive, adaptive", FIXTURE, 2, 8, 1); }
 
-/* 125 spheres strewn at random: more BVH nodes than the builder first
- * reserves, so that it grows its node array while it builds. */
-Test(oom, render_many_spheres)
+/* Spheres and triangles strewn at random (one triangle every fifth
+ * sphere; every turn when `spheres` is 0), rendered. */
+static void render_strewn(const char *name, int spheres, int turns)
 {
-    static char text[16384];
+    static char text[24576];
     int n = snprintf(text, sizeof text,
                      "[render]\nwidth = 8\nheight = 6\n[light]\nposition = 0 10 10\n"
                      "[material m]\ntype = diffuse\n");
     uint32_t x = 2463534242u;
     double v[4];
-    for (int i = 0; i < 125; i++) {
+    for (int i = 0; i < turns; i++) {
         for (int k = 0; k < 4; k++) {
             x ^= x << 13, x ^= x >> 17, x ^= x << 5;
             v[k] = (double)(x >> 8) / (1u << 24);
         }
-        n += snprintf(text + n, sizeof text - (size_t)n,
-                      "[sphere]\ncenter = %.3f %.3f %.3f\nradius = %.3f\nmaterial = m\n", 6 * v[0] - 3, 6 * v[1] - 3,
-                      -8 * v[2], 0.05 + 0.25 * v[3]);
+        if (spheres)
+            n += snprintf(text + n, sizeof text - (size_t)n,
+                          "[sphere]\ncenter = %.3f %.3f %.3f\nradius = %.3f\nmaterial = m\n", 6 * v[0] - 3,
+                          6 * v[1] - 3, -8 * v[2], 0.05 + 0.25 * v[3]);
+        if (!spheres || i % 5 == 0)
+            n += snprintf(text + n, sizeof text - (size_t)n,
+                          "[triangle]\nv0 = %.3f %.3f %.3f\nv1 = %.3f %.3f %.3f\nv2 = %.3f %.3f %.3f\nmaterial = m\n",
+                          6 * v[1] - 3, 6 * v[2] - 3, -8 * v[0], 6 * v[1] - 2.7, 6 * v[2] - 3, -8 * v[0], 6 * v[1] - 3,
+                          6 * v[2] - 2.7, -8 * v[3]);
     }
     rd_error err;
     rd_scene_init(&g_scene);
-    cr_assert_eq(rd_scene_parse(text, (size_t)n, RD_FMT_CFG, "<spheres>", NULL, &g_scene, &err), RD_OK, "%s",
+    cr_assert_eq(rd_scene_parse(text, (size_t)n, RD_FMT_CFG, "<strewn>", NULL, &g_scene, &err), RD_OK, "%s",
                  err.message);
     memset(&g_ro, 0, sizeof g_ro);
     g_ro.threads = 1;
-    operation op = {"render 125 spheres", run_render, render_after_error, same_render, release_render};
+    operation op = {name, run_render, render_after_error, same_render, release_render};
     exercise(&op);
     rd_scene_free(&g_scene);
 }
+
+/* More BVH nodes than the builder first reserves, so that it grows its
+ * node array while it builds; both kinds laid out in leaf order. */
+Test(oom, render_many_spheres) { render_strewn("render 125 spheres, 25 triangles", 1, 125); }
+
+/* Triangles alone, which are moved into leaf order in place. */
+Test(oom, render_many_triangles) { render_strewn("render 60 triangles", 0, 60); }
 
 /* The job interface that the daemon schedules itself: a job, two
  * progressive passes over its tiles, a copy of the image. */
