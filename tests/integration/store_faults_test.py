@@ -77,7 +77,11 @@ def run_full_disk(tmp):
         check(ready(d) == (200, None), "ready before the disk is full: %r" % (ready(d),))
         # The daemon's view of the tmpfs, through its root.
         fill = os.path.join("/proc/%d/root" % proc.pid, mnt.lstrip("/"), "filler")
-        with open(fill, "wb") as f:
+        # Unbuffered: a buffered file keeps what the last write could not
+        # put, and its close raises ENOSPC writing it again, whenever the
+        # room left is not a whole number of writes (how much the daemon
+        # wrote before decides that).
+        with open(fill, "wb", buffering=0) as f:
             try:
                 while True:
                     f.write(b"\0" * 65536)

@@ -81,6 +81,8 @@ def refusals(d, right):
 
 
 def record_of(d, gid):
+    if not gid:
+        return {}
     st, _, out = d.request("GET", "/v1/grades/" + gid, headers={"Accept": "application/json"})
     return json.loads(out).get("record", {}) if st == 200 else {}
 
@@ -364,9 +366,8 @@ def regrade(d, folder, before):
     check(len(kept) == 25 and not any(r["counts"] for r in kept), "the old verdicts stay, and none counts")
     counted = sorted(r["student"] for r in rows if r["counts"])
     check(counted == sorted("s%02d" % i for i in range(1, 21)), "one regrade counts per student: %s" % counted)
-    gid = new[0]["grade_id"] if new else "x"
-    rec = json.loads(d.request("GET", "/v1/grades/" + gid, headers={"Accept": "application/json"})[2]).get("record", {})
-    check(rec.get("regrade_of") == new[0]["regrade_of"] if new else False, "the verdict's record: %s" % rec)
+    rec = record_of(d, new[0]["grade_id"] if new else None)
+    check(bool(new) and rec.get("regrade_of") == new[0]["regrade_of"], "the verdict's record: %s" % rec)
     st, _, out = d.request("POST", "/v1/grade/regrade?assignment=a1", headers=AUTH)
     again = wait_batch(d, json.loads(out).get("id", "x")) if st == 202 else {}
     check(again.get("total") == 25, "a second regrade takes the 25 newest only: %s" % str(again)[:120])
@@ -417,7 +418,7 @@ def main():
         os.makedirs(whole)
         shutil.copy(tokens, os.path.join(whole, "tokens"))
         whole_term(whole, stored_jobs.store(whole, kept, closers).flags, right, wrong)
-    except stored_jobs.Abort as e:
+    except (stored_jobs.Abort, RuntimeError) as e:
         check(False, str(e))
     finally:
         for close in closers:
