@@ -452,6 +452,20 @@ static inline void plain_ray(const rd_bvh_ray *b, const rd_bvh_ray **q) { *q = b
     }
 RD_LEAF_FNS(sse2, __attribute__((noinline)))
 
+/* The next group of up to four of a leaf's spheres that lie together in
+ * the leaf-order runs (world.h), taken off *spheres: its roots in q, its
+ * place in the leaf in *g, the lanes that are its and hit. */
+static inline __attribute__((always_inline, target("avx2"))) unsigned
+leaf_sphere_group(const rd_world *w, uint32_t first, unsigned *spheres, const rd_ray *r, rd_sphere4_roots *q,
+                  unsigned *g)
+{
+    *g = (unsigned)__builtin_ctz(*spheres);
+    unsigned at = first + *g - (unsigned)w->sph_first, lanes = *spheres >> *g & 15;
+    *spheres &= ~(15u << *g);
+    const double *x = w->sph + at, *y = x + w->sph_n, *z = y + w->sph_n, *rad = z + w->sph_n;
+    return rd_sphere4_roots_at(x, y, z, rad, r, q) & lanes;
+}
+
 /* A leaf's spheres four at a time from the leaf-order runs (world.h):
  * each group of up to four that lie together, its lanes taken in turn
  * with the limit of their turn, as rd_prim_closest would take them. */
@@ -459,12 +473,9 @@ static inline __attribute__((always_inline, target("avx2"))) void
 leaf_spheres_closest(const rd_world *w, uint32_t first, unsigned spheres, const rd_ray *r, double floor, rd_best *b)
 {
     while (spheres) {
-        unsigned g = (unsigned)__builtin_ctz(spheres), at = first + g - (unsigned)w->sph_first;
-        unsigned lanes = spheres >> g & 15;
-        spheres &= ~(15u << g);
+        unsigned g;
         rd_sphere4_roots q;
-        const double *x = w->sph + at, *y = x + w->sph_n, *z = y + w->sph_n, *rad = z + w->sph_n;
-        for (unsigned ok = rd_sphere4_roots_at(x, y, z, rad, r, &q) & lanes; ok; ok &= ok - 1) {
+        for (unsigned ok = leaf_sphere_group(w, first, &spheres, r, &q, &g); ok; ok &= ok - 1) {
             int lane = __builtin_ctz(ok);
             double t = rd_sphere4_pick(&q, lane, b->limit);
             if (!(t > 0 && t >= floor))
@@ -480,12 +491,9 @@ static inline __attribute__((always_inline, target("avx2"))) int
 leaf_spheres_any(const rd_world *w, uint32_t first, unsigned spheres, const rd_ray *r, double tmax)
 {
     while (spheres) {
-        unsigned g = (unsigned)__builtin_ctz(spheres), at = first + g - (unsigned)w->sph_first;
-        unsigned lanes = spheres >> g & 15;
-        spheres &= ~(15u << g);
+        unsigned g;
         rd_sphere4_roots q;
-        const double *x = w->sph + at, *y = x + w->sph_n, *z = y + w->sph_n, *rad = z + w->sph_n;
-        for (unsigned ok = rd_sphere4_roots_at(x, y, z, rad, r, &q) & lanes; ok; ok &= ok - 1)
+        for (unsigned ok = leaf_sphere_group(w, first, &spheres, r, &q, &g); ok; ok &= ok - 1)
             if (rd_sphere4_pick(&q, __builtin_ctz(ok), tmax) > 0)
                 return 1;
     }

@@ -208,19 +208,28 @@ async function imageLoaded(page, id, src, timeout = STEP_MS) {
   return image(page, id);
 }
 
-// Distinct colours in a loaded image (a blank or black picture has one).
-function colours(page, id) {
-  return page.evaluate((id) => {
-    const i = document.getElementById(id);
-    const c = document.createElement("canvas");
-    c.width = i.naturalWidth; c.height = i.naturalHeight;
-    const g = c.getContext("2d");
-    g.drawImage(i, 0, 0);
-    const d = g.getImageData(0, 0, c.width, c.height).data;
-    const seen = new Set();
-    for (let p = 0; p < d.length; p += 4) seen.add((d[p] << 16) | (d[p + 1] << 8) | d[p + 2]);
-    return seen.size;
-  }, id);
+// Runs in the page: an <img> as shown, with its distinct colours (a blank
+// or black picture has one). With `points`, null until the image is loaded
+// and the error curve has that many points: a waitForFunction measures the
+// image in the moment it is seen loaded.
+function shownImage({ id, points = 0 }) {
+  const i = document.getElementById(id);
+  if (points && (Number(document.getElementById("curve").dataset.points || 0) < points || !i.complete ||
+    i.naturalWidth === 0)) return null;
+  const c = document.createElement("canvas");
+  c.width = i.naturalWidth; c.height = i.naturalHeight;
+  const g = c.getContext("2d");
+  g.drawImage(i, 0, 0);
+  const d = g.getImageData(0, 0, c.width, c.height).data;
+  const seen = new Set();
+  for (let p = 0; p < d.length; p += 4) seen.add((d[p] << 16) | (d[p + 1] << 8) | d[p + 2]);
+  return { naturalWidth: i.naturalWidth, hidden: i.hidden || i.closest("[hidden]") !== null, src: i.getAttribute("src"),
+    colours: seen.size };
+}
+
+// Distinct colours in a loaded image.
+async function colours(page, id) {
+  return (await page.evaluate(shownImage, { id })).colours;
 }
 
 const box = (page, sel) => page.locator(sel).evaluate((e) => {
@@ -592,19 +601,7 @@ test("(g) a long render shows its progress, each pass's image and the error curv
     // The page swaps in each new pass's image as it comes, so the image is
     // measured in the same moment it is seen loaded: a read after the wait
     // may find the next pass's image still loading (naturalWidth 0).
-    const img = await (await page.waitForFunction(() => {
-      const i = document.getElementById("render-img");
-      if (Number(document.getElementById("curve").dataset.points || 0) < 2 || !i.complete || i.naturalWidth === 0)
-        return null;
-      const c = document.createElement("canvas");
-      c.width = i.naturalWidth; c.height = i.naturalHeight;
-      const g = c.getContext("2d");
-      g.drawImage(i, 0, 0);
-      const d = g.getImageData(0, 0, c.width, c.height).data;
-      const seen = new Set();
-      for (let p = 0; p < d.length; p += 4) seen.add((d[p] << 16) | (d[p + 1] << 8) | d[p + 2]);
-      return { naturalWidth: i.naturalWidth, hidden: i.hidden || i.closest("[hidden]") !== null, src: i.getAttribute("src"), colours: seen.size };
-    }, null, { timeout: RENDER_MS })).jsonValue();
+    const img = await (await page.waitForFunction(shownImage, { id: "render-img", points: 2 }, { timeout: RENDER_MS })).jsonValue();
     assert.equal(img.naturalWidth, 320, "the partial image is the full size");
     assert.equal(img.hidden, false);
     assert.ok(img.src.startsWith("blob:"), "drawn from a fetched partial image");

@@ -35,6 +35,7 @@ import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
 import stored_jobs  # noqa: E402
+from class_batches import post_batch, wait_batch  # noqa: E402
 from rayd_http import TINY_SCENE, Checks, Daemon, form, form_parts, png, render_png  # noqa: E402
 
 check = Checks("term")
@@ -194,16 +195,12 @@ def term_assignments(tmp):
     return path
 
 
-def post_batch(d, assignment, images):
+def graded_batch(d, assignment, images):
+    """The batch of images ((student, PNG) pairs), graded to its end; its id."""
     parts = [("assignment", None, assignment.encode())] + [("image", s + ".png", b) for s, b in images]
-    body, ctype = form_parts(parts)
-    st, _, out = d.request("POST", "/v1/grade/batch", body, dict(AUTH, **{"Content-Type": ctype}))
+    st, _, out = post_batch(d, parts, AUTH)
     bid = json.loads(out).get("id", "x") if st == 202 else "x"
-    for _ in range(2400):
-        st, _, out = d.request("GET", "/v1/grade/batch/" + bid, headers=AUTH)
-        if st != 200 or json.loads(out).get("status") != "running":
-            break
-        time.sleep(0.05)
+    wait_batch(d, bid, AUTH)
     return bid
 
 
@@ -217,7 +214,7 @@ def term_submissions(d, right, wrong):
             grade(d, "a1", "s%02d" % i, wrong)
         grade(d, "a1", "s%02d" % i, right if i % 4 else wrong)
     images = [("s%02d" % i, right if i % 3 else wrong) for i in range(1, 27)] + [("ghost", right), ("zed", wrong)]
-    bid = post_batch(d, "a2", images)
+    bid = graded_batch(d, "a2", images)
     for i in range(1, 11):
         for image in (wrong, right, wrong):
             grade(d, "a3", "s%02d" % i, image)
@@ -330,17 +327,6 @@ def check_gradebooks(d, scores):
     check(st == 401, "the gradebook without a token: %d" % st)
 
 
-def wait_batch(d, bid):
-    out = {}
-    for _ in range(2400):
-        st, _, b = d.request("GET", "/v1/grade/batch/" + bid, headers=AUTH)
-        out = json.loads(b) if st == 200 else {}
-        if out.get("status") != "running":
-            break
-        time.sleep(0.05)
-    return out
-
-
 def regrade(d, folder, before):
     """a1's scene changes (its light dims): a regrade grades a1's 25 image
     records again into 25 new records that name them; the old ones stay and
@@ -352,7 +338,7 @@ def regrade(d, folder, before):
     b = json.loads(out) if st == 202 else {}
     check(st == 202 and b.get("total") == 25 and h.get("location") == "/v1/grade/batch/" + b.get("id", ""),
           "POST /v1/grade/regrade: %d %s" % (st, out[:200]))
-    done = wait_batch(d, b.get("id", "x"))
+    done = wait_batch(d, b.get("id", "x"), AUTH)
     check(done.get("status") == "done" and done.get("done") == 25, "the regrade ended: %s" % str(done)[:200])
     rows = json.loads(d.request("GET", "/v1/grades?assignment=a1", headers=AUTH)[2])["grades"]
     old = {r["grade_id"]: r for r in before if r["assignment"] == "a1"}
@@ -369,7 +355,7 @@ def regrade(d, folder, before):
     rec = record_of(d, new[0]["grade_id"] if new else None)
     check(bool(new) and rec.get("regrade_of") == new[0]["regrade_of"], "the verdict's record: %s" % rec)
     st, _, out = d.request("POST", "/v1/grade/regrade?assignment=a1", headers=AUTH)
-    again = wait_batch(d, json.loads(out).get("id", "x")) if st == 202 else {}
+    again = wait_batch(d, json.loads(out).get("id", "x"), AUTH) if st == 202 else {}
     check(again.get("total") == 25, "a second regrade takes the 25 newest only: %s" % str(again)[:120])
     st, _, _ = d.request("POST", "/v1/grade/regrade?assignment=nope", headers=AUTH)
     check(st == 404, "regrade of no assignment: %d" % st)
